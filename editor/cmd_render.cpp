@@ -1,0 +1,266 @@
+// cdsm render: one frame, its cost, and (on request) its error.
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "cdsm/cdsm.h"
+#include "commands.h"
+
+namespace cdsm::cli {
+namespace {
+
+const char* kRenderHelp =
+    "usage: cdsm render SCENE.json -o OUT.png [options]\n"
+    "\n"
+    "Renders the scene's camera view with deep shadow maps and prints per-stage times\n"
+    "(fragments, DSM build, camera pass), DSM memory and nodes per texel.\n"
+    "\n"
+    "options:\n"
+    "  -o, --output PATH        PNG to write (required; never the scene file itself)\n"
+    "  --backend cpu|reference  cpu: deep shadow maps (default); reference: exact shadow rays, no maps\n"
+    "  --fragments auto|gl|cpu  fragment producer: OpenGL rasterizer or CPU ray caster (default auto:\n"
+    "                           gl when an OpenGL 4.5 context can be created)\n"
+    "  --eps E                  compression error bound epsilon (>= 0), overrides the scene\n"
+    "  --dsm-res N              DSM resolution per side (4..8192), overrides the scene\n"
+    "  --width W --height H     image size, overrides the scene camera\n"
+    "  --filtering on|off       bilinear DSM lookups (default: the scene's setting)\n"
+    "  --compare-reference      also render the exact reference of the same view; report the\n"
+    "                           transmittance error at sampled shaded points (mean, p99, max, RMSE)\n"
+    "                           and the image RMSE/PSNR; write OUT.error.png (heat map) and\n"
+    "                           OUT.reference.png beside the output\n"
+    "  --error-samples N        shaded points for the transmittance error (default 20000)\n"
+    "  --stats PATH             write every figure as JSON\n"
+    "  --help                   this text\n";
+
+std::string sibling(const std::string& out, const std::string& suffix) {
+  std::string base = out;
+  if (base.size() > 4 && base.substr(base.size() - 4) == ".png") base.resize(base.size() - 4);
+  return base + suffix;
+}
+
+nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::string& backend) {
+  nlohmann::json j;
+  j["scene"] = scene.source;
+  j["backend"] = backend;
+  j["fragment_source"] = s.fragment_source;
+  j["fragment_source_reason"] = s.fragment_source_reason;
+  j["image_width"] = scene.camera.width;
+  j["image_height"] = scene.camera.height;
+  j["epsilon"] = scene.shadows.epsilon;
+  j["dsm_resolution"] = scene.shadows.resolution;
+  j["filtering"] = scene.shadows.filtering;
+  j["lights"] = s.lights;
+  auto& t = j["times_ms"];
+  t["compile_scene"] = s.times.compile_ms;
+  t["light_fragments"] = s.times.fragments_ms;
+  t["dsm_build"] = s.times.dsm_build_ms;
+  t["camera_fragments"] = s.times.camera_fragments_ms;
+  t["camera_pass"] = s.times.camera_ms;
+  t["reference"] = s.times.reference_ms;
+  t["total_frame"] = s.times.total_ms;
+  auto& m = j["dsm_memory"];
+  m["maps"] = s.memory.maps;
+  m["texels"] = s.memory.texels;
+  m["nodes"] = s.memory.nodes;
+  m["index_bytes"] = s.memory.index_bytes;
+  m["node_bytes"] = s.memory.node_bytes;
+  m["slack_bytes"] = s.memory.slack_bytes;
+  m["avg_nodes_per_texel"] = s.memory.avg_nodes_per_texel;
+  m["max_nodes_per_texel"] = s.memory.max_nodes_per_texel;
+  m["overflow_texels"] = s.memory.overflow_texels;
+  m["overflow_extra_error"] = s.memory.max_extra_error;
+  j["light_fragments"] = s.light_fragments;
+  j["camera_fragments"] = s.camera_fragments;
+  j["unmatched_fragments"] = s.unmatched_fragments;
+  j["enclosing_overflow"] = s.enclosing_overflow;
+  if (s.has_reference) {
+    auto& e = j["transmittance_error"];
+    e["points"] = s.transmittance.points;
+    e["mean"] = s.transmittance.mean;
+    e["p99"] = s.transmittance.p99;
+    e["max"] = s.transmittance.max;
+    e["rmse"] = s.transmittance.rmse;
+    j["image_error"]["rmse"] = s.image.rmse;
+    j["image_error"]["psnr_db"] = std::isfinite(s.image.psnr) ? s.image.psnr : 999.0;
+  }
+  return j;
+}
+
+void print_summary(const FrameStats& s, const Scene& scene, bool reference_backend) {
+  std::printf("scene        %s  (%zu objects, %zu volumes, %u lights, %dx%d)\n", scene.source.c_str(),
+              scene.objects.size(), scene.volumes.size(), s.lights, scene.camera.width, scene.camera.height);
+  if (reference_backend) {
+    std::printf("reference    %.1f ms\n", s.times.reference_ms);
+    return;
+  }
+  std::printf("fragments    %s (%s)\n", s.fragment_source.c_str(), s.fragment_source_reason.c_str());
+  std::printf("settings     eps %.4g, DSM %d^2, filtering %s\n", scene.shadows.epsilon, scene.shadows.resolution,
+              scene.shadows.filtering ? "on" : "off");
+  std::printf("times [ms]   light fragments %.1f | DSM build %.1f | camera fragments %.1f | camera pass %.1f | frame %.1f\n",
+              s.times.fragments_ms, s.times.dsm_build_ms, s.times.camera_fragments_ms, s.times.camera_ms,
+              s.times.total_ms);
+  std::printf("DSM memory   %llu maps, index %.2f MiB, nodes %.2f MiB, slack %.2f MiB\n",
+              (unsigned long long)s.memory.maps, s.memory.index_bytes / 1048576.0, s.memory.node_bytes / 1048576.0,
+              s.memory.slack_bytes / 1048576.0);
+  std::printf("nodes/texel  avg %.2f, max %u (overflowed texels %llu)\n", s.memory.avg_nodes_per_texel,
+              s.memory.max_nodes_per_texel, (unsigned long long)s.memory.overflow_texels);
+  if (s.has_reference) {
+    std::printf("error        transmittance over %llu points: mean %.5f, p99 %.4f, max %.4f, RMSE %.5f\n",
+                (unsigned long long)s.transmittance.points, s.transmittance.mean, s.transmittance.p99,
+                s.transmittance.max, s.transmittance.rmse);
+    std::printf("image        RMSE %.5f, PSNR %.2f dB against the reference (%.1f ms)\n", s.image.rmse, s.image.psnr,
+                s.times.reference_ms);
+  }
+}
+
+}  // namespace
+
+float parse_float(const std::string& opt, const std::string& v) {
+  try {
+    size_t n = 0;
+    float f = std::stof(v, &n);
+    if (n != v.size() || !std::isfinite(f)) throw 0;
+    return f;
+  } catch (...) {
+    throw Error(opt, "expected a finite number, got '" + v + "'");
+  }
+}
+
+int parse_int(const std::string& opt, const std::string& v) {
+  try {
+    size_t n = 0;
+    long x = std::stol(v, &n);
+    if (n != v.size() || x < -2147483647L || x > 2147483647L) throw 0;
+    return int(x);
+  } catch (...) {
+    throw Error(opt, "expected an integer, got '" + v + "'");
+  }
+}
+
+int cmd_render(const std::vector<std::string>& args) {
+  std::string scene_path, out, stats_path;
+  RenderOptions opt;
+  float eps = -1.0f;
+  int res = 0, width = 0, height = 0;
+  int filtering = -1;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= args.size()) throw Error(a, "needs a value");
+      return args[++i];
+    };
+    if (a == "--help" || a == "-h") {
+      std::fputs(kRenderHelp, stdout);
+      return 0;
+    } else if (a == "-o" || a == "--output") {
+      out = value();
+    } else if (a == "--backend") {
+      std::string v = value();
+      if (v == "cpu") opt.backend = Backend::Cpu;
+      else if (v == "reference") opt.backend = Backend::Reference;
+      else if (v == "cuda") throw Error("--backend cuda", "the CUDA backend is not available in this build yet");
+      else throw Error("--backend", "unknown backend '" + v + "' (cpu or reference)");
+    } else if (a == "--fragments") {
+      std::string v = value();
+      if (v == "auto") opt.fragments = FragmentSource::Auto;
+      else if (v == "gl") opt.fragments = FragmentSource::Gl;
+      else if (v == "cpu") opt.fragments = FragmentSource::Cpu;
+      else throw Error("--fragments", "unknown producer '" + v + "' (auto, gl or cpu)");
+    } else if (a == "--eps") {
+      eps = parse_float(a, value());
+      if (eps < 0) throw Error("--eps", "must be >= 0");
+    } else if (a == "--dsm-res") {
+      res = parse_int(a, value());
+      if (res < 4 || res > 8192) throw Error("--dsm-res", "must be within [4, 8192]");
+    } else if (a == "--width") {
+      width = parse_int(a, value());
+      if (width < 1 || width > 16384) throw Error("--width", "must be within [1, 16384]");
+    } else if (a == "--height") {
+      height = parse_int(a, value());
+      if (height < 1 || height > 16384) throw Error("--height", "must be within [1, 16384]");
+    } else if (a == "--filtering") {
+      std::string v = value();
+      if (v == "on") filtering = 1;
+      else if (v == "off") filtering = 0;
+      else throw Error("--filtering", "expected on or off, got '" + v + "'");
+    } else if (a == "--compare-reference") {
+      opt.compare_reference = true;
+    } else if (a == "--error-samples") {
+      opt.error_samples = parse_int(a, value());
+      if (opt.error_samples < 1 || opt.error_samples > 10000000) throw Error("--error-samples", "must be within [1, 1e7]");
+    } else if (a == "--stats") {
+      stats_path = value();
+    } else if (!a.empty() && a[0] == '-') {
+      throw Error(a, "unknown option (try cdsm render --help)");
+    } else if (scene_path.empty()) {
+      scene_path = a;
+    } else {
+      throw Error(a, "unexpected argument: only one scene per render");
+    }
+  }
+  if (scene_path.empty()) throw Error("cdsm render", "needs a scene file (try cdsm render --help)");
+  if (out.empty()) throw Error("cdsm render", "needs -o OUT.png");
+  if (out.size() < 4 || out.substr(out.size() - 4) != ".png") throw Error(out, "output must be a .png file");
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  for (const std::string& p : {out, stats_path})
+    if (!p.empty() && fs::exists(p, ec) && fs::equivalent(p, scene_path, ec))
+      throw Error(p, "refusing to overwrite the scene file");
+
+  Scene scene = load_scene(scene_path);
+  if (eps >= 0) scene.shadows.epsilon = eps;
+  if (res > 0) scene.shadows.resolution = res;
+  if (width > 0) scene.camera.width = width;
+  if (height > 0) scene.camera.height = height;
+  if (filtering >= 0) scene.shadows.filtering = filtering == 1;
+
+  Renderer renderer;
+  FrameStats stats;
+  Image img = renderer.render(scene, opt, &stats);
+  if (!stats.fragment_source.empty())
+    std::fprintf(stderr, "cdsm: fragments from %s: %s\n", stats.fragment_source.c_str(),
+                 stats.fragment_source_reason.c_str());
+  write_png(img, out);
+  print_summary(stats, scene, opt.backend == Backend::Reference);
+  std::printf("wrote        %s\n", out.c_str());
+  if (opt.compare_reference && opt.backend != Backend::Reference) {
+    write_png(renderer.last_reference(), sibling(out, ".reference.png"));
+    write_png(error_heatmap(img, renderer.last_reference()), sibling(out, ".error.png"));
+    std::printf("wrote        %s, %s\n", sibling(out, ".reference.png").c_str(), sibling(out, ".error.png").c_str());
+  }
+  if (!stats_path.empty()) {
+    std::ofstream f(stats_path);
+    if (!f) throw Error(stats_path, "cannot write stats file");
+    f << stats_json(stats, scene, opt.backend == Backend::Reference ? "reference" : "cpu").dump(2) << "\n";
+    std::printf("wrote        %s\n", stats_path.c_str());
+  }
+  return 0;
+}
+
+int cmd_info(const std::vector<std::string>& args) {
+  if (args.size() != 1 || args[0] == "--help") {
+    std::puts("usage: cdsm info SCENE.json");
+    return args.size() == 1 ? 0 : 2;
+  }
+  Scene s = load_scene(args[0]);
+  size_t tris = 0;
+  for (const Object& o : s.objects) tris += o.mesh ? o.mesh->triangle_count() : 0;
+  std::printf("%s: %zu objects (%zu triangles), %zu volumes, %zu lights, camera %dx%d\n", s.source.c_str(),
+              s.objects.size(), tris, s.volumes.size(), s.lights.size(), s.camera.width, s.camera.height);
+  for (size_t i = 0; i < s.objects.size(); ++i) {
+    const Object& o = s.objects[i];
+    const char* interior[] = {"none", "constant", "volume"};
+    std::printf("  object %zu %-12s %6zu tris  opacity %.2f  interior %s%s%s\n", i, o.name.c_str(),
+                o.mesh->triangle_count(), o.surface.opacity, interior[int(o.interior)],
+                is_closed(*o.mesh) ? "" : "  (open mesh)", o.casts_shadows ? "" : "  (receives only)");
+  }
+  for (size_t i = 0; i < s.volumes.size(); ++i)
+    std::printf("  volume %zu %-12s %dx%dx%d\n", i, s.volumes[i].name.c_str(), s.volumes[i].grid->nx,
+                s.volumes[i].grid->ny, s.volumes[i].grid->nz);
+  return 0;
+}
+
+}  // namespace cdsm::cli

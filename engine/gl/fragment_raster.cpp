@@ -1,0 +1,390 @@
+#include "gl/fragment_raster.h"
+
+#include <algorithm>
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include "cdsm/error.h"
+#include "gl/context.h"
+#include "gl/gl_objects.h"
+#include "gl/prefix_sum.h"
+#include "gl/shaders.h"
+
+namespace cdsm::gl {
+
+namespace {
+
+// Uniform locations and SSBO bindings of content/shaders/fragment_lists.glsl.
+enum Uniform : GLint {
+  kEye = 0, kRight = 1, kUp = 2, kForward = 3, kWindow = 4, kNearFar = 5, kSize = 6,
+  kRow0 = 7, kFragBase = 8, kPass = 9, kTriBase = 10, kClipZ = 11,
+};
+enum Binding : GLuint { kCounts = 0, kOffsets = 1, kFragments = 2, kNormals = 3 };
+
+constexpr uint64_t kFragmentBytes = sizeof(Fragment);
+static_assert(kFragmentBytes == 8, "the shader writes 8-byte {float, uint} fragments");
+
+const char* const kWhere = "gl::FragmentRasterizer";
+
+// A maximal run of consecutive triangles of one object.
+struct ObjectRun {
+  uint32_t first;  // triangle
+  uint32_t count;
+  uint32_t object;
+};
+
+// The draws of one bound range of the normal buffer.
+struct DrawChunk {
+  uint32_t tri_base = 0;   // first triangle of the bound normal range
+  uint32_t tri_count = 0;  // triangles in that range
+  std::vector<GLint> first;    // vertices
+  std::vector<GLsizei> count;  // vertices
+};
+
+// Restores the defaults of the state rasterize() changes, also on a throw.
+struct StateReset {
+  ~StateReset() {
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    glUseProgram(0);
+    glBindVertexArray(0);
+    glDisable(GL_SCISSOR_TEST);
+    glDisable(GL_DEPTH_CLAMP);
+    glDisable(GL_CLIP_DISTANCE0);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+  }
+};
+
+}  // namespace
+
+struct FragmentRasterizer::Impl {
+  Context& context;
+  RasterOptions options;
+  Program program;
+  PrefixSum scan;
+  VertexArray vao{"cdsm.fragments.vao"};
+  Framebuffer fbo{"cdsm.fragments.fbo"};
+  Buffer vertices{"cdsm.fragments.vertices"};  // 3 x vec3 per triangle (vertex attribute 0)
+  Buffer normals{"cdsm.fragments.tri_normals"};  // cross(B-A, C-A) per triangle
+  Buffer counts{"cdsm.fragments.counts"};      // per band pixel; count, then fill cursor
+  Buffer offsets{"cdsm.fragments.offsets"};    // exclusive sums of counts, + total
+  Buffer pool{"cdsm.fragments.pool"};          // fragments of the current tile
+
+  uint32_t tri_count = 0;
+  std::vector<ObjectRun> runs;
+  std::vector<float> normal_scratch;
+  std::vector<DrawChunk> chunks;
+  uint32_t chunk_tris = 0;  // triangles per bound normal range
+  int32_t fbo_width = 0, fbo_height = 0;
+  RasterStats stats;
+
+  Impl(Context& c, const RasterOptions& o)
+      : context(c),
+        options(o),
+        program(build_program("cdsm.fragments.program",
+                              {{GL_VERTEX_SHADER, "fragment_lists.glsl", "#define VERTEX_STAGE 1\n"},
+                               {GL_FRAGMENT_SHADER, "fragment_lists.glsl", "#define FRAGMENT_STAGE 1\n"}})),
+        scan(c) {
+    CDSM_GL(glEnableVertexArrayAttrib(vao.id(), 0));
+    CDSM_GL(glVertexArrayAttribFormat(vao.id(), 0, 3, GL_FLOAT, GL_FALSE, 0));
+    CDSM_GL(glVertexArrayAttribBinding(vao.id(), 0, 0));
+    pool.reserve(std::min<uint64_t>(std::max<uint64_t>(options.initial_pool_bytes, kFragmentBytes),
+                                    max_pool_bytes()));
+    stats.pool_bytes = pool.capacity();
+    // Normal ranges bound at once must fit one SSBO; their offsets must be
+    // multiples of the binding alignment.
+    uint64_t align = uint64_t(std::max(context.limits().ssbo_offset_alignment, 1));
+    uint64_t per_chunk = uint64_t(context.limits().max_ssbo_block_size) / 12;
+    per_chunk = std::min<uint64_t>(per_chunk, uint64_t(1) << 28);
+    chunk_tris = uint32_t(std::max<uint64_t>(per_chunk / align * align, align));
+  }
+
+  ~Impl() {
+    // GL names belong to this context: delete them with it current.
+    try {
+      context.make_current();
+    } catch (...) {
+    }
+  }
+
+  uint64_t max_pool_bytes() const {
+    uint64_t limit = uint64_t(context.limits().max_ssbo_block_size);
+    uint64_t cap = options.max_pool_bytes ? std::min(options.max_pool_bytes, limit) : limit;
+    return std::max<uint64_t>(cap / kFragmentBytes * kFragmentBytes, kFragmentBytes);
+  }
+
+  uint64_t max_band_pixels() const {
+    uint64_t limit = uint64_t(context.limits().max_ssbo_block_size) / 4 - 1;  // offsets hold n + 1
+    limit = std::min<uint64_t>(limit, 0xfffffffeull);
+    return options.max_band_pixels ? std::min(options.max_band_pixels, limit) : limit;
+  }
+
+  void upload(Span<const Vec3> tri_vertices, Span<const uint32_t> tri_object) {
+    uint64_t n = tri_object.size();
+    if (tri_vertices.size() != 3 * n)
+      throw Error(kWhere, "upload_scene: " + std::to_string(tri_vertices.size()) + " vertices for " +
+                              std::to_string(n) + " triangles (3 each expected)");
+    if (n > kMaxPrimitives)
+      throw Error(kWhere, "upload_scene: " + std::to_string(n) + " triangles, at most " +
+                              std::to_string(kMaxPrimitives) + " fit a fragment's primitive field");
+    context.make_current();
+    tri_count = uint32_t(n);
+    vertices.reserve(n * 36);
+    vertices.upload(tri_vertices.data(), n * 36);
+    normal_scratch.resize(3 * n);
+    for (uint64_t t = 0; t < n; ++t) {
+      Vec3 a = tri_vertices[3 * t], b = tri_vertices[3 * t + 1], c = tri_vertices[3 * t + 2];
+      Vec3 g = cross(b - a, c - a);  // as the CPU ray caster's facing test
+      normal_scratch[3 * t] = g.x;
+      normal_scratch[3 * t + 1] = g.y;
+      normal_scratch[3 * t + 2] = g.z;
+    }
+    normals.reserve(n * 12);
+    normals.upload(normal_scratch.data(), n * 12);
+    CDSM_GL(glVertexArrayVertexBuffer(vao.id(), 0, vertices.id(), 0, sizeof(Vec3)));
+    runs.clear();
+    for (uint32_t t = 0; t < tri_count; ++t) {
+      if (!runs.empty() && runs.back().object == tri_object[t] && runs.back().first + runs.back().count == t)
+        ++runs.back().count;
+      else
+        runs.push_back({t, 1, tri_object[t]});
+    }
+  }
+
+  // Draw lists of the triangles of the objects in `mask`, per normal range.
+  void build_draws(ObjectMask mask) {
+    uint32_t nchunks = tri_count == 0 ? 0 : (tri_count - 1) / chunk_tris + 1;
+    chunks.resize(nchunks);
+    for (uint32_t c = 0; c < nchunks; ++c) {
+      chunks[c].tri_base = c * chunk_tris;
+      chunks[c].tri_count = std::min(chunk_tris, tri_count - c * chunk_tris);
+      chunks[c].first.clear();
+      chunks[c].count.clear();
+    }
+    auto add_range = [&](uint32_t first, uint32_t count) {
+      while (count > 0) {
+        DrawChunk& ch = chunks[first / chunk_tris];
+        uint32_t n = std::min(count, ch.tri_base + ch.tri_count - first);
+        // Merge with the previous draw when contiguous.
+        if (!ch.first.empty() && uint32_t(ch.first.back()) + uint32_t(ch.count.back()) == 3 * first) {
+          ch.count.back() += GLsizei(3 * n);
+        } else {
+          ch.first.push_back(GLint(3 * first));
+          ch.count.push_back(GLsizei(3 * n));
+        }
+        first += n;
+        count -= n;
+      }
+    };
+    for (const ObjectRun& r : runs)
+      if (mask.contains(r.object)) add_range(r.first, r.count);
+  }
+
+  void draw() {
+    for (const DrawChunk& ch : chunks) {
+      if (ch.first.empty()) continue;
+      CDSM_GL(glBindBufferRange(GL_SHADER_STORAGE_BUFFER, kNormals, normals.id(), GLintptr(uint64_t(ch.tri_base) * 12),
+                                GLsizeiptr(uint64_t(ch.tri_count) * 12)));
+      CDSM_GL(glProgramUniform1ui(program.id(), kTriBase, ch.tri_base));
+      CDSM_GL(glMultiDrawArrays(GL_TRIANGLES, ch.first.data(), ch.count.data(), GLsizei(ch.first.size())));
+    }
+  }
+
+  void set_view(const PinholeView& v) {
+    GLuint p = program.id();
+    CDSM_GL(glProgramUniform3f(p, kEye, v.eye.x, v.eye.y, v.eye.z));
+    CDSM_GL(glProgramUniform3f(p, kRight, v.right.x, v.right.y, v.right.z));
+    CDSM_GL(glProgramUniform3f(p, kUp, v.up.x, v.up.y, v.up.z));
+    CDSM_GL(glProgramUniform3f(p, kForward, v.forward.x, v.forward.y, v.forward.z));
+    CDSM_GL(glProgramUniform4f(p, kWindow, v.center.x, v.center.y, v.tan_half_x, v.tan_half_y));
+    CDSM_GL(glProgramUniform2f(p, kNearFar, v.near, v.far));
+    CDSM_GL(glProgramUniform2i(p, kSize, v.width, v.height));
+    // Drop what lies behind the eye before projection; the exact near test
+    // is per fragment. (Depth clamp disables GL's own near/far clipping.)
+    CDSM_GL(glProgramUniform1f(p, kClipZ, v.near > 0.0f ? 0.5f * v.near : 1e-6f));
+  }
+
+  void bind_pipeline(int32_t width, int32_t height) {
+    if (width != fbo_width || height != fbo_height) {
+      CDSM_GL(glNamedFramebufferParameteri(fbo.id(), GL_FRAMEBUFFER_DEFAULT_WIDTH, width));
+      CDSM_GL(glNamedFramebufferParameteri(fbo.id(), GL_FRAMEBUFFER_DEFAULT_HEIGHT, height));
+      GLenum status = CDSM_GLV(glCheckNamedFramebufferStatus(fbo.id(), GL_FRAMEBUFFER));
+      if (status != GL_FRAMEBUFFER_COMPLETE)
+        throw Error(kWhere, "framebuffer without attachments incomplete at " + std::to_string(width) + "x" +
+                                std::to_string(height));
+      fbo_width = width;
+      fbo_height = height;
+    }
+    CDSM_GL(glBindFramebuffer(GL_FRAMEBUFFER, fbo.id()));
+    CDSM_GL(glViewport(0, 0, width, height));
+    CDSM_GL(glDisable(GL_DEPTH_TEST));
+    CDSM_GL(glDisable(GL_CULL_FACE));
+    CDSM_GL(glDisable(GL_BLEND));
+    CDSM_GL(glDisable(GL_RASTERIZER_DISCARD));
+    CDSM_GL(glDisable(GL_MULTISAMPLE));
+    CDSM_GL(glPolygonMode(GL_FRONT_AND_BACK, GL_FILL));
+    CDSM_GL(glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE));
+    CDSM_GL(glEnable(GL_DEPTH_CLAMP));
+    CDSM_GL(glEnable(GL_CLIP_DISTANCE0));
+    CDSM_GL(glEnable(GL_SCISSOR_TEST));
+    CDSM_GL(glUseProgram(program.id()));
+    CDSM_GL(glBindVertexArray(vao.id()));
+    CDSM_GL(glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kCounts, counts.id()));
+    CDSM_GL(glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kOffsets, offsets.id()));
+    CDSM_GL(glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kFragments, pool.id()));
+  }
+
+  // Image rows [row_a, row_b), columns [col_a, col_b) -> GL scissor box.
+  void scissor(int32_t height, int32_t row_a, int32_t row_b, int32_t col_a, int32_t col_b) {
+    CDSM_GL(glScissor(col_a, height - row_b, col_b - col_a, row_b - row_a));
+  }
+
+  void ensure_pool(uint64_t fragments) {
+    uint64_t need = fragments * kFragmentBytes;
+    if (need <= pool.capacity()) return;
+    uint64_t grown = std::min(max_pool_bytes(), std::max(need, 2 * pool.capacity()));
+    pool.reserve(grown);
+    ++stats.pool_grows;
+    stats.pool_bytes = pool.capacity();
+    CDSM_GL(glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kFragments, pool.id()));
+  }
+
+  // Debug contexts: every fill cursor must be back at zero, i.e. the fill
+  // passes wrote exactly the fragments the count pass counted.
+  void verify_cursors_consumed(uint64_t n) {
+    CDSM_GL(glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT));
+    std::vector<uint32_t> left(n);
+    counts.download(left.data(), n * 4);
+    for (uint64_t i = 0; i < n; ++i)
+      if (left[i] != 0)
+        throw Error(kWhere, "internal: pixel " + std::to_string(i) + " of the band kept " + std::to_string(left[i]) +
+                                " fill slots (count and fill passes rasterized differently)");
+  }
+
+  void rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out);
+};
+
+void FragmentRasterizer::Impl::rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out) {
+  auto t0 = std::chrono::steady_clock::now();
+  context.make_current();
+  const Limits& lim = context.limits();
+  const int32_t W = view.width, H = view.height;
+  if (W <= 0 || H <= 0)
+    throw Error(kWhere, "view of " + std::to_string(W) + "x" + std::to_string(H) + " pixels");
+  if (W > std::min(lim.max_framebuffer_width, lim.max_viewport_width) ||
+      H > std::min(lim.max_framebuffer_height, lim.max_viewport_height))
+    throw Error(kWhere, "view of " + std::to_string(W) + "x" + std::to_string(H) +
+                            " pixels exceeds this GL's framebuffer/viewport limit of " +
+                            std::to_string(std::min(lim.max_framebuffer_width, lim.max_viewport_width)) + "x" +
+                            std::to_string(std::min(lim.max_framebuffer_height, lim.max_viewport_height)));
+  const uint64_t pixels = uint64_t(W) * uint64_t(H);
+  out.width = W;
+  out.height = H;
+  out.offsets.resize(pixels + 1);
+  stats.tiles = 0;
+  stats.bands = 0;
+  stats.fragments = 0;
+
+  build_draws(mask);
+  set_view(view);
+  const uint64_t band_pixels = max_band_pixels();
+  const int32_t band_rows = int32_t(std::max<uint64_t>(1, std::min<uint64_t>(uint64_t(H), band_pixels / uint64_t(W))));
+  if (uint64_t(W) > band_pixels)
+    throw Error(kWhere, "one row of " + std::to_string(W) + " pixels exceeds the counter buffer limit");
+  counts.reserve(uint64_t(W) * uint64_t(band_rows) * 4);
+  offsets.reserve((uint64_t(W) * uint64_t(band_rows) + 1) * 4);
+  const uint64_t cap_fragments = max_pool_bytes() / kFragmentBytes;
+
+  StateReset reset;
+  uint64_t total = 0;
+  for (int32_t r0 = 0; r0 < H; r0 += band_rows) {
+    const int32_t r1 = std::min(H, r0 + band_rows);
+    const uint64_t n = uint64_t(W) * uint64_t(r1 - r0);
+    ++stats.bands;
+
+    // Count pass.
+    counts.clear(n * 4);
+    bind_pipeline(W, H);
+    CDSM_GL(glProgramUniform1i(program.id(), kRow0, r0));
+    CDSM_GL(glProgramUniform1i(program.id(), kPass, 0));
+    scissor(H, r0, r1, 0, W);
+    draw();
+
+    // Prefix sum -> band-local offsets, read back into out.offsets.
+    scan.exclusive_scan(counts, offsets, n);
+    if (scan.overflowed())
+      throw Error(kWhere, "more than 2^32-1 fragments in one band of the view");
+    uint32_t* band_offsets = out.offsets.data() + uint64_t(r0) * uint64_t(W);
+    offsets.download(band_offsets, (n + 1) * 4);
+    const uint64_t band_total = band_offsets[n];
+    if (total + band_total > 0xffffffffull)
+      throw Error(kWhere, "more than 2^32-1 fragments in the view (offsets are 32-bit)");
+    const uint32_t base = uint32_t(total);
+    out.fragments.resize(total + band_total);
+
+    // Fill tiles: whole rows while they fit the pool cap, else row pieces.
+    bind_pipeline(W, H);
+    CDSM_GL(glProgramUniform1i(program.id(), kPass, 1));
+    auto off = [&](uint64_t i) { return uint64_t(band_offsets[i]); };  // band-local, before rebasing
+    uint64_t p = 0;
+    while (p < n) {
+      uint64_t end;
+      int32_t row_a = r0 + int32_t(p / uint64_t(W));
+      int32_t row_b = row_a + 1, col_a = int32_t(p % uint64_t(W)), col_b = W;
+      if (p % uint64_t(W) == 0 && off(p + uint64_t(W)) - off(p) <= cap_fragments) {
+        end = p + uint64_t(W);
+        while (end < n && off(end + uint64_t(W)) - off(p) <= cap_fragments) end += uint64_t(W);
+        row_b = r0 + int32_t(end / uint64_t(W));
+      } else {
+        // Pieces of one row: a row alone holds more than the pool cap.
+        uint64_t row_end = (p / uint64_t(W) + 1) * uint64_t(W);
+        end = p;
+        while (end < row_end && off(end + 1) - off(p) <= cap_fragments) ++end;
+        if (end == p)
+          throw Error(kWhere, "pixel (" + std::to_string(p % uint64_t(W)) + ", " + std::to_string(row_a) + ") has " +
+                                  std::to_string(off(p + 1) - off(p)) + " fragments, more than the pool holds");
+        col_b = int32_t(end % uint64_t(W) == 0 ? uint64_t(W) : end % uint64_t(W));
+      }
+      ++stats.tiles;
+      const uint64_t tile_fragments = off(end) - off(p);
+      if (tile_fragments > 0) {
+        ensure_pool(tile_fragments);
+        CDSM_GL(glProgramUniform1ui(program.id(), kFragBase, GLuint(off(p))));
+        scissor(H, row_a, row_b, col_a, col_b);
+        draw();
+        CDSM_GL(glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT));
+        pool.download(out.fragments.data() + total + off(p), tile_fragments * kFragmentBytes);
+      }
+      p = end;
+    }
+    if (context.debug()) verify_cursors_consumed(n);
+    if (base != 0)
+      for (uint64_t i = 0; i <= n; ++i) band_offsets[i] += base;
+    total += band_total;
+  }
+  stats.fragments = total;
+  stats.pool_bytes = pool.capacity();
+  stats.gpu_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+FragmentRasterizer::FragmentRasterizer(Context& context) : FragmentRasterizer(context, RasterOptions{}) {}
+
+FragmentRasterizer::FragmentRasterizer(Context& context, const RasterOptions& options) {
+  context.make_current();
+  impl_ = std::make_unique<Impl>(context, options);
+}
+
+FragmentRasterizer::~FragmentRasterizer() = default;
+
+void FragmentRasterizer::upload_scene(Span<const Vec3> tri_vertices, Span<const uint32_t> tri_object) {
+  impl_->upload(tri_vertices, tri_object);
+}
+
+void FragmentRasterizer::rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out) {
+  impl_->rasterize(view, mask, out);
+}
+
+const RasterStats& FragmentRasterizer::stats() const { return impl_->stats; }
+const RasterOptions& FragmentRasterizer::options() const { return impl_->options; }
+
+}  // namespace cdsm::gl

@@ -1,0 +1,103 @@
+// OpenGL fragment-list rasterizer (DESIGN.md §2.1): count pass with
+// per-pixel atomic counters -> prefix sum (compute) -> fill pass into packed
+// per-pixel arrays in SSBOs. Output: the same FragmentBuffers the CPU ray
+// caster fills (cpu/fragments_cpu.h), read back once per pass.
+//
+// What it reproduces of cast_fragments() (and how):
+//   - the PinholeView exactly: off-centre window, py = 0 the top row,
+//     pixel-centre sampling (GL's own coverage rule at pixel centres);
+//   - depth = radial distance |p - eye| of the interpolated eye-relative
+//     position (float32), never NDC z;
+//   - a fragment is kept iff dot(p - eye, forward) is in [near, far]
+//     (GL_DEPTH_CLAMP on, so GL never clips at its own near/far; the test
+//     is done per fragment);
+//   - front-facing iff dot(cross(B-A, C-A), pixel ray) < 0 (the CPU rule),
+//     computed per fragment, independent of GL winding;
+//   - primitive = the triangle's index in the uploaded array, also when the
+//     object mask skips triangles (masked objects are simply not drawn).
+// The two producers differ only where a pixel centre lies within float
+// round-off of a triangle edge (each has its own tie rule; both are
+// watertight) or of the near/far planes.
+//
+// Memory: counters, offsets, scan levels and the fragment pool are kept
+// between calls and only grow. The pool grows when a view needs more (never
+// dropping fragments); views whose fragments exceed the largest SSBO
+// (GL_MAX_SHADER_STORAGE_BLOCK_SIZE, 128 MiB on llvmpipe) or
+// RasterOptions::max_pool_bytes are filled in horizontal tiles (scissor
+// rectangles of whole rows; of partial rows only if one row alone is too
+// big), each read back into `out` in order.
+//
+// GL state: rasterize() binds its own framebuffer, program, vertex array,
+// buffers, viewport and scissor, and on return leaves framebuffer 0, program
+// 0, vertex array 0 bound and GL_SCISSOR_TEST, GL_DEPTH_CLAMP and
+// GL_CLIP_DISTANCE0 disabled (their defaults). The context must stay alive
+// for the rasterizer's lifetime; every call makes it current first.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "cpu/fragments_cpu.h"
+#include "hd/scene_data.h"
+#include "hd/view.h"
+
+namespace cdsm::gl {
+
+class Context;
+
+struct RasterStats {
+  uint64_t fragments = 0;     // fragments produced by the last rasterize()
+  uint32_t tiles = 0;         // tiles the view was split into
+  uint32_t pool_grows = 0;    // times the node pool grew (cumulative)
+  uint64_t pool_bytes = 0;    // current fragment pool size
+  double gpu_ms = 0.0;        // count+scan+fill, wall clock incl. read-back
+  uint32_t bands = 0;         // count passes of the last call (> 1 only when the
+                              // per-pixel counters of the whole view exceed one SSBO)
+};
+
+struct RasterOptions {
+  // First size of the fragment pool (8-byte fragments), bytes.
+  uint64_t initial_pool_bytes = uint64_t(8) << 20;
+  // Largest pool, bytes; 0 = GL_MAX_SHADER_STORAGE_BLOCK_SIZE. Views needing
+  // more are filled in tiles. Tests lower it to exercise tiling.
+  uint64_t max_pool_bytes = 0;
+  // Most pixels counted per count pass; 0 = as many as one SSBO of uint32
+  // counters holds. Views larger than this are counted in bands of rows.
+  uint64_t max_band_pixels = 0;
+};
+
+class FragmentRasterizer {
+ public:
+  // Compiles the shaders and allocates the initial buffers on `context`
+  // (made current). Throws cdsm::Error on a GL or shader failure.
+  explicit FragmentRasterizer(Context& context);
+  FragmentRasterizer(Context& context, const RasterOptions& options);
+  ~FragmentRasterizer();
+  FragmentRasterizer(const FragmentRasterizer&) = delete;
+  FragmentRasterizer& operator=(const FragmentRasterizer&) = delete;
+
+  // Uploads world-space triangles (3 vertices each) and their object ids.
+  // Call again when the scene changes. Throws cdsm::Error when
+  // tri_vertices.size() != 3 * tri_object.size() or there are more than
+  // kMaxPrimitives triangles.
+  void upload_scene(Span<const Vec3> tri_vertices, Span<const uint32_t> tri_object);
+
+  // Rasterizes the triangles of the objects in `mask` for `view` into `out`
+  // (unsorted per pixel), exactly like cast_fragments() does by ray casting.
+  // out.offsets gets width*height+1 exclusive sums (offsets[n] = total).
+  // Throws cdsm::Error when the view is larger than the GL implementation's
+  // framebuffer/viewport limits (16384^2 on llvmpipe) or its fragments do
+  // not fit 32-bit offsets. (With near <= 0, geometry closer than 1e-6 on
+  // the view axis is dropped: GL cannot project points at the eye.)
+  void rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out);
+
+  const RasterStats& stats() const;
+  const RasterOptions& options() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace cdsm::gl

@@ -1,0 +1,36 @@
+// Portability macros shared by every CDSM_HD header (STYLE.md 2).
+// Under nvcc, CDSM_HD marks functions callable on host and device; under a
+// plain C++ compiler every macro here is empty, so these headers build
+// anywhere.
+#pragma once
+
+#include <cassert>
+#include <cstdint>
+
+#if defined(__CUDACC__)
+#define CDSM_HD __host__ __device__
+#define CDSM_INLINE __forceinline__
+#define CDSM_DEVICE_CODE 1
+#else
+#define CDSM_HD
+#define CDSM_INLINE inline
+#define CDSM_DEVICE_CODE 0
+#endif
+
+// Invariant check usable inside CDSM_HD code: assert() on both sides.
+#define CDSM_HD_ASSERT(cond) assert(cond)
+
+namespace cdsm {
+
+// Hard limits of the bounded per-ray / per-texel state (DESIGN.md §2).
+// Changing them changes stack usage of every kernel.
+inline constexpr int kMaxEnclosing = 16;      // objects a ray can be inside at once
+inline constexpr int kMaxRayObjects = 32;     // distinct objects tracked for bracket matching
+inline constexpr int kBvhStackSize = 64;      // BVH traversal stack depth
+inline constexpr int kMaxTransferPoints = 16; // transfer-function control points
+inline constexpr int kMaxLights = 8;          // lights per frame in one camera pass
+inline constexpr int kMaxMapsPerLight = 8;    // DSMs (faces or clusters) per light
+inline constexpr float kSaturatedAlpha = 1.0f - 1e-4f;  // a ray this opaque ends early
+inline constexpr float kCompositeStop = 0.995f;         // camera rays stop at this opacity
+
+}  // namespace cdsm

@@ -1,0 +1,23 @@
+// Errors of the public API. Bad input (a scene file, an asset, an option)
+// raises cdsm::Error naming the file and the place in it (STYLE.md 8).
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace cdsm {
+
+class Error : public std::runtime_error {
+ public:
+  // `where` is a file name, optionally with a location ("scene.json: /objects/2/sigma").
+  Error(const std::string& where, const std::string& what)
+      : std::runtime_error(where.empty() ? what : where + ": " + what), where_(where), what_(what) {}
+  const std::string& where() const { return where_; }
+  const std::string& problem() const { return what_; }
+
+ private:
+  std::string where_;
+  std::string what_;
+};
+
+}  // namespace cdsm

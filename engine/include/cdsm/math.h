@@ -1,0 +1,149 @@
+// Small POD vector/matrix math for CDSM_HD code (no GLM in device code,
+// DESIGN.md §5). Column vectors; Mat4 is row-major: m[row][col].
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include "cdsm/config.h"
+
+namespace cdsm {
+
+struct Vec2 {
+  float x = 0, y = 0;
+};
+
+struct Vec3 {
+  float x = 0, y = 0, z = 0;
+  CDSM_HD constexpr float operator[](int i) const { return i == 0 ? x : (i == 1 ? y : z); }
+  CDSM_HD float& operator[](int i) { return i == 0 ? x : (i == 1 ? y : z); }
+};
+
+struct Vec4 {
+  float x = 0, y = 0, z = 0, w = 0;
+};
+
+CDSM_HD CDSM_INLINE Vec3 vec3(float x, float y, float z) { return Vec3{x, y, z}; }
+CDSM_HD CDSM_INLINE Vec3 vec3(float s) { return Vec3{s, s, s}; }
+CDSM_HD CDSM_INLINE Vec3 operator+(Vec3 a, Vec3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+CDSM_HD CDSM_INLINE Vec3 operator-(Vec3 a, Vec3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+CDSM_HD CDSM_INLINE Vec3 operator-(Vec3 a) { return {-a.x, -a.y, -a.z}; }
+CDSM_HD CDSM_INLINE Vec3 operator*(Vec3 a, float s) { return {a.x * s, a.y * s, a.z * s}; }
+CDSM_HD CDSM_INLINE Vec3 operator*(float s, Vec3 a) { return {a.x * s, a.y * s, a.z * s}; }
+CDSM_HD CDSM_INLINE Vec3 operator*(Vec3 a, Vec3 b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
+CDSM_HD CDSM_INLINE Vec3 operator/(Vec3 a, float s) { return a * (1.0f / s); }
+CDSM_HD CDSM_INLINE Vec3& operator+=(Vec3& a, Vec3 b) { return a = a + b; }
+CDSM_HD CDSM_INLINE Vec3& operator*=(Vec3& a, float s) { return a = a * s; }
+CDSM_HD CDSM_INLINE float dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+CDSM_HD CDSM_INLINE Vec3 cross(Vec3 a, Vec3 b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+CDSM_HD CDSM_INLINE float length(Vec3 a) { return sqrtf(dot(a, a)); }
+CDSM_HD CDSM_INLINE Vec3 normalize(Vec3 a) {
+  float l = length(a);
+  return l > 0.0f ? a * (1.0f / l) : a;
+}
+CDSM_HD CDSM_INLINE Vec3 vmin(Vec3 a, Vec3 b) {
+  return {fminf(a.x, b.x), fminf(a.y, b.y), fminf(a.z, b.z)};
+}
+CDSM_HD CDSM_INLINE Vec3 vmax(Vec3 a, Vec3 b) {
+  return {fmaxf(a.x, b.x), fmaxf(a.y, b.y), fmaxf(a.z, b.z)};
+}
+CDSM_HD CDSM_INLINE float clampf(float v, float lo, float hi) { return fminf(fmaxf(v, lo), hi); }
+CDSM_HD CDSM_INLINE float lerpf(float a, float b, float t) { return a + (b - a) * t; }
+// True unless NaN or +-Inf (x - x is NaN exactly then); works on both sides.
+CDSM_HD CDSM_INLINE bool is_finite(float x) { return (x - x) == 0.0f; }
+CDSM_HD CDSM_INLINE bool is_finite(Vec3 a) { return is_finite(a.x) && is_finite(a.y) && is_finite(a.z); }
+
+// Axis-aligned box.
+struct Box3 {
+  Vec3 lo{1e30f, 1e30f, 1e30f};
+  Vec3 hi{-1e30f, -1e30f, -1e30f};
+  CDSM_HD void grow(Vec3 p) {
+    lo = vmin(lo, p);
+    hi = vmax(hi, p);
+  }
+  CDSM_HD void grow(const Box3& b) {
+    lo = vmin(lo, b.lo);
+    hi = vmax(hi, b.hi);
+  }
+  CDSM_HD bool empty() const { return lo.x > hi.x || lo.y > hi.y || lo.z > hi.z; }
+  CDSM_HD Vec3 center() const { return (lo + hi) * 0.5f; }
+  CDSM_HD Vec3 extent() const { return hi - lo; }
+  CDSM_HD Vec3 corner(int i) const {
+    return {(i & 1) ? hi.x : lo.x, (i & 2) ? hi.y : lo.y, (i & 4) ? hi.z : lo.z};
+  }
+};
+
+// Row-major 4x4 matrix acting on column vectors.
+struct Mat4 {
+  float m[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
+
+  CDSM_HD static Mat4 identity() { return Mat4{}; }
+  CDSM_HD Vec3 point(Vec3 p) const {  // affine transform of a point (w = 1, no divide)
+    return {m[0][0] * p.x + m[0][1] * p.y + m[0][2] * p.z + m[0][3],
+            m[1][0] * p.x + m[1][1] * p.y + m[1][2] * p.z + m[1][3],
+            m[2][0] * p.x + m[2][1] * p.y + m[2][2] * p.z + m[2][3]};
+  }
+  CDSM_HD Vec3 vector(Vec3 v) const {  // linear part only
+    return {m[0][0] * v.x + m[0][1] * v.y + m[0][2] * v.z,
+            m[1][0] * v.x + m[1][1] * v.y + m[1][2] * v.z,
+            m[2][0] * v.x + m[2][1] * v.y + m[2][2] * v.z};
+  }
+  CDSM_HD Vec4 apply(Vec4 v) const {
+    return {m[0][0] * v.x + m[0][1] * v.y + m[0][2] * v.z + m[0][3] * v.w,
+            m[1][0] * v.x + m[1][1] * v.y + m[1][2] * v.z + m[1][3] * v.w,
+            m[2][0] * v.x + m[2][1] * v.y + m[2][2] * v.z + m[2][3] * v.w,
+            m[3][0] * v.x + m[3][1] * v.y + m[3][2] * v.z + m[3][3] * v.w};
+  }
+};
+
+CDSM_HD CDSM_INLINE Mat4 operator*(const Mat4& a, const Mat4& b) {
+  Mat4 r;
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) {
+      float s = 0.0f;
+      for (int k = 0; k < 4; ++k) s += a.m[i][k] * b.m[k][j];
+      r.m[i][j] = s;
+    }
+  return r;
+}
+
+CDSM_HD CDSM_INLINE Mat4 transpose(const Mat4& a) {
+  Mat4 r;
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) r.m[i][j] = a.m[j][i];
+  return r;
+}
+
+// General inverse by cofactors; returns false (and identity) if singular.
+CDSM_HD inline bool invert(const Mat4& a, Mat4& out) {
+  const float* s = &a.m[0][0];
+  float inv[16];
+  inv[0] = s[5] * s[10] * s[15] - s[5] * s[11] * s[14] - s[9] * s[6] * s[15] + s[9] * s[7] * s[14] + s[13] * s[6] * s[11] - s[13] * s[7] * s[10];
+  inv[4] = -s[4] * s[10] * s[15] + s[4] * s[11] * s[14] + s[8] * s[6] * s[15] - s[8] * s[7] * s[14] - s[12] * s[6] * s[11] + s[12] * s[7] * s[10];
+  inv[8] = s[4] * s[9] * s[15] - s[4] * s[11] * s[13] - s[8] * s[5] * s[15] + s[8] * s[7] * s[13] + s[12] * s[5] * s[11] - s[12] * s[7] * s[9];
+  inv[12] = -s[4] * s[9] * s[14] + s[4] * s[10] * s[13] + s[8] * s[5] * s[14] - s[8] * s[6] * s[13] - s[12] * s[5] * s[10] + s[12] * s[6] * s[9];
+  inv[1] = -s[1] * s[10] * s[15] + s[1] * s[11] * s[14] + s[9] * s[2] * s[15] - s[9] * s[3] * s[14] - s[13] * s[2] * s[11] + s[13] * s[3] * s[10];
+  inv[5] = s[0] * s[10] * s[15] - s[0] * s[11] * s[14] - s[8] * s[2] * s[15] + s[8] * s[3] * s[14] + s[12] * s[2] * s[11] - s[12] * s[3] * s[10];
+  inv[9] = -s[0] * s[9] * s[15] + s[0] * s[11] * s[13] + s[8] * s[1] * s[15] - s[8] * s[3] * s[13] - s[12] * s[1] * s[11] + s[12] * s[3] * s[9];
+  inv[13] = s[0] * s[9] * s[14] - s[0] * s[10] * s[13] - s[8] * s[1] * s[14] + s[8] * s[2] * s[13] + s[12] * s[1] * s[10] - s[12] * s[2] * s[9];
+  inv[2] = s[1] * s[6] * s[15] - s[1] * s[7] * s[14] - s[5] * s[2] * s[15] + s[5] * s[3] * s[14] + s[13] * s[2] * s[7] - s[13] * s[3] * s[6];
+  inv[6] = -s[0] * s[6] * s[15] + s[0] * s[7] * s[14] + s[4] * s[2] * s[15] - s[4] * s[3] * s[14] - s[12] * s[2] * s[7] + s[12] * s[3] * s[6];
+  inv[10] = s[0] * s[5] * s[15] - s[0] * s[7] * s[13] - s[4] * s[1] * s[15] + s[4] * s[3] * s[13] + s[12] * s[1] * s[7] - s[12] * s[3] * s[5];
+  inv[14] = -s[0] * s[5] * s[14] + s[0] * s[6] * s[13] + s[4] * s[1] * s[14] - s[4] * s[2] * s[13] - s[12] * s[1] * s[6] + s[12] * s[2] * s[5];
+  inv[3] = -s[1] * s[6] * s[11] + s[1] * s[7] * s[10] + s[5] * s[2] * s[11] - s[5] * s[3] * s[10] - s[9] * s[2] * s[7] + s[9] * s[3] * s[6];
+  inv[7] = s[0] * s[6] * s[11] - s[0] * s[7] * s[10] - s[4] * s[2] * s[11] + s[4] * s[3] * s[10] + s[8] * s[2] * s[7] - s[8] * s[3] * s[6];
+  inv[11] = -s[0] * s[5] * s[11] + s[0] * s[7] * s[9] + s[4] * s[1] * s[11] - s[4] * s[3] * s[9] - s[8] * s[1] * s[7] + s[8] * s[3] * s[5];
+  inv[15] = s[0] * s[5] * s[10] - s[0] * s[6] * s[9] - s[4] * s[1] * s[10] + s[4] * s[2] * s[9] + s[8] * s[1] * s[6] - s[8] * s[2] * s[5];
+  float det = s[0] * inv[0] + s[1] * inv[4] + s[2] * inv[8] + s[3] * inv[12];
+  if (!(fabsf(det) > 1e-30f)) {
+    out = Mat4{};
+    return false;
+  }
+  float r = 1.0f / det;
+  for (int i = 0; i < 16; ++i) (&out.m[0][0])[i] = inv[i] * r;
+  return true;
+}
+
+}  // namespace cdsm

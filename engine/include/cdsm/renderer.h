@@ -1,0 +1,99 @@
+// The renderer: one call renders a scene's camera view with clustered deep
+// shadow maps and reports what it cost and, on request, how wrong it is
+// against the exact reference. Keeps state across frames (compiled scene,
+// GL context), so an engine calls render() every frame.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "cdsm/image.h"
+#include "cdsm/scene.h"
+
+namespace cdsm {
+
+enum class Backend { Cpu, Reference };
+enum class FragmentSource { Auto, Gl, Cpu };
+
+struct RenderOptions {
+  Backend backend = Backend::Cpu;
+  FragmentSource fragments = FragmentSource::Auto;  // Auto: GL when a context can be made
+  bool compare_reference = false;   // transmittance + image error against the reference
+  int error_samples = 20000;        // shaded points for the transmittance error
+  float reference_step_voxels = 0.25f;
+};
+
+struct StageTimes {
+  double compile_ms = 0.0;    // scene -> buffers + BVH
+  double fragments_ms = 0.0;  // light-view fragment lists (all maps)
+  double dsm_build_ms = 0.0;  // segments -> samples -> compressed nodes
+  double camera_fragments_ms = 0.0;
+  double camera_ms = 0.0;     // camera pass (lookups, shading, compositing)
+  double reference_ms = 0.0;  // reference image / error evaluation
+  double total_ms = 0.0;
+};
+
+struct DsmMemory {
+  uint64_t maps = 0;
+  uint64_t texels = 0;
+  uint64_t nodes = 0;
+  uint64_t index_bytes = 0;  // per-texel headers
+  uint64_t node_bytes = 0;   // nodes used
+  uint64_t slack_bytes = 0;  // allocated but unused node memory
+  double avg_nodes_per_texel = 0.0;
+  uint32_t max_nodes_per_texel = 0;
+  uint64_t overflow_texels = 0;   // re-compressed to fit the per-texel buffer
+  float max_extra_error = 0.0f;   // error those re-compressions added (bound)
+};
+
+struct TransmittanceError {
+  uint64_t points = 0;  // shaded points x lights compared
+  double mean = 0.0;    // compositing-weighted mean |T_dsm - T_ref|
+  double p99 = 0.0;     // weighted 99th percentile
+  double max = 0.0;
+  double rmse = 0.0;    // weighted
+};
+
+struct FrameStats {
+  StageTimes times;
+  DsmMemory memory;
+  uint32_t lights = 0;
+  uint64_t light_fragments = 0;
+  uint64_t camera_fragments = 0;
+  std::string fragment_source;         // "gl" or "cpu"
+  std::string fragment_source_reason;  // why it was chosen
+  uint64_t unmatched_fragments = 0;    // entries/exits without partner (open meshes)
+  uint64_t enclosing_overflow = 0;
+  bool has_reference = false;
+  TransmittanceError transmittance;
+  ImageError image;
+};
+
+class Renderer {
+ public:
+  Renderer();
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  // Renders the scene's camera. Throws cdsm::Error on invalid content.
+  // With compare_reference, also renders the reference image of the same
+  // view (costly: use small sizes) and fills stats->transmittance/image.
+  Image render(const Scene& scene, const RenderOptions& options, FrameStats* stats = nullptr);
+
+  // The reference image alone (no shadow maps).
+  Image render_reference(const Scene& scene, const RenderOptions& options, FrameStats* stats = nullptr);
+
+  // The transmittance error of the DSM path at sampled shaded points.
+  TransmittanceError transmittance_error(const Scene& scene, const RenderOptions& options);
+
+  // The reference image of the last compare_reference render (empty otherwise).
+  const Image& last_reference() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace cdsm

@@ -1,0 +1,138 @@
+// The scene model of the public API: what an engine or a scene file
+// describes. Plain data; the renderer compiles it into GPU-ready buffers.
+// Units are world units (metres in the shipped scenes); angles in degrees.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cdsm/math.h"
+
+namespace cdsm {
+
+// An indexed triangle mesh in object space. Counter-clockwise triangles
+// (seen from outside) face outwards. `normals` are optional per-vertex
+// shading normals (same count as positions).
+struct TriangleMesh {
+  std::vector<Vec3> positions;
+  std::vector<uint32_t> indices;  // 3 per triangle
+  std::vector<Vec3> normals;
+  size_t triangle_count() const { return indices.size() / 3; }
+};
+
+// Surface appearance (thesis eq. 3.8 constants) and opacity of the boundary.
+struct SurfaceMaterial {
+  Vec3 color{0.8f, 0.8f, 0.8f};
+  float opacity = 1.0f;    // 1 = opaque, 0 = invisible boundary (volume proxies)
+  float ambient = 0.15f;   // k_a
+  float diffuse = 0.85f;   // k_d
+  float specular = 0.25f;  // k_s
+  float shininess = 32.0f; // n_s
+};
+
+enum class InteriorKind : uint32_t { None = 0, Constant = 1, Volume = 2 };
+
+// A dense scalar grid, x fastest. Voxel (i,j,k) sits at index coordinates
+// (i,j,k); trilinear filtering between voxel centres; outside the grid the
+// value is `background`.
+struct DenseGrid {
+  int32_t nx = 0, ny = 0, nz = 0;
+  std::vector<float> values;
+  float background = 0.0f;
+  float at(int i, int j, int k) const { return values[(size_t(k) * ny + j) * nx + i]; }
+};
+
+// One control point of a piecewise-linear transfer function.
+struct TransferPoint {
+  float density = 0.0f;     // input value of the grid
+  float extinction = 0.0f;  // sigma_t, per world unit
+  Vec3 color{1, 1, 1};      // albedo (scatter) or base colour (phong)
+};
+
+enum class VolumeShading : uint32_t { Scatter = 0, Phong = 1 };
+
+// A volume: density grid + placement + transfer function.
+struct Volume {
+  std::string name;
+  std::shared_ptr<const DenseGrid> grid;
+  Mat4 index_to_object;                 // voxel index coordinates -> object space
+  std::vector<TransferPoint> transfer;  // sorted by density, at least 1 point
+  VolumeShading shading = VolumeShading::Scatter;
+  float step_voxels = 0.5f;             // march step, in voxels
+  float gradient_scale = 1.0f;          // phong: normal from -grad(density)
+};
+
+// A scene object: a closed (or open) triangle mesh with a surface and an interior.
+struct Object {
+  std::string name;
+  std::shared_ptr<const TriangleMesh> mesh;
+  Mat4 transform;  // object -> world
+  bool casts_shadows = true;
+  SurfaceMaterial surface;
+  InteriorKind interior = InteriorKind::None;
+  float sigma = 0.0f;   // Constant: extinction per world unit (Beer-Lambert)
+  int32_t volume = -1;  // Volume: index into Scene::volumes
+};
+
+enum class LightType : uint32_t { Spot = 0, Point = 1 };
+
+struct Light {
+  std::string name;
+  LightType type = LightType::Spot;
+  Vec3 position{0, 5, 0};
+  Vec3 direction{0, -1, 0};     // spot: cone axis
+  float outer_cone_deg = 30.0f; // spot: half-angle where light ends
+  float inner_cone_deg = 25.0f; // spot: half-angle of full intensity
+  Vec3 color{1, 1, 1};
+  float intensity = 1.0f;
+};
+
+struct Camera {
+  Vec3 position{0, 2, 6};
+  Vec3 target{0, 0.5f, 0};
+  Vec3 up{0, 1, 0};
+  float fov_y_deg = 45.0f;
+  float near = 0.05f;
+  float far = 200.0f;
+  int32_t width = 720;
+  int32_t height = 480;
+};
+
+enum class DsmLayout : uint32_t { Packed = 0, Fixed = 1, Chunked = 2 };
+
+struct ShadowSettings {
+  float epsilon = 0.01f;        // compression error bound (DESIGN.md §2.4)
+  int32_t resolution = 512;     // DSM texels per side
+  bool filtering = true;        // bilinear lookup (thesis eq. 4.18-4.19)
+  float bias_constant = 0.002f; // self-lookup offset, world units
+  float bias_slope = 1.5f;      // times the DSM texel footprint at the point
+  int32_t max_clusters = 1;     // m
+  float d0 = 0.25f;             // clustering threshold, normalized map units
+  DsmLayout layout = DsmLayout::Packed;
+  Vec3 ambient_light{1, 1, 1};  // i_a
+};
+
+struct Scene {
+  std::string source;  // file it came from, for messages
+  std::vector<Object> objects;
+  std::vector<Volume> volumes;
+  std::vector<Light> lights;
+  Camera camera;
+  ShadowSettings shadows;
+  Vec3 background{0.05f, 0.06f, 0.08f};
+};
+
+// Whether every edge of the mesh is shared by exactly two triangles with
+// opposite orientation (a closed, consistently wound surface), after
+// welding vertices at identical positions.
+bool is_closed(const TriangleMesh& mesh);
+
+// Bounding box of a mesh under a transform.
+Box3 world_bounds(const TriangleMesh& mesh, const Mat4& transform);
+
+// Build transforms: T * R * S with R from Euler angles in degrees (XYZ order).
+Mat4 make_transform(Vec3 translate, Vec3 rotate_deg, Vec3 scale);
+
+}  // namespace cdsm

@@ -1,0 +1,57 @@
+// Strict reading of JSON scene fields: every error names the file and the
+// JSON path (RFC 6901 pointer) of the offending value.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <initializer_list>
+#include <string>
+
+#include "cdsm/error.h"
+#include "cdsm/math.h"
+
+namespace cdsm {
+
+class JsonNode {
+ public:
+  JsonNode(const nlohmann::json& j, std::string file, std::string path)
+      : j_(j), file_(std::move(file)), path_(std::move(path)) {}
+
+  [[noreturn]] void fail(const std::string& what) const;
+  const nlohmann::json& raw() const { return j_; }
+  const std::string& path() const { return path_; }
+  const std::string& file() const { return file_; }
+
+  bool is_object() const { return j_.is_object(); }
+  bool is_array() const { return j_.is_array(); }
+  bool is_string() const { return j_.is_string(); }
+  bool is_number() const { return j_.is_number(); }
+  bool has(const char* key) const { return j_.is_object() && j_.contains(key); }
+
+  JsonNode at(const char* key) const;  // required member
+  JsonNode at(size_t i) const;         // array element
+  size_t size() const { return j_.size(); }
+
+  // Object whose keys must all be in `allowed` (a typo is an error).
+  void expect_object(std::initializer_list<const char*> allowed) const;
+  void expect_array() const;
+
+  float as_float() const;
+  int as_int() const;
+  bool as_bool() const;
+  std::string as_string() const;
+  Vec3 as_vec3() const;  // [x, y, z]; a single number s means [s, s, s]
+
+  float get(const char* key, float def) const { return has(key) ? at(key).as_float() : def; }
+  int get(const char* key, int def) const { return has(key) ? at(key).as_int() : def; }
+  bool get(const char* key, bool def) const { return has(key) ? at(key).as_bool() : def; }
+  std::string get(const char* key, const char* def) const { return has(key) ? at(key).as_string() : def; }
+  Vec3 get(const char* key, Vec3 def) const { return has(key) ? at(key).as_vec3() : def; }
+
+ private:
+  const nlohmann::json& j_;
+  std::string file_;
+  std::string path_;
+};
+
+}  // namespace cdsm

@@ -1,0 +1,278 @@
+// Frame orchestration behind cdsm::Renderer: compile the scene, build the
+// lights' deep shadow maps, run the camera pass, and measure the error
+// against the reference renderer on request.
+#include "cdsm/renderer.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "cdsm/error.h"
+#include "cpu/frame.h"
+#include "fragment_source.h"
+#include "reference/reference.h"
+
+namespace cdsm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+void validate(const Scene& s) {
+  const ShadowSettings& sh = s.shadows;
+  const std::string& f = s.source;
+  if (!(sh.epsilon >= 0.0f) || !is_finite(sh.epsilon)) throw Error(f + ": /shadows/epsilon", "must be finite and >= 0");
+  if (sh.resolution < 4 || sh.resolution > 8192)
+    throw Error(f + ": /shadows/resolution", "must be within [4, 8192], got " + std::to_string(sh.resolution));
+  if (s.camera.width < 1 || s.camera.height < 1 || s.camera.width > 16384 || s.camera.height > 16384)
+    throw Error(f + ": /camera", "width and height must be within [1, 16384]");
+  if (!(s.camera.near > 0.0f) || !(s.camera.far > s.camera.near))
+    throw Error(f + ": /camera", "needs 0 < near < far");
+  if (!(s.camera.fov_y_deg > 0.0f && s.camera.fov_y_deg < 179.0f))
+    throw Error(f + ": /camera/fov_y", "must be within (0, 179) degrees");
+  if (length(s.camera.target - s.camera.position) <= 0.0f)
+    throw Error(f + ": /camera", "target equals position");
+  if (s.lights.size() > size_t(kMaxLights))
+    throw Error(f + ": /lights", "at most " + std::to_string(kMaxLights) + " lights");
+}
+
+// Collects the shaded points of a camera ray (the error probe).
+struct ProbeRecorder {
+  struct Point {
+    Vec3 p, n;
+    bool surface;
+    float weight;
+  };
+  std::vector<Point>* out;
+  void shaded(Vec3 p, Vec3 n, bool surface, float w) {
+    if (w > 1e-4f) out->push_back({p, n, surface, w});
+  }
+};
+
+uint32_t hash32(uint32_t x) {
+  x ^= x >> 16;
+  x *= 0x7feb352dU;
+  x ^= x >> 15;
+  x *= 0x846ca68bU;
+  x ^= x >> 16;
+  return x;
+}
+
+}  // namespace
+
+struct Renderer::Impl {
+  FragmentSourceSelector fragments;
+  Image last_reference;
+
+  struct Frame {
+    SceneBuffers sb;
+    ShadowFrame shadows;
+    FragmentBuffers camera_frags;
+    CameraPassParams cam;
+    std::vector<uint32_t> cam_inside;
+  };
+
+  void prepare(const Scene& scene, const RenderOptions& opt, Frame& f, FrameStats& st) {
+    validate(scene);
+    auto t0 = Clock::now();
+    f.sb = compile_scene(scene);
+    st.times.compile_ms = ms_since(t0);
+    FragmentProducer produce = fragments.select(opt.fragments, f.sb, st.fragment_source, st.fragment_source_reason);
+    if (opt.backend != Backend::Reference) {
+      build_shadow_frame(scene, f.sb, produce, f.shadows);
+      st.times.fragments_ms = f.shadows.fragments_ms;
+      st.times.dsm_build_ms = f.shadows.build_ms;
+      st.light_fragments = f.shadows.fragments;
+      fill_memory(f, st);
+    }
+    f.cam.view = camera_view(scene.camera);
+    SceneView sv = f.sb.view();
+    f.cam_inside = objects_containing(sv, f.cam.view.eye, ObjectMask{});
+    f.cam.inside = {f.cam_inside.data(), f.cam_inside.size()};
+    f.cam.ambient = scene.shadows.ambient_light;
+    f.cam.background = scene.background;
+    st.lights = uint32_t(scene.lights.size());
+    if (opt.backend != Backend::Reference) {
+      t0 = Clock::now();
+      produce(f.cam.view, ObjectMask{}, f.camera_frags);
+      st.times.camera_fragments_ms = ms_since(t0);
+      st.camera_fragments = f.camera_frags.total();
+    }
+  }
+
+  static void fill_memory(const Frame& f, FrameStats& st) {
+    DsmMemory& m = st.memory;
+    const DsmBuffers& d = f.shadows.dsm;
+    m.maps = d.maps.size();
+    m.texels = d.texels.size();
+    m.nodes = d.nodes.size();
+    m.index_bytes = d.texels.size() * sizeof(TexelRange);
+    m.node_bytes = d.nodes.size() * sizeof(DsmNode);
+    m.slack_bytes = 0;  // packed: exact allocation
+    m.avg_nodes_per_texel = m.texels ? double(m.nodes) / double(m.texels) : 0.0;
+    for (const DsmBuildStats& b : f.shadows.map_stats) {
+      m.max_nodes_per_texel = std::max(m.max_nodes_per_texel, b.max_nodes);
+      m.overflow_texels += b.overflow_texels;
+      m.max_extra_error = std::max(m.max_extra_error, b.max_extra_error);
+      st.unmatched_fragments += b.walk.unmatched;
+      st.enclosing_overflow += b.walk.enclosing_overflow;
+    }
+  }
+
+  TransmittanceError probe_error(const Scene& scene, const RenderOptions& opt, Frame& f) {
+    SceneView sv = f.sb.view();
+    ShadowView shv = f.shadows.view(scene.shadows);
+    DsmVisibility vis{shv};
+    const int w = f.cam.view.width, h = f.cam.view.height;
+    // Stratified pixels: one jittered pixel per cell of a grid with about
+    // error_samples / 2 cells (rays yield several points each).
+    int cells = std::max(1, opt.error_samples / 2);
+    double cell = std::sqrt(double(w) * h / double(cells));
+    int gx = std::max(1, int(std::ceil(w / cell))), gy = std::max(1, int(std::ceil(h / cell)));
+    std::vector<std::vector<ProbeRecorder::Point>> per_row(static_cast<size_t>(gy));
+    tbb::parallel_for(0, gy, [&](int cy) {
+      WalkStats ws;
+      ProbeRecorder rec{&per_row[size_t(cy)]};
+      for (int cx = 0; cx < gx; ++cx) {
+        uint32_t hsh = hash32(uint32_t(cy * 7919 + cx * 104729 + 17));
+        int px = std::min(w - 1, int((cx + (hsh & 0xffff) / 65536.0) * w / gx));
+        int py = std::min(h - 1, int((cy + (hsh >> 16) / 65536.0) * h / gy));
+        shade_pixel(sv, shv.lights, vis, f.cam, f.camera_frags.lists().pixel(px, py), px, py, rec, ws);
+      }
+    });
+    std::vector<ProbeRecorder::Point> pts;
+    for (auto& r : per_row) pts.insert(pts.end(), r.begin(), r.end());
+    if (pts.size() > size_t(opt.error_samples)) {  // deterministic thinning
+      std::vector<ProbeRecorder::Point> kept;
+      double stride = double(pts.size()) / opt.error_samples;
+      for (int i = 0; i < opt.error_samples; ++i) kept.push_back(pts[size_t(i * stride)]);
+      pts.swap(kept);
+    }
+    ReferenceRenderer ref(sv, f.shadows.setup.lights, ReferenceOptions{opt.reference_step_voxels});
+    struct Sample {
+      float err, weight;
+    };
+    std::vector<std::vector<Sample>> samples(pts.size());
+    tbb::parallel_for(size_t(0), pts.size(), [&](size_t i) {
+      const auto& pt = pts[i];
+      for (uint32_t li = 0; li < shv.lights.size(); ++li) {
+        const LightData& L = shv.lights[li];
+        float cone = cone_factor(L, pt.p);
+        if (cone <= 0.0f) continue;
+        float tan_inc = 0.0f;
+        if (pt.surface) {
+          Vec3 l = normalize(L.position - pt.p);
+          float ndl = dot(pt.n, l);
+          if (ndl <= 0.0f) continue;  // unlit side: no shadow term used
+          tan_inc = std::sqrt(std::max(0.0f, 1.0f - ndl * ndl)) / std::max(ndl, 0.1f);
+        }
+        float t_dsm = vis(int(li), pt.p, tan_inc);
+        float t_ref = ref.transmittance(int(li), pt.p);
+        samples[i].push_back({std::fabs(t_dsm - t_ref), pt.weight});
+      }
+    });
+    std::vector<Sample> all;
+    for (auto& s : samples) all.insert(all.end(), s.begin(), s.end());
+    TransmittanceError e;
+    e.points = all.size();
+    if (all.empty()) return e;
+    double sw = 0, se = 0, se2 = 0;
+    for (const Sample& s : all) {
+      sw += s.weight;
+      se += double(s.weight) * s.err;
+      se2 += double(s.weight) * s.err * s.err;
+      e.max = std::max(e.max, double(s.err));
+    }
+    e.mean = se / sw;
+    e.rmse = std::sqrt(se2 / sw);
+    std::sort(all.begin(), all.end(), [](const Sample& a, const Sample& b) { return a.err < b.err; });
+    double acc = 0;
+    e.p99 = all.back().err;
+    for (const Sample& s : all) {
+      acc += s.weight;
+      if (acc >= 0.99 * sw) {
+        e.p99 = s.err;
+        break;
+      }
+    }
+    return e;
+  }
+
+  Image reference_image(const Scene& scene, const RenderOptions& opt, Frame& f) {
+    SceneView sv = f.sb.view();
+    LightSetup ls = setup_lights(scene, f.sb.bounds, 4);
+    ReferenceRenderer ref(sv, ls.lights, ReferenceOptions{opt.reference_step_voxels});
+    Image img;
+    img.width = f.cam.view.width;
+    img.height = f.cam.view.height;
+    ref.render(f.cam, img.rgb);
+    return img;
+  }
+};
+
+Renderer::Renderer() : impl_(std::make_unique<Impl>()) {}
+Renderer::~Renderer() = default;
+
+const Image& Renderer::last_reference() const { return impl_->last_reference; }
+
+Image Renderer::render(const Scene& scene, const RenderOptions& opt, FrameStats* stats) {
+  if (opt.backend == Backend::Reference) return render_reference(scene, opt, stats);
+  FrameStats local;
+  FrameStats& st = stats ? *stats : local;
+  st = FrameStats{};
+  auto t_total = Clock::now();
+  Impl::Frame f;
+  impl_->prepare(scene, opt, f, st);
+  SceneView sv = f.sb.view();
+  ShadowView shv = f.shadows.view(scene.shadows);
+  Image img;
+  img.width = f.cam.view.width;
+  img.height = f.cam.view.height;
+  auto t0 = Clock::now();
+  WalkStats ws;
+  render_camera(sv, shv, f.cam, f.camera_frags.lists(), img.rgb, ws);
+  st.times.camera_ms = ms_since(t0);
+  st.unmatched_fragments += ws.unmatched;
+  st.enclosing_overflow += ws.enclosing_overflow;
+  st.times.total_ms = ms_since(t_total);
+  if (opt.compare_reference) {
+    t0 = Clock::now();
+    st.transmittance = impl_->probe_error(scene, opt, f);
+    impl_->last_reference = impl_->reference_image(scene, opt, f);
+    st.image = compare_images(img, impl_->last_reference);
+    st.has_reference = true;
+    st.times.reference_ms = ms_since(t0);
+  }
+  return img;
+}
+
+Image Renderer::render_reference(const Scene& scene, const RenderOptions& opt, FrameStats* stats) {
+  FrameStats local;
+  FrameStats& st = stats ? *stats : local;
+  st = FrameStats{};
+  auto t0 = Clock::now();
+  RenderOptions o = opt;
+  o.backend = Backend::Reference;
+  Impl::Frame f;
+  impl_->prepare(scene, o, f, st);
+  auto t1 = Clock::now();
+  Image img = impl_->reference_image(scene, o, f);
+  st.times.reference_ms = ms_since(t1);
+  st.times.total_ms = ms_since(t0);
+  return img;
+}
+
+TransmittanceError Renderer::transmittance_error(const Scene& scene, const RenderOptions& opt) {
+  FrameStats st;
+  Impl::Frame f;
+  RenderOptions o = opt;
+  o.backend = Backend::Cpu;
+  impl_->prepare(scene, o, f, st);
+  return impl_->probe_error(scene, o, f);
+}
+
+}  // namespace cdsm

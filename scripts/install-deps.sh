@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Installs every build, test and tool dependency from Debian 12's packages.
+# Idempotent: re-running it only checks that everything is present.
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config git ca-certificates
+  libglfw3-dev libglm-dev
+  libegl-dev libgl-dev libgl1-mesa-dri libegl-mesa0 mesa-utils-bin
+  libimgui-dev libstb-dev libtinygltf-dev nlohmann-json3-dev
+  libopenvdb-dev libnanovdb-dev libboost-iostreams-dev libtbb-dev libblosc-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  xvfb xauth python3-matplotlib
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
+done
+
+if ((${#missing[@]})); then
+  sudo_cmd=()
+  [[ $(id -u) -eq 0 ]] || sudo_cmd=(sudo)
+  echo "install-deps: installing ${#missing[@]} package(s): ${missing[*]}" >&2
+  "${sudo_cmd[@]}" apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+else
+  echo "install-deps: all ${#packages[@]} packages present" >&2
+fi

@@ -1,0 +1,46 @@
+// Plain light views (a spot's frustum, the six cube faces of a point light)
+// and the camera's view, as PinholeViews (DESIGN.md §4). Host code.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "cdsm/math.h"
+#include "cdsm/scene.h"
+#include "cluster/convex.h"
+#include "hd/view.h"
+
+namespace cdsm::cluster {
+
+// Spot cones wider than this half-angle use cube faces with the cone mask
+// (a single frustum beyond ~120° wastes most of its texels).
+inline constexpr float kMaxSpotFrustumHalfAngleDeg = 60.0f;
+
+// The half-size of a window that holds content of half-size `half`
+// (tangent units) with `guard` texels to spare on each side at `res` texels.
+float widen_for_guard(float half, int res, float guard);
+
+// Orthonormal frame around `forward`: right = forward x up_hint (normalized),
+// up = right x forward. `up_hint` is replaced when nearly parallel.
+void make_frame(Vec3 forward, Vec3 up_hint, Vec3& right, Vec3& up);
+
+// The camera's view: aspect = width / height when `aspect` <= 0.
+PinholeView camera_view(const Camera& camera, float aspect = 0.0f);
+
+// A spot light's frustum: square, on the cone axis, the cone (half-angle
+// outer_cone_deg, at most 89°) inside it with one texel of guard band.
+PinholeView spot_view(const Light& light, int res, float near, float far);
+
+// The six 90° faces of a point light at `position`, in the order +X, -X,
+// +Y, -Y, +Z, -Z, each widened by one texel of guard band at `res`.
+std::array<PinholeView, 6> cube_face_views(Vec3 position, float near, float far, int res);
+
+// Planes of a pyramid from the spot's position circumscribing its cone
+// (half-angle outer_cone_deg < 90°), `sides` faces. Empty for a cone of 90°
+// or more (not convex) and for a point light.
+std::vector<Plane> cone_planes(const Light& light, int sides = 32);
+
+// Whether the light's cone (spot) is narrow enough for one frustum.
+bool spot_fits_one_frustum(const Light& light);
+
+}  // namespace cdsm::cluster

@@ -1,0 +1,136 @@
+// Binned-SAH BVH over the scene's world-space triangles.
+#include <algorithm>
+#include <cmath>
+
+#include "cpu/scene_buffers.h"
+
+namespace cdsm {
+namespace {
+
+constexpr int kBins = 16;
+constexpr uint32_t kLeafSize = 4;
+
+struct Builder {
+  SceneBuffers& sb;
+  std::vector<Box3> tri_box;
+  std::vector<Vec3> tri_center;
+
+  static float area(const Box3& b) {
+    if (b.empty()) return 0.0f;
+    Vec3 e = b.extent();
+    return 2.0f * (e.x * e.y + e.y * e.z + e.z * e.x);
+  }
+
+  // Pads a box so float rounding in the slab test never culls a hit.
+  static Box3 padded(Box3 b) {
+    Vec3 e = b.extent();
+    float pad = 1e-5f * std::max({e.x, e.y, e.z, std::fabs(b.lo.x), std::fabs(b.lo.y),
+                                  std::fabs(b.lo.z), std::fabs(b.hi.x), std::fabs(b.hi.y),
+                                  std::fabs(b.hi.z), 1e-3f});
+    b.lo = b.lo - vec3(pad);
+    b.hi = b.hi + vec3(pad);
+    return b;
+  }
+
+  uint32_t build(uint32_t first, uint32_t count, int depth) {
+    uint32_t node = uint32_t(sb.bvh.size());
+    sb.bvh.push_back({});
+    Box3 bounds, cbounds;
+    for (uint32_t i = first; i < first + count; ++i) {
+      bounds.grow(tri_box[sb.bvh_prims[i]]);
+      cbounds.grow(tri_center[sb.bvh_prims[i]]);
+    }
+    Box3 pb = padded(bounds);
+    auto make_leaf = [&] {
+      sb.bvh[node] = BvhNode{pb.lo, first, pb.hi, count};
+      return node;
+    };
+    if (count <= kLeafSize || depth >= kBvhStackSize / 2 - 2) return make_leaf();
+    // Best split over the three axes, binned by centroid.
+    float best_cost = area(bounds) * float(count);
+    int best_axis = -1, best_bin = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+      float lo = cbounds.lo[axis], hi = cbounds.hi[axis];
+      if (!(hi > lo)) continue;
+      Box3 bin_box[kBins];
+      uint32_t bin_n[kBins] = {};
+      float scale = float(kBins) / (hi - lo);
+      for (uint32_t i = first; i < first + count; ++i) {
+        uint32_t t = sb.bvh_prims[i];
+        int b = std::min(kBins - 1, int((tri_center[t][axis] - lo) * scale));
+        bin_box[b].grow(tri_box[t]);
+        ++bin_n[b];
+      }
+      float right_area[kBins];
+      uint32_t right_n[kBins];
+      Box3 acc;
+      uint32_t n = 0;
+      for (int b = kBins - 1; b > 0; --b) {
+        acc.grow(bin_box[b]);
+        n += bin_n[b];
+        right_area[b] = area(acc);
+        right_n[b] = n;
+      }
+      acc = Box3{};
+      n = 0;
+      for (int b = 0; b < kBins - 1; ++b) {
+        acc.grow(bin_box[b]);
+        n += bin_n[b];
+        if (n == 0 || right_n[b + 1] == 0) continue;
+        float cost = area(acc) * float(n) + right_area[b + 1] * float(right_n[b + 1]);
+        if (cost < best_cost) {
+          best_cost = cost;
+          best_axis = axis;
+          best_bin = b;
+        }
+      }
+    }
+    uint32_t mid;
+    if (best_axis < 0) {
+      if (count <= 16) return make_leaf();
+      // No useful SAH split (e.g. identical centroids): median split.
+      int axis = 0;
+      Vec3 e = cbounds.extent();
+      if (e.y > e.x) axis = 1;
+      if (e.z > e[axis]) axis = 2;
+      mid = first + count / 2;
+      std::nth_element(sb.bvh_prims.begin() + first, sb.bvh_prims.begin() + mid,
+                       sb.bvh_prims.begin() + first + count, [&](uint32_t a, uint32_t b) {
+                         return tri_center[a][axis] < tri_center[b][axis];
+                       });
+    } else {
+      float lo = cbounds.lo[best_axis];
+      float scale = float(kBins) / (cbounds.hi[best_axis] - lo);
+      auto it = std::partition(sb.bvh_prims.begin() + first, sb.bvh_prims.begin() + first + count,
+                               [&](uint32_t t) {
+                                 int b = std::min(kBins - 1, int((tri_center[t][best_axis] - lo) * scale));
+                                 return b <= best_bin;
+                               });
+      mid = uint32_t(it - sb.bvh_prims.begin());
+      if (mid == first || mid == first + count) mid = first + count / 2;
+    }
+    build(first, mid - first, depth + 1);  // left child at node + 1
+    uint32_t right = build(mid, first + count - mid, depth + 1);
+    sb.bvh[node] = BvhNode{pb.lo, right, pb.hi, 0};
+    return node;
+  }
+};
+
+}  // namespace
+
+void build_bvh(SceneBuffers& sb) {
+  sb.bvh.clear();
+  uint32_t n = uint32_t(sb.tri_object.size());
+  sb.bvh_prims.resize(n);
+  if (n == 0) return;
+  Builder b{sb, std::vector<Box3>(n), std::vector<Vec3>(n)};
+  for (uint32_t t = 0; t < n; ++t) {
+    sb.bvh_prims[t] = t;
+    for (int k = 0; k < 3; ++k) b.tri_box[t].grow(sb.tri_vertices[3 * t + k]);
+    b.tri_center[t] = b.tri_box[t].center();
+  }
+  sb.bvh.reserve(2 * n / kLeafSize + 1);
+  b.build(0, n, 0);
+}
+
+}  // namespace cdsm

@@ -1,0 +1,213 @@
+// cdsm::Scene -> flat, GPU-ready arrays (SceneBuffers) + BVH.
+#include "cpu/scene_buffers.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "cdsm/error.h"
+#include "hd/fragment.h"
+#include "hd/volume.h"
+
+namespace cdsm {
+namespace {
+
+std::string where_object(const Scene& s, size_t i) {
+  const std::string& n = s.objects[i].name;
+  return s.source + ": object " + std::to_string(i) + (n.empty() ? "" : " '" + n + "'");
+}
+
+bool finite_matrix(const Mat4& m) {
+  for (auto& row : m.m)
+    for (float v : row)
+      if (!is_finite(v)) return false;
+  return true;
+}
+
+TransferData compile_transfer(const Volume& v, const std::string& where) {
+  TransferData tf{};
+  if (v.transfer.empty()) throw Error(where, "transfer function has no control points");
+  if (v.transfer.size() > size_t(kMaxTransferPoints))
+    throw Error(where, "transfer function has " + std::to_string(v.transfer.size()) +
+                           " control points, at most " + std::to_string(kMaxTransferPoints));
+  tf.count = int32_t(v.transfer.size());
+  tf.max_extinction = 0.0f;
+  for (size_t i = 0; i < v.transfer.size(); ++i) {
+    const TransferPoint& p = v.transfer[i];
+    if (!is_finite(p.density) || !is_finite(p.extinction) || !is_finite(p.color) || p.extinction < 0)
+      throw Error(where, "transfer point " + std::to_string(i) + " is not finite or has negative extinction");
+    if (i > 0 && p.density < v.transfer[i - 1].density)
+      throw Error(where, "transfer points must be sorted by density");
+    tf.density[i] = p.density;
+    tf.extinction[i] = p.extinction;
+    tf.r[i] = p.color.x;
+    tf.g[i] = p.color.y;
+    tf.b[i] = p.color.z;
+    tf.max_extinction = std::max(tf.max_extinction, p.extinction);
+  }
+  return tf;
+}
+
+// Maximum extinction over the voxels each macro-cell's samples can touch.
+void build_macro_cells(SceneBuffers& sb, VolumeData& vd, const DenseGrid& g) {
+  vd.mx = (g.nx + kMacroCell - 1) / kMacroCell;
+  vd.my = (g.ny + kMacroCell - 1) / kMacroCell;
+  vd.mz = (g.nz + kMacroCell - 1) / kMacroCell;
+  vd.macro_offset = sb.macro_max.size();
+  sb.macro_max.resize(sb.macro_max.size() + size_t(vd.mx) * vd.my * vd.mz, 0.0f);
+  float* out = sb.macro_max.data() + vd.macro_offset;
+  for (int ck = 0; ck < vd.mz; ++ck)
+    for (int cj = 0; cj < vd.my; ++cj)
+      for (int ci = 0; ci < vd.mx; ++ci) {
+        float lo = 3e38f, hi = -3e38f;
+        for (int k = ck * kMacroCell - 1; k <= (ck + 1) * kMacroCell; ++k)
+          for (int j = cj * kMacroCell - 1; j <= (cj + 1) * kMacroCell; ++j)
+            for (int i = ci * kMacroCell - 1; i <= (ci + 1) * kMacroCell; ++i) {
+              bool in = i >= 0 && j >= 0 && k >= 0 && i < g.nx && j < g.ny && k < g.nz;
+              float d = in ? g.at(i, j, k) : g.background;
+              lo = std::min(lo, d);
+              hi = std::max(hi, d);
+            }
+        // The transfer function is piecewise linear: its maximum over
+        // [lo, hi] is at an end or at a control point inside.
+        float m = std::max(apply_transfer(vd.tf, lo).extinction, apply_transfer(vd.tf, hi).extinction);
+        for (int p = 0; p < vd.tf.count; ++p)
+          if (vd.tf.density[p] > lo && vd.tf.density[p] < hi) m = std::max(m, vd.tf.extinction[p]);
+        out[(size_t(ck) * vd.my + cj) * vd.mx + ci] = m;
+      }
+}
+
+}  // namespace
+
+SceneView SceneBuffers::view() const {
+  SceneView v;
+  v.tri_vertices = {tri_vertices.data(), tri_vertices.size()};
+  v.tri_normals = {tri_normals.data(), tri_normals.size()};
+  v.tri_object = {tri_object.data(), tri_object.size()};
+  v.objects = {objects.data(), objects.size()};
+  v.volumes = {volumes.data(), volumes.size()};
+  v.voxels = {voxels.data(), voxels.size()};
+  v.macro_max = {macro_max.data(), macro_max.size()};
+  v.bvh = {bvh.data(), bvh.size()};
+  v.bvh_prims = {bvh_prims.data(), bvh_prims.size()};
+  return v;
+}
+
+SceneBuffers compile_scene(const Scene& scene) {
+  SceneBuffers sb;
+  // Volumes first: objects refer to them.
+  for (size_t vi = 0; vi < scene.volumes.size(); ++vi) {
+    const Volume& v = scene.volumes[vi];
+    std::string where = scene.source + ": volume " + std::to_string(vi) + (v.name.empty() ? "" : " '" + v.name + "'");
+    if (!v.grid || v.grid->nx <= 0 || v.grid->ny <= 0 || v.grid->nz <= 0)
+      throw Error(where, "has no grid or an empty grid");
+    const DenseGrid& g = *v.grid;
+    if (g.values.size() != size_t(g.nx) * g.ny * g.nz)
+      throw Error(where, "grid holds " + std::to_string(g.values.size()) + " values, dimensions need " +
+                             std::to_string(size_t(g.nx) * g.ny * g.nz));
+    for (size_t i = 0; i < g.values.size(); ++i)
+      if (!is_finite(g.values[i]))
+        throw Error(where, "voxel " + std::to_string(i) + " is NaN or infinite");
+    if (!is_finite(g.background)) throw Error(where, "background is NaN or infinite");
+    if (!(v.step_voxels > 0.0f) || !is_finite(v.step_voxels)) throw Error(where, "step must be > 0");
+    VolumeData vd{};
+    vd.tf = compile_transfer(v, where);
+    vd.nx = g.nx;
+    vd.ny = g.ny;
+    vd.nz = g.nz;
+    vd.background = g.background;
+    vd.shading = uint32_t(v.shading);
+    vd.gradient_scale = v.gradient_scale;
+    vd.voxel_offset = sb.voxels.size();
+    sb.voxels.insert(sb.voxels.end(), g.values.begin(), g.values.end());
+    build_macro_cells(sb, vd, g);
+    sb.volumes.push_back(vd);
+  }
+  // Objects: world-space triangles.
+  std::vector<Mat4> volume_world(scene.volumes.size());
+  std::vector<bool> volume_placed(scene.volumes.size(), false);
+  sb.objects.reserve(scene.objects.size());
+  sb.object_bounds.reserve(scene.objects.size());
+  for (size_t oi = 0; oi < scene.objects.size(); ++oi) {
+    const Object& o = scene.objects[oi];
+    std::string where = where_object(scene, oi);
+    if (!o.mesh) throw Error(where, "has no mesh");
+    if (!finite_matrix(o.transform)) throw Error(where, "transform has NaN or infinite entries");
+    const TriangleMesh& mesh = *o.mesh;
+    if (mesh.indices.size() % 3 != 0) throw Error(where, "mesh index count is not a multiple of 3");
+    for (size_t i = 0; i < mesh.positions.size(); ++i)
+      if (!is_finite(mesh.positions[i]))
+        throw Error(where, "vertex " + std::to_string(i) + " is NaN or infinite");
+    if (!(o.surface.opacity >= 0.0f && o.surface.opacity <= 1.0f))
+      throw Error(where, "surface opacity must be in [0, 1]");
+    ObjectData od{};
+    od.color = o.surface.color;
+    od.opacity = o.surface.opacity;
+    od.ka = o.surface.ambient;
+    od.kd = o.surface.diffuse;
+    od.ks = o.surface.specular;
+    od.shininess = o.surface.shininess;
+    od.interior = uint32_t(o.interior);
+    od.sigma = o.sigma;
+    od.volume = -1;
+    bool closed = is_closed(mesh);
+    od.flags = (closed ? kObjClosed : 0u) | (o.casts_shadows ? kObjCastsShadows : 0u);
+    if (o.interior == InteriorKind::Constant && !(o.sigma >= 0.0f && is_finite(o.sigma)))
+      throw Error(where, "sigma must be finite and >= 0");
+    if (o.interior == InteriorKind::Volume) {
+      if (o.volume < 0 || size_t(o.volume) >= scene.volumes.size())
+        throw Error(where, "refers to volume " + std::to_string(o.volume) + ", which does not exist");
+      od.volume = o.volume;
+      Mat4 index_to_world = o.transform * scene.volumes[size_t(o.volume)].index_to_object;
+      if (volume_placed[size_t(o.volume)])
+        throw Error(where, "volume " + std::to_string(o.volume) + " is used by two objects");
+      volume_placed[size_t(o.volume)] = true;
+      VolumeData& vd = sb.volumes[size_t(o.volume)];
+      vd.index_to_world = index_to_world;
+      if (!invert(index_to_world, vd.world_to_index))
+        throw Error(where, "volume placement is singular");
+      Vec3 ex = index_to_world.vector({1, 0, 0}), ey = index_to_world.vector({0, 1, 0}),
+           ez = index_to_world.vector({0, 0, 1});
+      vd.voxel_world = std::min({length(ex), length(ey), length(ez)});
+      vd.step = scene.volumes[size_t(o.volume)].step_voxels * vd.voxel_world;
+    }
+    if (o.interior != InteriorKind::None && !closed) od.interior = 0;  // no interior without a closed boundary
+    od.first_tri = uint32_t(sb.tri_object.size());
+    od.tri_count = 0;
+    Box3 bounds;
+    Mat4 normal_m;  // inverse transpose of the linear part
+    Mat4 inv;
+    invert(o.transform, inv);
+    normal_m = transpose(inv);
+    for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+      uint32_t idx[3] = {mesh.indices[t], mesh.indices[t + 1], mesh.indices[t + 2]};
+      for (uint32_t k : idx)
+        if (k >= mesh.positions.size())
+          throw Error(where, "triangle " + std::to_string(t / 3) + " refers to vertex " +
+                                 std::to_string(k) + " of " + std::to_string(mesh.positions.size()));
+      Vec3 p[3];
+      for (int k = 0; k < 3; ++k) p[k] = o.transform.point(mesh.positions[idx[k]]);
+      Vec3 ng = normalize(cross(p[1] - p[0], p[2] - p[0]));
+      for (int k = 0; k < 3; ++k) {
+        sb.tri_vertices.push_back(p[k]);
+        bounds.grow(p[k]);
+        Vec3 n = mesh.normals.size() == mesh.positions.size() ? normalize(normal_m.vector(mesh.normals[idx[k]])) : ng;
+        sb.tri_normals.push_back(is_finite(n) ? n : ng);
+      }
+      sb.tri_object.push_back(uint32_t(oi));
+      ++od.tri_count;
+    }
+    if (sb.tri_object.size() >= kMaxPrimitives)
+      throw Error(scene.source, "more than " + std::to_string(kMaxPrimitives) + " triangles");
+    sb.objects.push_back(od);
+    sb.object_bounds.push_back(bounds);
+    sb.bounds.grow(bounds);
+  }
+  for (size_t vi = 0; vi < scene.volumes.size(); ++vi)
+    if (!volume_placed[vi])
+      throw Error(scene.source + ": volume " + std::to_string(vi), "is not used by any object");
+  build_bvh(sb);
+  return sb;
+}
+
+}  // namespace cdsm

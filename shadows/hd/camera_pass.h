@@ -1,0 +1,152 @@
+// Camera pass (DESIGN.md §2.5): one pixel — walk the camera ray, shade
+// surfaces and volume samples with DSM shadows, composite front to back
+// (thesis eq. 3.10-3.11), stop at kCompositeStop.
+#pragma once
+
+#include "hd/segments.h"
+#include "hd/shading.h"
+
+namespace cdsm {
+
+struct CameraPassParams {
+  PinholeView view;
+  Span<const uint32_t> inside;  // objects containing the camera
+  Vec3 ambient;                 // i_a
+  Vec3 background;
+};
+
+struct PixelResult {
+  Vec3 color;
+  float alpha;  // accumulated opacity of the pixel
+};
+
+// Interpolated shading normal of triangle `tri` at p, facing the viewer.
+CDSM_HD CDSM_INLINE Vec3 surface_normal(const SceneView& s, uint32_t tri, Vec3 p, Vec3 dir) {
+  Vec3 a = s.tri_vertices[3 * tri], b = s.tri_vertices[3 * tri + 1], c = s.tri_vertices[3 * tri + 2];
+  Vec3 ng = cross(b - a, c - a);
+  float area2 = dot(ng, ng);
+  Vec3 n = ng;
+  if (area2 > 0.0f && !s.tri_normals.empty()) {
+    float wa = dot(cross(b - p, c - p), ng) / area2;
+    float wb = dot(cross(c - p, a - p), ng) / area2;
+    float wc = 1.0f - wa - wb;
+    Vec3 ni = s.tri_normals[3 * tri] * wa + s.tri_normals[3 * tri + 1] * wb +
+              s.tri_normals[3 * tri + 2] * wc;
+    if (dot(ni, ni) > 0.0f) n = ni;
+  }
+  n = normalize(n);
+  return dot(n, dir) > 0.0f ? -n : n;
+}
+
+// A recorder sees every shaded point with its compositing weight:
+//   void shaded(Vec3 p, Vec3 normal, bool is_surface, float weight)
+struct NoRecorder {
+  CDSM_HD void shaded(Vec3, Vec3, bool, float) {}
+};
+
+// Visibility = DSM lookups; surfaces look themselves up just before their
+// own depth (constant + slope-scaled bias), volume samples at their depth.
+struct DsmVisibility {
+  const ShadowView& sv;
+  CDSM_HD float operator()(int light, Vec3 p, float tan_incidence) const {
+    float bias = tan_incidence > 0.0f ? sv.bias_constant : 0.0f;
+    return 1.0f - shadow_alpha(sv, sv.lights[uint32_t(light)], p, bias, tan_incidence);
+  }
+};
+
+template <class Visibility, class Recorder>
+struct CameraVisitor {
+  const SceneView& s;
+  Span<const LightData> lights;
+  const Visibility& visibility;
+  Recorder& rec;
+  Vec3 org, dir, ambient;
+  Vec3 color{0, 0, 0};
+  float T = 1.0f;  // transmittance to the eye
+
+  CDSM_HD bool done() const { return 1.0f - T >= kCompositeStop; }
+
+  CDSM_HD bool surface(float t, uint32_t tri, bool /*front*/) {
+    const ObjectData& o = s.objects[s.tri_object[tri]];
+    if (o.opacity <= 0.0f) return true;
+    ShadeInput in;
+    in.p = org + dir * t;
+    in.n = surface_normal(s, tri, in.p, dir);
+    in.v = -dir;
+    in.color = o.color;
+    in.ka = o.ka;
+    in.kd = o.kd;
+    in.ks = o.ks;
+    in.shininess = o.shininess;
+    in.has_normal = true;
+    Vec3 c = shade_point(in, lights, ambient, visibility);
+    float w = T * o.opacity;
+    rec.shaded(in.p, in.n, true, w);
+    color += c * w;
+    T *= 1.0f - o.opacity;
+    return !done();
+  }
+
+  CDSM_HD bool segment(float t0, float t1, const SegmentMedia& m) {
+    if (m.volume_count == 0) {  // a pure absorber: exact Beer-Lambert
+      T *= expf(-m.sigma * (t1 - t0));
+      return !done();
+    }
+    return march_segment(
+        s, m, org, dir, t0, t1,
+        [&](const MarchSample& ms) {
+          float a = 1.0f - expf(-ms.extinction * (ms.t1 - ms.t0));
+          if (a <= 0.0f) return true;
+          float vol_a = ms.extinction > 0.0f ? a * (ms.extinction - m.sigma) / ms.extinction : 0.0f;
+          if (vol_a > 0.0f && ms.dominant >= 0) {
+            const VolumeData& v = s.volumes[m.volume[ms.dominant]];
+            ShadeInput in;
+            in.p = org + dir * (0.5f * (ms.t0 + ms.t1));
+            in.v = -dir;
+            in.color = ms.color;
+            in.ka = 1.0f;
+            in.kd = 1.0f;
+            in.ks = 0.0f;
+            in.shininess = 1.0f;
+            in.has_normal = false;
+            in.n = Vec3{0, 0, 0};
+            if (v.shading == 1u) {  // phong: normal from the density gradient
+              Vec3 g = density_gradient(s, v, in.p) * v.gradient_scale;
+              float gl = length(g);
+              if (gl > 1e-6f) {
+                in.n = g * (-1.0f / gl);
+                if (dot(in.n, dir) > 0.0f) in.n = -in.n;
+                in.has_normal = true;
+                in.ka = 0.3f;
+                in.kd = 0.7f;
+                in.ks = 0.2f;
+                in.shininess = 16.0f;
+              }
+            }
+            Vec3 c = shade_point(in, lights, ambient, visibility);
+            float w = T * vol_a;
+            rec.shaded(in.p, in.n, false, w);
+            color += c * w;
+          }
+          T *= 1.0f - a;
+          return !done();
+        },
+        [](float, float) {});
+  }
+};
+
+template <class Visibility, class Recorder>
+CDSM_HD PixelResult shade_pixel(const SceneView& s, Span<const LightData> lights,
+                                const Visibility& visibility, const CameraPassParams& p,
+                                Span<Fragment> frags, int px, int py, Recorder& rec, WalkStats& st) {
+  Vec3 dir = pixel_ray(p.view, px, py);
+  CameraVisitor<Visibility, Recorder> vis{s, lights, visibility, rec, p.view.eye, dir, p.ambient};
+  float t_end = p.view.far / fmaxf(dot(dir, p.view.forward), 1e-6f);
+  walk_ray(s, frags, p.inside, 0.0f, t_end, vis, st);
+  PixelResult r;
+  r.color = vis.color + p.background * vis.T;
+  r.alpha = 1.0f - vis.T;
+  return r;
+}
+
+}  // namespace cdsm

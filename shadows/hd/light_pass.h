@@ -1,0 +1,87 @@
+// Light pass (DESIGN.md §2.4): one texel's visibility function — walk the
+// light ray's segments, accumulate alpha, compress on the fly.
+#pragma once
+
+#include "hd/compress.h"
+#include "hd/segments.h"
+#include "hd/view.h"
+
+namespace cdsm {
+
+struct LightPassParams {
+  PinholeView view;              // the map's view from the light
+  float epsilon;                 // compression bound
+  Span<const uint32_t> inside;   // caster objects containing the light
+};
+
+// Compression-friendly sampling of a constant medium: the chord of
+// 1 - exp(-sigma z) over a spacing h deviates by at most h^2 sigma^2 / 8,
+// so h = sqrt(8 eps) / sigma keeps linear pieces within eps.
+inline constexpr int kMaxConstantSamples = 256;
+
+struct DsmVisitor {
+  const SceneView& s;
+  Vec3 org, dir;
+  float eps;
+  WedgeCompressor c;
+  NodeBuffer& buf;
+  float alpha = 0.0f;
+
+  CDSM_HD DsmVisitor(const SceneView& sv, Vec3 o, Vec3 d, float e, NodeBuffer& b)
+      : s(sv), org(o), dir(d), eps(e), c(e), buf(b) {}
+
+  CDSM_HD bool saturated() const { return alpha >= kSaturatedAlpha; }
+
+  CDSM_HD bool surface(float t, uint32_t tri, bool /*front*/) {
+    float op = s.objects[s.tri_object[tri]].opacity;
+    if (op <= 0.0f) return true;
+    c.push(buf, t, alpha);
+    alpha = alpha + op * (1.0f - alpha);
+    c.step(buf, t, alpha);
+    return !saturated();
+  }
+
+  CDSM_HD bool segment(float t0, float t1, const SegmentMedia& m) {
+    c.push(buf, t0, alpha);
+    if (m.volume_count == 0) {
+      float len = t1 - t0;
+      float h = sqrtf(8.0f * fmaxf(eps, 1e-5f)) / m.sigma;
+      int n = int(ceilf(len / h));
+      n = n < 1 ? 1 : (n > kMaxConstantSamples ? kMaxConstantSamples : n);
+      float base = 1.0f - alpha;
+      for (int i = 1; i <= n; ++i) {
+        float z = t0 + len * float(i) / float(n);
+        alpha = 1.0f - base * expf(-m.sigma * (z - t0));
+        c.push(buf, z, alpha);
+        if (saturated()) return false;
+      }
+      return true;
+    }
+    return march_segment(
+        s, m, org, dir, t0, t1,
+        [&](const MarchSample& ms) {
+          float a = 1.0f - expf(-ms.extinction * (ms.t1 - ms.t0));
+          alpha = alpha + a * (1.0f - alpha);
+          c.push(buf, ms.t1, alpha);
+          return !saturated();
+        },
+        [&](float ta, float tb) {
+          c.push(buf, ta, alpha);
+          c.push(buf, tb, alpha);
+        });
+  }
+};
+
+// Builds texel (tx, ty): its fragments (from the light view's lists) are
+// sorted in place; nodes go to `buf`.
+CDSM_HD inline void build_texel(const SceneView& s, const LightPassParams& p, Span<Fragment> frags,
+                                int tx, int ty, NodeBuffer& buf, WalkStats& st) {
+  Vec3 dir = pixel_ray(p.view, tx, ty);
+  buf.eps = p.epsilon;
+  DsmVisitor vis(s, p.view.eye, dir, p.epsilon, buf);
+  float t_end = p.view.far / fmaxf(dot(dir, p.view.forward), 1e-6f);
+  walk_ray(s, frags, p.inside, 0.0f, t_end, vis, st);
+  vis.c.finish(buf);
+}
+
+}  // namespace cdsm

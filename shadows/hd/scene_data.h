@@ -1,0 +1,97 @@
+// The compiled scene as the kernels see it: flat arrays of plain structs,
+// the same bytes on the CPU and on a GPU (STYLE.md 4). Built on the host by
+// cpu/scene_buffers.h from a cdsm::Scene.
+#pragma once
+
+#include "cdsm/math.h"
+#include "hd/span.h"
+
+namespace cdsm {
+
+inline constexpr uint32_t kObjClosed = 1u;        // mesh is closed: its interior is defined
+inline constexpr uint32_t kObjCastsShadows = 2u;  // enters DSMs
+
+// Per object: surface, interior and its triangle range. 64 bytes.
+struct ObjectData {
+  Vec3 color;           // surface colour (linear RGB)
+  float opacity;        // surface opacity per crossing, [0, 1]
+  float ka, kd, ks;     // Phong constants (thesis eq. 3.8)
+  float shininess;      // Phong exponent n_s
+  uint32_t interior;    // InteriorKind: 0 none, 1 constant, 2 volume
+  float sigma;          // constant medium: extinction per world unit
+  int32_t volume;       // volume index, or -1
+  uint32_t flags;       // kObjClosed | kObjCastsShadows
+  uint32_t first_tri;   // triangle range in the scene's triangle arrays
+  uint32_t tri_count;
+  uint32_t pad0, pad1;
+};
+static_assert(sizeof(ObjectData) == 64, "ObjectData is 64 bytes");
+
+// Piecewise-linear transfer function density -> (extinction, colour).
+struct TransferData {
+  int32_t count;                        // control points used (1..kMaxTransferPoints)
+  float density[kMaxTransferPoints];    // ascending
+  float extinction[kMaxTransferPoints]; // per world unit
+  float r[kMaxTransferPoints];
+  float g[kMaxTransferPoints];
+  float b[kMaxTransferPoints];
+  float max_extinction;                 // over all control points
+  float pad[2];
+};
+
+// A dense grid volume placed in the world. Macro-cells of
+// kMacroCell^3 voxels hold the maximum extinction (after the transfer
+// function) over the voxels a trilinear sample inside the cell can touch
+// (one-voxel apron), for empty-space skipping.
+inline constexpr int kMacroCell = 8;
+
+struct VolumeData {
+  Mat4 world_to_index;   // world -> voxel index coordinates
+  Mat4 index_to_world;   // inverse
+  uint64_t voxel_offset; // first voxel in SceneView::voxels
+  uint64_t macro_offset; // first macro-cell in SceneView::macro_max
+  int32_t nx, ny, nz;    // voxels
+  int32_t mx, my, mz;    // macro-cells
+  float background;      // value outside the grid
+  float step;            // march step, world units
+  uint32_t shading;      // VolumeShading: 0 scatter, 1 phong
+  float gradient_scale;  // phong: gradient -> normal scale
+  float voxel_world;     // smallest world size of a voxel edge
+  float pad;
+  TransferData tf;
+};
+
+// A BVH node: inner nodes have count == 0, children at index+1 and `first`;
+// leaves hold prims[first .. first+count).
+struct BvhNode {
+  Vec3 lo;
+  uint32_t first;
+  Vec3 hi;
+  uint32_t count;
+};
+static_assert(sizeof(BvhNode) == 32, "BvhNode is 32 bytes");
+
+struct SceneView {
+  Span<const Vec3> tri_vertices;   // 3 world-space positions per triangle
+  Span<const Vec3> tri_normals;    // 3 world-space shading normals per triangle
+  Span<const uint32_t> tri_object; // object index per triangle
+  Span<const ObjectData> objects;
+  Span<const VolumeData> volumes;
+  Span<const float> voxels;        // all dense grids
+  Span<const float> macro_max;     // all macro-cell maxima
+  Span<const BvhNode> bvh;         // node 0 is the root (absent if empty)
+  Span<const uint32_t> bvh_prims;  // triangle indices referenced by leaves
+};
+
+// Which objects a view rasterizes (a light's casters, a cluster's members).
+// Bit i of words[i / 32] set = object i included. Empty span = all objects.
+struct ObjectMask {
+  Span<const uint32_t> words;
+  CDSM_HD bool contains(uint32_t object) const {
+    if (words.empty()) return true;
+    uint32_t w = object >> 5;
+    return w < words.size() && ((words[w] >> (object & 31u)) & 1u) != 0u;
+  }
+};
+
+}  // namespace cdsm

@@ -1,0 +1,229 @@
+// The segment walker (DESIGN.md §2.3): walks one ray's sorted fragments,
+// matches entries to exits per object like brackets, and reports surfaces
+// and the homogeneous segments between them to a visitor. Volume marching
+// with empty-space skipping is a helper the visitors call.
+#pragma once
+
+#include "hd/fragment.h"
+#include "hd/sort.h"
+#include "hd/volume.h"
+
+namespace cdsm {
+
+// The objects enclosing a segment, with their nesting depth.
+struct EnclosingSet {
+  uint32_t object[kMaxEnclosing];
+  uint32_t depth[kMaxEnclosing];
+  int count = 0;
+
+  CDSM_HD int find(uint32_t o) const {
+    for (int i = 0; i < count; ++i)
+      if (object[i] == o) return i;
+    return -1;
+  }
+  // Returns false if the set is full (the entry is dropped and counted).
+  CDSM_HD bool enter(uint32_t o) {
+    int i = find(o);
+    if (i >= 0) {
+      ++depth[i];
+      return true;
+    }
+    if (count >= kMaxEnclosing) return false;
+    object[count] = o;
+    depth[count] = 1;
+    ++count;
+    return true;
+  }
+  CDSM_HD bool exit(uint32_t o) {
+    int i = find(o);
+    if (i < 0) return false;
+    if (--depth[i] == 0) {
+      object[i] = object[count - 1];
+      depth[i] = depth[count - 1];
+      --count;
+    }
+    return true;
+  }
+};
+
+// The media of one homogeneous segment.
+struct SegmentMedia {
+  float sigma = 0.0f;       // summed extinction of enclosing constant media
+  float step = 3.0e38f;     // smallest march step of the enclosing volumes
+  int volume_count = 0;
+  uint32_t volume[kMaxEnclosing];
+  uint32_t volume_object[kMaxEnclosing];  // the object bounding each volume
+};
+
+CDSM_HD CDSM_INLINE SegmentMedia media_of(const SceneView& s, const EnclosingSet& set) {
+  SegmentMedia m;
+  for (int i = 0; i < set.count; ++i) {
+    const ObjectData& o = s.objects[set.object[i]];
+    if (o.interior == 1u) {
+      m.sigma += o.sigma;
+    } else if (o.interior == 2u && o.volume >= 0) {
+      const VolumeData& v = s.volumes[uint32_t(o.volume)];
+      m.volume[m.volume_count] = uint32_t(o.volume);
+      m.volume_object[m.volume_count] = set.object[i];
+      ++m.volume_count;
+      m.step = fminf(m.step, v.step);
+    }
+  }
+  return m;
+}
+
+// Counters a walk reports (summed into frame statistics).
+struct WalkStats {
+  uint32_t enclosing_overflow = 0;  // entries dropped: more than kMaxEnclosing objects
+  uint32_t match_overflow = 0;      // rays with more than kMaxRayObjects distinct objects
+  uint32_t unmatched = 0;           // entries or exits without a partner, ignored
+};
+
+// Marks (kFragScratchBit) every front-facing fragment that has a matching
+// back-facing fragment of the same object later on the ray; unmatched
+// entries (open meshes, one-ulp silhouette ties) are then ignored.
+CDSM_HD inline void mark_matched_entries(const SceneView& s, Span<Fragment> frags, WalkStats& st) {
+  uint32_t obj[kMaxRayObjects];
+  uint32_t pending[kMaxRayObjects];  // exits seen (scanning backwards) not yet matched
+  int n = 0;
+  bool overflow = false;
+  for (uint64_t k = frags.size(); k-- > 0;) {
+    Fragment& f = frags[k];
+    f.bits &= ~kFragScratchBit;
+    uint32_t o = s.tri_object[frag_prim(f)];
+    int i = 0;
+    while (i < n && obj[i] != o) ++i;
+    if (i == n) {
+      if (n == kMaxRayObjects) {  // cannot track: treat the entry as matched
+        overflow = true;
+        if (frag_front(f)) f.bits |= kFragScratchBit;
+        continue;
+      }
+      obj[n] = o;
+      pending[n] = 0;
+      ++n;
+    }
+    if (!frag_front(f)) {
+      ++pending[i];
+    } else if (pending[i] > 0) {
+      --pending[i];
+      f.bits |= kFragScratchBit;
+    }
+  }
+  if (overflow) ++st.match_overflow;
+}
+
+// Walks a ray through its fragments. `frags` are sorted here (in place).
+// `inside` lists objects containing the eye (decided once per view).
+// Visitor interface:
+//   bool surface(float t, uint32_t tri, bool front)     -> false stops the walk
+//   bool segment(float t0, float t1, const SegmentMedia&) -> false stops
+// Segments are reported only where some object encloses them.
+template <class Visitor>
+CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint32_t> inside,
+                      float t_start, float t_end, Visitor& vis, WalkStats& st) {
+  sort_fragments(frags);
+  mark_matched_entries(s, frags, st);
+  EnclosingSet set;
+  for (uint64_t i = 0; i < inside.size(); ++i)
+    if (!set.enter(inside[i])) ++st.enclosing_overflow;
+  float t_prev = t_start;
+  for (uint64_t k = 0; k < frags.size(); ++k) {
+    Fragment f = frags[k];
+    float t = fminf(fmaxf(f.depth, t_start), t_end);
+    if (set.count > 0 && t > t_prev) {
+      SegmentMedia m = media_of(s, set);
+      if ((m.sigma > 0.0f || m.volume_count > 0) && !vis.segment(t_prev, t, m)) return;
+    }
+    t_prev = fmaxf(t_prev, t);
+    uint32_t tri = frag_prim(f);
+    if (!vis.surface(f.depth, tri, frag_front(f))) return;
+    uint32_t o = s.tri_object[tri];
+    if ((s.objects[o].flags & kObjClosed) == 0u) continue;  // open meshes have no interior
+    if (frag_front(f)) {
+      if ((f.bits & kFragScratchBit) != 0u) {
+        if (!set.enter(o)) ++st.enclosing_overflow;
+      } else {
+        ++st.unmatched;
+      }
+    } else if (!set.exit(o)) {
+      ++st.unmatched;
+    }
+  }
+  if (set.count > 0 && t_end > t_prev) {
+    SegmentMedia m = media_of(s, set);
+    if (m.sigma > 0.0f || m.volume_count > 0) vis.segment(t_prev, t_end, m);
+  }
+}
+
+// One march sample of the volumes in a segment.
+struct MarchSample {
+  float t0, t1;      // the sample's interval along the ray
+  float extinction;  // summed sigma_t at the interval's midpoint (constant media included)
+  Vec3 color;        // extinction-weighted colour of the volumes there
+  int dominant;      // index into media.volume of the largest extinction, -1 if none
+};
+
+// Marches [t0, t1] with the segment's smallest step, skipping macro-cells
+// whose transfer-function output is zero in every enclosing volume.
+// Callback: bool sample(const MarchSample&) (false stops), and
+// void skip(float ta, float tb) for an empty stretch (so visitors can
+// keep flat runs in the visibility function).
+template <class OnSample, class OnSkip>
+CDSM_HD bool march_segment(const SceneView& s, const SegmentMedia& m, Vec3 org, Vec3 dir, float t0,
+                           float t1, OnSample&& on_sample, OnSkip&& on_skip) {
+  float h = m.step;
+  float t = t0;
+  while (t < t1) {
+    // Empty-space skipping: all enclosing volumes empty here?
+    if (m.sigma <= 0.0f) {
+      float exit_t = t1;
+      bool empty = true;
+      for (int i = 0; i < m.volume_count && empty; ++i) {
+        const VolumeData& v = s.volumes[m.volume[i]];
+        Vec3 qo = v.world_to_index.point(org);
+        Vec3 qd = v.world_to_index.vector(dir);
+        float mx = macro_max_at(s, v, qo + qd * t);
+        if (mx < 0.0f) mx = apply_transfer(v.tf, v.background).extinction;
+        if (mx > 0.0f) {
+          empty = false;
+        } else {
+          exit_t = fminf(exit_t, macro_cell_exit(qo, qd, t));
+        }
+      }
+      if (empty) {
+        // Step just past the boundary so the next lookup lands in the next cell.
+        float tb = fminf(t1, fmaxf(exit_t, t + 1e-6f * (1.0f + fabsf(t))));
+        on_skip(t, tb);
+        t = tb;
+        continue;
+      }
+    }
+    float te = fminf(t + h, t1);
+    Vec3 p = org + dir * (0.5f * (t + te));
+    MarchSample ms;
+    ms.t0 = t;
+    ms.t1 = te;
+    ms.extinction = m.sigma;
+    ms.color = Vec3{0, 0, 0};
+    ms.dominant = -1;
+    float best = 0.0f;
+    for (int i = 0; i < m.volume_count; ++i) {
+      const VolumeData& v = s.volumes[m.volume[i]];
+      TransferSample ts = apply_transfer(v.tf, density_at(s, v, p));
+      ms.extinction += ts.extinction;
+      ms.color += ts.color * ts.extinction;
+      if (ts.extinction > best) {
+        best = ts.extinction;
+        ms.dominant = i;
+      }
+    }
+    float vol_ext = ms.extinction - m.sigma;
+    ms.color = vol_ext > 0.0f ? ms.color * (1.0f / vol_ext) : Vec3{0, 0, 0};
+    if (!on_sample(ms)) return false;
+    t = te;
+  }
+  return true;
+}
+
+}  // namespace cdsm

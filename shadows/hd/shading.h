@@ -1,0 +1,51 @@
+// Shading models (DESIGN.md §2.5): Phong surfaces (thesis eq. 3.8/3.9) with
+// the shadow term on diffuse and specular, volume samples as single
+// scattering (isotropic) or Phong with gradient normals.
+#pragma once
+
+#include "hd/lights.h"
+
+namespace cdsm {
+
+struct ShadeInput {
+  Vec3 p;          // world position
+  Vec3 n;          // unit normal facing the viewer (surfaces, phong volumes)
+  Vec3 v;          // unit direction to the viewer
+  Vec3 color;      // base colour / albedo
+  float ka, kd, ks, shininess;
+  bool has_normal; // false: isotropic scattering sample
+};
+
+// Visibility callback form: float vis(int light_index, Vec3 p, float tan_incidence)
+// returns 1 - alpha (the transmittance) — from DSMs or from the reference.
+template <class Visibility>
+CDSM_HD Vec3 shade_point(const ShadeInput& in, Span<const LightData> lights, Vec3 ambient,
+                         Visibility&& visibility) {
+  Vec3 c = in.color * ambient * in.ka;
+  for (uint32_t i = 0; i < lights.size(); ++i) {
+    const LightData& L = lights[i];
+    float cone = cone_factor(L, in.p);
+    if (cone <= 0.0f) continue;
+    Vec3 to_l = L.position - in.p;
+    float dist = length(to_l);
+    if (dist <= 0.0f) continue;
+    Vec3 l = to_l * (1.0f / dist);
+    if (!in.has_normal) {
+      float vis = visibility(int(i), in.p, 0.0f);
+      c += in.color * L.radiance * (cone * vis);
+      continue;
+    }
+    float ndl = dot(in.n, l);
+    if (ndl <= 0.0f) continue;
+    float tan_inc = sqrtf(fmaxf(0.0f, 1.0f - ndl * ndl)) / fmaxf(ndl, 0.1f);
+    float vis = visibility(int(i), in.p, tan_inc);
+    if (vis <= 0.0f) continue;
+    Vec3 r = in.n * (2.0f * ndl) - l;
+    float rv = fmaxf(0.0f, dot(r, in.v));
+    float spec = in.ks * (rv > 0.0f ? powf(rv, in.shininess) : 0.0f);
+    c += (in.color * (in.kd * ndl) + vec3(spec)) * L.radiance * (cone * vis);
+  }
+  return c;
+}
+
+}  // namespace cdsm

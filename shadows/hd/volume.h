@@ -1,0 +1,97 @@
+// Volume sampling shared by the DSM path and the reference renderer: the
+// transfer function, trilinear density lookup with the grid's background,
+// gradients, and macro-cell emptiness for empty-space skipping.
+#pragma once
+
+#include "hd/scene_data.h"
+
+namespace cdsm {
+
+// Extinction and colour of a density value (piecewise linear, clamped ends).
+struct TransferSample {
+  float extinction;
+  Vec3 color;
+};
+
+CDSM_HD CDSM_INLINE TransferSample apply_transfer(const TransferData& tf, float d) {
+  int n = tf.count;
+  if (n <= 1 || d <= tf.density[0])
+    return {tf.extinction[0], {tf.r[0], tf.g[0], tf.b[0]}};
+  if (d >= tf.density[n - 1])
+    return {tf.extinction[n - 1], {tf.r[n - 1], tf.g[n - 1], tf.b[n - 1]}};
+  int i = 1;
+  while (i < n - 1 && d > tf.density[i]) ++i;
+  float span = tf.density[i] - tf.density[i - 1];
+  float w = span > 0.0f ? (d - tf.density[i - 1]) / span : 1.0f;
+  return {lerpf(tf.extinction[i - 1], tf.extinction[i], w),
+          {lerpf(tf.r[i - 1], tf.r[i], w), lerpf(tf.g[i - 1], tf.g[i], w),
+           lerpf(tf.b[i - 1], tf.b[i], w)}};
+}
+
+CDSM_HD CDSM_INLINE float voxel_at(const SceneView& s, const VolumeData& v, int i, int j, int k) {
+  if (i < 0 || j < 0 || k < 0 || i >= v.nx || j >= v.ny || k >= v.nz) return v.background;
+  return s.voxels[v.voxel_offset + (uint64_t(k) * uint64_t(v.ny) + uint64_t(j)) * uint64_t(v.nx) +
+                  uint64_t(i)];
+}
+
+// Trilinear density at index-space position q (voxel centres at integers).
+CDSM_HD CDSM_INLINE float density_at_index(const SceneView& s, const VolumeData& v, Vec3 q) {
+  float fx = floorf(q.x), fy = floorf(q.y), fz = floorf(q.z);
+  int i = int(fx), j = int(fy), k = int(fz);
+  float tx = q.x - fx, ty = q.y - fy, tz = q.z - fz;
+  float c000 = voxel_at(s, v, i, j, k), c100 = voxel_at(s, v, i + 1, j, k);
+  float c010 = voxel_at(s, v, i, j + 1, k), c110 = voxel_at(s, v, i + 1, j + 1, k);
+  float c001 = voxel_at(s, v, i, j, k + 1), c101 = voxel_at(s, v, i + 1, j, k + 1);
+  float c011 = voxel_at(s, v, i, j + 1, k + 1), c111 = voxel_at(s, v, i + 1, j + 1, k + 1);
+  float c00 = lerpf(c000, c100, tx), c10 = lerpf(c010, c110, tx);
+  float c01 = lerpf(c001, c101, tx), c11 = lerpf(c011, c111, tx);
+  return lerpf(lerpf(c00, c10, ty), lerpf(c01, c11, ty), tz);
+}
+
+CDSM_HD CDSM_INLINE float density_at(const SceneView& s, const VolumeData& v, Vec3 world) {
+  return density_at_index(s, v, v.world_to_index.point(world));
+}
+
+// World-space gradient of the density (central differences in index space).
+CDSM_HD CDSM_INLINE Vec3 density_gradient(const SceneView& s, const VolumeData& v, Vec3 world) {
+  Vec3 q = v.world_to_index.point(world);
+  Vec3 g{density_at_index(s, v, q + Vec3{1, 0, 0}) - density_at_index(s, v, q - Vec3{1, 0, 0}),
+         density_at_index(s, v, q + Vec3{0, 1, 0}) - density_at_index(s, v, q - Vec3{0, 1, 0}),
+         density_at_index(s, v, q + Vec3{0, 0, 1}) - density_at_index(s, v, q - Vec3{0, 0, 1})};
+  g = g * 0.5f;
+  // d/dworld = (d index / d world)^T * d/dindex
+  const Mat4& m = v.world_to_index;
+  return {m.m[0][0] * g.x + m.m[1][0] * g.y + m.m[2][0] * g.z,
+          m.m[0][1] * g.x + m.m[1][1] * g.y + m.m[2][1] * g.z,
+          m.m[0][2] * g.x + m.m[1][2] * g.y + m.m[2][2] * g.z};
+}
+
+// Macro-cell containing index position q, or -1 outside the cell grid (then
+// the background decides emptiness).
+CDSM_HD CDSM_INLINE float macro_max_at(const SceneView& s, const VolumeData& v, Vec3 q) {
+  // Cell c covers index positions [c*K - 0.5, (c+1)*K - 0.5): the voxels a
+  // trilinear sample there touches lie in [c*K - 1, (c+1)*K], which the
+  // stored maximum includes (the one-voxel apron).
+  int ci = int(floorf((q.x + 0.5f) / float(kMacroCell)));
+  int cj = int(floorf((q.y + 0.5f) / float(kMacroCell)));
+  int ck = int(floorf((q.z + 0.5f) / float(kMacroCell)));
+  if (ci < 0 || cj < 0 || ck < 0 || ci >= v.mx || cj >= v.my || ck >= v.mz) return -1.0f;
+  return s.macro_max[v.macro_offset + (uint64_t(ck) * uint64_t(v.my) + uint64_t(cj)) * uint64_t(v.mx) +
+                     uint64_t(ci)];
+}
+
+// Ray parameter where the ray leaves the macro-cell that contains the point
+// at parameter t (index-space ray: q(t) = qo + t * qd).
+CDSM_HD CDSM_INLINE float macro_cell_exit(Vec3 qo, Vec3 qd, float t) {
+  Vec3 q = qo + qd * t;
+  float best = 3.0e38f;
+  for (int a = 0; a < 3; ++a) {
+    float c = floorf((q[a] + 0.5f) / float(kMacroCell));
+    float d = qd[a];
+    if (d > 0.0f) best = fminf(best, ((c + 1.0f) * kMacroCell - 0.5f - qo[a]) / d);
+    else if (d < 0.0f) best = fminf(best, (c * kMacroCell - 0.5f - qo[a]) / d);
+  }
+  return best;
+}
+
+}  // namespace cdsm

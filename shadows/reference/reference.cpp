@@ -1,0 +1,268 @@
+// Reference renderer: parity-based interiors, exact Beer-Lambert for
+// constant media, fine midpoint marching for volumes, shadow rays.
+#include "reference/reference.h"
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "hd/bvh.h"
+#include "hd/volume.h"
+
+namespace cdsm {
+
+ReferenceRenderer::ReferenceRenderer(const SceneView& scene, std::vector<LightData> lights,
+                                     ReferenceOptions opt)
+    : scene_(scene), lights_(std::move(lights)), opt_(opt) {
+  caster_words_.assign((scene.objects.size() + 31) / 32, 0u);
+  for (uint32_t o = 0; o < scene.objects.size(); ++o)
+    if (scene.objects[o].flags & kObjCastsShadows) caster_words_[o >> 5] |= 1u << (o & 31u);
+}
+
+void ReferenceRenderer::hits_along(Vec3 org, Vec3 dir, float tmax, ObjectMask mask,
+                                   std::vector<Hit>& out) const {
+  out.clear();
+  for_each_hit(scene_, mask, org, dir, 0.0f, tmax, [&](uint32_t tri, const TriHit& h) {
+    out.push_back({h.t, scene_.tri_object[tri]});
+  });
+  std::sort(out.begin(), out.end(), [](const Hit& a, const Hit& b) {
+    return a.t != b.t ? a.t < b.t : a.object < b.object;
+  });
+}
+
+// Midpoint rule at <= step_voxels, exact zero over empty macro-cells.
+float ReferenceRenderer::optical_depth_volume(uint32_t vi, Vec3 org, Vec3 dir, float t0, float t1) const {
+  const VolumeData& v = scene_.volumes[vi];
+  float h = opt_.step_voxels * v.voxel_world;
+  Vec3 qo = v.world_to_index.point(org), qd = v.world_to_index.vector(dir);
+  float bg_ext = apply_transfer(v.tf, v.background).extinction;
+  double tau = 0.0;
+  float t = t0;
+  while (t < t1) {
+    float mx = macro_max_at(scene_, v, qo + qd * t);
+    if (mx < 0.0f) mx = bg_ext;
+    if (mx <= 0.0f) {
+      float te = std::min(t1, std::max(macro_cell_exit(qo, qd, t), t + 1e-6f * (1.0f + std::fabs(t))));
+      t = te;
+      continue;
+    }
+    // Integrate up to the end of this macro-cell with a uniform sub-step.
+    float cell_end = std::min(t1, std::max(macro_cell_exit(qo, qd, t), t + 1e-6f * (1.0f + std::fabs(t))));
+    int n = std::max(1, int(std::ceil((cell_end - t) / h)));
+    float dt = (cell_end - t) / float(n);
+    for (int i = 0; i < n; ++i) {
+      Vec3 q = qo + qd * (t + (float(i) + 0.5f) * dt);
+      tau += double(apply_transfer(v.tf, density_at_index(scene_, v, q)).extinction) * dt;
+    }
+    t = cell_end;
+  }
+  return float(tau);
+}
+
+namespace {
+
+// Parity intervals of one closed object along a ray starting at t = 0: the
+// ray is inside where an odd number of that object's hits lie beyond.
+template <class F>
+void for_each_inside_interval(const std::vector<float>& ts, float t_end, F&& f) {
+  size_t n = ts.size();
+  bool inside = (n & 1u) != 0u;
+  float start = 0.0f;
+  for (size_t i = 0; i < n; ++i) {
+    if (inside) f(start, std::min(ts[i], t_end));
+    else start = ts[i];
+    inside = !inside;
+    if (ts[i] >= t_end) return;
+  }
+  if (inside) f(start, t_end);
+}
+
+}  // namespace
+
+float ReferenceRenderer::transmittance_segment(Vec3 a, Vec3 b) const {
+  Vec3 d = b - a;
+  float dist = length(d);
+  if (dist <= 0.0f) return 1.0f;
+  Vec3 dir = d * (1.0f / dist);
+  thread_local std::vector<Hit> hits;
+  hits_along(a, dir, 3.0e38f, ObjectMask{{caster_words_.data(), caster_words_.size()}}, hits);
+  float own = dist * (1.0f - 1e-5f) - 1e-6f;  // the point's own surface does not count
+  double T = 1.0;
+  // Surfaces crossed before the point.
+  for (const Hit& h : hits) {
+    if (h.t >= own) break;
+    T *= 1.0 - double(scene_.objects[h.object].opacity);
+  }
+  // Interiors, object by object, by parity over the whole ray.
+  double tau = 0.0;
+  thread_local std::vector<float> ts;
+  for (uint32_t o = 0; o < scene_.objects.size(); ++o) {
+    const ObjectData& od = scene_.objects[o];
+    if (od.interior == 0u || !(od.flags & kObjClosed) || !(od.flags & kObjCastsShadows)) continue;
+    ts.clear();
+    for (const Hit& h : hits)
+      if (h.object == o) ts.push_back(h.t);
+    if (ts.empty()) continue;
+    for_each_inside_interval(ts, dist, [&](float t0, float t1) {
+      if (t1 <= t0) return;
+      if (od.interior == 1u) tau += double(od.sigma) * (t1 - t0);
+      else if (od.volume >= 0) tau += optical_depth_volume(uint32_t(od.volume), a, dir, t0, t1);
+    });
+  }
+  return float(T * std::exp(-tau));
+}
+
+float ReferenceRenderer::transmittance(int light, Vec3 p) const {
+  return transmittance_segment(lights_[size_t(light)].position, p);
+}
+
+void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float>& rgb) const {
+  const PinholeView& view = params.view;
+  const int w = view.width, h = view.height;
+  rgb.assign(size_t(w) * h * 3, 0.0f);
+  Span<const LightData> lights{lights_.data(), lights_.size()};
+  auto visibility = [&](int light, Vec3 p, float) { return transmittance(light, p); };
+  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
+    std::vector<Hit> hits;
+    std::vector<float> ts;
+    for (int py = rows.begin(); py < rows.end(); ++py)
+      for (int px = 0; px < w; ++px) {
+        Vec3 dir = pixel_ray(view, px, py);
+        float c = dot(dir, view.forward);
+        float t_near = view.near / c, t_far = view.far / c;
+        hits_along(view.eye, dir, 3.0e38f, ObjectMask{}, hits);
+        // Event list: every hit in [t_near, t_far] splits the ray.
+        Vec3 color{0, 0, 0};
+        double T = 1.0;
+        float t_prev = t_near;
+        auto interval_media = [&](float ta, float tb, auto&& on_medium) {
+          // Which interiors enclose (ta, tb)? Parity of each object's hits beyond the midpoint.
+          float tm = 0.5f * (ta + tb);
+          for (uint32_t o = 0; o < scene_.objects.size(); ++o) {
+            const ObjectData& od = scene_.objects[o];
+            if (od.interior == 0u || !(od.flags & kObjClosed)) continue;
+            uint32_t beyond = 0, any = 0;
+            for (const Hit& hh : hits)
+              if (hh.object == o) {
+                ++any;
+                if (hh.t > tm) ++beyond;
+              }
+            if (any && (beyond & 1u)) on_medium(o);
+          }
+        };
+        auto shade_interval = [&](float ta, float tb) {
+          if (tb <= ta || T < 1.0 - kCompositeStop) return;
+          float sigma = 0.0f;
+          uint32_t vols[kMaxEnclosing];
+          int nv = 0;
+          float step = 3e38f;
+          interval_media(ta, tb, [&](uint32_t o) {
+            const ObjectData& od = scene_.objects[o];
+            if (od.interior == 1u) sigma += od.sigma;
+            else if (od.volume >= 0 && nv < kMaxEnclosing) {
+              vols[nv++] = uint32_t(od.volume);
+              step = std::min(step, opt_.step_voxels * scene_.volumes[uint32_t(od.volume)].voxel_world);
+            }
+          });
+          if (nv == 0) {
+            T *= std::exp(-double(sigma) * (tb - ta));
+            return;
+          }
+          int n = std::max(1, int(std::ceil((tb - ta) / step)));
+          float dt = (tb - ta) / float(n);
+          for (int i = 0; i < n && T >= 1.0 - kCompositeStop; ++i) {
+            Vec3 p = view.eye + dir * (ta + (float(i) + 0.5f) * dt);
+            float ext = sigma, vol_ext = 0.0f, best = 0.0f;
+            Vec3 col{0, 0, 0};
+            int dom = -1;
+            for (int k = 0; k < nv; ++k) {
+              const VolumeData& v = scene_.volumes[vols[k]];
+              TransferSample ts2 = apply_transfer(v.tf, density_at(scene_, v, p));
+              ext += ts2.extinction;
+              vol_ext += ts2.extinction;
+              col += ts2.color * ts2.extinction;
+              if (ts2.extinction > best) {
+                best = ts2.extinction;
+                dom = k;
+              }
+            }
+            double a = 1.0 - std::exp(-double(ext) * dt);
+            if (a <= 0.0) continue;
+            if (vol_ext > 0.0f && dom >= 0) {
+              const VolumeData& v = scene_.volumes[vols[dom]];
+              ShadeInput in;
+              in.p = p;
+              in.v = -dir;
+              in.color = col * (1.0f / vol_ext);
+              in.ka = 1.0f;
+              in.kd = 1.0f;
+              in.ks = 0.0f;
+              in.shininess = 1.0f;
+              in.has_normal = false;
+              in.n = Vec3{0, 0, 0};
+              if (v.shading == 1u) {
+                Vec3 g = density_gradient(scene_, v, p) * v.gradient_scale;
+                float gl = length(g);
+                if (gl > 1e-6f) {
+                  in.n = g * (-1.0f / gl);
+                  if (dot(in.n, dir) > 0.0f) in.n = -in.n;
+                  in.has_normal = true;
+                  in.ka = 0.3f;
+                  in.kd = 0.7f;
+                  in.ks = 0.2f;
+                  in.shininess = 16.0f;
+                }
+              }
+              Vec3 c = shade_point(in, lights, params.ambient, visibility);
+              double wv = T * a * (vol_ext / ext);
+              color += c * float(wv);
+            }
+            T *= 1.0 - a;
+          }
+        };
+        for (const Hit& hh : hits) {
+          float ax = hh.t * c;
+          if (ax < view.near || ax > view.far) continue;
+          shade_interval(t_prev, hh.t);
+          t_prev = std::max(t_prev, hh.t);
+          if (T < 1.0 - kCompositeStop) break;
+          const ObjectData& od = scene_.objects[hh.object];
+          if (od.opacity <= 0.0f) continue;
+          // Find the triangle again for the normal: nearest hit of this object at hh.t.
+          Vec3 p = view.eye + dir * hh.t;
+          uint32_t tri_found = od.first_tri;
+          float best = 3e38f;
+          for_each_hit(scene_, ObjectMask{}, view.eye, dir, hh.t * (1 - 1e-6f) - 1e-7f, hh.t * (1 + 1e-6f) + 1e-7f,
+                       [&](uint32_t tri, const TriHit& th) {
+                         if (scene_.tri_object[tri] == hh.object && std::fabs(th.t - hh.t) < best) {
+                           best = std::fabs(th.t - hh.t);
+                           tri_found = tri;
+                         }
+                       });
+          ShadeInput in;
+          in.p = p;
+          in.n = surface_normal(scene_, tri_found, p, dir);
+          in.v = -dir;
+          in.color = od.color;
+          in.ka = od.ka;
+          in.kd = od.kd;
+          in.ks = od.ks;
+          in.shininess = od.shininess;
+          in.has_normal = true;
+          Vec3 col = shade_point(in, lights, params.ambient, visibility);
+          color += col * float(T * od.opacity);
+          T *= 1.0 - od.opacity;
+        }
+        if (T >= 1.0 - kCompositeStop) shade_interval(t_prev, t_far);
+        color += params.background * float(T);
+        float* o = rgb.data() + (size_t(py) * w + px) * 3;
+        o[0] = color.x;
+        o[1] = color.y;
+        o[2] = color.z;
+      }
+  });
+}
+
+}  // namespace cdsm

@@ -1,0 +1,418 @@
+// The OpenGL fragment-list rasterizer against the exact CPU ray caster
+// (DESIGN.md §2.1, §9): camera, spot and omni views of closed meshes, deep
+// stacks, pool growth, tiled 4096^2 views and watertightness.
+#include <cmath>
+#include <random>
+
+#include "cdsm/error.h"
+#include "cdsm/procedural.h"
+#include "hd/fragment.h"
+#include "gl_test_util.h"
+
+namespace cdsm::test {
+namespace {
+
+constexpr double kMinEqualFraction = 0.999;
+
+struct ViewRun {
+  FragmentBuffers gl, cpu;
+  Comparison cmp;
+};
+
+ViewRun run_view(gl::FragmentRasterizer& r, const TestScene& s, const PinholeView& v, ObjectMask mask = {}) {
+  ViewRun out;
+  r.rasterize(v, mask, out.gl);
+  s.cast(v, mask, out.cpu);
+  out.cmp = compare_fragments(s, v, out.gl, out.cpu);
+  return out;
+}
+
+void expect_agreement(const ViewRun& run, const char* name) {
+  const Comparison& c = run.cmp;
+  std::printf("[  compare ] %-12s %7llu px, %8llu GL / %8llu CPU fragments, %.4f%% pixels differ "
+              "(%llu at edges, %llu order ties, %llu unexplained), max rel depth %.2e\n",
+              name, (unsigned long long)c.pixels, (unsigned long long)c.gl_fragments,
+              (unsigned long long)c.cpu_fragments, c.mismatch_percent(),
+              (unsigned long long)(c.explained - c.order_ties), (unsigned long long)c.order_ties,
+              (unsigned long long)c.unexplained, c.max_rel_depth);
+  EXPECT_GT(c.cpu_fragments, 0u) << name;
+  EXPECT_GE(double(c.equal), kMinEqualFraction * double(c.pixels)) << name;
+  EXPECT_EQ(c.unexplained, 0u) << name << ": pixels differing away from every triangle edge:\n" << c.report;
+  EXPECT_LE(c.max_rel_depth, 1e-4) << name;
+}
+
+class FragmentRaster : public GlTest {};
+
+TEST_F(FragmentRaster, FacingFollowsTheCpuConvention) {
+  // Counter-clockwise as seen from the eye (at the origin, looking down -z):
+  // front. The same triangle wound the other way: back.
+  TestScene s;
+  s.add_triangle({-1, -1, -2}, {1, -1, -2}, {0, 1, -2}, 0);
+  s.add_triangle({-1, -1, -3}, {0, 1, -3}, {1, -1, -3}, 1);
+  s.finish();
+  PinholeView v = look_at({0, 0, 0}, {0, 0, -1}, {0, 1, 0}, 60.0f, 64, 48, 0.1f, 10.0f);
+  gl::FragmentRasterizer r(context());
+  s.upload(r);
+  ViewRun run = run_view(r, s, v);
+  // Triangle 0 must be front-facing everywhere, triangle 1 back-facing.
+  for (const FragmentBuffers* b : {&run.gl, &run.cpu}) {
+    uint64_t seen[2] = {0, 0}, wrong = 0;
+    for (const Fragment& f : b->fragments) {
+      ++seen[frag_prim(f)];
+      wrong += frag_front(f) != (frag_prim(f) == 0);
+    }
+    const char* who = b == &run.gl ? "GL" : "CPU";
+    EXPECT_GT(seen[0], 100u) << who;
+    EXPECT_GT(seen[1], 100u) << who;
+    EXPECT_EQ(wrong, 0u) << who << ": fragments with the wrong facing";
+  }
+  // Depth is radial: the length of the pixel ray to the plane z = -2, not 2.
+  Vec3 dir = pixel_ray(v, 24, 30);
+  float expected = 2.0f / dot(dir, v.forward);
+  EXPECT_GT(expected, 2.04f);  // off-axis: longer than the axial 2
+  size_t i = size_t(30) * 64 + 24;
+  bool found = false;
+  for (uint32_t k = run.gl.offsets[i]; k < run.gl.offsets[i + 1]; ++k)
+    if (frag_prim(run.gl.fragments[k]) == 0) {
+      found = true;
+      EXPECT_NEAR(run.gl.fragments[k].depth, expected, 1e-5f * expected);
+    }
+  EXPECT_TRUE(found);
+  expect_agreement(run, "facing");
+}
+
+TEST_F(FragmentRaster, MatchesCpuForCameraSpotAndOmniViews) {
+  TestScene s = closed_meshes_scene();
+  gl::FragmentRasterizer r(context());
+  s.upload(r);
+
+  ViewRun cam = run_view(r, s, look_at({0.5f, 2.5f, 6.5f}, {0, 0.6f, 0}, {0, 1, 0}, 50.0f, 320, 240, 0.1f, 50.0f));
+  expect_agreement(cam, "camera");
+  EXPECT_EQ(count_unpaired_pixels(s, cam.gl, nullptr), count_unpaired_pixels(s, cam.cpu, nullptr));
+
+  // Off-centre window (a focused cluster frustum).
+  ViewRun off = run_view(r, s, look_at({-3.0f, 3.0f, 4.0f}, {0, 0.5f, 0}, {0, 1, 0}, 30.0f, 200, 150, 0.5f, 20.0f,
+                                   Vec2{0.21f, -0.13f}));
+  expect_agreement(off, "off-centre");
+
+  ViewRun spot = run_view(r, s, look_at({2.5f, 6.0f, 2.0f}, {0, 0, 0}, {0, 1, 0}, 70.0f, 256, 256, 0.5f, 30.0f));
+  expect_agreement(spot, "spot");
+
+  // Near and far planes cutting through the objects.
+  ViewRun cut = run_view(r, s, look_at({0.0f, 1.0f, 4.0f}, {0, 0.6f, 0}, {0, 1, 0}, 60.0f, 160, 120, 3.5f, 5.3f));
+  expect_agreement(cut, "near/far cut");
+
+  // (A generic position: from (0.2, 2.2, -0.9) the ground's diagonal would
+  // pass exactly through a row of pixel centres, a tie the watertight test covers.)
+  auto faces = omni_faces({0.23f, 2.17f, -0.86f}, 128, 0.05f, 30.0f);
+  const char* names[6] = {"omni +x", "omni -x", "omni +y", "omni -y", "omni +z", "omni -z"};
+  for (int f = 0; f < 6; ++f) expect_agreement(run_view(r, s, faces[size_t(f)]), names[f]);
+}
+
+TEST_F(FragmentRaster, ObjectMaskKeepsGlobalPrimitiveIds) {
+  TestScene s = closed_meshes_scene();
+  gl::FragmentRasterizer r(context());
+  s.upload(r);
+  // Objects 1, 3, 6 only (object 7 exists: words cover it).
+  std::vector<uint32_t> words = {(1u << 1) | (1u << 3) | (1u << 6)};
+  ObjectMask mask{{words.data(), words.size()}};
+  ViewRun run = run_view(r, s, look_at({0.5f, 2.5f, 6.5f}, {0, 0.6f, 0}, {0, 1, 0}, 50.0f, 200, 150, 0.1f, 50.0f), mask);
+  expect_agreement(run, "masked");
+  for (const Fragment& f : run.gl.fragments) {
+    uint32_t o = s.sb.tri_object[frag_prim(f)];
+    ASSERT_TRUE(o == 1 || o == 3 || o == 6) << "primitive " << frag_prim(f) << " of object " << o;
+  }
+  // An empty selection draws nothing.
+  std::vector<uint32_t> none = {0u};
+  FragmentBuffers empty;
+  r.rasterize(look_at({0, 2, 6}, {0, 0, 0}, {0, 1, 0}, 50.0f, 64, 64, 0.1f, 50.0f),
+              ObjectMask{{none.data(), none.size()}}, empty);
+  EXPECT_EQ(empty.total(), 0u);
+  EXPECT_EQ(empty.offsets.back(), 0u);
+}
+
+TEST_F(FragmentRaster, DepthComplexityAbove32) {
+  // 40 large squares at random depths, rotations and offsets, some facing
+  // away: every pixel of the view is covered by all of them.
+  TestScene s;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> U(0.0f, 1.0f);
+  const int kQuads = 40;
+  for (int q = 0; q < kQuads; ++q) {
+    float z = -1.0f - 2.0f * float(q) / kQuads - 0.01f * U(rng);
+    float a = 6.2831853f * U(rng), ox = 0.2f * (U(rng) - 0.5f), oy = 0.2f * (U(rng) - 0.5f);
+    Vec3 c[4];
+    for (int k = 0; k < 4; ++k) {
+      float ang = a + 1.5707963f * float(k);
+      c[k] = {ox + 6.0f * std::cos(ang), oy + 6.0f * std::sin(ang), z};
+    }
+    if (q % 3 == 0) std::swap(c[1], c[3]);  // clockwise from the eye: back-facing
+    s.add_triangle(c[0], c[1], c[2], uint32_t(q));
+    s.add_triangle(c[0], c[2], c[3], uint32_t(q));
+  }
+  s.finish();
+  gl::FragmentRasterizer r(context());
+  s.upload(r);
+  PinholeView v = look_at({0, 0, 0}, {0, 0, -1}, {0, 1, 0}, 60.0f, 128, 128, 0.1f, 10.0f);
+  ViewRun run = run_view(r, s, v);
+  expect_agreement(run, "depth 40");
+  uint64_t deep = 0;
+  for (size_t i = 0; i + 1 < run.gl.offsets.size(); ++i) deep += run.gl.offsets[i + 1] - run.gl.offsets[i] == kQuads;
+  EXPECT_EQ(deep, uint64_t(128 * 128)) << "pixels with all 40 layers";
+}
+
+TEST_F(FragmentRaster, GrowsThePoolAndReusesItInSteadyState) {
+  TestScene s = closed_meshes_scene();
+  gl::RasterOptions o;
+  o.initial_pool_bytes = 4096;  // 512 fragments
+  gl::FragmentRasterizer r(context(), o);
+  s.upload(r);
+  PinholeView v = look_at({0.5f, 2.5f, 6.5f}, {0, 0.6f, 0}, {0, 1, 0}, 50.0f, 256, 192, 0.1f, 50.0f);
+  ViewRun run = run_view(r, s, v);
+  expect_agreement(run, "pool grow");
+  EXPECT_GT(r.stats().pool_grows, 0u);
+  EXPECT_GE(r.stats().pool_bytes, r.stats().fragments * sizeof(Fragment));
+  EXPECT_EQ(r.stats().fragments, run.gl.total());
+  EXPECT_EQ(r.stats().tiles, 1u);
+  // The same view again: no further growth, identical lists.
+  const uint32_t grows = r.stats().pool_grows;
+  const uint64_t bytes = r.stats().pool_bytes;
+  FragmentBuffers again;
+  r.rasterize(v, {}, again);
+  EXPECT_EQ(r.stats().pool_grows, grows);
+  EXPECT_EQ(r.stats().pool_bytes, bytes);
+  EXPECT_EQ(again.offsets, run.gl.offsets);
+}
+
+TEST_F(FragmentRaster, TilesHugeViews) {
+  // 4096^2 with a pool capped at 32 MiB (llvmpipe would tile anyway above
+  // 128 MiB): compare with the CPU on every 128th row.
+  TestScene s;
+  s.add(make_sphere(1.0f, 24, 12), make_transform({0.0f, 0.0f, 0.0f}, {0, 0, 0}, {1, 1, 1}));
+  s.add(make_box({1.2f, 0.8f, 1.6f}), make_transform({0.9f, -0.4f, -1.0f}, {20, 35, 0}, {1, 1, 1}));
+  s.finish();
+  gl::RasterOptions o;
+  o.max_pool_bytes = uint64_t(32) << 20;
+  gl::FragmentRasterizer r(context(), o);
+  s.upload(r);
+  PinholeView v = look_at({0.3f, 0.8f, 3.2f}, {0.2f, -0.1f, -0.3f}, {0, 1, 0}, 60.0f, 4096, 4096, 0.1f, 20.0f);
+  FragmentBuffers gl;
+  r.rasterize(v, {}, gl);
+  std::printf("[  tiles   ] 4096^2: %llu fragments, %u tiles, %u bands, pool %.1f MiB, %.0f ms\n",
+              (unsigned long long)r.stats().fragments, r.stats().tiles, r.stats().bands,
+              double(r.stats().pool_bytes) / (1 << 20), r.stats().gpu_ms);
+  EXPECT_GT(r.stats().tiles, 1u);
+  EXPECT_LE(r.stats().pool_bytes, o.max_pool_bytes);
+  EXPECT_GT(r.stats().fragments, uint64_t(32) << 20 >> 3) << "the view must not fit one pool";
+  ASSERT_EQ(gl.offsets.size(), size_t(4096) * 4096 + 1);
+  EXPECT_EQ(gl.offsets.back(), gl.total());
+  Comparison sum;
+  for (int row = 0; row < 4096; row += 128) {
+    FragmentBuffers cpu;
+    s.cast(row_view(v, row), {}, cpu);
+    Comparison c = compare_fragments(s, v, gl, cpu, 1.0 / 64.0, row);
+    sum.pixels += c.pixels;
+    sum.equal += c.equal;
+    sum.unexplained += c.unexplained;
+    sum.gl_fragments += c.gl_fragments;
+    sum.cpu_fragments += c.cpu_fragments;
+    if (c.unexplained) sum.report += c.report;
+  }
+  std::printf("[  compare ] 4096^2 rows  %llu px, %llu GL / %llu CPU fragments, %.4f%% pixels differ\n",
+              (unsigned long long)sum.pixels, (unsigned long long)sum.gl_fragments,
+              (unsigned long long)sum.cpu_fragments, sum.mismatch_percent());
+  EXPECT_GE(double(sum.equal), kMinEqualFraction * double(sum.pixels));
+  EXPECT_EQ(sum.unexplained, 0u) << sum.report;
+}
+
+TEST_F(FragmentRaster, TilesAtTheSsboLimitWithDefaultOptions) {
+  // A sphere filling a 4096^2 view: ~2 fragments per pixel, 256 MiB of
+  // fragments, more than llvmpipe's largest SSBO (128 MiB), so the default
+  // pool cap forces tiles there. (On a GPU with larger SSBOs one tile may do.)
+  TestScene s;
+  s.add(make_sphere(1.0f, 32, 16), Mat4{});
+  s.finish();
+  gl::FragmentRasterizer r(context());
+  s.upload(r);
+  PinholeView v = look_at({0.05f, 0.1f, 1.6f}, {0, 0, 0}, {0, 1, 0}, 55.0f, 4096, 4096, 0.1f, 20.0f);
+  FragmentBuffers gl;
+  r.rasterize(v, {}, gl);
+  const uint64_t ssbo = uint64_t(context().limits().max_ssbo_block_size);
+  std::printf("[  tiles   ] 4096^2 default options: %llu fragments (%.0f MiB), %u tiles, pool %.0f MiB "
+              "(SSBO limit %.0f MiB), %.0f ms\n",
+              (unsigned long long)r.stats().fragments, double(r.stats().fragments * 8) / (1 << 20), r.stats().tiles,
+              double(r.stats().pool_bytes) / (1 << 20), double(ssbo) / (1 << 20), r.stats().gpu_ms);
+  EXPECT_LE(r.stats().pool_bytes, ssbo);
+  if (r.stats().fragments * sizeof(Fragment) > ssbo) {
+    EXPECT_GT(r.stats().tiles, 1u);
+  }
+  Comparison sum;
+  for (int row = 37; row < 4096; row += 256) {
+    FragmentBuffers cpu;
+    s.cast(row_view(v, row), {}, cpu);
+    Comparison c = compare_fragments(s, v, gl, cpu, 1.0 / 64.0, row);
+    sum.pixels += c.pixels;
+    sum.equal += c.equal;
+    sum.unexplained += c.unexplained;
+    if (c.unexplained) sum.report += c.report;
+  }
+  EXPECT_GE(double(sum.equal), kMinEqualFraction * double(sum.pixels));
+  EXPECT_EQ(sum.unexplained, 0u) << sum.report;
+}
+
+TEST_F(FragmentRaster, CountsAreEqualWhenCountedInBands) {
+  // Forcing several count passes (bands) must not change anything.
+  TestScene s = closed_meshes_scene();
+  gl::RasterOptions banded;
+  banded.max_band_pixels = 160 * 37;  // bands of 37 rows
+  banded.max_pool_bytes = 64 << 10;   // and tiles within them
+  gl::FragmentRasterizer a(context()), b(context(), banded);
+  s.upload(a);
+  s.upload(b);
+  PinholeView v = look_at({0.5f, 2.5f, 6.5f}, {0, 0.6f, 0}, {0, 1, 0}, 50.0f, 160, 120, 0.1f, 50.0f);
+  FragmentBuffers fa, fb;
+  a.rasterize(v, {}, fa);
+  b.rasterize(v, {}, fb);
+  EXPECT_GT(b.stats().bands, 1u);
+  EXPECT_GT(b.stats().tiles, b.stats().bands);
+  ASSERT_EQ(fa.offsets, fb.offsets);
+  // Same multiset per pixel.
+  for (size_t i = 0; i + 1 < fa.offsets.size(); ++i) {
+    std::vector<Fragment> x(fa.fragments.begin() + fa.offsets[i], fa.fragments.begin() + fa.offsets[i + 1]);
+    std::vector<Fragment> y(fb.fragments.begin() + fb.offsets[i], fb.fragments.begin() + fb.offsets[i + 1]);
+    std::sort(x.begin(), x.end(), frag_less);
+    std::sort(y.begin(), y.end(), frag_less);
+    for (size_t k = 0; k < x.size(); ++k) {
+      ASSERT_EQ(x[k].bits, y[k].bits) << "pixel " << i;
+      ASSERT_EQ(x[k].depth, y[k].depth) << "pixel " << i;
+    }
+  }
+}
+
+TEST_F(FragmentRaster, SplitsRowsWhenOneRowExceedsThePool) {
+  // A pool of 48 fragments: rows of this view hold more, so tiles are pieces
+  // of rows; the result must not change.
+  TestScene s = closed_meshes_scene();
+  gl::RasterOptions tiny;
+  tiny.max_pool_bytes = 48 * sizeof(Fragment);
+  gl::FragmentRasterizer a(context()), b(context(), tiny);
+  s.upload(a);
+  s.upload(b);
+  PinholeView v = look_at({0.5f, 2.5f, 6.5f}, {0, 0.6f, 0}, {0, 1, 0}, 50.0f, 64, 48, 0.1f, 50.0f);
+  FragmentBuffers fa, fb;
+  a.rasterize(v, {}, fa);
+  b.rasterize(v, {}, fb);
+  EXPECT_GT(b.stats().tiles, uint32_t(v.height));
+  EXPECT_EQ(b.stats().pool_bytes, tiny.max_pool_bytes);
+  ASSERT_EQ(fa.offsets, fb.offsets);
+  uint32_t widest = 0;
+  for (int y = 0; y < v.height; ++y) widest = std::max(widest, fa.offsets[size_t(y + 1) * 64] - fa.offsets[size_t(y) * 64]);
+  EXPECT_GT(widest, 48u) << "no row exceeds the pool: the row-splitting path was not taken";
+  for (size_t i = 0; i + 1 < fa.offsets.size(); ++i) {
+    std::vector<Fragment> x(fa.fragments.begin() + fa.offsets[i], fa.fragments.begin() + fa.offsets[i + 1]);
+    std::vector<Fragment> y(fb.fragments.begin() + fb.offsets[i], fb.fragments.begin() + fb.offsets[i + 1]);
+    std::sort(x.begin(), x.end(), frag_less);
+    std::sort(y.begin(), y.end(), frag_less);
+    for (size_t k = 0; k < x.size(); ++k) ASSERT_TRUE(x[k].bits == y[k].bits && x[k].depth == y[k].depth) << "pixel " << i;
+  }
+}
+
+TEST_F(FragmentRaster, RejectsBadInputWithErrors) {
+  gl::FragmentRasterizer r(context());
+  std::vector<Vec3> v(4);
+  std::vector<uint32_t> o(1);
+  EXPECT_THROW(r.upload_scene({v.data(), v.size()}, {o.data(), o.size()}), Error);
+  FragmentBuffers out;
+  PinholeView huge = look_at({0, 0, 0}, {0, 0, -1}, {0, 1, 0}, 60.0f, 1 << 20, 16, 0.1f, 10.0f);
+  EXPECT_THROW(r.rasterize(huge, {}, out), Error);
+  PinholeView empty = huge;
+  empty.width = 0;
+  EXPECT_THROW(r.rasterize(empty, {}, out), Error);
+  // Still usable afterwards, and an empty scene gives empty lists.
+  PinholeView ok = look_at({0, 0, 0}, {0, 0, -1}, {0, 1, 0}, 60.0f, 32, 16, 0.1f, 10.0f);
+  r.upload_scene({}, {});
+  r.rasterize(ok, {}, out);
+  EXPECT_EQ(out.total(), 0u);
+  EXPECT_EQ(out.offsets.size(), size_t(32 * 16 + 1));
+}
+
+// Watertightness: closed meshes whose every vertex lies on a pixel-centre
+// ray, so edges and vertices pass exactly through pixel centres. Every pixel
+// must see entries and exits in pairs, in both producers.
+TEST_F(FragmentRaster, WatertightOnPixelCentres) {
+  // View: eye at the origin looking down -z; W = 128, H = 64, tan_half 2 x 1,
+  // so pixel-centre directions are dyadic: exact in float.
+  PinholeView v;
+  v.eye = {0, 0, 0};
+  v.right = {1, 0, 0};
+  v.up = {0, 1, 0};
+  v.forward = {0, 0, -1};
+  v.tan_half_x = 2.0f;
+  v.tan_half_y = 1.0f;
+  v.width = 128;
+  v.height = 64;
+  v.near = 0.5f;
+  v.far = 10.0f;
+  // The point at axial distance z on the ray through the centre of pixel (px, py).
+  auto at = [&](int px, int py, float z) {
+    float sx = (2.0f * (float(px) + 0.5f) / float(v.width) - 1.0f) * v.tan_half_x;
+    float sy = (1.0f - 2.0f * (float(py) + 0.5f) / float(v.height)) * v.tan_half_y;
+    return Vec3{sx * z, sy * z, -z};
+  };
+  TestScene s;
+  auto quad = [&](Vec3 a, Vec3 b, Vec3 c, Vec3 d, uint32_t o) {  // a-b-c-d counter-clockwise from outside
+    s.add_triangle(a, b, c, o);
+    s.add_triangle(a, c, d, o);
+  };
+  {
+    // A truncated pyramid: front square (pixels 20..44) at z = 2, back square
+    // (8..56) at z = 4, wound counter-clockwise seen from outside.
+    Vec3 f00 = at(20, 20, 2), f10 = at(44, 20, 2), f11 = at(44, 44, 2), f01 = at(20, 44, 2);
+    Vec3 b00 = at(8, 8, 4), b10 = at(56, 8, 4), b11 = at(56, 56, 4), b01 = at(8, 56, 4);
+    // Image y grows downwards; from the eye, (20,44)->(44,44)->(44,20) is counter-clockwise.
+    quad(f01, f11, f10, f00, 0);  // front, facing the eye
+    quad(b00, b10, b11, b01, 0);  // back, facing away
+    quad(f00, f10, b10, b00, 0);  // top side
+    quad(f10, f11, b11, b10, 0);  // right side
+    quad(f11, f01, b01, b11, 0);  // bottom side
+    quad(f01, f00, b00, b01, 0);  // left side
+  }
+  {
+    // A bipyramid: equator at z = 3 through pixels (88,16) (104,32) (88,48)
+    // (72,32), apexes on the ray of pixel (88,32) at z = 2 and z = 5.
+    Vec3 e[4] = {at(88, 16, 3), at(104, 32, 3), at(88, 48, 3), at(72, 32, 3)};
+    Vec3 near_apex = at(88, 32, 2), far_apex = at(88, 32, 5);
+    for (int k = 0; k < 4; ++k) {
+      Vec3 a = e[k], b = e[(k + 1) % 4];
+      s.add_triangle(near_apex, b, a, 1);
+      s.add_triangle(far_apex, a, b, 1);
+    }
+  }
+  s.sb.objects[0].flags |= kObjClosed;
+  s.sb.objects[1].flags |= kObjClosed;
+  s.finish();
+  gl::FragmentRasterizer r(context());
+  s.upload(r);
+  ViewRun run = run_view(r, s, v);
+  std::string first;
+  EXPECT_EQ(count_unpaired_pixels(s, run.gl, &first), 0u) << "GL: " << first;
+  first.clear();
+  EXPECT_EQ(count_unpaired_pixels(s, run.cpu, &first), 0u) << "CPU: " << first;
+  // Every pixel inside the silhouettes is crossed (twice), none outside.
+  auto count = [&](const FragmentBuffers& b, int px, int py) {
+    size_t i = size_t(py) * size_t(b.width) + size_t(px);
+    return b.offsets[i + 1] - b.offsets[i];
+  };
+  EXPECT_EQ(count(run.gl, 32, 32), 2u);   // front + back face
+  EXPECT_EQ(count(run.gl, 12, 30), 2u);   // side + back face
+  EXPECT_EQ(count(run.gl, 88, 32), 2u);   // both apexes
+  EXPECT_EQ(count(run.gl, 4, 4), 0u);
+  EXPECT_EQ(count(run.cpu, 32, 32), 2u);
+  EXPECT_EQ(count(run.cpu, 88, 32), 2u);
+  std::printf("[  watertight ] GL %llu, CPU %llu fragments; %.3f%% pixels differ (ties broken differently)\n",
+              (unsigned long long)run.gl.total(), (unsigned long long)run.cpu.total(), run.cmp.mismatch_percent());
+  EXPECT_EQ(run.cmp.unexplained, 0u) << run.cmp.report;
+}
+
+}  // namespace
+}  // namespace cdsm::test
