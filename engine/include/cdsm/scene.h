@@ -102,15 +102,27 @@ struct Camera {
 
 enum class DsmLayout : uint32_t { Packed = 0, Fixed = 1, Chunked = 2 };
 
+// What each texel stores. Deep shadow maps are the product; the others are
+// the baselines the benchmark compares against, built from the same light
+// rays and read by the same lookup.
+enum class ShadowMethod : uint32_t {
+  Dsm = 0,            // epsilon-bounded visibility functions (Lokovic-Veach wedge)
+  ShadowMap = 1,      // conventional: opaque at the first surface with opacity >= method_param
+  OpacitySlices = 2,  // opacity shadow maps: method_param uniform slices along the ray
+  FixedNodes = 3,     // AVSM-style: at most method_param nodes, greedy area-preserving removal
+};
+
 struct ShadowSettings {
   float epsilon = 0.01f;        // compression error bound (DESIGN.md §2.4)
   int32_t resolution = 512;     // DSM texels per side
   bool filtering = true;        // bilinear lookup (thesis eq. 4.18-4.19)
-  float bias_constant = 0.002f; // self-lookup offset, world units
+  float bias_constant = 0.0005f; // self-lookup offset, world units
   float bias_slope = 1.5f;      // times the DSM texel footprint at the point
   int32_t max_clusters = 1;     // m
   float d0 = 0.25f;             // clustering threshold, normalized map units
   DsmLayout layout = DsmLayout::Packed;
+  ShadowMethod method = ShadowMethod::Dsm;
+  float method_param = 0.0f;    // ShadowMap: opacity threshold; slices / nodes count
   Vec3 ambient_light{1, 1, 1};  // i_a
 };
 
