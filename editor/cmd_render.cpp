@@ -27,6 +27,8 @@ const char* kRenderHelp =
     "  --dsm-res N              DSM resolution per side (4..8192), overrides the scene\n"
     "  --width W --height H     image size, overrides the scene camera\n"
     "  --filtering on|off       bilinear DSM lookups (default: the scene's setting)\n"
+    "  --clusters M             at most M clustered DSMs per light (1 = unclustered), overrides the scene\n"
+    "  --d0 D                   clustering distance threshold in normalized light-map units\n"
     "  --compare-reference      also render the exact reference of the same view; report the\n"
     "                           transmittance error at sampled shaded points (mean, p99, max, RMSE)\n"
     "                           and the image RMSE/PSNR; write OUT.error.png (heat map) and\n"
@@ -53,8 +55,26 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
   j["dsm_resolution"] = scene.shadows.resolution;
   j["filtering"] = scene.shadows.filtering;
   j["lights"] = s.lights;
+  j["clusters_max"] = scene.shadows.max_clusters;
+  j["d0"] = scene.shadows.d0;
+  j["maps_rebuilt"] = s.maps_rebuilt;
+  j["maps_reused"] = s.maps_reused;
+  auto& cl = j["light_clusters"];
+  cl = nlohmann::json::array();
+  for (const LightClusterStats& c : s.clusters) {
+    nlohmann::json e;
+    e["clustered"] = c.clustered;
+    e["fallback_reason"] = c.fallback_reason;
+    e["reclustered"] = c.reclustered;
+    e["maps"] = c.maps;
+    e["objects_per_cluster"] = c.members;
+    cl.push_back(e);
+  }
+  j["popping"] = {{"measured", s.popping.measured}, {"points", s.popping.points},
+                  {"mean_abs_dT", s.popping.mean}, {"max_abs_dT", s.popping.max}};
   auto& t = j["times_ms"];
   t["compile_scene"] = s.times.compile_ms;
+  t["clustering"] = s.cluster_ms;
   t["light_fragments"] = s.times.fragments_ms;
   t["dsm_build"] = s.times.dsm_build_ms;
   t["camera_fragments"] = s.times.camera_fragments_ms;
@@ -102,6 +122,23 @@ void print_summary(const FrameStats& s, const Scene& scene, bool reference_backe
   std::printf("times [ms]   light fragments %.1f | DSM build %.1f | camera fragments %.1f | camera pass %.1f | frame %.1f\n",
               s.times.fragments_ms, s.times.dsm_build_ms, s.times.camera_fragments_ms, s.times.camera_ms,
               s.times.total_ms);
+  for (size_t li = 0; li < s.clusters.size(); ++li) {
+    const LightClusterStats& c = s.clusters[li];
+    std::printf("light %zu      %u maps", li, c.maps);
+    if (c.clustered) {
+      std::printf(", %zu clusters (objects:", c.members.size());
+      for (const auto& m : c.members) {
+        std::printf(" {");
+        for (size_t k = 0; k < m.size(); ++k) std::printf("%s%d", k ? "," : "", m[k]);
+        std::printf("}");
+      }
+      std::printf(")");
+    } else if (!c.fallback_reason.empty()) {
+      std::printf(", unclustered: %s", c.fallback_reason.c_str());
+    }
+    std::printf("\n");
+  }
+  std::printf("rebuilds     %u maps built, %u reused\n", s.maps_rebuilt, s.maps_reused);
   std::printf("DSM memory   %llu maps, index %.2f MiB, nodes %.2f MiB, slack %.2f MiB\n",
               (unsigned long long)s.memory.maps, s.memory.index_bytes / 1048576.0, s.memory.node_bytes / 1048576.0,
               s.memory.slack_bytes / 1048576.0);
@@ -146,6 +183,8 @@ int cmd_render(const std::vector<std::string>& args) {
   float eps = -1.0f;
   int res = 0, width = 0, height = 0;
   int filtering = -1;
+  int clusters = 0;
+  float d0 = -1.0f;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     auto value = [&]() -> std::string {
@@ -186,6 +225,12 @@ int cmd_render(const std::vector<std::string>& args) {
       if (v == "on") filtering = 1;
       else if (v == "off") filtering = 0;
       else throw Error("--filtering", "expected on or off, got '" + v + "'");
+    } else if (a == "--clusters") {
+      clusters = parse_int(a, value());
+      if (clusters < 1 || clusters > 8) throw Error("--clusters", "must be within [1, 8]");
+    } else if (a == "--d0") {
+      d0 = parse_float(a, value());
+      if (d0 < 0) throw Error("--d0", "must be >= 0");
     } else if (a == "--compare-reference") {
       opt.compare_reference = true;
     } else if (a == "--error-samples") {
@@ -216,6 +261,8 @@ int cmd_render(const std::vector<std::string>& args) {
   if (width > 0) scene.camera.width = width;
   if (height > 0) scene.camera.height = height;
   if (filtering >= 0) scene.shadows.filtering = filtering == 1;
+  if (clusters > 0) scene.shadows.max_clusters = clusters;
+  if (d0 >= 0) scene.shadows.d0 = d0;
 
   Renderer renderer;
   FrameStats stats;

@@ -67,6 +67,14 @@ uint32_t hash32(uint32_t x) {
 struct Renderer::Impl {
   FragmentSourceSelector fragments;
   Image last_reference;
+  ShadowCache cache;  // DSMs and clusters kept across frames
+  // Popping probe: the previous frame's maps and its sampled receivers.
+  struct Previous {
+    bool valid = false;
+    ShadowFrame shadows;
+    ShadowSettings settings;
+    std::vector<Vec3> receivers;
+  } previous;
 
   struct Frame {
     SceneBuffers sb;
@@ -83,7 +91,21 @@ struct Renderer::Impl {
     st.times.compile_ms = ms_since(t0);
     FragmentProducer produce = fragments.select(opt.fragments, f.sb, st.fragment_source, st.fragment_source_reason);
     if (opt.backend != Backend::Reference) {
-      build_shadow_frame(scene, f.sb, produce, f.shadows);
+      build_shadow_frame(scene, f.sb, produce, cache, f.shadows);
+      st.maps_rebuilt = f.shadows.rebuilt;
+      st.maps_reused = f.shadows.reused;
+      st.cluster_ms = f.shadows.cluster_ms;
+      for (size_t li = 0; li < f.shadows.clusters.size(); ++li) {
+        const LightClusters& lc = f.shadows.clusters[li];
+        LightClusterStats cs;
+        cs.clustered = lc.clustered;
+        cs.fallback_reason = lc.fallback_reason;
+        cs.reclustered = lc.clustered && lc.clustering.reclustered;
+        if (lc.clustered)
+          for (const auto& c : lc.clustering.clusters) cs.members.push_back({c.members.begin(), c.members.end()});
+        cs.maps = f.shadows.setup.lights[li].map_count;
+        st.clusters.push_back(std::move(cs));
+      }
       st.times.fragments_ms = f.shadows.fragments_ms;
       st.times.dsm_build_ms = f.shadows.build_ms;
       st.light_fragments = f.shadows.fragments;
@@ -202,9 +224,68 @@ struct Renderer::Impl {
     return e;
   }
 
+  // Surface points of the camera view on a coarse grid (receivers for the popping probe).
+  std::vector<Vec3> sample_receivers(Frame& f) {
+    SceneView sv = f.sb.view();
+    struct FirstSurface {
+      Vec3 p;
+      bool found = false;
+      void shaded(Vec3 q, Vec3, bool surface, float) {
+        if (surface && !found) {
+          p = q;
+          found = true;
+        }
+      }
+    };
+    struct NoShadow {
+      float operator()(int, Vec3, float) const { return 1.0f; }
+    } vis;
+    std::vector<LightData> none;
+    std::vector<Vec3> out;
+    const int w = f.cam.view.width, h = f.cam.view.height;
+    const int g = 48;
+    FragmentLists lists = f.camera_frags.lists();
+    for (int gy = 0; gy < g; ++gy)
+      for (int gx = 0; gx < g; ++gx) {
+        int px = std::min(w - 1, (2 * gx + 1) * w / (2 * g)), py = std::min(h - 1, (2 * gy + 1) * h / (2 * g));
+        FirstSurface rec;
+        WalkStats ws;
+        shade_pixel(sv, Span<const LightData>{none.data(), 0}, vis, f.cam, lists.pixel(px, py), px, py, rec, ws);
+        if (rec.found) out.push_back(rec.p);
+      }
+    return out;
+  }
+
+  // |T_new - T_old| at the previous frame's receivers, when maps changed.
+  void measure_popping(const Scene& scene, Frame& f, FrameStats& st) {
+    if (previous.valid && f.shadows.rebuilt > 0 && previous.shadows.setup.lights.size() == f.shadows.setup.lights.size()) {
+      ShadowView now = f.shadows.view(scene.shadows), before = previous.shadows.view(previous.settings);
+      double sum = 0.0, mx = 0.0;
+      uint64_t n = 0;
+      for (const Vec3& p : previous.receivers)
+        for (uint32_t li = 0; li < now.lights.size(); ++li) {
+          if (cone_factor(now.lights[li], p) <= 0.0f) continue;
+          float a = shadow_alpha(now, now.lights[li], p, scene.shadows.bias_constant, 0.0f);
+          float b = shadow_alpha(before, before.lights[li], p, previous.settings.bias_constant, 0.0f);
+          double d = std::fabs(double(a) - double(b));
+          sum += d;
+          mx = std::max(mx, d);
+          ++n;
+        }
+      st.popping.measured = true;
+      st.popping.points = n;
+      st.popping.mean = n ? sum / double(n) : 0.0;
+      st.popping.max = mx;
+    }
+    previous.shadows = f.shadows;
+    previous.settings = scene.shadows;
+    previous.receivers = sample_receivers(f);
+    previous.valid = true;
+  }
+
   Image reference_image(const Scene& scene, const RenderOptions& opt, Frame& f) {
     SceneView sv = f.sb.view();
-    LightSetup ls = setup_lights(scene, f.sb.bounds, 4);
+    LightSetup ls = setup_lights(scene, f.sb, 4);
     ReferenceRenderer ref(sv, ls.lights, ReferenceOptions{opt.reference_step_voxels});
     Image img;
     img.width = f.cam.view.width;
@@ -236,6 +317,7 @@ Image Renderer::render(const Scene& scene, const RenderOptions& opt, FrameStats*
   WalkStats ws;
   render_camera(sv, shv, f.cam, f.camera_frags.lists(), img.rgb, ws);
   st.times.camera_ms = ms_since(t0);
+  impl_->measure_popping(scene, f, st);
   st.unmatched_fragments += ws.unmatched;
   st.enclosing_overflow += ws.enclosing_overflow;
   st.times.total_ms = ms_since(t_total);

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "cdsm/image.h"
 #include "cdsm/scene.h"
@@ -55,10 +56,34 @@ struct TransmittanceError {
   double rmse = 0.0;    // weighted
 };
 
+// The clusters of one light in a frame (thesis Alg. 4.2).
+struct LightClusterStats {
+  bool clustered = false;          // false: unclustered maps (m = 1 or a fallback)
+  std::string fallback_reason;
+  bool reclustered = false;        // membership recomputed this frame (else kept by hysteresis)
+  std::vector<std::vector<int>> members;  // object indices per cluster
+  uint32_t maps = 0;               // DSMs of this light
+};
+
+// Change of shadowing at static receivers when a light's maps changed
+// (re-clustering makes shadows "pop", thesis §6.1): |T_new - T_old| at the
+// previous frame's sampled surface points.
+struct PoppingStats {
+  bool measured = false;
+  uint64_t points = 0;
+  double mean = 0.0;
+  double max = 0.0;
+};
+
 struct FrameStats {
   StageTimes times;
   DsmMemory memory;
   uint32_t lights = 0;
+  uint32_t maps_rebuilt = 0;   // DSMs built this frame
+  uint32_t maps_reused = 0;    // DSMs whose inputs did not change (kept from an earlier frame)
+  double cluster_ms = 0.0;
+  std::vector<LightClusterStats> clusters;  // per light
+  PoppingStats popping;
   uint64_t light_fragments = 0;
   uint64_t camera_fragments = 0;
   std::string fragment_source;         // "gl" or "cpu"
