@@ -85,17 +85,25 @@ FocusParams focus_params(const ClusterSettings& s) {
   return p;
 }
 
-// Fills members (ids ascending), views and split of a cluster given by indices.
+// Fills members (ids ascending), views and split of a cluster given by
+// indices. The frustum is focused on the members inside the convex body B
+// of some direction (those are the only ones whose shadows can reach the
+// view: B holds every segment from the light to a visible point); members
+// outside every B stay in the map but do not widen it. Without seen
+// members, the lit ones decide, then all.
 void focus_into(Cluster& c, const Light& light, const std::vector<Caster>& casters,
-                const std::vector<int>& idx, const ClusterSettings& s) {
+                const std::vector<int>& idx, const ClusterSettings& s, const CasterDistances& D) {
   std::vector<int> order = idx;
   std::sort(order.begin(), order.end(), [&](int a, int b) { return casters[size_t(a)].id < casters[size_t(b)].id; });
   c.members.clear();
-  std::vector<Box3> boxes;
+  std::vector<Box3> seen, lit, all;
   for (int i : order) {
     c.members.push_back(casters[size_t(i)].id);
-    boxes.push_back(casters[size_t(i)].bounds);
+    all.push_back(casters[size_t(i)].bounds);
+    if (D.lit[size_t(i)]) lit.push_back(casters[size_t(i)].bounds);
+    if (D.seen[size_t(i)]) seen.push_back(casters[size_t(i)].bounds);
   }
+  const std::vector<Box3>& boxes = !seen.empty() ? seen : (!lit.empty() ? lit : all);
   FocusResult f = focus_cluster(light, boxes, focus_params(s));
   c.views = std::move(f.views);
   c.split = f.split;
@@ -263,7 +271,7 @@ Clustering cluster_casters(const Light& light, const PinholeView& camera, const 
   for (const Direction& dir : D.directions) out.perspective_directions += dir.map.perspective ? 1 : 0;
   for (const std::vector<int>& idx : greedy_clusters(D, settings.d0, settings.max_clusters)) {
     Cluster c;
-    focus_into(c, light, casters, idx, settings);
+    focus_into(c, light, casters, idx, settings, D);
     c.diameter = diameter_of(D, idx);
     out.clusters.push_back(std::move(c));
   }
@@ -315,7 +323,7 @@ Clustering update_clusters(const Light& light, const PinholeView& camera, const 
     out.reclustered = false;
     for (size_t k = 0; k < prev_idx.size(); ++k) {
       Cluster c;
-      focus_into(c, light, casters, prev_idx[k], settings);
+      focus_into(c, light, casters, prev_idx[k], settings, D);
       c.diameter = previous.clusters[k].diameter;
       c.previous = int32_t(k);
       c.members_changed = false;
@@ -326,7 +334,7 @@ Clustering update_clusters(const Light& light, const PinholeView& camera, const 
   }
   for (const std::vector<int>& idx : greedy_clusters(D, settings.d0, settings.max_clusters)) {
     Cluster c;
-    focus_into(c, light, casters, idx, settings);
+    focus_into(c, light, casters, idx, settings, D);
     c.diameter = diameter_of(D, idx);
     for (size_t k = 0; k < previous.clusters.size(); ++k)
       if (previous.clusters[k].members == c.members) {
