@@ -102,7 +102,10 @@ struct Renderer::Impl {
         cs.fallback_reason = lc.fallback_reason;
         cs.reclustered = lc.clustered && lc.clustering.reclustered;
         if (lc.clustered)
-          for (const auto& c : lc.clustering.clusters) cs.members.push_back({c.members.begin(), c.members.end()});
+          for (const auto& c : lc.clustering.clusters) {
+            cs.members.push_back({c.members.begin(), c.members.end()});
+            cs.changed.push_back(c.members_changed || c.views_changed ? 1 : 0);
+          }
         cs.maps = f.shadows.setup.lights[li].map_count;
         st.clusters.push_back(std::move(cs));
       }

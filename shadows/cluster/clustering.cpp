@@ -316,6 +316,7 @@ Clustering update_clusters(const Light& light, const PinholeView& camera, const 
       if (diameter_of(D, u) <= settings.d0 / (1.0f + h)) keep = false;  // they should merge
     }
 
+
   Clustering out;
   out.directions = int32_t(D.directions.size());
   for (const Direction& dir : D.directions) out.perspective_directions += dir.map.perspective ? 1 : 0;

@@ -62,6 +62,7 @@ struct LightClusterStats {
   std::string fallback_reason;
   bool reclustered = false;        // membership recomputed this frame (else kept by hysteresis)
   std::vector<std::vector<int>> members;  // object indices per cluster
+  std::vector<uint8_t> changed;           // per cluster: member set or frustum changed since the last frame
   uint32_t maps = 0;               // DSMs of this light
 };
 
