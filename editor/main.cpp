@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "cdsm/error.h"
+#include "cmd_bench.h"
 #include "commands.h"
 
 namespace {
@@ -17,6 +18,9 @@ const char* kHelp =
     "  render SCENE -o OUT.png [options]  render a scene with deep shadow maps, print times and memory;\n"
     "                                     with --compare-reference also the error against the exact\n"
     "                                     reference (cdsm render --help for all options)\n"
+    "  bench SCENE... [options]           speed against error: sweep epsilon, resolution, clusters and the\n"
+    "                                     baselines (shadow map, opacity slices, AVSM); CSV, Markdown, plot\n"
+    "                                     (cdsm bench --help for all options)\n"
     "  info SCENE                         print what a scene holds (objects, triangles, volumes, lights)\n"
     "  --help                             this text\n"
     "\n"
@@ -35,6 +39,7 @@ int main(int argc, char** argv) {
   try {
     if (cmd == "render") return cdsm::cli::cmd_render(args);
     if (cmd == "info") return cdsm::cli::cmd_info(args);
+    if (cmd == "bench") return cdsm::cli::cmd_bench(args);
     std::fprintf(stderr, "cdsm: unknown command '%s' (try cdsm --help)\n", cmd.c_str());
     return 2;
   } catch (const cdsm::Error& e) {

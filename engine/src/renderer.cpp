@@ -131,21 +131,21 @@ struct Renderer::Impl {
 
   static void fill_memory(const Frame& f, FrameStats& st) {
     DsmMemory& m = st.memory;
-    const DsmBuffers& d = f.shadows.dsm;
-    m.maps = d.maps.size();
-    m.texels = d.texels.size();
-    m.nodes = d.nodes.size();
-    m.index_bytes = d.texels.size() * sizeof(TexelRange);
-    m.node_bytes = d.nodes.size() * sizeof(DsmNode);
-    m.slack_bytes = 0;  // packed: exact allocation
-    m.avg_nodes_per_texel = m.texels ? double(m.nodes) / double(m.texels) : 0.0;
-    for (const DsmBuildStats& b : f.shadows.map_stats) {
+    m = DsmMemory{};
+    m.maps = f.shadows.dsm.maps.size();
+    for (const DsmBuildStats& b : f.shadows.map_stats) {  // per map, in the frame's layout
+      m.texels += b.texels;
+      m.nodes += b.nodes;
+      m.index_bytes += b.index_bytes;
+      m.node_bytes += b.node_bytes_used;
+      m.slack_bytes += b.slack_bytes;
       m.max_nodes_per_texel = std::max(m.max_nodes_per_texel, b.max_nodes);
       m.overflow_texels += b.overflow_texels;
       m.max_extra_error = std::max(m.max_extra_error, b.max_extra_error);
       st.unmatched_fragments += b.walk.unmatched;
       st.enclosing_overflow += b.walk.enclosing_overflow;
     }
+    m.avg_nodes_per_texel = m.texels ? double(m.nodes) / double(m.texels) : 0.0;
   }
 
   TransmittanceError probe_error(const Scene& scene, const RenderOptions& opt, Frame& f) {

@@ -1,9 +1,12 @@
 // JSON scene files -> cdsm::Scene. Field reference: README "Scene files".
+#include <cctype>
+#include <cmath>
 #include <fstream>
 #include <map>
 #include <sstream>
 
 #include "cdsm/error.h"
+#include "cdsm/loaders.h"
 #include "cdsm/procedural.h"
 #include "cdsm/scene_io.h"
 #include "json_reader.h"
@@ -16,10 +19,54 @@ struct Parser {
   std::string base_dir;
   Scene scene;
   std::map<std::string, int> volume_by_name;
+  std::vector<VolumeProxy> proxy_of;  // per volume: its default boundary mesh
 
-  std::string resolve(const std::string& p) const {
-    if (p.empty() || p[0] == '/') return p;
-    return base_dir.empty() ? p : base_dir + "/" + p;
+  // A file reference (string node): relative to the scene file, "$SHARED/..."
+  // or found in the shared data directory (cdsm/loaders.h).
+  std::string resolve(const JsonNode& n) const {
+    return resolve_asset(n.as_string(), base_dir, n.file() + ": " + n.path());
+  }
+
+  // Runs a loader; its errors (which name the asset) also get the scene
+  // location that referred to it.
+  template <class F>
+  auto load(const JsonNode& n, F&& f) -> decltype(f()) {
+    try {
+      return f();
+    } catch (const Error& e) {
+      n.fail(e.what());
+    }
+  }
+
+  // {"type":"raw", "file", "dims":[x,y,z], "format":"uint8"|"uint16",
+  //  "byte_order":"little"|"big", "header":bytes, "normalize":bool, "spacing":[x,y,z]}
+  std::shared_ptr<DenseGrid> raw_grid(const JsonNode& n, bool& has_spacing, Vec3& spacing) {
+    n.expect_object({"type", "file", "dims", "format", "byte_order", "header", "normalize", "spacing"});
+    RawVolumeDesc d;
+    JsonNode dims = n.at("dims");
+    Vec3 dv = dims.as_vec3();
+    if (!(dv.x >= 1 && dv.y >= 1 && dv.z >= 1 && dv.x <= 65536 && dv.y <= 65536 && dv.z <= 65536) ||
+        dv.x != std::floor(dv.x) || dv.y != std::floor(dv.y) || dv.z != std::floor(dv.z))
+      dims.fail("dimensions must be integers within [1, 65536]");
+    d.nx = int(dv.x);
+    d.ny = int(dv.y);
+    d.nz = int(dv.z);
+    std::string format = n.get("format", "uint8");
+    if (format == "uint8") d.format = RawFormat::UInt8;
+    else if (format == "uint16") d.format = RawFormat::UInt16;
+    else n.at("format").fail("unknown format '" + format + "' (uint8 or uint16)");
+    std::string order = n.get("byte_order", "little");
+    if (order == "little") d.big_endian = false;
+    else if (order == "big") d.big_endian = true;
+    else n.at("byte_order").fail("unknown byte order '" + order + "' (little or big)");
+    int header = n.get("header", 0);
+    if (header < 0) n.at("header").fail("must be >= 0");
+    d.header_bytes = uint64_t(header);
+    d.normalize = n.get("normalize", true);
+    has_spacing = n.has("spacing");
+    if (has_spacing) spacing = n.at("spacing").as_vec3();
+    std::string path = resolve(n.at("file"));
+    return load(n.at("file"), [&] { return load_raw(path, d); });
   }
 
   Camera camera(const JsonNode& n) {
@@ -42,7 +89,8 @@ struct Parser {
 
   ShadowSettings shadows(const JsonNode& n) {
     n.expect_object({"epsilon", "resolution", "filtering", "bias_constant", "bias_slope", "clusters", "d0",
-                     "layout", "ambient"});
+                     "layout", "method", "method_param", "ambient",
+                     "fixed_layers", "chunk_nodes"});
     ShadowSettings s;
     s.epsilon = n.get("epsilon", s.epsilon);
     if (s.epsilon < 0) n.at("epsilon").fail("must be >= 0 (got " + std::to_string(s.epsilon) + ")");
@@ -61,6 +109,26 @@ struct Parser {
     else if (layout == "fixed") s.layout = DsmLayout::Fixed;
     else if (layout == "chunked") s.layout = DsmLayout::Chunked;
     else n.at("layout").fail("unknown layout '" + layout + "' (packed, fixed or chunked)");
+    s.fixed_layers = n.get("fixed_layers", s.fixed_layers);
+    if (s.fixed_layers < 2 || s.fixed_layers > 4096) n.at("fixed_layers").fail("must be within [2, 4096]");
+    s.chunk_nodes = n.get("chunk_nodes", s.chunk_nodes);
+    if (s.chunk_nodes < 1 || s.chunk_nodes > 4096) n.at("chunk_nodes").fail("must be within [1, 4096]");
+    // The benchmark's baselines (DESIGN.md §7): what a texel stores.
+    std::string method = n.get("method", "dsm");
+    if (method == "dsm") s.method = ShadowMethod::Dsm;
+    else if (method == "shadow_map") s.method = ShadowMethod::ShadowMap;
+    else if (method == "opacity_slices") s.method = ShadowMethod::OpacitySlices;
+    else if (method == "fixed_nodes") s.method = ShadowMethod::FixedNodes;
+    else n.at("method").fail("unknown method '" + method + "' (dsm, shadow_map, opacity_slices or fixed_nodes)");
+    s.method_param = n.get("method_param", s.method_param);
+    if (s.method == ShadowMethod::ShadowMap && !(s.method_param >= 0 && s.method_param <= 1))
+      n.at("method_param").fail("shadow_map: the opacity threshold must be within (0, 1] (0: default 0.5)");
+    if (s.method == ShadowMethod::OpacitySlices &&
+        !(s.method_param == 0 || (s.method_param >= 1 && s.method_param <= 512 && s.method_param == std::floor(s.method_param))))
+      n.at("method_param").fail("opacity_slices: the slice count must be an integer within [1, 512] (0: default 32)");
+    if (s.method == ShadowMethod::FixedNodes &&
+        !(s.method_param == 0 || (s.method_param >= 2 && s.method_param <= 512 && s.method_param == std::floor(s.method_param))))
+      n.at("method_param").fail("fixed_nodes: the node count must be an integer within [2, 512] (0: default 8)");
     s.ambient_light = n.get("ambient", s.ambient_light);
     return s;
   }
@@ -113,27 +181,50 @@ struct Parser {
       }
       return g;
     }
-    n.at("type").fail("unknown grid type '" + type + "' (noise or dense)");
+    n.at("type").fail("unknown grid type '" + type + "' (noise, dense, raw or vdb)");
   }
 
   Volume volume(const JsonNode& n) {
-    n.expect_object({"name", "grid", "voxel_size", "origin", "transfer", "shading", "step_voxels", "gradient_scale"});
+    n.expect_object({"name", "grid", "voxel_size", "origin", "transfer", "shading", "step_voxels", "gradient_scale",
+                     "proxy"});
     Volume v;
     v.name = n.get("name", "");
-    v.grid = grid(n.at("grid"));
-    Vec3 vs = n.get("voxel_size", Vec3{0.05f, 0.05f, 0.05f});
-    if (!(vs.x > 0 && vs.y > 0 && vs.z > 0)) n.at("voxel_size").fail("must be > 0");
-    Vec3 origin = n.get("origin", Vec3{0, 0, 0});
-    // Voxel (i,j,k) centre at origin + (i + 0.5) * voxel_size: the grid's
-    // box spans [origin, origin + n * voxel_size].
-    Mat4 m;
-    m.m[0][0] = vs.x;
-    m.m[1][1] = vs.y;
-    m.m[2][2] = vs.z;
-    m.m[0][3] = origin.x + 0.5f * vs.x;
-    m.m[1][3] = origin.y + 0.5f * vs.y;
-    m.m[2][3] = origin.z + 0.5f * vs.z;
-    v.index_to_object = m;
+    JsonNode gn = n.at("grid");
+    std::string type = gn.at("type").as_string();
+    bool has_spacing = false;
+    Vec3 spacing{1, 1, 1};
+    if (type == "vdb") {  // {"type":"vdb", "file", "grid": name}: the grid's own transform
+      gn.expect_object({"type", "file", "grid"});
+      if (n.has("voxel_size") || n.has("origin"))
+        n.fail("a vdb grid is placed by its own transform: give no voxel_size or origin (use the object's transform)");
+      std::string path = resolve(gn.at("file"));
+      std::string grid_name = gn.get("grid", "density");
+      VdbVolume vdb = load(gn.at("file"), [&] { return load_vdb(path, grid_name); });
+      v.sparse = vdb.grid;
+      v.index_to_object = vdb.index_to_object;
+    } else {
+      v.grid = type == "raw" ? raw_grid(gn, has_spacing, spacing) : grid(gn);
+      if (has_spacing && n.has("voxel_size")) n.fail("give the raw grid's spacing or the volume's voxel_size, not both");
+      Vec3 vs = has_spacing ? spacing : n.get("voxel_size", Vec3{0.05f, 0.05f, 0.05f});
+      if (!(vs.x > 0 && vs.y > 0 && vs.z > 0))
+        (has_spacing ? gn.at("spacing") : n.at("voxel_size")).fail("must be > 0");
+      Vec3 origin = n.get("origin", Vec3{0, 0, 0});
+      // Voxel (i,j,k) centre at origin + (i + 0.5) * voxel_size: the grid's
+      // box spans [origin, origin + n * voxel_size].
+      Mat4 m;
+      m.m[0][0] = vs.x;
+      m.m[1][1] = vs.y;
+      m.m[2][2] = vs.z;
+      m.m[0][3] = origin.x + 0.5f * vs.x;
+      m.m[1][3] = origin.y + 0.5f * vs.y;
+      m.m[2][3] = origin.z + 0.5f * vs.z;
+      v.index_to_object = m;
+    }
+    std::string proxy = n.get("proxy", "box");
+    if (proxy == "box") proxy_of.push_back(VolumeProxy::Box);
+    else if (proxy == "leaves") proxy_of.push_back(VolumeProxy::Leaves);
+    else n.at("proxy").fail("unknown proxy '" + proxy + "' (box or leaves)");
+    if (proxy == "leaves" && !v.sparse) n.at("proxy").fail("a leaves proxy needs a sparse (vdb) grid");
     JsonNode tf = n.at("transfer");
     tf.expect_array();
     if (tf.size() < 1 || tf.size() > size_t(kMaxTransferPoints))
@@ -159,15 +250,10 @@ struct Parser {
     return v;
   }
 
-  // Box proxy of a volume's grid, in object space.
-  std::shared_ptr<TriangleMesh> volume_box(const Volume& v) {
-    const DenseGrid& g = *v.grid;
-    Vec3 lo = v.index_to_object.point({-0.5f, -0.5f, -0.5f});
-    Vec3 hi = v.index_to_object.point({g.nx - 0.5f, g.ny - 0.5f, g.nz - 0.5f});
-    auto m = std::make_shared<TriangleMesh>(make_box(hi - lo));
-    Vec3 c = (lo + hi) * 0.5f;
-    for (Vec3& p : m->positions) p = p + c;
-    return m;
+  // Proxy of a volume's grid (its box, or its active leaves), in object space.
+  std::shared_ptr<TriangleMesh> volume_box(int volume_index) {
+    return std::make_shared<TriangleMesh>(
+        make_volume_proxy(scene.volumes[size_t(volume_index)], proxy_of[size_t(volume_index)]));
   }
 
   std::shared_ptr<TriangleMesh> mesh(const JsonNode& n, int volume_index) {
@@ -208,9 +294,19 @@ struct Parser {
     if (type == "volume_box") {
       n.expect_object({"type"});
       if (volume_index < 0) n.fail("a volume_box mesh needs an interior of type volume");
-      return volume_box(scene.volumes[size_t(volume_index)]);
+      return volume_box(volume_index);
     }
-    n.at("type").fail("unknown mesh type '" + type + "' (box, sphere, ground, quad, teapot, teacup, volume_box)");
+    if (type == "gltf") {  // {"type":"gltf", "file", "node": name or index, "subtree": bool}
+      n.expect_object({"type", "file", "node", "subtree"});
+      std::string node;
+      if (n.has("node")) node = n.at("node").is_number() ? std::to_string(n.at("node").as_int()) : n.at("node").as_string();
+      bool subtree = n.get("subtree", true);
+      if (!subtree && node.empty()) n.at("subtree").fail("subtree false needs a node");
+      std::string path = resolve(n.at("file"));
+      return load(n.at("file"), [&] { return std::make_shared<TriangleMesh>(load_gltf_mesh(path, node, subtree)); });
+    }
+    n.at("type").fail("unknown mesh type '" + type +
+                      "' (box, sphere, ground, quad, teapot, teacup, gltf, volume_box)");
   }
 
   Object object(const JsonNode& n) {
@@ -260,7 +356,7 @@ struct Parser {
       }
     }
     if (n.has("mesh")) o.mesh = mesh(n.at("mesh"), o.volume);
-    else if (o.interior == InteriorKind::Volume) o.mesh = volume_box(scene.volumes[size_t(o.volume)]);
+    else if (o.interior == InteriorKind::Volume) o.mesh = volume_box(o.volume);
     else n.at("mesh").fail("missing required field");
     return o;
   }
@@ -331,14 +427,41 @@ struct Parser {
 
 }  // namespace
 
+namespace {
+
+// Finds where a JSON text fails (syntax errors and numbers out of range alike).
+struct ErrorLocator : nlohmann::json_sax<nlohmann::json> {
+  size_t position = 0;
+  bool null() override { return true; }
+  bool boolean(bool) override { return true; }
+  bool number_integer(number_integer_t) override { return true; }
+  bool number_unsigned(number_unsigned_t) override { return true; }
+  bool number_float(number_float_t, const string_t&) override { return true; }
+  bool string(string_t&) override { return true; }
+  bool binary(binary_t&) override { return true; }
+  bool start_object(std::size_t) override { return true; }
+  bool key(string_t&) override { return true; }
+  bool end_object() override { return true; }
+  bool start_array(std::size_t) override { return true; }
+  bool end_array() override { return true; }
+  bool parse_error(std::size_t pos, const std::string&, const nlohmann::detail::exception&) override {
+    position = pos;
+    return false;
+  }
+};
+
+}  // namespace
+
 Scene parse_scene(const std::string& text, const std::string& name, const std::string& base_dir) {
   nlohmann::json root;
   try {
     root = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
-    // Byte offset -> line and column.
+  } catch (const nlohmann::json::exception& e) {
+    ErrorLocator loc;
+    nlohmann::json::sax_parse(text, &loc);
+    // `position` counts the bytes read, the offending one included (1-based).
     size_t line = 1, col = 1;
-    for (size_t i = 0; i < e.byte && i < text.size(); ++i) {
+    for (size_t i = 0; i + 1 < loc.position && i < text.size(); ++i) {
       if (text[i] == '\n') {
         ++line;
         col = 1;
@@ -346,14 +469,25 @@ Scene parse_scene(const std::string& text, const std::string& name, const std::s
         ++col;
       }
     }
-    throw Error(name + ":" + std::to_string(line) + ":" + std::to_string(col), "invalid JSON");
+    bool range = dynamic_cast<const nlohmann::json::out_of_range*>(&e) != nullptr;
+    throw Error(name + ":" + std::to_string(line) + ":" + std::to_string(col),
+                range ? "number out of range (NaN and infinity are not allowed)" : "invalid JSON");
   }
-  Parser p{name, base_dir, {}, {}};
+  Parser p{name, base_dir, {}, {}, {}};
   p.parse(root);
   return std::move(p.scene);
 }
 
 Scene load_scene(const std::string& path) {
+  // A glTF file is a whole scene by itself.
+  auto ends_with = [&](const char* ext) {
+    std::string e(ext);
+    if (path.size() < e.size()) return false;
+    for (size_t i = 0; i < e.size(); ++i)
+      if (std::tolower(static_cast<unsigned char>(path[path.size() - e.size() + i])) != e[i]) return false;
+    return true;
+  };
+  if (ends_with(".gltf") || ends_with(".glb")) return load_gltf_scene(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "cannot open scene file (missing or unreadable)");
   std::stringstream ss;

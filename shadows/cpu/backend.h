@@ -1,38 +1,82 @@
 // The cpu backend: TBB drivers over tiles that call the CDSM_HD kernels
-// (light pass -> packed DSM, camera pass -> image). DESIGN.md §5.
+// (light pass -> DSM in one of three layouts, camera pass -> image).
+// DESIGN.md §3, §5.
 #pragma once
 
 #include <cstdint>
 #include <vector>
 
+#include "cdsm/scene.h"
 #include "cpu/fragments_cpu.h"
 #include "hd/camera_pass.h"
+#include "hd/dsm_chunked.h"
+#include "hd/dsm_fixed.h"
 #include "hd/light_pass.h"
 
 namespace cdsm {
 
-// Host owner of all deep shadow maps of a frame (packed layout).
+// Which layout the maps of a frame use (DESIGN.md §3), and its parameters.
+struct DsmLayoutParams {
+  uint32_t layout = kDsmPacked;  // kDsmPacked / kDsmFixed / kDsmChunked
+  int fixed_layers = 32;         // fixed: L, node slots per texel (>= 2)
+  int chunk_nodes = 64;          // chunked: C, node slots per chunk (>= 1)
+};
+
+// The layout of the scene's shadow settings.
+inline DsmLayoutParams dsm_layout_params(const ShadowSettings& s) {
+  static_assert(uint32_t(DsmLayout::Packed) == kDsmPacked && uint32_t(DsmLayout::Fixed) == kDsmFixed &&
+                    uint32_t(DsmLayout::Chunked) == kDsmChunked,
+                "layout tags match cdsm::DsmLayout");
+  return {uint32_t(s.layout), s.fixed_layers, s.chunk_nodes};
+}
+
+// Host owner of all deep shadow maps of a frame, in one layout.
 struct DsmBuffers {
+  DsmLayoutParams layout;          // set by the first build_dsm after clear()
   std::vector<DsmMap> maps;
-  std::vector<TexelRange> texels;  // all maps' headers, map by map
-  std::vector<DsmNode> nodes;      // exactly the nodes used
+  std::vector<TexelRange> texels;  // packed, chunked: all maps' headers, map by map
+  std::vector<DsmNode> nodes;      // packed: exactly the nodes used; fixed: L slots per texel
+  std::vector<ChunkNode> chunks;   // chunked: the chunk pool, C slots per chunk
+  uint64_t texel_count = 0;        // all maps' texels (fixed keeps no headers)
+
   DsmStorage storage() const {
-    return {{texels.data(), texels.size()}, {nodes.data(), nodes.size()}};
+    DsmStorage s;
+    s.texels = {texels.data(), texels.size()};
+    s.nodes = {nodes.data(), nodes.size()};
+    s.chunks = {chunks.data(), chunks.size()};
+    s.layout = layout.layout;
+    s.layers = layout.layout == kDsmFixed ? uint32_t(layout.fixed_layers) : 0u;
+    return s;
   }
+  // Appends the maps of `src` (same layout; headers, links and offsets re-based).
+  void append(const DsmBuffers& src);
   void clear() {
     maps.clear();
     texels.clear();
     nodes.clear();
+    chunks.clear();
+    texel_count = 0;
   }
 };
 
+// What building one map cost, in its layout. Bytes: index = per-texel
+// headers; node bytes allocated = what the layout reserves for nodes, used =
+// the nodes stored (chunked: with their links); slack = allocated - used.
 struct DsmBuildStats {
+  uint32_t layout = kDsmPacked;
   uint64_t texels = 0;
-  uint64_t nodes = 0;
-  uint32_t max_nodes = 0;             // per texel
-  uint64_t overflow_texels = 0;       // texels re-compressed to fit the node buffer
-  float max_extra_error = 0.0f;       // error bound added by those re-compressions
-  uint64_t pool_retries = 0;          // node-pool grow-and-redo passes
+  uint64_t nodes = 0;                 // nodes stored
+  uint32_t max_nodes = 0;             // stored, per texel
+  uint32_t max_built_nodes = 0;       // per texel, before the layout's re-compression (fixed)
+  uint64_t overflow_texels = 0;       // texels re-compressed (node buffer K or the layout's L)
+  uint64_t layout_overflow_texels = 0;  // of those: re-compressed to fit the fixed layout's L
+  float max_extra_error = 0.0f;       // error bound those re-compressions added (max over texels)
+  uint64_t index_bytes = 0;
+  uint64_t node_bytes_allocated = 0;
+  uint64_t node_bytes_used = 0;
+  uint64_t slack_bytes = 0;
+  uint64_t chunks = 0;                // chunked: chunks allocated
+  uint64_t pool_retries = 0;          // node-pool grow-and-redo passes (packed, chunked)
   WalkStats walk;
 };
 
@@ -40,12 +84,18 @@ inline constexpr int kDsmTile = 8;             // texels per tile side
 inline constexpr int kTexelNodeCapacity = 1024;  // K: per-texel node buffer (cpu)
 
 // Builds one map from its light-view fragment lists (sorted in place) and
-// appends it to `out` (headers + nodes). Tiles of 8x8 texels each compute
-// their nodes, take a tile-local prefix sum and reserve their exact node
-// count with one atomic add; if the pool is too small it grows to the
-// exact total and the pass is redone.
+// appends it to `out` in `layout` (the first map after out.clear() sets
+// out's layout; later ones must match). Tiles of 8x8 texels each compute
+// their nodes into per-texel buffers of K nodes, then
+//   packed:  tile-local prefix sum, one atomic reservation of the tile's
+//            exact node count;
+//   fixed:   each texel writes its L slots, re-compressed when it has more;
+//   chunked: one atomic reservation of the tile's chunks (hd/dsm_chunked.h).
+// If a pool (packed, chunked) is too small it grows to the exact total and
+// the pass is redone.
 DsmBuildStats build_dsm(const SceneView& scene, const LightPassParams& params, FragmentLists frags,
-                        DsmBuffers& out, int node_capacity = kTexelNodeCapacity);
+                        DsmBuffers& out, const DsmLayoutParams& layout = {},
+                        int node_capacity = kTexelNodeCapacity);
 
 // Shades every pixel of the camera view (fragments sorted in place) into
 // `rgb` (3 floats per pixel, linear).

@@ -168,6 +168,8 @@ uint64_t map_key(const MapPlan& plan, const std::vector<uint64_t>& hashes, const
   }
   h.pod(s.epsilon);
   h.pod(s.layout);
+  h.pod(s.fixed_layers);
+  h.pod(s.chunk_nodes);
   h.pod(s.method);
   h.pod(s.method_param);
   return h.h;
@@ -184,20 +186,7 @@ ShadowView ShadowFrame::view(const ShadowSettings& s) const {
   return v;
 }
 
-void append_dsm(DsmBuffers& dst, const DsmBuffers& src) {
-  uint64_t texel_base = dst.texels.size();
-  uint32_t node_base = uint32_t(dst.nodes.size());
-  for (DsmMap m : src.maps) {
-    m.texel_offset += texel_base;
-    dst.maps.push_back(m);
-  }
-  dst.texels.reserve(dst.texels.size() + src.texels.size());
-  for (TexelRange r : src.texels) {
-    r.offset += node_base;
-    dst.texels.push_back(r);
-  }
-  dst.nodes.insert(dst.nodes.end(), src.nodes.begin(), src.nodes.end());
-}
+void append_dsm(DsmBuffers& dst, const DsmBuffers& src) { dst.append(src); }
 
 namespace {
 
@@ -311,8 +300,8 @@ void build_shadow_frame(const Scene& scene, const SceneBuffers& sb, const Fragme
       frame.fragments += fb.total();
       t0 = std::chrono::steady_clock::now();
       std::vector<uint32_t> inside = objects_containing(sv, plan.view.eye, mask);
-      LightPassParams lp{plan.view, s.epsilon, {inside.data(), inside.size()}};
-      entry.stats = build_dsm(sv, lp, fb.lists(), entry.dsm);
+      LightPassParams lp{plan.view, s.epsilon, {inside.data(), inside.size()}, uint32_t(s.method), s.method_param};
+      entry.stats = build_dsm(sv, lp, fb.lists(), entry.dsm, dsm_layout_params(s));
       frame.build_ms += ms_since(t0);
       frame.map_rebuilt.push_back(1);
       ++frame.rebuilt;

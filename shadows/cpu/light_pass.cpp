@@ -1,10 +1,15 @@
-// cpu driver of the light pass: packed DSM with exact allocation per tile.
+// cpu driver of the light pass: one map into one of the three DSM layouts
+// (DESIGN.md §3). Tiles of 8x8 texels run in parallel; each texel's nodes go
+// to a bounded per-texel buffer first, then into the layout.
 #include <tbb/combinable.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <atomic>
+#include <limits>
+#include <stdexcept>
+#include <string>
 
 #include "cpu/backend.h"
 
@@ -17,93 +22,241 @@ void add(WalkStats& a, const WalkStats& b) {
   a.unmatched += b.unmatched;
 }
 
+bool same_layout(const DsmLayoutParams& a, const DsmLayoutParams& b) {
+  if (a.layout != b.layout) return false;
+  if (a.layout == kDsmFixed) return a.fixed_layers == b.fixed_layers;
+  if (a.layout == kDsmChunked) return a.chunk_nodes == b.chunk_nodes;
+  return true;
+}
+
+void check_layout(const DsmLayoutParams& p) {
+  if (p.layout > kDsmChunked) throw std::invalid_argument("build_dsm: unknown DSM layout " + std::to_string(p.layout));
+  if (p.layout == kDsmFixed && (p.fixed_layers < 2 || p.fixed_layers > 4096))
+    throw std::invalid_argument("build_dsm: fixed_layers must be within [2, 4096]");
+  if (p.layout == kDsmChunked && (p.chunk_nodes < 1 || p.chunk_nodes > 4096))
+    throw std::invalid_argument("build_dsm: chunk_nodes must be within [1, 4096]");
+}
+
+// The first map after clear() sets the buffers' layout; all maps share it.
+void adopt_layout(DsmBuffers& out, const DsmLayoutParams& p) {
+  if (out.maps.empty()) {
+    out.layout = p;
+  } else if (!same_layout(out.layout, p)) {
+    throw std::logic_error("DsmBuffers: maps of different layouts cannot share buffers");
+  }
+}
+
+void check_u32(uint64_t v, const char* what) {
+  if (v > std::numeric_limits<uint32_t>::max())
+    throw std::length_error(std::string("DSM ") + what + " exceed 2^32 entries");
+}
+
+// Per-thread scratch: the node buffers of one tile's texels.
+struct Scratch {
+  std::vector<DsmNode> nodes;     // kDsmTile^2 buffers of K nodes
+  std::vector<uint32_t> counts;   // nodes per texel, tile order
+  std::vector<TexelRange> heads;  // chunked: headers, tile order
+};
+
 }  // namespace
 
+void DsmBuffers::append(const DsmBuffers& src) {
+  if (src.maps.empty()) return;
+  adopt_layout(*this, src.layout);
+  for (DsmMap m : src.maps) {
+    m.texel_offset += texel_count;
+    maps.push_back(m);
+  }
+  texel_count += src.texel_count;
+  switch (layout.layout) {
+    case kDsmFixed:
+      nodes.insert(nodes.end(), src.nodes.begin(), src.nodes.end());
+      break;
+    case kDsmChunked: {
+      const uint32_t base = uint32_t(chunks.size());
+      check_u32(uint64_t(chunks.size()) + src.chunks.size(), "chunk slots");
+      for (TexelRange r : src.texels) {
+        if (r.offset != kChunkEnd) r.offset += base;
+        texels.push_back(r);
+      }
+      chunks.reserve(chunks.size() + src.chunks.size());
+      for (ChunkNode c : src.chunks) {
+        if (c.next != kChunkEnd) c.next += base;
+        chunks.push_back(c);
+      }
+      break;
+    }
+    default: {
+      const uint32_t base = uint32_t(nodes.size());
+      check_u32(uint64_t(nodes.size()) + src.nodes.size(), "nodes");
+      for (TexelRange r : src.texels) {
+        r.offset += base;
+        texels.push_back(r);
+      }
+      nodes.insert(nodes.end(), src.nodes.begin(), src.nodes.end());
+    }
+  }
+}
+
 DsmBuildStats build_dsm(const SceneView& scene, const LightPassParams& params, FragmentLists frags,
-                        DsmBuffers& out, int node_capacity) {
+                        DsmBuffers& out, const DsmLayoutParams& layout, int node_capacity) {
+  check_layout(layout);
+  adopt_layout(out, layout);
+  const uint32_t kind = layout.layout;
   const int res = params.view.width;
+  const int height = params.view.height;
   const int tiles_x = (res + kDsmTile - 1) / kDsmTile;
-  const int tiles_y = (params.view.height + kDsmTile - 1) / kDsmTile;
-  const size_t n_texels = size_t(res) * size_t(params.view.height);
+  const int tiles_y = (height + kDsmTile - 1) / kDsmTile;
+  const size_t n_texels = size_t(res) * size_t(height);
+  const uint32_t L = uint32_t(layout.fixed_layers);
+  const uint32_t C = uint32_t(layout.chunk_nodes);
 
   DsmMap map{};
   map.view = params.view;
   map.res = uint32_t(res);
-  map.texel_offset = out.texels.size();
-  out.texels.resize(out.texels.size() + n_texels, TexelRange{0, 0});
-  TexelRange* headers = out.texels.data() + map.texel_offset;
+  map.texel_offset = out.texel_count;
+  out.texel_count += n_texels;
+  TexelRange* headers = nullptr;
+  if (kind != kDsmFixed) {
+    out.texels.resize(out.texels.size() + n_texels, TexelRange{kind == kDsmChunked ? kChunkEnd : 0u, 0u});
+    headers = out.texels.data() + map.texel_offset;
+  }
+  DsmNode* fixed_slots = nullptr;
+  if (kind == kDsmFixed) {
+    out.nodes.resize(out.nodes.size() + n_texels * L);
+    fixed_slots = out.nodes.data() + map.texel_offset * L;
+  }
 
-  const size_t node_base = out.nodes.size();
-  // First guess of the pool: a few nodes per texel; grows exactly if short.
-  size_t capacity = std::max<size_t>(n_texels * 4, 1024);
+  // The pool of packed nodes or chunked slots: a first guess of a few nodes
+  // per texel, grown to the exact need (and the pass redone) when short.
+  if (kind == kDsmChunked && out.chunks.size() % C != 0) throw std::logic_error("DsmBuffers: chunk pool not whole chunks");
+  const size_t pool_base = kind == kDsmChunked ? out.chunks.size() / C : out.nodes.size();  // nodes or chunks
+  size_t capacity = 0;  // packed: nodes; chunked: chunks
+  if (kind == kDsmPacked) capacity = std::max<size_t>(n_texels * 4, 1024);
+  if (kind == kDsmChunked) capacity = std::max<size_t>(n_texels * 4 / C + size_t(tiles_x) * tiles_y, 16);
+
   DsmBuildStats stats;
+  stats.layout = kind;
   stats.texels = n_texels;
 
-  struct Scratch {
-    std::vector<DsmNode> nodes;
-    std::vector<uint32_t> counts;
-  };
   tbb::enumerable_thread_specific<Scratch> scratch([&] {
     Scratch s;
     s.nodes.resize(size_t(kDsmTile) * kDsmTile * size_t(node_capacity));
     s.counts.resize(size_t(kDsmTile) * kDsmTile);
+    s.heads.resize(size_t(kDsmTile) * kDsmTile);
     return s;
   });
 
   for (;;) {
-    out.nodes.resize(node_base + capacity);
-    std::atomic<uint64_t> used{0};
+    if (kind == kDsmPacked) out.nodes.resize(pool_base + capacity);
+    if (kind == kDsmChunked) {
+      check_u32(uint64_t(pool_base + capacity) * C, "chunk slots");
+      out.chunks.resize((pool_base + capacity) * C, empty_chunk_node());
+    }
+    std::atomic<uint64_t> used{0};  // packed: nodes; chunked: chunks (the thesis's g_c)
     tbb::combinable<DsmBuildStats> partial;
     tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y), [&](const tbb::blocked_range<int>& r) {
       Scratch& s = scratch.local();
       DsmBuildStats& st = partial.local();
       for (int tile = r.begin(); tile < r.end(); ++tile) {
-        int x0 = (tile % tiles_x) * kDsmTile, y0 = (tile / tiles_x) * kDsmTile;
+        const int x0 = (tile % tiles_x) * kDsmTile, y0 = (tile / tiles_x) * kDsmTile;
         uint32_t tile_total = 0;
         for (int k = 0; k < kDsmTile * kDsmTile; ++k) {
-          int tx = x0 + k % kDsmTile, ty = y0 + k / kDsmTile;
+          const int tx = x0 + k % kDsmTile, ty = y0 + k / kDsmTile;
           s.counts[k] = 0;
-          if (tx >= res || ty >= params.view.height) continue;
+          if (tx >= res || ty >= height) continue;
           NodeBuffer buf{s.nodes.data() + size_t(k) * node_capacity, node_capacity};
           build_texel(scene, params, frags.pixel(tx, ty), tx, ty, buf, st.walk);
-          s.counts[k] = uint32_t(buf.count);
-          tile_total += uint32_t(buf.count);
-          st.max_nodes = std::max(st.max_nodes, uint32_t(buf.count));
-          if (buf.recompressions > 0) {
-            ++st.overflow_texels;
-            st.max_extra_error = std::max(st.max_extra_error, buf.extra_error);
+          st.max_built_nodes = std::max(st.max_built_nodes, uint32_t(buf.count));
+          float extra = buf.extra_error;
+          bool recompressed = buf.recompressions > 0;
+          uint32_t count = uint32_t(buf.count);
+          if (kind == kDsmFixed) {
+            FixedFit fit = write_fixed_texel({buf.nodes, uint64_t(buf.count)}, params.epsilon,
+                                             fixed_slots + (size_t(ty) * res + tx) * L, int(L));
+            count = uint32_t(fit.count);
+            if (fit.recompressed) {
+              ++st.layout_overflow_texels;
+              recompressed = true;
+              extra += fit.extra_error;
+            }
           }
+          if (recompressed) {
+            ++st.overflow_texels;
+            st.max_extra_error = std::max(st.max_extra_error, extra);
+          }
+          s.counts[k] = count;
+          tile_total += count;
+          st.max_nodes = std::max(st.max_nodes, count);
+          st.nodes += count;
         }
-        // One reservation per tile, then a tile-local prefix sum.
-        uint64_t at = used.fetch_add(tile_total);
-        for (int k = 0; k < kDsmTile * kDsmTile; ++k) {
-          int tx = x0 + k % kDsmTile, ty = y0 + k / kDsmTile;
-          if (tx >= res || ty >= params.view.height) continue;
-          TexelRange& hdr = headers[size_t(ty) * res + tx];
-          hdr.offset = uint32_t(node_base + at);
-          hdr.count = s.counts[k];
-          if (at + s.counts[k] <= capacity)
-            std::copy_n(s.nodes.data() + size_t(k) * node_capacity, s.counts[k],
-                        out.nodes.data() + node_base + at);
-          at += s.counts[k];
+        const auto nodes_of = [&](int k) { return s.nodes.data() + size_t(k) * node_capacity; };
+        if (kind == kDsmPacked) {
+          // One reservation per tile, then a tile-local prefix sum.
+          uint64_t at = used.fetch_add(tile_total);
+          for (int k = 0; k < kDsmTile * kDsmTile; ++k) {
+            const int tx = x0 + k % kDsmTile, ty = y0 + k / kDsmTile;
+            if (tx >= res || ty >= height) continue;
+            TexelRange& hdr = headers[size_t(ty) * res + tx];
+            hdr.offset = uint32_t(pool_base + at);
+            hdr.count = s.counts[k];
+            if (at + s.counts[k] <= capacity) std::copy_n(nodes_of(k), s.counts[k], out.nodes.data() + pool_base + at);
+            at += s.counts[k];
+          }
+        } else if (kind == kDsmChunked) {
+          // One reservation of the tile's chunks (Alg. 4.1, hd/dsm_chunked.h).
+          uint32_t chunks = tile_chunks(tile_total, C);
+          uint64_t first = used.fetch_add(chunks);
+          if (first + chunks > capacity) continue;  // short pool: only counted, redone
+          write_chunked_tile(s.counts.data(), kDsmTile * kDsmTile, nodes_of, uint32_t((pool_base + first) * C), C,
+                             out.chunks.data(), s.heads.data());
+          for (int k = 0; k < kDsmTile * kDsmTile; ++k) {
+            const int tx = x0 + k % kDsmTile, ty = y0 + k / kDsmTile;
+            if (tx < res && ty < height) headers[size_t(ty) * res + tx] = s.heads[k];
+          }
         }
       }
     });
-    uint64_t total = used.load();
-    if (total <= capacity) {
-      out.nodes.resize(node_base + total);  // exact: no slack
+    const uint64_t total = used.load();
+    if (kind == kDsmFixed || total <= capacity) {
+      if (kind == kDsmPacked) {
+        check_u32(pool_base + total, "nodes");
+        out.nodes.resize(pool_base + total);  // exact: no slack
+      }
+      if (kind == kDsmChunked) out.chunks.resize((pool_base + total) * C);
       partial.combine_each([&](const DsmBuildStats& p) {
+        stats.nodes += p.nodes;
         stats.max_nodes = std::max(stats.max_nodes, p.max_nodes);
+        stats.max_built_nodes = std::max(stats.max_built_nodes, p.max_built_nodes);
         stats.overflow_texels += p.overflow_texels;
+        stats.layout_overflow_texels += p.layout_overflow_texels;
         stats.max_extra_error = std::max(stats.max_extra_error, p.max_extra_error);
         add(stats.walk, p.walk);
       });
-      stats.nodes = total;
+      if (kind == kDsmChunked) stats.chunks = total;
       break;
     }
     capacity = total;  // grow to the exact need and redo
     ++stats.pool_retries;
   }
+
+  switch (kind) {
+    case kDsmFixed:
+      stats.index_bytes = 0;
+      stats.node_bytes_allocated = uint64_t(n_texels) * L * sizeof(DsmNode);
+      stats.node_bytes_used = stats.nodes * sizeof(DsmNode);
+      break;
+    case kDsmChunked:
+      stats.index_bytes = uint64_t(n_texels) * sizeof(TexelRange);
+      stats.node_bytes_allocated = stats.chunks * C * sizeof(ChunkNode);
+      stats.node_bytes_used = stats.nodes * sizeof(ChunkNode);
+      break;
+    default:
+      stats.index_bytes = uint64_t(n_texels) * sizeof(TexelRange);
+      stats.node_bytes_allocated = stats.nodes * sizeof(DsmNode);
+      stats.node_bytes_used = stats.nodes * sizeof(DsmNode);
+  }
+  stats.slack_bytes = stats.node_bytes_allocated - stats.node_bytes_used;
   out.maps.push_back(map);
   return stats;
 }

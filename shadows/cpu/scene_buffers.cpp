@@ -5,6 +5,10 @@
 #include <cmath>
 #include <string>
 
+#include <tbb/parallel_for.h>
+
+#include <atomic>
+
 #include "cdsm/error.h"
 #include "hd/fragment.h"
 #include "hd/volume.h"
@@ -48,6 +52,15 @@ TransferData compile_transfer(const Volume& v, const std::string& where) {
   return tf;
 }
 
+// The transfer function is piecewise linear: its maximum over the density
+// range [lo, hi] is at an end or at a control point inside.
+float max_extinction(const TransferData& tf, float lo, float hi) {
+  float m = std::max(apply_transfer(tf, lo).extinction, apply_transfer(tf, hi).extinction);
+  for (int p = 0; p < tf.count; ++p)
+    if (tf.density[p] > lo && tf.density[p] < hi) m = std::max(m, tf.extinction[p]);
+  return m;
+}
+
 // Maximum extinction over the voxels each macro-cell's samples can touch.
 void build_macro_cells(SceneBuffers& sb, VolumeData& vd, const DenseGrid& g) {
   vd.mx = (g.nx + kMacroCell - 1) / kMacroCell;
@@ -68,14 +81,101 @@ void build_macro_cells(SceneBuffers& sb, VolumeData& vd, const DenseGrid& g) {
               lo = std::min(lo, d);
               hi = std::max(hi, d);
             }
-        // The transfer function is piecewise linear: its maximum over
-        // [lo, hi] is at an end or at a control point inside.
-        float m = std::max(apply_transfer(vd.tf, lo).extinction, apply_transfer(vd.tf, hi).extinction);
-        for (int p = 0; p < vd.tf.count; ++p)
-          if (vd.tf.density[p] > lo && vd.tf.density[p] < hi) m = std::max(m, vd.tf.extinction[p]);
-        out[(size_t(ck) * vd.my + cj) * vd.mx + ci] = m;
+        out[(size_t(ck) * vd.my + cj) * vd.mx + ci] = max_extinction(vd.tf, lo, hi);
       }
 }
+
+void compile_dense(SceneBuffers& sb, VolumeData& vd, const DenseGrid& g, const std::string& where) {
+  if (g.nx <= 0 || g.ny <= 0 || g.nz <= 0) throw Error(where, "has an empty grid");
+  if (g.values.size() != size_t(g.nx) * g.ny * g.nz)
+    throw Error(where, "grid holds " + std::to_string(g.values.size()) + " values, dimensions need " +
+                           std::to_string(size_t(g.nx) * g.ny * g.nz));
+  for (size_t i = 0; i < g.values.size(); ++i)
+    if (!is_finite(g.values[i]))
+      throw Error(where, "voxel " + std::to_string(i) + " is NaN or infinite");
+  if (!is_finite(g.background)) throw Error(where, "background is NaN or infinite");
+  vd.grid_kind = kGridDense;
+  vd.nx = g.nx;
+  vd.ny = g.ny;
+  vd.nz = g.nz;
+  vd.background = g.background;
+  vd.voxel_offset = sb.voxels.size();
+  sb.voxels.insert(sb.voxels.end(), g.values.begin(), g.values.end());
+  build_macro_cells(sb, vd, g);
+}
+
+#if CDSM_HAVE_NANOVDB
+// Copies a NanoVDB grid into the pool and stores one maximum extinction
+// per leaf (= macro-cell, apron included). Checks what the sampling relies
+// on: a float grid whose bytes are complete, finite values, and leaves
+// around every leaf that holds a non-background value (so cells without a
+// leaf are background within their apron).
+void compile_nano(SceneBuffers& sb, VolumeData& vd, const SparseGrid& g, const std::string& where) {
+  using Leaf = nanovdb::FloatTree::LeafNodeType;
+  const uint64_t bytes = g.nanovdb_bytes;
+  if (bytes < sizeof(nanovdb::GridData) || bytes > g.nanovdb.size() * sizeof(SparseGrid::Block))
+    throw Error(where, "sparse grid has " + std::to_string(bytes) + " bytes, not a NanoVDB grid");
+  const auto* grid = reinterpret_cast<const nanovdb::FloatGrid*>(g.data());
+  if (!grid->isValid() || grid->gridType() != nanovdb::GridType::Float || grid->gridSize() > bytes)
+    throw Error(where, "sparse grid is not a complete NanoVDB float grid");
+  const nanovdb::FloatTree& tree = grid->tree();
+  const float bg = tree.background();
+  if (!is_finite(bg)) throw Error(where, "background is NaN or infinite");
+  const uint32_t leaves = tree.nodeCount<Leaf>();
+  if (leaves == 0) throw Error(where, "sparse grid has no leaf nodes (no voxels)");
+
+  // Pool: whole 32-byte blocks, so every grid starts aligned.
+  vd.grid_kind = kGridNano;
+  vd.voxel_offset = sb.nano_pool.size() * sizeof(SparseGrid::Block);
+  sb.nano_pool.insert(sb.nano_pool.end(), g.nanovdb.begin(),
+                      g.nanovdb.begin() + ptrdiff_t((bytes + sizeof(SparseGrid::Block) - 1) / sizeof(SparseGrid::Block)));
+  vd.background = bg;
+  const nanovdb::CoordBBox box = tree.bbox();
+  vd.nx = box.max()[0] - box.min()[0] + 1;
+  vd.ny = box.max()[1] - box.min()[1] + 1;
+  vd.nz = box.max()[2] - box.min()[2] + 1;
+  vd.mx = int32_t(leaves);
+  vd.my = vd.mz = 1;
+  vd.macro_offset = sb.macro_max.size();
+  sb.macro_max.resize(sb.macro_max.size() + leaves, 0.0f);
+  float* out = sb.macro_max.data() + vd.macro_offset;
+  const Leaf* first = tree.getFirstLeaf();
+  std::atomic<int64_t> bad_value{-1}, bad_apron{-1};
+  tbb::parallel_for(uint32_t(0), leaves, [&](uint32_t li) {
+    const Leaf& leaf = first[li];
+    const nanovdb::Coord o = leaf.origin();
+    bool non_background = false;
+    for (uint32_t n = 0; n < Leaf::SIZE; ++n) {
+      float x = leaf.getValue(n);
+      if (!is_finite(x)) bad_value = li;
+      non_background |= x != bg;
+    }
+    auto acc = grid->getAccessor();
+    if (non_background)
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx)
+            if (!acc.probeLeaf(o + nanovdb::Coord(dx * Leaf::DIM, dy * Leaf::DIM, dz * Leaf::DIM))) bad_apron = li;
+    float lo = 3e38f, hi = -3e38f;
+    for (int k = o[2] - 1; k <= o[2] + int(Leaf::DIM); ++k)
+      for (int j = o[1] - 1; j <= o[1] + int(Leaf::DIM); ++j)
+        for (int i = o[0] - 1; i <= o[0] + int(Leaf::DIM); ++i) {
+          float x = acc.getValue(nanovdb::Coord(i, j, k));
+          lo = std::min(lo, x);
+          hi = std::max(hi, x);
+        }
+    out[li] = max_extinction(vd.tf, lo, hi);
+  });
+  if (bad_value >= 0)
+    throw Error(where, "sparse grid has a NaN or infinite value in the leaf at " +
+                           std::to_string(first[bad_value].origin()[0]) + "," +
+                           std::to_string(first[bad_value].origin()[1]) + "," +
+                           std::to_string(first[bad_value].origin()[2]));
+  if (bad_apron >= 0)
+    throw Error(where, "sparse grid lacks the leaves around its data that empty-space skipping needs "
+                       "(make sparse grids with cdsm::load_vdb)");
+}
+#endif
 
 }  // namespace
 
@@ -88,6 +188,7 @@ SceneView SceneBuffers::view() const {
   v.volumes = {volumes.data(), volumes.size()};
   v.voxels = {voxels.data(), voxels.size()};
   v.macro_max = {macro_max.data(), macro_max.size()};
+  v.nano_pool = {reinterpret_cast<const uint8_t*>(nano_pool.data()), nano_pool.size() * sizeof(SparseGrid::Block)};
   v.bvh = {bvh.data(), bvh.size()};
   v.bvh_prims = {bvh_prims.data(), bvh_prims.size()};
   return v;
@@ -99,28 +200,21 @@ SceneBuffers compile_scene(const Scene& scene) {
   for (size_t vi = 0; vi < scene.volumes.size(); ++vi) {
     const Volume& v = scene.volumes[vi];
     std::string where = scene.source + ": volume " + std::to_string(vi) + (v.name.empty() ? "" : " '" + v.name + "'");
-    if (!v.grid || v.grid->nx <= 0 || v.grid->ny <= 0 || v.grid->nz <= 0)
-      throw Error(where, "has no grid or an empty grid");
-    const DenseGrid& g = *v.grid;
-    if (g.values.size() != size_t(g.nx) * g.ny * g.nz)
-      throw Error(where, "grid holds " + std::to_string(g.values.size()) + " values, dimensions need " +
-                             std::to_string(size_t(g.nx) * g.ny * g.nz));
-    for (size_t i = 0; i < g.values.size(); ++i)
-      if (!is_finite(g.values[i]))
-        throw Error(where, "voxel " + std::to_string(i) + " is NaN or infinite");
-    if (!is_finite(g.background)) throw Error(where, "background is NaN or infinite");
+    if (!v.grid == !v.sparse) throw Error(where, "needs exactly one grid (dense or sparse)");
     if (!(v.step_voxels > 0.0f) || !is_finite(v.step_voxels)) throw Error(where, "step must be > 0");
     VolumeData vd{};
     vd.tf = compile_transfer(v, where);
-    vd.nx = g.nx;
-    vd.ny = g.ny;
-    vd.nz = g.nz;
-    vd.background = g.background;
     vd.shading = uint32_t(v.shading);
     vd.gradient_scale = v.gradient_scale;
-    vd.voxel_offset = sb.voxels.size();
-    sb.voxels.insert(sb.voxels.end(), g.values.begin(), g.values.end());
-    build_macro_cells(sb, vd, g);
+    if (v.grid) {
+      compile_dense(sb, vd, *v.grid, where);
+    } else {
+#if CDSM_HAVE_NANOVDB
+      compile_nano(sb, vd, *v.sparse, where);
+#else
+      throw Error(where, "sparse (NanoVDB) grids need the NanoVDB headers, absent from this build");
+#endif
+    }
     sb.volumes.push_back(vd);
   }
   // Objects: world-space triangles.

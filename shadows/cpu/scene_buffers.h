@@ -16,6 +16,7 @@ struct SceneBuffers {
   std::vector<VolumeData> volumes;
   std::vector<float> voxels;
   std::vector<float> macro_max;
+  std::vector<SparseGrid::Block> nano_pool;  // NanoVDB grids, each 32-byte aligned
   std::vector<BvhNode> bvh;
   std::vector<uint32_t> bvh_prims;
   std::vector<Box3> object_bounds;  // world-space box per object

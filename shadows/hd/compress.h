@@ -141,17 +141,28 @@ using WedgeCompressor = Wedge<NodeBuffer>;
 
 // Re-compresses buf's nodes in place with tolerance max(2 eps, 1e-3),
 // doubling until at most half the capacity is used. Steps (equal z) stay
-// steps. The output never overtakes the input, so in place is safe.
+// steps while the tolerance is below 1; beyond, a step is merged into the
+// line (its lower node dropped), so the count always falls below half the
+// capacity. The added error is recorded. The output never overtakes the
+// input, so in place is safe.
 CDSM_HD inline void recompress(NodeBuffer& buf) {
   float e = fmaxf(2.0f * buf.eps, 1e-3f);
-  while (buf.count > buf.capacity / 2 && e < 2.0f) {
+  while (buf.count > buf.capacity / 2) {
+    const bool merge_steps = e >= 1.0f;
     int n = buf.count;
     RawSink out{buf.nodes, 0};
     Wedge<RawSink> c(e);
     DsmNode prev{0.0f, 0.0f};
+    float merged = 0.0f;  // largest step merged into a line
     for (int i = 0; i < n; ++i) {
       DsmNode nd = buf.nodes[i];  // read before the output can overwrite it
-      if (i > 0 && nd.z == prev.z && nd.alpha > prev.alpha)
+      if (merge_steps && i + 1 < n && buf.nodes[i + 1].z == nd.z && buf.nodes[i + 1].alpha > nd.alpha) {
+        merged = fmaxf(merged, buf.nodes[i + 1].alpha - nd.alpha);  // drop a step's lower node
+        prev = nd;
+        continue;
+      }
+      bool step = i > 0 && nd.z == prev.z && nd.alpha > prev.alpha;
+      if (step && !merge_steps)
         c.step(out, nd.z, nd.alpha);
       else
         c.push(out, nd.z, nd.alpha);
@@ -159,15 +170,20 @@ CDSM_HD inline void recompress(NodeBuffer& buf) {
     }
     c.finish(out);
     buf.count = out.count;
-    buf.extra_error += e;
+    buf.extra_error += fmaxf(e, merged);
     buf.recompressions += 1;
+    if (merge_steps && e >= 4.0f) break;  // every line fits: at most a handful of nodes left
     e *= 2.0f;
   }
 }
 
 CDSM_HD inline void NodeBuffer::emit(float z, float a) {
-  if (count == capacity) recompress(*this);
-  nodes[count++] = DsmNode{z, a};
+  if (count >= capacity) {
+    recompress(*this);
+    // Keep the function monotone: a re-compressed last node may lie above `a`.
+    if (count > 0) a = fmaxf(a, nodes[count - 1].alpha);
+  }
+  if (count < capacity) nodes[count++] = DsmNode{z, a};
 }
 
 }  // namespace cdsm

@@ -1,5 +1,19 @@
-// Deep shadow map storage (`packed` layout, DESIGN.md §3) and lookup
-// (DESIGN.md §2.5, thesis eq. 3.7, 4.18-4.19).
+// Deep shadow map storage and lookup (DESIGN.md §3 and §2.5; thesis §4.2,
+// eq. 3.7, 4.18-4.19). One interface, three layouts chosen at run time:
+//
+//   packed  per texel {offset, count} into a node pool allocated exactly
+//           (tile-local prefix sum, one reservation per tile); binary search.
+//   fixed   thesis §4.2.1, the "3D texture": res x res x L node slots, L
+//           fixed, a texel's L slots consecutive (layer fastest); its nodes
+//           first, then pads; no per-texel header; binary search over all L
+//           slots.
+//   chunked thesis §4.2.2: chunks of C node slots, filled by the texels of
+//           an 8x8 tile; every node links to its texel's next node, so a
+//           lookup walks the texel's list linearly from its header.
+//
+// This header is the read side of all three (what the camera pass sees);
+// the write sides are hd/dsm_fixed.h, hd/dsm_chunked.h and, for packed, a
+// copy in the driver. The layout is a tag dispatched by a switch (STYLE.md 5).
 #pragma once
 
 #include "hd/compress.h"
@@ -7,33 +21,61 @@
 
 namespace cdsm {
 
-// Per-texel header of the packed layout: the texel's nodes are
-// nodes[offset .. offset+count). std430: 8 bytes.
+// Layout tags; the values equal cdsm::DsmLayout (engine/include/cdsm/scene.h).
+inline constexpr uint32_t kDsmPacked = 0u;
+inline constexpr uint32_t kDsmFixed = 1u;
+inline constexpr uint32_t kDsmChunked = 2u;
+
+// Per-texel header. std430: 8 bytes.
+//   packed:  the texel's nodes are nodes[offset .. offset + count).
+//   chunked: offset = pool slot of the texel's first node (kChunkEnd when
+//            count == 0); count = its nodes (the list's length).
+//   fixed:   none (the layout has no per-texel header).
 struct TexelRange {
   uint32_t offset;
   uint32_t count;
 };
 static_assert(sizeof(TexelRange) == 8, "TexelRange is 8 bytes");
 
+// One slot of the chunked pool: a node and the slot of the same texel's next
+// node. The thesis's C_next / L_next pair is one slot index u = C c + l
+// (eq. 4.13). std430: three scalars, stride 12 (no vec3).
+struct ChunkNode {
+  float z;        // radial depth from the light, world units
+  float alpha;    // accumulated opacity in [0, 1]
+  uint32_t next;  // pool slot of the texel's next node; kChunkEnd after its last
+};
+static_assert(sizeof(ChunkNode) == 12, "ChunkNode is 12 bytes");
+static_assert(alignof(ChunkNode) == 4, "ChunkNode is three scalars");
+inline constexpr uint32_t kChunkEnd = 0xffffffffu;
+
+// Depth of the pads that fill a fixed-layout texel's unused slots (FLT_MAX);
+// a pad's alpha repeats the texel's last alpha (0 for an empty texel), so a
+// search over all L slots stops at the first pad and interpolating from the
+// last node towards it gives that node's alpha exactly.
+inline constexpr float kFixedPadZ = 3.402823466e+38f;
+
 // One deep shadow map: a view from the light (a spot cone, a cube face or a
 // focused cluster frustum) and where its texels live in the shared pools.
 struct DsmMap {
   PinholeView view;       // res x res texels
-  uint64_t texel_offset;  // first TexelRange of this map in DsmStorage::texels
+  uint64_t texel_offset;  // index of the map's first texel among all maps' texels (packed,
+                          // chunked: its first TexelRange; fixed: slots from texel_offset * L)
   uint32_t res;
   uint32_t pad;
 };
+static_assert(sizeof(DsmMap) == 96, "DsmMap is 96 bytes");
 
+// All maps' texels and nodes in one layout (views; the owner is the backend).
 struct DsmStorage {
-  Span<const TexelRange> texels;
-  Span<const DsmNode> nodes;
+  Span<const TexelRange> texels;  // packed, chunked: per-texel headers, map by map; fixed: empty
+  Span<const DsmNode> nodes;      // packed: the exact pool; fixed: `layers` slots per texel
+  Span<const ChunkNode> chunks;   // chunked: the slot pool, chunk after chunk
+  uint32_t layout = kDsmPacked;   // kDsmPacked / kDsmFixed / kDsmChunked
+  uint32_t layers = 0;            // fixed: L, node slots per texel
 };
 
-CDSM_HD CDSM_INLINE Span<const DsmNode> texel_nodes(const DsmStorage& st, const DsmMap& m, int tx,
-                                                    int ty) {
-  TexelRange r = st.texels[m.texel_offset + uint64_t(ty) * m.res + uint64_t(tx)];
-  return st.nodes.subspan(r.offset, r.count);
-}
+// ---- one texel's node list -------------------------------------------------
 
 // First index i with nodes[i].z >= z (binary search).
 CDSM_HD CDSM_INLINE uint32_t lower_bound_z(Span<const DsmNode> n, float z) {
@@ -46,18 +88,21 @@ CDSM_HD CDSM_INLINE uint32_t lower_bound_z(Span<const DsmNode> n, float z) {
   return lo;
 }
 
+// alpha at z on the line between consecutive nodes a.z < z < b.z.
+CDSM_HD CDSM_INLINE float alpha_between(DsmNode a, DsmNode b, float z) {
+  return lerpf(a.alpha, b.alpha, (z - a.z) / (b.z - a.z));
+}
+
 // alpha(z) of one texel's visibility function: 0 before the first node, the
 // last value after the last, linear between; exactly at a node depth the
 // first node there (for a step: the value before it — a surface exactly at
 // a step is lit by the light arriving at it). Zero-width intervals are never
-// interpolated.
+// interpolated. j is the first node with z_j >= z.
 CDSM_HD CDSM_INLINE float alpha_at_index(Span<const DsmNode> n, float z, uint32_t j) {
   if (j >= n.size()) return n.size() ? n[n.size() - 1].alpha : 0.0f;
   if (n[j].z == z) return n[j].alpha;
   if (j == 0) return 0.0f;
-  DsmNode a = n[j - 1], b = n[j];
-  float w = (z - a.z) / (b.z - a.z);
-  return lerpf(a.alpha, b.alpha, w);
+  return alpha_between(n[j - 1], n[j], z);
 }
 
 CDSM_HD CDSM_INLINE float lookup_alpha(Span<const DsmNode> n, float z) {
@@ -78,6 +123,83 @@ CDSM_HD CDSM_INLINE float lookup_alpha_from(Span<const DsmNode> n, float z, uint
   return alpha_at_index(n, z, j);
 }
 
+// The same function read from a chunked texel: a linear walk along the
+// texel's links (the thesis's layout allows no binary search). Same
+// arithmetic as alpha_at_index, so the layouts agree bit for bit.
+CDSM_HD CDSM_INLINE float lookup_alpha_chunked(Span<const ChunkNode> pool, TexelRange head, float z) {
+  DsmNode prev{0.0f, 0.0f};
+  uint32_t slot = head.offset;
+  for (uint32_t i = 0; i < head.count; ++i) {
+    ChunkNode c = pool[slot];
+    if (c.z >= z) {
+      if (c.z == z) return c.alpha;
+      if (i == 0) return 0.0f;
+      return alpha_between(prev, DsmNode{c.z, c.alpha}, z);
+    }
+    prev = DsmNode{c.z, c.alpha};
+    slot = c.next;
+  }
+  return prev.alpha;  // beyond the last node; 0 for an empty texel
+}
+
+// ---- a texel of a map, any layout -------------------------------------------
+
+CDSM_HD CDSM_INLINE uint64_t texel_index(const DsmMap& m, int tx, int ty) {
+  return m.texel_offset + uint64_t(ty) * m.res + uint64_t(tx);
+}
+
+// The L slots of a fixed-layout texel (nodes, then pads).
+CDSM_HD CDSM_INLINE Span<const DsmNode> fixed_slots(const DsmStorage& st, uint64_t texel) {
+  return st.nodes.subspan(texel * st.layers, st.layers);
+}
+
+// A texel's nodes as one contiguous span: packed and fixed only (fixed: all
+// L slots, pads included — lookups on it are exact).
+CDSM_HD CDSM_INLINE Span<const DsmNode> texel_nodes(const DsmStorage& st, const DsmMap& m, int tx,
+                                                    int ty) {
+  CDSM_HD_ASSERT(st.layout != kDsmChunked);
+  uint64_t t = texel_index(m, tx, ty);
+  if (st.layout == kDsmFixed) return fixed_slots(st, t);
+  TexelRange r = st.texels[t];
+  return st.nodes.subspan(r.offset, r.count);
+}
+
+// alpha(z) of texel (tx, ty) of map m.
+CDSM_HD CDSM_INLINE float texel_alpha(const DsmStorage& st, const DsmMap& m, int tx, int ty, float z) {
+  uint64_t t = texel_index(m, tx, ty);
+  switch (st.layout) {
+    case kDsmFixed:
+      return lookup_alpha(fixed_slots(st, t), z);
+    case kDsmChunked:
+      return lookup_alpha_chunked(st.chunks, st.texels[t], z);
+    default: {
+      TexelRange r = st.texels[t];
+      return lookup_alpha(st.nodes.subspan(r.offset, r.count), z);
+    }
+  }
+}
+
+// Copies texel (tx, ty)'s nodes (pads excluded) to out[0 .. min(count, cap))
+// and returns the texel's node count, in any layout (tests, CPU/GPU parity).
+CDSM_HD inline uint32_t read_texel(const DsmStorage& st, const DsmMap& m, int tx, int ty, DsmNode* out,
+                                   uint32_t cap) {
+  uint64_t t = texel_index(m, tx, ty);
+  if (st.layout == kDsmChunked) {
+    TexelRange h = st.texels[t];
+    uint32_t slot = h.offset;
+    for (uint32_t i = 0; i < h.count; ++i) {
+      ChunkNode c = st.chunks[slot];
+      if (i < cap) out[i] = DsmNode{c.z, c.alpha};
+      slot = c.next;
+    }
+    return h.count;
+  }
+  Span<const DsmNode> n = texel_nodes(st, m, tx, ty);
+  uint32_t count = st.layout == kDsmFixed ? lower_bound_z(n, kFixedPadZ) : uint32_t(n.size());
+  for (uint32_t i = 0; i < count && i < cap; ++i) out[i] = n[i];
+  return count;
+}
+
 // alpha at light-space position (u, v) in texels, radial depth z; taps
 // outside the map count as alpha = 0. Bilinear per thesis eq. 4.18-4.19, or
 // the nearest texel when filtering is off.
@@ -87,7 +209,7 @@ CDSM_HD CDSM_INLINE float lookup_map(const DsmStorage& st, const DsmMap& m, floa
   if (!filtering) {
     int tx = int(floorf(u)), ty = int(floorf(v));
     if (tx < 0 || ty < 0 || tx >= res || ty >= res) return 0.0f;
-    return lookup_alpha(texel_nodes(st, m, tx, ty), z);
+    return texel_alpha(st, m, tx, ty, z);
   }
   float lx = u - 0.5f, ly = v - 0.5f;
   float fx = floorf(lx), fy = floorf(ly);
@@ -98,7 +220,7 @@ CDSM_HD CDSM_INLINE float lookup_map(const DsmStorage& st, const DsmMap& m, floa
     int tx = x0 + (k & 1), ty = y0 + (k >> 1);
     float w = ((k & 1) ? wx : 1.0f - wx) * ((k >> 1) ? wy : 1.0f - wy);
     if (w <= 0.0f || tx < 0 || ty < 0 || tx >= res || ty >= res) continue;
-    acc += w * lookup_alpha(texel_nodes(st, m, tx, ty), z);
+    acc += w * texel_alpha(st, m, tx, ty, z);
   }
   return acc;
 }

@@ -2,6 +2,7 @@
 // light ray's segments, accumulate alpha, compress on the fly.
 #pragma once
 
+#include "hd/baselines.h"
 #include "hd/compress.h"
 #include "hd/segments.h"
 #include "hd/view.h"
@@ -12,11 +13,13 @@ struct LightPassParams {
   PinholeView view;              // the map's view from the light
   float epsilon;                 // compression bound
   Span<const uint32_t> inside;   // caster objects containing the light
+  uint32_t method = kMethodDsm;  // ShadowMethod: DSM, or a baseline (hd/baselines.h)
+  float method_param = 0.0f;     // the baseline's parameter (0: its default)
 };
 
 // Compression-friendly sampling of a constant medium: the chord of
 // 1 - exp(-sigma z) over a spacing h deviates by at most h^2 sigma^2 / 8,
-// so h = sqrt(8 eps) / sigma keeps linear pieces within eps.
+// so h = sqrt(8 e) / sigma keeps linear pieces within e.
 inline constexpr int kMaxConstantSamples = 256;
 
 struct DsmVisitor {
@@ -45,7 +48,9 @@ struct DsmVisitor {
     c.push(buf, t0, alpha);
     if (m.volume_count == 0) {
       float len = t1 - t0;
-      float h = sqrtf(8.0f * fmaxf(eps, 1e-5f)) / m.sigma;
+      // Chords within min(eps, 1e-3) of the exponential, so chord and
+      // compression errors together stay within eps + 1e-3.
+      float h = sqrtf(8.0f * fminf(fmaxf(eps, 1e-5f), 1e-3f)) / m.sigma;
       int n = int(ceilf(len / h));
       n = n < 1 ? 1 : (n > kMaxConstantSamples ? kMaxConstantSamples : n);
       float base = 1.0f - alpha;
@@ -76,6 +81,12 @@ struct DsmVisitor {
 // sorted in place; nodes go to `buf`.
 CDSM_HD inline void build_texel(const SceneView& s, const LightPassParams& p, Span<Fragment> frags,
                                 int tx, int ty, NodeBuffer& buf, WalkStats& st) {
+  if (p.method != kMethodDsm) {  // the benchmark's baselines, same rays and walker
+    Vec3 d = pixel_ray(p.view, tx, ty);
+    float t = p.view.far / fmaxf(dot(d, p.view.forward), 1e-6f);
+    build_baseline_texel(s, p.method, p.method_param, p.inside, frags, p.view.eye, d, t, buf, st);
+    return;
+  }
   Vec3 dir = pixel_ray(p.view, tx, ty);
   buf.eps = p.epsilon;
   DsmVisitor vis(s, p.view.eye, dir, p.epsilon, buf);

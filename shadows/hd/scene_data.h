@@ -39,25 +39,37 @@ struct TransferData {
   float pad[2];
 };
 
-// A dense grid volume placed in the world. Macro-cells of
-// kMacroCell^3 voxels hold the maximum extinction (after the transfer
-// function) over the voxels a trilinear sample inside the cell can touch
-// (one-voxel apron), for empty-space skipping.
+// A grid volume placed in the world. Macro-cells of kMacroCell^3 voxels
+// hold the maximum extinction (after the transfer function) over the
+// voxels a trilinear sample inside the cell can touch (one-voxel apron),
+// for empty-space skipping. Cell c covers index positions
+// [c*K - 0.5, (c+1)*K - 0.5) on each axis.
+//  - kGridDense: a dense array in SceneView::voxels, x fastest, and a dense
+//    array of macro-cells.
+//  - kGridNano: a NanoVDB float grid in SceneView::nano_pool. Its leaf
+//    nodes (8^3 voxels) are exactly the macro-cells: one maximum per leaf,
+//    in the tree's leaf order. A cell without a leaf holds only the
+//    background value and has no non-background voxel within its apron
+//    (the loader adds the leaves that guarantee it), so its maximum is the
+//    background's extinction.
 inline constexpr int kMacroCell = 8;
+inline constexpr uint32_t kGridDense = 0u;
+inline constexpr uint32_t kGridNano = 1u;
 
 struct VolumeData {
   Mat4 world_to_index;   // world -> voxel index coordinates
   Mat4 index_to_world;   // inverse
-  uint64_t voxel_offset; // first voxel in SceneView::voxels
-  uint64_t macro_offset; // first macro-cell in SceneView::macro_max
-  int32_t nx, ny, nz;    // voxels
-  int32_t mx, my, mz;    // macro-cells
-  float background;      // value outside the grid
+  uint64_t voxel_offset; // dense: first voxel in SceneView::voxels;
+                         // nano: byte offset of the grid in SceneView::nano_pool (32-aligned)
+  uint64_t macro_offset; // first macro-cell (dense) or per-leaf maximum (nano) in SceneView::macro_max
+  int32_t nx, ny, nz;    // dense: voxels; nano: extent of the active bounding box (information)
+  int32_t mx, my, mz;    // dense: macro-cells; nano: mx = leaf count, my = mz = 1
+  float background;      // value where the grid stores none
   float step;            // march step, world units
   uint32_t shading;      // VolumeShading: 0 scatter, 1 phong
   float gradient_scale;  // phong: gradient -> normal scale
   float voxel_world;     // smallest world size of a voxel edge
-  float pad;
+  uint32_t grid_kind;    // kGridDense / kGridNano
   TransferData tf;
 };
 
@@ -79,6 +91,7 @@ struct SceneView {
   Span<const VolumeData> volumes;
   Span<const float> voxels;        // all dense grids
   Span<const float> macro_max;     // all macro-cell maxima
+  Span<const uint8_t> nano_pool;   // all NanoVDB grids (kGridNano), each 32-byte aligned
   Span<const BvhNode> bvh;         // node 0 is the root (absent if empty)
   Span<const uint32_t> bvh_prims;  // triangle indices referenced by leaves
 };

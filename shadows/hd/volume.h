@@ -5,6 +5,16 @@
 
 #include "hd/scene_data.h"
 
+// NanoVDB is header-only and __hostdev__: sparse grids are sampled through
+// it on the CPU and under nvcc. A build without its headers samples dense
+// grids only (compile_scene rejects sparse ones there).
+#if __has_include(<nanovdb/NanoVDB.h>)
+#include <nanovdb/NanoVDB.h>
+#define CDSM_HAVE_NANOVDB 1
+#else
+#define CDSM_HAVE_NANOVDB 0
+#endif
+
 namespace cdsm {
 
 // Extinction and colour of a density value (piecewise linear, clamped ends).
@@ -34,18 +44,50 @@ CDSM_HD CDSM_INLINE float voxel_at(const SceneView& s, const VolumeData& v, int 
                   uint64_t(i)];
 }
 
-// Trilinear density at index-space position q (voxel centres at integers).
-CDSM_HD CDSM_INLINE float density_at_index(const SceneView& s, const VolumeData& v, Vec3 q) {
-  float fx = floorf(q.x), fy = floorf(q.y), fz = floorf(q.z);
+// Index positions beyond this are far outside any grid: clamped so that
+// integer conversions stay defined (grids span less than 2^30 voxels).
+inline constexpr float kIndexLimit = 1.0e9f;
+
+CDSM_HD CDSM_INLINE float clamp_index(float x) { return fminf(fmaxf(x, -kIndexLimit), kIndexLimit); }
+
+// Trilinear interpolation of the 8 voxels around q; fetch(i, j, k) reads one.
+template <class Fetch>
+CDSM_HD CDSM_INLINE float trilinear(Vec3 q, Fetch&& fetch) {
+  float fx = floorf(clamp_index(q.x)), fy = floorf(clamp_index(q.y)), fz = floorf(clamp_index(q.z));
   int i = int(fx), j = int(fy), k = int(fz);
   float tx = q.x - fx, ty = q.y - fy, tz = q.z - fz;
-  float c000 = voxel_at(s, v, i, j, k), c100 = voxel_at(s, v, i + 1, j, k);
-  float c010 = voxel_at(s, v, i, j + 1, k), c110 = voxel_at(s, v, i + 1, j + 1, k);
-  float c001 = voxel_at(s, v, i, j, k + 1), c101 = voxel_at(s, v, i + 1, j, k + 1);
-  float c011 = voxel_at(s, v, i, j + 1, k + 1), c111 = voxel_at(s, v, i + 1, j + 1, k + 1);
+  float c000 = fetch(i, j, k), c100 = fetch(i + 1, j, k);
+  float c010 = fetch(i, j + 1, k), c110 = fetch(i + 1, j + 1, k);
+  float c001 = fetch(i, j, k + 1), c101 = fetch(i + 1, j, k + 1);
+  float c011 = fetch(i, j + 1, k + 1), c111 = fetch(i + 1, j + 1, k + 1);
   float c00 = lerpf(c000, c100, tx), c10 = lerpf(c010, c110, tx);
   float c01 = lerpf(c001, c101, tx), c11 = lerpf(c011, c111, tx);
   return lerpf(lerpf(c00, c10, ty), lerpf(c01, c11, ty), tz);
+}
+
+#if CDSM_HAVE_NANOVDB
+// The NanoVDB grid of a kGridNano volume.
+CDSM_HD CDSM_INLINE const nanovdb::FloatGrid* nano_grid(const SceneView& s, const VolumeData& v) {
+  return reinterpret_cast<const nanovdb::FloatGrid*>(s.nano_pool.data() + v.voxel_offset);
+}
+#endif
+
+// Trilinear density at index-space position q (voxel centres at integers).
+// Dense and sparse grids: a closed set, dispatched by a switch (STYLE.md 5).
+CDSM_HD CDSM_INLINE float density_at_index(const SceneView& s, const VolumeData& v, Vec3 q) {
+  switch (v.grid_kind) {
+#if CDSM_HAVE_NANOVDB
+    case kGridNano: {
+      // The accessor caches the path to the last leaf: the 8 taps mostly
+      // share one leaf. Unstored voxels read the tile or background value.
+      auto acc = nano_grid(s, v)->getAccessor();
+      return trilinear(q, [&](int i, int j, int k) { return acc.getValue(nanovdb::Coord(i, j, k)); });
+    }
+#endif
+    case kGridDense:
+    default:
+      return trilinear(q, [&](int i, int j, int k) { return voxel_at(s, v, i, j, k); });
+  }
 }
 
 CDSM_HD CDSM_INLINE float density_at(const SceneView& s, const VolumeData& v, Vec3 world) {
@@ -66,15 +108,26 @@ CDSM_HD CDSM_INLINE Vec3 density_gradient(const SceneView& s, const VolumeData& 
           m.m[0][2] * g.x + m.m[1][2] * g.y + m.m[2][2] * g.z};
 }
 
-// Macro-cell containing index position q, or -1 outside the cell grid (then
-// the background decides emptiness).
+// Maximum extinction in the macro-cell containing index position q, or -1
+// where no maximum is stored (outside a dense grid's cells, a sparse cell
+// without a leaf): there the background decides emptiness.
 CDSM_HD CDSM_INLINE float macro_max_at(const SceneView& s, const VolumeData& v, Vec3 q) {
   // Cell c covers index positions [c*K - 0.5, (c+1)*K - 0.5): the voxels a
   // trilinear sample there touches lie in [c*K - 1, (c+1)*K], which the
   // stored maximum includes (the one-voxel apron).
-  int ci = int(floorf((q.x + 0.5f) / float(kMacroCell)));
-  int cj = int(floorf((q.y + 0.5f) / float(kMacroCell)));
-  int ck = int(floorf((q.z + 0.5f) / float(kMacroCell)));
+  int ci = int(floorf((clamp_index(q.x) + 0.5f) / float(kMacroCell)));
+  int cj = int(floorf((clamp_index(q.y) + 0.5f) / float(kMacroCell)));
+  int ck = int(floorf((clamp_index(q.z) + 0.5f) / float(kMacroCell)));
+#if CDSM_HAVE_NANOVDB
+  if (v.grid_kind == kGridNano) {
+    // Leaves are 8^3 voxels at multiples of 8: leaf (ci, cj, ck) is the cell.
+    static_assert(nanovdb::FloatTree::LeafNodeType::DIM == kMacroCell, "a leaf is a macro-cell");
+    const nanovdb::FloatTree& tree = nano_grid(s, v)->tree();
+    const auto* leaf = tree.root().probeLeaf(nanovdb::Coord(ci * kMacroCell, cj * kMacroCell, ck * kMacroCell));
+    if (leaf == nullptr) return -1.0f;
+    return s.macro_max[v.macro_offset + uint64_t(leaf - tree.getFirstLeaf())];
+  }
+#endif
   if (ci < 0 || cj < 0 || ck < 0 || ci >= v.mx || cj >= v.my || ck >= v.mz) return -1.0f;
   return s.macro_max[v.macro_offset + (uint64_t(ck) * uint64_t(v.my) + uint64_t(cj)) * uint64_t(v.mx) +
                      uint64_t(ci)];

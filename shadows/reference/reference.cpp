@@ -1,5 +1,5 @@
 // Reference renderer: parity-based interiors, exact Beer-Lambert for
-// constant media, fine midpoint marching for volumes, shadow rays.
+// constant media, fine Simpson marching for volumes, shadow rays.
 #include "reference/reference.h"
 
 #include <tbb/enumerable_thread_specific.h>
@@ -32,7 +32,7 @@ void ReferenceRenderer::hits_along(Vec3 org, Vec3 dir, float tmax, ObjectMask ma
   });
 }
 
-// Midpoint rule at <= step_voxels, exact zero over empty macro-cells.
+// Simpson at <= step_voxels, exact zero over empty macro-cells.
 float ReferenceRenderer::optical_depth_volume(uint32_t vi, Vec3 org, Vec3 dir, float t0, float t1) const {
   const VolumeData& v = scene_.volumes[vi];
   float h = opt_.step_voxels * v.voxel_world;
@@ -50,11 +50,21 @@ float ReferenceRenderer::optical_depth_volume(uint32_t vi, Vec3 org, Vec3 dir, f
     }
     // Integrate up to the end of this macro-cell with a uniform sub-step.
     float cell_end = std::min(t1, std::max(macro_cell_exit(qo, qd, t), t + 1e-6f * (1.0f + std::fabs(t))));
-    int n = std::max(1, int(std::ceil((cell_end - t) / h)));
+    // Simpson's rule on sub-steps of at most h/2 (fourth order where the
+    // integrand is smooth; the transfer function's kinks make it second
+    // order locally, still far below the midpoint rule's error).
+    // Two Simpson panels per step of at most h.
+    int n = 2 * std::max(1, int(std::ceil((cell_end - t) / h)));
     float dt = (cell_end - t) / float(n);
+    auto sigma_at = [&](float tt) {
+      return double(apply_transfer(v.tf, density_at_index(scene_, v, qo + qd * tt)).extinction);
+    };
+    double f0 = sigma_at(t);
     for (int i = 0; i < n; ++i) {
-      Vec3 q = qo + qd * (t + (float(i) + 0.5f) * dt);
-      tau += double(apply_transfer(v.tf, density_at_index(scene_, v, q)).extinction) * dt;
+      float ta = t + float(i) * dt;
+      double fm = sigma_at(ta + 0.5f * dt), f1 = sigma_at(ta + dt);
+      tau += (f0 + 4.0 * fm + f1) * (double(dt) / 6.0);
+      f0 = f1;
     }
     t = cell_end;
   }

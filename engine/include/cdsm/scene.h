@@ -53,10 +53,33 @@ struct TransferPoint {
 
 enum class VolumeShading : uint32_t { Scatter = 0, Phong = 1 };
 
+// A sparse float grid in NanoVDB's layout: the bytes of one
+// nanovdb::NanoGrid<float> (position-independent, so the same bytes are
+// sampled on the CPU and copied as is to a GPU). Made by load_vdb()
+// (cdsm/loaders.h) from an OpenVDB grid. Index coordinates are the VDB's:
+// voxel centres at integers, which may be negative. A value that is not
+// stored reads as `background`. The summary fields repeat what the bytes
+// say, for code that does not include NanoVDB.
+struct SparseGrid {
+  struct alignas(32) Block {
+    unsigned char bytes[32];
+  };
+  std::string name;            // the grid's name in its file
+  std::vector<Block> nanovdb;  // the NanoVDB grid, 32-byte aligned
+  uint64_t nanovdb_bytes = 0;  // its size in bytes (<= 32 * nanovdb.size())
+  int32_t active_min[3] = {0, 0, 0};  // inclusive index bounds of the active voxels
+  int32_t active_max[3] = {-1, -1, -1};
+  uint64_t active_voxels = 0;
+  float background = 0.0f;
+  float min_value = 0.0f, max_value = 0.0f;  // over the active voxels
+  const void* data() const { return nanovdb.data(); }
+};
+
 // A volume: density grid + placement + transfer function.
 struct Volume {
   std::string name;
-  std::shared_ptr<const DenseGrid> grid;
+  std::shared_ptr<const DenseGrid> grid;     // a dense grid (noise, dense, raw) ...
+  std::shared_ptr<const SparseGrid> sparse;  // ... or a sparse one (vdb): exactly one is set
   Mat4 index_to_object;                 // voxel index coordinates -> object space
   std::vector<TransferPoint> transfer;  // sorted by density, at least 1 point
   VolumeShading shading = VolumeShading::Scatter;
@@ -121,6 +144,8 @@ struct ShadowSettings {
   int32_t max_clusters = 1;     // m
   float d0 = 0.25f;             // clustering threshold, normalized map units
   DsmLayout layout = DsmLayout::Packed;
+  int32_t fixed_layers = 32;    // fixed layout: L, node slots per texel (thesis §4.2.1)
+  int32_t chunk_nodes = 64;     // chunked layout: node slots per chunk (thesis §4.2.2)
   ShadowMethod method = ShadowMethod::Dsm;
   float method_param = 0.0f;    // ShadowMap: opacity threshold; slices / nodes count
   Vec3 ambient_light{1, 1, 1};  // i_a

@@ -1,0 +1,217 @@
+// cdsm bench: statistics over runs, Pareto fronts, and the written results.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <sstream>
+
+#include "bench.h"
+
+namespace cdsm::cli::bench {
+namespace {
+
+std::string num(double v, const char* f = "%.6g") {
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  if (std::isnan(v)) return "nan";
+  char b[64];
+  std::snprintf(b, sizeof b, f, v);
+  return b;
+}
+
+std::string csv_field(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+
+std::string shell_quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+double quantile(const std::vector<double>& sorted, double q) {
+  if (sorted.empty()) return 0.0;
+  double pos = q * double(sorted.size() - 1);
+  size_t i = size_t(pos);
+  double f = pos - double(i);
+  return i + 1 < sorted.size() ? sorted[i] * (1.0 - f) + sorted[i + 1] * f : sorted[i];
+}
+
+}  // namespace
+
+Spread spread_of(std::vector<double> v) {
+  Spread s;
+  if (v.empty()) return s;
+  std::sort(v.begin(), v.end());
+  s.min = v.front();
+  s.max = v.back();
+  s.median = quantile(v, 0.5);
+  s.q1 = quantile(v, 0.25);
+  s.q3 = quantile(v, 0.75);
+  return s;
+}
+
+void mark_pareto(std::vector<Result>& results) {
+  for (Result& a : results) {
+    if (a.is_reference) continue;
+    a.pareto_time = a.pareto_memory = true;
+    for (const Result& b : results) {
+      if (&a == &b || b.is_reference || b.scene_name != a.scene_name) continue;
+      double ea = a.transmittance.rmse, eb = b.transmittance.rmse;
+      auto dominates = [&](double cb, double ca) {
+        return cb <= ca && eb <= ea && (cb < ca || eb < ea);
+      };
+      if (dominates(b.time_ms(), a.time_ms())) a.pareto_time = false;
+      if (dominates(b.memory_bytes(), a.memory_bytes())) a.pareto_memory = false;
+    }
+  }
+}
+
+void write_csv(const std::vector<Result>& results, const std::string& path) {
+  static const char* const kColumns[] = {
+      "scene", "scene_name", "label", "method", "method_param", "epsilon", "resolution", "clusters", "layout",
+      "backend", "fragment_source", "runs", "fragments_ms_median", "build_ms_median", "build_ms_min",
+      "build_ms_max", "build_ms_q1", "build_ms_q3", "camera_ms_median", "camera_ms_min", "camera_ms_max",
+      "camera_ms_q1", "camera_ms_q3", "frame_ms_median", "time_ms", "maps", "texels", "nodes", "index_bytes",
+      "node_bytes", "slack_bytes", "memory_bytes", "avg_nodes_per_texel", "max_nodes_per_texel",
+      "overflow_texels", "overflow_extra_error", "t_points", "t_mean", "t_p99", "t_max", "t_rmse", "image_rmse",
+      "image_psnr_db", "pareto_time", "pareto_memory", "reference_ms", "reference_cached"};
+  std::ofstream f(path);
+  if (!f) throw Error(path, "cannot write the results CSV");
+  for (size_t i = 0; i < std::size(kColumns); ++i) f << (i ? "," : "") << kColumns[i];
+  f << "\n";
+  for (const Result& r : results) {
+    std::map<std::string, std::string> v;
+    const Config& c = r.config;
+    v["scene"] = csv_field(r.scene);
+    v["scene_name"] = csv_field(r.scene_name);
+    v["reference_ms"] = num(r.reference_ms);
+    v["reference_cached"] = r.reference_cached ? "1" : "0";
+    if (r.is_reference) {
+      // The reference renderer's own time; exact by definition.
+      v["label"] = v["method"] = "reference";
+      v["time_ms"] = num(r.reference_ms);
+      for (const char* k : {"t_mean", "t_p99", "t_max", "t_rmse", "image_rmse"}) v[k] = "0";
+      v["image_psnr_db"] = "inf";
+    } else {
+      bool dsm = c.method.method == ShadowMethod::Dsm;
+      const DsmMemory& m = r.stats.memory;
+      const TransmittanceError& t = r.transmittance;
+      v["label"] = csv_field(c.label());
+      v["method"] = c.method.label;
+      v["method_param"] = dsm ? "" : num(c.method.param);
+      v["epsilon"] = dsm ? num(c.eps) : "";
+      v["resolution"] = std::to_string(c.res);
+      v["clusters"] = std::to_string(c.clusters);
+      v["layout"] = c.layout;
+      v["backend"] = c.backend;
+      v["fragment_source"] = r.stats.fragment_source;
+      v["runs"] = std::to_string(r.runs);
+      v["fragments_ms_median"] = num(r.fragments_ms.median);
+      for (auto [name, s] : {std::pair<const char*, const Spread*>{"build_ms", &r.build_ms}, {"camera_ms", &r.camera_ms}}) {
+        std::string n = name;
+        v[n + "_median"] = num(s->median);
+        v[n + "_min"] = num(s->min);
+        v[n + "_max"] = num(s->max);
+        v[n + "_q1"] = num(s->q1);
+        v[n + "_q3"] = num(s->q3);
+      }
+      v["frame_ms_median"] = num(r.frame_ms.median);
+      v["time_ms"] = num(r.time_ms());
+      v["maps"] = std::to_string(m.maps);
+      v["texels"] = std::to_string(m.texels);
+      v["nodes"] = std::to_string(m.nodes);
+      v["index_bytes"] = std::to_string(m.index_bytes);
+      v["node_bytes"] = std::to_string(m.node_bytes);
+      v["slack_bytes"] = std::to_string(m.slack_bytes);
+      v["memory_bytes"] = num(r.memory_bytes(), "%.0f");
+      v["avg_nodes_per_texel"] = num(m.avg_nodes_per_texel);
+      v["max_nodes_per_texel"] = std::to_string(m.max_nodes_per_texel);
+      v["overflow_texels"] = std::to_string(m.overflow_texels);
+      v["overflow_extra_error"] = num(m.max_extra_error);
+      v["t_points"] = std::to_string(t.points);
+      v["t_mean"] = num(t.mean);
+      v["t_p99"] = num(t.p99);
+      v["t_max"] = num(t.max);
+      v["t_rmse"] = num(t.rmse);
+      v["image_rmse"] = num(r.image.rmse);
+      v["image_psnr_db"] = num(r.image.psnr);
+      v["pareto_time"] = r.pareto_time ? "1" : "0";
+      v["pareto_memory"] = r.pareto_memory ? "1" : "0";
+    }
+    for (size_t i = 0; i < std::size(kColumns); ++i) f << (i ? "," : "") << v[kColumns[i]];
+    f << "\n";
+  }
+  if (!f) throw Error(path, "cannot write the results CSV");
+}
+
+void write_markdown(const std::vector<Result>& results, const RunInfo& info, const std::string& path) {
+  std::ofstream f(path);
+  if (!f) throw Error(path, "cannot write the Markdown table");
+  f << "<!-- written by cdsm bench; " << info.date << " -->\n";
+  f << "Command: `" << info.command << "`\n\n";
+  f << "Image " << info.width << "x" << info.height << "; times are the median [min-max] of " << info.repeat
+    << " runs after " << info.warmup << " warm-up run(s), each with a fresh renderer (no map reuse), "
+    << "interleaved across the configurations (round-robin). "
+    << "*time* = DSM build + camera pass (light-view fragment generation, the same for every method at a "
+       "resolution, is in the CSV). Transmittance error: |T - T_ref| at about " << info.error_samples
+    << " shaded points, compositing-weighted (DESIGN.md §7). Memory = index + nodes + slack. "
+       "P: on the Pareto front of time against transmittance RMSE (t) and of memory against it (m).\n\n";
+  std::map<std::string, bool> seen;
+  for (const Result& first : results) {
+    if (seen[first.scene_name]) continue;
+    seen[first.scene_name] = true;
+    f << "### " << first.scene_name << " (`" << first.scene << "`)\n\n";
+    for (const Result& r : results)
+      if (r.scene_name == first.scene_name && r.is_reference)
+        f << "Reference renderer (exact shadow rays, no maps): " << num(r.reference_ms, "%.1f") << " ms"
+          << (r.reference_cached ? " (measured when it was cached)" : "") << ".\n\n";
+    f << "| method | ε | res | m | build ms | camera ms | memory KiB | nodes/texel avg / max | T mean | T p99 | "
+         "T max | T RMSE | PSNR dB | P |\n";
+    f << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    for (const Result& r : results) {
+      if (r.scene_name != first.scene_name || r.is_reference) continue;
+      const Config& c = r.config;
+      bool dsm = c.method.method == ShadowMethod::Dsm;
+      auto ms = [](const Spread& s) { return num(s.median, "%.1f") + " [" + num(s.min, "%.1f") + "–" + num(s.max, "%.1f") + "]"; };
+      std::string p = std::string(r.pareto_time ? "t" : "") + (r.pareto_memory ? "m" : "");
+      f << "| " << c.method.label << " | " << (dsm ? num(c.eps, "%g") : "") << " | " << c.res << " | " << c.clusters
+        << " | " << ms(r.build_ms) << " | " << ms(r.camera_ms) << " | " << num(r.memory_bytes() / 1024.0, "%.0f")
+        << " | " << num(r.stats.memory.avg_nodes_per_texel, "%.2f") << " / " << r.stats.memory.max_nodes_per_texel
+        << " | " << num(r.transmittance.mean, "%.4f") << " | " << num(r.transmittance.p99, "%.3f") << " | "
+        << num(r.transmittance.max, "%.3f") << " | " << num(r.transmittance.rmse, "%.4f") << " | "
+        << num(r.image.psnr, "%.2f") << " | " << p << " |\n";
+    }
+    f << "\n";
+  }
+}
+
+std::string default_plot_script() {
+  if (const char* p = std::getenv("CDSM_PLOT_SCRIPT"); p && *p) return p;
+#ifdef CDSM_SCRIPTS_DIR
+  return std::string(CDSM_SCRIPTS_DIR) + "/plot_bench.py";
+#else
+  return "scripts/plot_bench.py";
+#endif
+}
+
+bool plot(const std::string& python, const std::string& script, const std::string& csv, const std::string& out_dir) {
+  std::string cmd = shell_quote(python) + " " + shell_quote(script) + " " + shell_quote(csv) + " " + shell_quote(out_dir);
+  std::fflush(stdout);  // keep our lines before the script's
+  int rc = std::system(cmd.c_str());
+  if (rc != 0) {
+    std::fprintf(stderr,
+                 "cdsm bench: warning: the plot failed (%s exited with %d); results.csv and results.md are written.\n"
+                 "  It needs python3 with matplotlib (Debian: apt-get install python3-matplotlib).\n",
+                 cmd.c_str(), rc);
+    return false;
+  }
+  return true;
+}
+
+}  // namespace cdsm::cli::bench

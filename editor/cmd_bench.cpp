@@ -1,0 +1,311 @@
+// cdsm bench: speed against error (DESIGN.md §7). Sweeps epsilon,
+// resolution, cluster count, layout, backend and the baseline methods over
+// scenes; measures build and camera-pass times over repeated runs, memory,
+// nodes per texel, and the error against the exact reference (rendered once
+// per view and cached); writes results.csv, results.md and plots.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <map>
+
+#include "bench.h"
+#include "cmd_bench.h"
+#include "commands.h"
+
+namespace cdsm::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace bench;
+
+const char* kBenchHelp =
+    "usage: cdsm bench SCENE.json... [options]\n"
+    "\n"
+    "Speed against error. For every scene and every configuration of the sweep, renders the\n"
+    "scene's camera view N times (each with a fresh renderer, so every map is built) and reports\n"
+    "median and spread (min, max, quartiles) of the DSM build and camera-pass times, DSM memory\n"
+    "(index, nodes, slack), nodes per texel (average, max), and the error against the exact\n"
+    "reference of the same view (DESIGN.md §7): transmittance |T - T_ref| at sampled shaded\n"
+    "points (mean, p99, max, RMSE) and the image RMSE / PSNR. The reference image of a view is\n"
+    "rendered once (progress bar on stderr) and cached on disk under a hash of the scene content\n"
+    "and the view. The baselines are built from the same light rays and read by the same lookup.\n"
+    "\n"
+    "sweeps (each list is a comma-separated set of values; every combination is measured):\n"
+    "  --sweep eps=0,0.001,0.005,0.01,0.05,0.1,0.2   DSM error bound (default: the scene's);\n"
+    "                           baselines are measured once per resolution, not per eps\n"
+    "  --sweep res=256,512,1024 shadow-map texels per side (default: the scene's)\n"
+    "  --sweep clusters=1,2,4,8 at most m clustered maps per light (default: the scene's)\n"
+    "  --methods LIST           shadow representations (default: all of these):\n"
+    "                             dsm     deep shadow maps, epsilon-bounded (the product)\n"
+    "                             sm      conventional shadow map: opaque where the opacity reaches\n"
+    "                                     0.5 (a surface's own, or the media's accumulated); sm:T for\n"
+    "                                     another threshold T in (0, 1]\n"
+    "                             osmN    opacity shadow maps, N uniform slices over each ray's extent\n"
+    "                                     through the casters (osm16, osm32, osm64)\n"
+    "                             avsmN   AVSM-style fixed-node maps, at most N nodes, greedy\n"
+    "                                     smallest-area node removal (avsm4, avsm8, avsm16)\n"
+    "  --layouts LIST           DSM storage layouts (default: packed)\n"
+    "  --backends LIST          backends (default: cpu)\n"
+    "%s"
+    "\n"
+    "measurement:\n"
+    "  --repeat N               timed runs per configuration (default 5); runs are interleaved: each\n"
+    "                           round renders every configuration of a scene once, so a changing\n"
+    "                           machine load affects all configurations alike\n"
+    "  --warmup N               untimed rounds before them (default 1)\n"
+    "  --width W --height H     image size (default: the scene camera's); the reference is rendered\n"
+    "                           at this size, so keep it small (e.g. 240x160)\n"
+    "  --fragments auto|gl|cpu  fragment producer (default auto: gl when a context can be made)\n"
+    "  --error-samples N        shaded points for the transmittance error (default 20000)\n"
+    "\n"
+    "output:\n"
+    "  --out DIR                where to write (default bench-out): results.csv (every row),\n"
+    "                           results.md (a table per scene), and per scene NAME.csv and NAME.png\n"
+    "                           (time and memory against transmittance RMSE, Pareto front marked)\n"
+    "  --cache DIR              reference cache (default $CDSM_CACHE_DIR, else $XDG_CACHE_HOME/cdsm,\n"
+    "                           else ~/.cache/cdsm)\n"
+    "  --no-cache               render the reference every time, store nothing\n"
+    "  --refresh-reference      render the reference again and replace the cached one\n"
+    "  --no-plot                skip the PNG plots\n"
+    "  --python PATH            interpreter for the plots (default /usr/bin/python3; needs matplotlib)\n"
+    "  --plot-script PATH       the plot script (default scripts/plot_bench.py of this source tree,\n"
+    "                           or $CDSM_PLOT_SCRIPT)\n"
+    "  --help                   this text\n"
+    "\n"
+    "The reference row of each scene is the reference renderer's own time (exact shadow rays).\n"
+    "Example (the checked-in report, docs/bench/, is made by scripts/bench_report.sh):\n"
+    "  cdsm bench content/scenes/default.json --sweep eps=0.01,0.1 --sweep res=256,512 \\\n"
+    "             --methods dsm,sm,osm32,avsm8 --repeat 3 --width 240 --height 160 --out bench-out\n";
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+std::string utc_now() {
+  std::time_t t = std::time(nullptr);
+  char b[64];
+  std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+  return b;
+}
+
+// Measures the configurations of one scene. Timed runs are interleaved —
+// round r renders every configuration once — so a load that changes while
+// the bench runs (a shared machine) spreads over all of them alike instead
+// of favouring whichever ran in a quiet minute. Then the error of each
+// against `ref`.
+std::vector<Result> measure(const Scene& base, const RenderOptions& base_opt, const std::vector<Config>& configs,
+                            const Reference& ref, int warmup, int repeat, const std::string& name) {
+  struct Run {
+    Scene scene;
+    RenderOptions opt;
+    std::vector<double> frag, build, camera, frame;
+    Result r;
+  };
+  std::vector<Run> runs(configs.size());
+  for (size_t k = 0; k < configs.size(); ++k) {
+    runs[k].scene = base;
+    runs[k].opt = base_opt;
+    apply(configs[k], runs[k].scene, runs[k].opt);
+    runs[k].r.scene = base.source;
+    runs[k].r.scene_name = name;
+    runs[k].r.config = configs[k];
+    runs[k].r.runs = repeat;
+  }
+  const int rounds = warmup + repeat;
+  for (int round = 0; round < rounds; ++round) {
+    auto t0 = std::chrono::steady_clock::now();
+    for (Run& run : runs) {
+      Renderer renderer;  // fresh: every map is built, none reused from a previous frame
+      FrameStats st;
+      Image img = renderer.render(run.scene, run.opt, &st);
+      if (st.maps_reused != 0) throw Error("cdsm bench", "internal: a map was reused in a timed run");
+      if (round == 0) run.r.image = compare_images(img, ref.image);  // deterministic: once is enough
+      if (round < warmup) continue;
+      run.frag.push_back(st.times.fragments_ms);
+      run.build.push_back(st.times.dsm_build_ms);
+      run.camera.push_back(st.times.camera_ms);
+      run.frame.push_back(st.times.total_ms);
+      run.r.stats = st;
+    }
+    std::fprintf(stderr, "%s: round %d/%d (%s) of %zu configurations: %.1f s\n", name.c_str(), round + 1, rounds,
+                 round < warmup ? "warm-up" : "timed", runs.size(), ms_since(t0) / 1000.0);
+  }
+  std::vector<Result> out;
+  for (size_t k = 0; k < runs.size(); ++k) {
+    auto t0 = std::chrono::steady_clock::now();
+    Run& run = runs[k];
+    Result& r = run.r;
+    r.fragments_ms = spread_of(run.frag);
+    r.build_ms = spread_of(run.build);
+    r.camera_ms = spread_of(run.camera);
+    r.frame_ms = spread_of(run.frame);
+    Renderer renderer;
+    r.transmittance = renderer.transmittance_error(run.scene, run.opt);
+    r.reference_ms = ref.ms;
+    r.reference_cached = ref.cached;
+    std::fprintf(stderr,
+                 "[%zu/%zu] %s %-26s build %7.1f ms  camera %6.1f ms  %7.0f KiB  nodes %.2f/%u  T-RMSE %.5f  "
+                 "PSNR %.2f dB  (error %.1f s)\n",
+                 k + 1, runs.size(), name.c_str(), configs[k].label().c_str(), r.build_ms.median, r.camera_ms.median,
+                 r.memory_bytes() / 1024.0, r.stats.memory.avg_nodes_per_texel, r.stats.memory.max_nodes_per_texel,
+                 r.transmittance.rmse, r.image.psnr, ms_since(t0) / 1000.0);
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
+std::string unique_name(const std::string& path, std::map<std::string, int>& used) {
+  std::string stem = fs::path(path).stem().string();
+  if (stem.empty()) stem = "scene";
+  int n = ++used[stem];
+  return n == 1 ? stem : stem + "-" + std::to_string(n);
+}
+
+void print_fronts(const std::vector<Result>& results) {
+  std::map<std::string, bool> seen;
+  for (const Result& first : results) {
+    if (first.is_reference || seen[first.scene_name]) continue;
+    seen[first.scene_name] = true;
+    std::printf("%s: Pareto front, time (build + camera pass) against transmittance RMSE:\n", first.scene_name.c_str());
+    std::vector<const Result*> front;
+    for (const Result& r : results)
+      if (r.scene_name == first.scene_name && r.pareto_time) front.push_back(&r);
+    std::sort(front.begin(), front.end(), [](const Result* a, const Result* b) { return a->time_ms() < b->time_ms(); });
+    for (const Result* r : front)
+      std::printf("  %-28s %8.1f ms  RMSE %.5f  %8.0f KiB\n", r->config.label().c_str(), r->time_ms(),
+                  r->transmittance.rmse, r->memory_bytes() / 1024.0);
+  }
+}
+
+}  // namespace
+
+int cmd_bench(const std::vector<std::string>& args) {
+  std::vector<std::string> scenes;
+  Sweep sweep;
+  RenderOptions opt;
+  int repeat = 5, warmup = 1, width = 0, height = 0;
+  std::string out_dir = "bench-out", cache_dir = default_cache_dir(), python = "/usr/bin/python3";
+  std::string plot_script = default_plot_script();
+  bool refresh = false, do_plot = true;
+  std::string command = "cdsm bench";
+  for (const std::string& a : args) command += " " + a;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= args.size()) throw Error(a, "needs a value");
+      return args[++i];
+    };
+    if (a == "--help" || a == "-h") {
+      std::printf(kBenchHelp, capabilities_text().c_str());
+      return 0;
+    } else if (a == "--sweep") {
+      parse_sweep(value(), sweep);
+    } else if (a == "--methods") {
+      sweep.methods = parse_methods(value());
+    } else if (a == "--layouts") {
+      sweep.layouts = parse_layouts(value());
+    } else if (a == "--backends") {
+      sweep.backends = parse_backends(value());
+    } else if (a == "--repeat") {
+      repeat = parse_int(a, value());
+      if (repeat < 1 || repeat > 1000) throw Error("--repeat", "must be within [1, 1000]");
+    } else if (a == "--warmup") {
+      warmup = parse_int(a, value());
+      if (warmup < 0 || warmup > 100) throw Error("--warmup", "must be within [0, 100]");
+    } else if (a == "--width") {
+      width = parse_int(a, value());
+      if (width < 1 || width > 16384) throw Error("--width", "must be within [1, 16384]");
+    } else if (a == "--height") {
+      height = parse_int(a, value());
+      if (height < 1 || height > 16384) throw Error("--height", "must be within [1, 16384]");
+    } else if (a == "--fragments") {
+      std::string v = value();
+      if (v == "auto") opt.fragments = FragmentSource::Auto;
+      else if (v == "gl") opt.fragments = FragmentSource::Gl;
+      else if (v == "cpu") opt.fragments = FragmentSource::Cpu;
+      else throw Error("--fragments", "unknown producer '" + v + "' (auto, gl or cpu)");
+    } else if (a == "--error-samples") {
+      opt.error_samples = parse_int(a, value());
+      if (opt.error_samples < 1 || opt.error_samples > 10000000) throw Error("--error-samples", "must be within [1, 1e7]");
+    } else if (a == "--out") {
+      out_dir = value();
+    } else if (a == "--cache") {
+      cache_dir = value();
+    } else if (a == "--no-cache") {
+      cache_dir.clear();
+    } else if (a == "--refresh-reference") {
+      refresh = true;
+    } else if (a == "--no-plot") {
+      do_plot = false;
+    } else if (a == "--python") {
+      python = value();
+    } else if (a == "--plot-script") {
+      plot_script = value();
+    } else if (!a.empty() && a[0] == '-') {
+      throw Error(a, "unknown option (try cdsm bench --help)");
+    } else {
+      scenes.push_back(a);
+    }
+  }
+  if (scenes.empty()) throw Error("cdsm bench", "needs at least one scene file (try cdsm bench --help)");
+  for (const std::string& s : scenes) {
+    std::error_code ec;
+    if (fs::exists(out_dir, ec) && fs::equivalent(out_dir, s, ec)) throw Error(out_dir, "the output directory is a scene file");
+  }
+  std::error_code ec;
+  fs::create_directories(out_dir, ec);
+  if (ec) throw Error(out_dir, "cannot create the output directory: " + ec.message());
+
+  RunInfo info;
+  info.command = command;
+  info.date = utc_now();
+  info.repeat = repeat;
+  info.warmup = warmup;
+  info.error_samples = opt.error_samples;
+
+  std::vector<Result> results;
+  std::map<std::string, int> used_names;
+  auto t_all = std::chrono::steady_clock::now();
+  for (const std::string& path : scenes) {
+    Scene scene = load_scene(path);
+    if (width > 0) scene.camera.width = width;
+    if (height > 0) scene.camera.height = height;
+    info.width = scene.camera.width;
+    info.height = scene.camera.height;
+    std::string name = unique_name(path, used_names);
+    std::vector<Config> configs = expand(sweep, scene);
+
+    Reference ref = reference_for(scene, opt, cache_dir, refresh);
+    Result rr;
+    rr.scene = path;
+    rr.scene_name = name;
+    rr.is_reference = true;
+    rr.reference_ms = ref.ms;
+    rr.reference_cached = ref.cached;
+    results.push_back(rr);
+
+    for (Result& r : measure(scene, opt, configs, ref, warmup, repeat, name)) {
+      r.scene = path;
+      results.push_back(std::move(r));
+    }
+    mark_pareto(results);
+    std::vector<Result> mine;
+    for (const Result& r : results)
+      if (r.scene_name == name) mine.push_back(r);
+    write_csv(mine, (fs::path(out_dir) / (name + ".csv")).string());
+  }
+  mark_pareto(results);
+  std::string csv = (fs::path(out_dir) / "results.csv").string();
+  std::string md = (fs::path(out_dir) / "results.md").string();
+  write_csv(results, csv);
+  write_markdown(results, info, md);
+  std::printf("wrote %s, %s and per-scene CSVs (%.1f s)\n", csv.c_str(), md.c_str(), ms_since(t_all) / 1000.0);
+  if (do_plot && plot(python, plot_script, csv, out_dir)) std::printf("wrote the plots in %s\n", out_dir.c_str());
+  print_fronts(results);
+  return 0;
+}
+
+}  // namespace cdsm::cli

@@ -1,0 +1,392 @@
+// OpenVDB .vdb -> NanoVDB. The only file that includes OpenVDB (it compiles
+// slowly); everything else samples the NanoVDB bytes this produces.
+#include <openvdb/io/Compression.h>
+#include <openvdb/io/Stream.h>
+#include <openvdb/openvdb.h>
+#include <nanovdb/util/OpenToNanoVDB.h>
+#include <blosc.h>
+#include <zlib.h>
+
+#include <sys/stat.h>
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <mutex>
+#include <new>
+
+#include "cdsm/error.h"
+#include "cdsm/loaders.h"
+
+// OpenVDB 10 reads an uncompressed chunk of a blosc- or zip-compressed
+// grid into its destination *before* checking the chunk's size against
+// it, so a corrupt size field overflows the heap (found by flipping bytes
+// of vpt_box_fog.vdb). These definitions take the place of the library's
+// (it calls them through its PLT) and check every size before any read;
+// the format is OpenVDB's: an int64 byte count, negative for uncompressed
+// data, then the bytes.
+#if OPENVDB_LIBRARY_MAJOR_VERSION_NUMBER == 10
+namespace openvdb {
+OPENVDB_USE_VERSION_NAMESPACE
+namespace OPENVDB_VERSION_NAME {
+namespace io {
+namespace {
+
+// The chunk's stored size, checked against what the caller expects.
+int64_t read_chunk_size(std::istream& is, size_t expected, const char* codec) {
+  int64_t n = 0;
+  is.read(reinterpret_cast<char*>(&n), sizeof(n));
+  if (!is.good()) OPENVDB_THROW(RuntimeError, std::string("stream failure reading the size of a ") + codec + " chunk");
+  if (n <= 0) {
+    if (n == std::numeric_limits<int64_t>::min() || uint64_t(-n) != expected)
+      OPENVDB_THROW(RuntimeError, "expected a " + std::to_string(expected) + "-byte uncompressed chunk, the file says " +
+                                      std::to_string(n == std::numeric_limits<int64_t>::min() ? 0 : -n));
+  } else if (uint64_t(n) > uint64_t(expected) + (uint64_t(expected) >> 3) + 4096) {
+    OPENVDB_THROW(RuntimeError, std::string("a ") + codec + " chunk of " + std::to_string(n) +
+                                    " bytes cannot hold " + std::to_string(expected) + " bytes");
+  }
+  return n;
+}
+
+void read_exact(std::istream& is, char* data, size_t n) {
+  is.read(data, std::streamsize(n));
+  if (!is.good() || size_t(is.gcount()) != n) OPENVDB_THROW(RuntimeError, "the data end before the chunk does");
+}
+
+}  // namespace
+
+void bloscFromStream(std::istream& is, char* data, size_t numBytes) {
+  const int64_t n = read_chunk_size(is, numBytes, "blosc");
+  if (n <= 0) {
+    if (data) read_exact(is, data, numBytes);
+    else is.seekg(std::streamoff(numBytes), std::ios_base::cur);
+    return;
+  }
+  if (!data) {
+    is.seekg(std::streamoff(n), std::ios_base::cur);
+    return;
+  }
+  std::vector<char> packed(size_t(n) + BLOSC_MAX_OVERHEAD);
+  read_exact(is, packed.data(), size_t(n));
+  size_t nbytes = 0, cbytes = 0, blocksize = 0;
+  if (n < BLOSC_MIN_HEADER_LENGTH || blosc_cbuffer_validate(packed.data(), size_t(n), &nbytes) != 0)
+    OPENVDB_THROW(RuntimeError, "corrupt blosc chunk header");
+  blosc_cbuffer_sizes(packed.data(), &nbytes, &cbytes, &blocksize);
+  if (nbytes != numBytes || cbytes != size_t(n))
+    OPENVDB_THROW(RuntimeError, "blosc chunk header says " + std::to_string(nbytes) + " bytes, expected " +
+                                    std::to_string(numBytes));
+  if (blosc_decompress_ctx(packed.data(), data, numBytes, 1) != int(numBytes))
+    OPENVDB_THROW(RuntimeError, "corrupt blosc chunk");
+}
+
+void unzipFromStream(std::istream& is, char* data, size_t numBytes) {
+  const int64_t n = read_chunk_size(is, numBytes, "zip");
+  if (n <= 0) {
+    if (data) read_exact(is, data, numBytes);
+    else is.seekg(std::streamoff(numBytes), std::ios_base::cur);
+    return;
+  }
+  if (!data) {
+    is.seekg(std::streamoff(n), std::ios_base::cur);
+    return;
+  }
+  std::vector<char> packed(static_cast<size_t>(n));
+  read_exact(is, packed.data(), size_t(n));
+  uLongf out = uLongf(numBytes);
+  if (uncompress(reinterpret_cast<Bytef*>(data), &out, reinterpret_cast<const Bytef*>(packed.data()), uLong(n)) != Z_OK ||
+      out != numBytes)
+    OPENVDB_THROW(RuntimeError, "corrupt zip chunk");
+}
+
+}  // namespace io
+}  // namespace OPENVDB_VERSION_NAME
+}  // namespace openvdb
+#endif
+
+namespace cdsm {
+namespace {
+
+// Voxelizing inactive non-background tiles larger than this is refused.
+constexpr uint64_t kMaxTileLeaves = uint64_t(1) << 21;
+
+std::string describe(const openvdb::GridBase& g) {
+  std::string type = g.valueType();
+  if (g.isType<openvdb::FloatGrid>() && g.saveFloatAsHalf()) type = "half";
+  return "'" + g.getName() + "' (" + type + ", " + std::to_string(g.activeVoxelCount()) + " active voxels)";
+}
+
+// Parses "name[n]" into name and n; n = -1 without a suffix.
+void split_index(const std::string& s, std::string& name, int& index) {
+  name = s;
+  index = -1;
+  if (s.size() < 3 || s.back() != ']') return;
+  size_t open = s.rfind('[');
+  if (open == std::string::npos || open + 2 > s.size() - 1) return;
+  int n = 0;
+  for (size_t i = open + 1; i + 1 < s.size(); ++i) {
+    if (s[i] < '0' || s[i] > '9' || n > 100000) return;
+    n = n * 10 + (s[i] - '0');
+  }
+  name = s.substr(0, open);
+  index = n;
+}
+
+// Checks the parts of a .vdb (file versions 222 to 224, with grid offsets)
+// that OpenVDB sizes its allocations from before reading them: every
+// length-prefixed string and metadata value must fit in the file, and every
+// grid must end within it. OpenVDB would otherwise allocate (and zero) what
+// a corrupt length says, up to 4 GiB, before its read fails. Other files
+// go to OpenVDB unchecked.
+class Prologue {
+ public:
+  Prologue(const std::string& path, std::istream& in, uint64_t size) : path_(path), in_(in), size_(size) {}
+
+  void check() {
+    if (size_ < 8 || u64() != 0x56444220u) return;  // OpenVDB reports "not a VDB file"
+    const uint32_t version = u32();
+    if (version < 222 || version > 224) return;
+    u32();  // library major, minor
+    u32();
+    if (u8() == 0) return;  // no grid offsets: nothing to check cheaply
+    skip(36);               // UUID
+    metadata("file metadata");
+    const uint32_t grids = u32();
+    for (uint32_t g = 0; g < grids; ++g) {
+      const std::string name = str("grid name"), type = str("grid type");
+      str("instance parent");
+      const uint64_t grid_pos = u64(), block_pos = u64(), end_pos = u64();
+      if (!(grid_pos <= block_pos && block_pos <= end_pos))
+        throw Error(path_, "corrupt VDB file: grid '" + name + "' has inconsistent offsets");
+      if (end_pos > size_)
+        throw Error(path_, "truncated VDB file: grid '" + name + "' (" + type + ") ends at byte " +
+                               std::to_string(end_pos) + ", the file has " + std::to_string(size_) + " bytes");
+      seek(grid_pos);
+      u32();  // compression flags
+      metadata("metadata of grid '" + name + "'");
+      str("transform of grid '" + name + "'");
+      seek(end_pos);  // the next descriptor follows the grid
+    }
+  }
+
+ private:
+  void need(uint64_t n, const std::string& what) {
+    const uint64_t at = uint64_t(in_.tellg());
+    if (n > size_ || at > size_ - n)
+      throw Error(path_, "corrupt or truncated VDB file: " + what + " of " + std::to_string(n) + " bytes at byte " +
+                             std::to_string(at) + " runs past the end of the file (" + std::to_string(size_) + " bytes)");
+  }
+  template <class T>
+  T pod(const char* what) {
+    need(sizeof(T), what);
+    T v{};
+    in_.read(reinterpret_cast<char*>(&v), sizeof(T));
+    return v;
+  }
+  uint8_t u8() { return pod<uint8_t>("header"); }
+  uint32_t u32() { return pod<uint32_t>("a count"); }
+  uint64_t u64() { return pod<uint64_t>("an offset"); }
+  void skip(uint64_t n) {
+    need(n, "header");
+    in_.seekg(std::streamoff(n), std::ios::cur);
+  }
+  void seek(uint64_t at) {
+    if (at > size_) throw Error(path_, "corrupt VDB file: offset " + std::to_string(at) + " beyond the end");
+    in_.seekg(std::streamoff(at));
+  }
+  std::string str(const std::string& what) {
+    const uint32_t n = u32();
+    need(n, what);
+    std::string s(n, '\0');
+    if (n > 0) in_.read(&s[0], n);
+    return s;
+  }
+  void metadata(const std::string& what) {
+    const uint32_t count = u32();
+    for (uint32_t i = 0; i < count; ++i) {
+      str(what + " name");
+      str(what + " type");
+      const uint32_t n = u32();  // the value's size in bytes, then the value
+      need(n, what + " value");
+      in_.seekg(std::streamoff(n), std::ios::cur);
+    }
+  }
+
+  std::string path_;
+  std::istream& in_;
+  uint64_t size_;
+};
+
+openvdb::GridPtrVecPtr read_all_grids(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path, "cannot open VDB file (missing or unreadable)");
+  in.seekg(0, std::ios::end);
+  const uint64_t size = uint64_t(in.tellg());
+  in.seekg(0);
+  Prologue(path, in, size).check();
+  in.clear();
+  in.seekg(0);
+  openvdb::GridPtrVecPtr grids;
+  try {
+    // OpenVDB does not check for short reads: a truncated or corrupt file
+    // would go on "reading" garbage (and allocating nodes for it) past the
+    // end. A stream that throws on the first failed read stops that.
+    in.exceptions(std::ios::failbit | std::ios::badbit);
+    openvdb::io::Stream stream(in, /*delayLoad=*/false);
+    grids = stream.getGrids();
+  } catch (const std::ios_base::failure&) {
+    throw Error(path, "truncated or corrupt VDB file (a read went past the end of the data)");
+  } catch (const std::bad_alloc&) {
+    throw Error(path, "corrupt VDB file (a size field asks for an impossible allocation)");
+  } catch (const std::exception& e) {
+    throw Error(path, std::string("not a readable VDB file: ") + e.what());
+  }
+  if (in.fail()) throw Error(path, "truncated or corrupt VDB file (the data end before the file says)");
+  if (!grids || grids->empty()) throw Error(path, "VDB file holds no grids");
+  return grids;
+}
+
+openvdb::GridBase::Ptr select_grid(const std::string& path, const openvdb::GridPtrVec& grids,
+                                   const std::string& wanted) {
+  std::string name;
+  int index = -1;
+  split_index(wanted, name, index);
+  std::vector<openvdb::GridBase::Ptr> matches;
+  for (const auto& g : grids)
+    if (g && g->getName() == wanted) matches.push_back(g);
+  if (matches.empty() && index >= 0)
+    for (const auto& g : grids)
+      if (g && g->getName() == name) matches.push_back(g);
+  if (matches.size() == 1 && index < 0) return matches[0];
+  if (index >= 0 && size_t(index) < matches.size() && matches[0]->getName() == name) return matches[size_t(index)];
+  std::string list;
+  for (const auto& g : grids) list += (list.empty() ? "" : ", ") + (g ? describe(*g) : std::string("(null)"));
+  if (matches.empty()) throw Error(path, "no grid named '" + wanted + "'; the file has " + list);
+  throw Error(path, std::to_string(matches.size()) + " grids are named '" + name + "' (pick one as '" + name +
+                        "[0]' to '" + name + "[" + std::to_string(matches.size() - 1) + "]'); the file has " + list);
+}
+
+openvdb::FloatGrid::Ptr as_float_grid(const std::string& path, const openvdb::GridBase::Ptr& g) {
+  if (auto f = openvdb::gridPtrCast<openvdb::FloatGrid>(g)) return f;
+  if (auto d = openvdb::gridPtrCast<openvdb::DoubleGrid>(g)) {  // values converted to float
+    // The value-converting deep copy keeps topology, tiles and states.
+    auto f = openvdb::FloatGrid::create(std::make_shared<openvdb::FloatTree>(d->tree()));
+    f->setTransform(d->transform().copy());
+    f->setName(d->getName());
+    f->setGridClass(d->getGridClass());
+    return f;
+  }
+  throw Error(path, "grid " + describe(*g) + " is not a scalar float grid; only float, half and double "
+                    "density grids are volumes");
+}
+
+Mat4 index_to_object(const std::string& path, const std::string& grid, const openvdb::math::Transform& xf) {
+  if (!xf.isLinear())
+    throw Error(path, "grid '" + grid + "' has a non-linear transform (" + xf.mapType() +
+                          "); only affine index-to-world transforms are supported");
+  const openvdb::Vec3d o = xf.indexToWorld(openvdb::Vec3d(0, 0, 0));
+  Mat4 m;
+  for (int c = 0; c < 3; ++c) {
+    openvdb::Vec3d e(0, 0, 0);
+    e[c] = 1.0;
+    const openvdb::Vec3d col = xf.indexToWorld(e) - o;
+    for (int r = 0; r < 3; ++r) m.m[r][c] = float(col[r]);
+  }
+  for (int r = 0; r < 3; ++r) m.m[r][3] = float(o[r]);
+  for (auto& row : m.m)
+    for (float v : row)
+      if (!std::isfinite(v)) throw Error(path, "grid '" + grid + "' has a NaN or infinite transform");
+  Mat4 inv;
+  if (!invert(m, inv)) throw Error(path, "grid '" + grid + "' has a singular transform");
+  return m;
+}
+
+}  // namespace
+
+bool vdb_supported() { return true; }
+
+VdbVolume load_vdb(const std::string& path, const std::string& grid_name) {
+  static std::once_flag init;
+  std::call_once(init, [] { openvdb::initialize(); });
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) throw Error(path, "cannot open VDB file (missing)");
+
+  openvdb::GridPtrVecPtr grids = read_all_grids(path);
+  openvdb::GridBase::Ptr base = select_grid(path, *grids, grid_name);
+  const std::string name = base->getName();
+  if (base->getGridClass() == openvdb::GRID_LEVEL_SET)
+    throw Error(path, "grid '" + name + "' is a level set (signed distances), not a density; convert it to a fog volume");
+  openvdb::FloatGrid::Ptr grid = as_float_grid(path, base);
+  openvdb::FloatTree& tree = grid->tree();
+  const Mat4 xf = index_to_object(path, name, grid->transform());
+
+  auto sg = std::make_shared<SparseGrid>();
+  sg->name = name;
+  sg->background = tree.background();
+  if (!std::isfinite(sg->background)) throw Error(path, "grid '" + name + "' has a NaN or infinite background");
+  // Every value finite; min and max of the active ones; inactive tiles
+  // that differ from the background (voxelized below).
+  float lo = 3e38f, hi = -3e38f;
+  std::vector<openvdb::CoordBBox> odd_tiles;
+  uint64_t odd_leaves = 0;
+  for (auto it = tree.cbeginValueAll(); it; ++it) {
+    const float v = *it;
+    if (!std::isfinite(v)) {
+      const openvdb::Coord c = it.getCoord();
+      throw Error(path, "grid '" + name + "' has a NaN or infinite value at voxel " + std::to_string(c.x()) + "," +
+                            std::to_string(c.y()) + "," + std::to_string(c.z()));
+    }
+    if (it.isValueOn()) {
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    } else if (it.isTileValue() && v != sg->background) {
+      openvdb::CoordBBox box;
+      it.getBoundingBox(box);
+      odd_leaves += box.volume() / 512;
+      odd_tiles.push_back(box);
+    }
+  }
+  openvdb::CoordBBox active;
+  if (!tree.evalActiveVoxelBoundingBox(active) || tree.activeVoxelCount() == 0)
+    throw Error(path, "grid '" + name + "' has no active voxels");
+  for (int a = 0; a < 3; ++a) {
+    sg->active_min[a] = active.min()[a];
+    sg->active_max[a] = active.max()[a];
+  }
+  sg->active_voxels = tree.activeVoxelCount();
+  sg->min_value = lo;
+  sg->max_value = hi;
+
+  // Leaf-granular empty-space skipping (hd/scene_data.h) needs every value
+  // that differs from the background in a leaf, and a leaf in each of the
+  // 26 blocks around such a leaf (its trilinear apron).
+  if (odd_leaves > kMaxTileLeaves)
+    throw Error(path, "grid '" + name + "' has huge inactive tiles with non-background values");
+  tree.voxelizeActiveTiles();
+  for (const openvdb::CoordBBox& box : odd_tiles)
+    for (int z = box.min().z(); z <= box.max().z(); z += 8)
+      for (int y = box.min().y(); y <= box.max().y(); y += 8)
+        for (int x = box.min().x(); x <= box.max().x(); x += 8) tree.touchLeaf(openvdb::Coord(x, y, z));
+  std::vector<openvdb::Coord> origins;
+  origins.reserve(tree.leafCount());
+  for (auto it = tree.cbeginLeaf(); it; ++it) origins.push_back(it->origin());
+  for (const openvdb::Coord& o : origins)
+    for (int dz = -8; dz <= 8; dz += 8)
+      for (int dy = -8; dy <= 8; dy += 8)
+        for (int dx = -8; dx <= 8; dx += 8) tree.touchLeaf(o.offsetBy(dx, dy, dz));
+
+  nanovdb::GridHandle<nanovdb::HostBuffer> handle;
+  try {
+    handle = nanovdb::openToNanoVDB(*grid);
+  } catch (const std::exception& e) {
+    throw Error(path, "grid '" + name + "' could not be converted to NanoVDB: " + e.what());
+  }
+  if (!handle || !handle.grid<float>()) throw Error(path, "grid '" + name + "' could not be converted to NanoVDB");
+  const uint64_t bytes = handle.size();
+  sg->nanovdb.resize((bytes + sizeof(SparseGrid::Block) - 1) / sizeof(SparseGrid::Block));
+  std::memcpy(sg->nanovdb.data(), handle.data(), bytes);
+  sg->nanovdb_bytes = bytes;
+  return {sg, xf};
+}
+
+}  // namespace cdsm

@@ -1,0 +1,229 @@
+#!/usr/bin/env bash
+# Regenerates the checked-in speed-against-error report, docs/bench/ (issue 6):
+#
+#   bash scripts/bench_report.sh
+#
+# Builds cdsm (Release, CPU backend, no GL: fragments from the exact CPU ray
+# caster, so runs are comparable across machines) in build-report/, runs
+# `cdsm bench` on the default scene and on the CT "virtual X-ray" scene
+# (content/scenes/ct_xray.json; the default scene stands in while it is
+# missing), plus the paper's Table 4 experiment (nodes per texel against
+# epsilon, 4 x 256^2 maps), and writes docs/bench/README.md with the commit,
+# the machine, every table and plot. Under 10 minutes on 2 cores.
+#
+# Environment: CDSM_BENCH_BUILD (build directory), CDSM_BENCH_REPEAT (timed
+# runs per configuration, default 3), CDSM_BENCH_QUICK=1 (a tiny sweep, to
+# test this script), CDSM_CACHE_DIR (reference cache, see cdsm bench --help).
+set -euo pipefail
+
+ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$ROOT"
+BUILD=${CDSM_BENCH_BUILD:-$ROOT/build-report}
+OUT=$ROOT/docs/bench
+REPEAT=${CDSM_BENCH_REPEAT:-3}
+QUICK=${CDSM_BENCH_QUICK:-0}
+PY=/usr/bin/python3
+START=$(date +%s)
+LOAD_START=$(cut -d' ' -f1-3 /proc/loadavg)
+
+echo "== building cdsm in $BUILD" >&2
+cmake -S "$ROOT" -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCDSM_CUDA=OFF -DCDSM_GL=OFF -DCDSM_VDB=OFF \
+  -DCDSM_TESTS=OFF -DCDSM_EDITOR=ON >/dev/null
+ninja -C "$BUILD" cdsm >/dev/null
+CDSM=$BUILD/cdsm
+
+CT=content/scenes/ct_xray.json
+CT_NOTE=""
+if [ ! -f "$CT" ]; then
+  CT=content/scenes/default.json
+  CT_NOTE="content/scenes/ct_xray.json is missing in this tree: the Table 4 experiment ran on the default scene instead."
+fi
+
+WORK=$(mktemp -d)
+trap 'rm -rf "$WORK"' EXIT
+# The thesis' DSMs hold every object; the CT scene's walls only receive
+# shadows. A copy where they cast too, for the Table 4 comparison.
+CT_CAST=$WORK/$(basename "${CT%.json}")_walls_cast.json
+"$PY" - "$CT" "$CT_CAST" <<'EOF'
+import json, os, sys
+src, dst = sys.argv[1], sys.argv[2]
+scene = json.load(open(src))
+for o in scene.get("objects", []):
+    o["casts_shadows"] = True
+# Relative file references keep working from the copy's directory.
+scene["comment"] = "copy of %s with every object casting shadows (made by scripts/bench_report.sh)" % src
+json.dump(scene, open(dst, "w"), indent=1)
+EOF
+# Resolve relative paths of the copy against the original scene's directory.
+if grep -q '"file": "[^$/]' "$CT_CAST"; then cp "$CT_CAST" "$(dirname "$CT")/.bench_walls_cast.json"; CT_CAST=$(dirname "$CT")/.bench_walls_cast.json; trap 'rm -rf "$WORK" "$CT_CAST"' EXIT; fi
+
+SIZE=(--width 240 --height 160)
+COMMON=(--fragments cpu --repeat "$REPEAT" "${SIZE[@]}")
+if [ "$QUICK" = 1 ]; then
+  DEFAULT_SWEEP=(--sweep eps=0.01,0.1 --sweep res=256 --methods dsm,sm,osm16,avsm4)
+  CT_SWEEP=(--sweep eps=0.01 --sweep res=256 --methods dsm,sm)
+  COMMON=(--fragments cpu --repeat 1 --warmup 0 "${SIZE[@]}")
+else
+  DEFAULT_SWEEP=(--sweep eps=0,0.001,0.005,0.01,0.05,0.1,0.2 --sweep res=256,512,1024
+                 --methods dsm,sm,osm16,osm32,osm64,avsm4,avsm8,avsm16)
+  CT_SWEEP=(--sweep eps=0,0.001,0.01,0.05,0.1,0.2 --sweep res=256,512
+            --methods dsm,sm,osm16,osm32,osm64,avsm4,avsm8,avsm16)
+fi
+LAYOUTS=(--methods dsm --sweep eps=0.01 --sweep res=512 --layouts packed,fixed,chunked "${COMMON[@]}" --no-plot)
+CLUSTERS=(--methods dsm --sweep eps=0.01 --sweep res=256 --sweep clusters=1,2,4,8 "${COMMON[@]}" --no-plot)
+TABLE4=(--methods dsm --sweep eps=0.01,0.05,0.1,0.2 --sweep res=256 --sweep clusters=4 --repeat 1 --warmup 0
+        --fragments cpu "${SIZE[@]}" --no-plot)
+
+run() {  # run NAME ARGS... : cdsm bench into $WORK/NAME, its stdout kept
+  local name=$1; shift
+  echo "== cdsm bench $*" >&2
+  "$CDSM" bench "$@" --out "$WORK/$name" > "$WORK/$name.log"
+  cat "$WORK/$name.log" >&2
+}
+# --refresh-reference: the reference renderer's time is measured in this run too.
+run default content/scenes/default.json "${DEFAULT_SWEEP[@]}" "${COMMON[@]}" --refresh-reference
+run ct "$CT" "${CT_SWEEP[@]}" "${COMMON[@]}" --refresh-reference
+run layouts content/scenes/default.json "$CT" "${LAYOUTS[@]}"
+run clusters content/scenes/default.json "${CLUSTERS[@]}"
+run table4 "$CT" "$CT_CAST" "${TABLE4[@]}"
+
+mkdir -p "$OUT"
+rm -f "$OUT"/*.csv "$OUT"/*.png "$OUT"/*.md
+DEF_NAME=default
+CT_NAME=$(basename "${CT%.json}")
+cp "$WORK/default/$DEF_NAME.csv" "$WORK/default/$DEF_NAME.png" "$OUT/"
+cp "$WORK/default/results.md" "$OUT/$DEF_NAME.md"
+if [ "$CT_NAME" != "$DEF_NAME" ]; then
+  cp "$WORK/ct/$CT_NAME.csv" "$WORK/ct/$CT_NAME.png" "$OUT/"
+  cp "$WORK/ct/results.md" "$OUT/$CT_NAME.md"
+fi
+cp "$WORK/table4/results.csv" "$OUT/table4.csv"
+cp "$WORK/layouts/results.csv" "$OUT/layouts.csv"
+cp "$WORK/clusters/results.csv" "$OUT/clusters.csv"
+# The tables name the temporary output directory: name the report's instead.
+for f in "$OUT"/*.md; do sed -i "s|--out $WORK/[a-z0-9]*|--out docs/bench|g" "$f"; done
+sed_tables() { sed -e 1d -e "s|--out $WORK/[a-z0-9]*|--out <tmp>|g" "$1"; }
+CAST_NAME=$(basename "${CT_CAST%.json}")
+
+# ---- README -------------------------------------------------------------------
+COMMIT=$(git rev-parse --short=12 HEAD 2>/dev/null || echo unknown)
+if [ -n "$(git status --porcelain 2>/dev/null)" ]; then COMMIT="$COMMIT (with uncommitted changes in the working tree)"; fi
+CPU=$(lscpu 2>/dev/null | sed -n 's/^Model name:[[:space:]]*//p' | head -1)
+CORES=$(nproc)
+MEM=$(awk '/MemTotal/ {printf "%.0f GiB", $2 / 1048576}' /proc/meminfo)
+GPU="none"
+if command -v nvidia-smi >/dev/null 2>&1; then GPU=$(nvidia-smi -L 2>/dev/null | tr '\n' ';' || true); [ -n "$GPU" ] || GPU="none"; fi
+OS=$(. /etc/os-release 2>/dev/null && echo "$PRETTY_NAME" || uname -sr)
+LOAD_END=$(cut -d' ' -f1-3 /proc/loadavg)
+MINUTES=$(( ($(date +%s) - START + 59) / 60 ))
+
+fronts() {  # the Pareto lines of a bench log
+  sed -n '/Pareto front/,$p' "$1" | sed 's/^/    /'
+}
+
+{
+  cat <<EOF
+# Speed against error: deep shadow maps and their baselines
+
+Regenerate with **\`bash scripts/bench_report.sh\`** (one command: builds \`cdsm\`
+in \`build-report/\`, runs the sweeps below, rewrites this directory; about
+$MINUTES minutes here). Everything in this directory is written by that script.
+
+| | |
+|---|---|
+| commit | \`$COMMIT\` |
+| date | $(date -u +%Y-%m-%dT%H:%MZ) |
+| machine | $CORES cores, ${CPU:-unknown CPU}, $MEM RAM, GPU: $GPU |
+| system | $OS |
+| load average (1, 5, 15 min) | $LOAD_START at the start, $LOAD_END at the end |
+| build | Release, cpu backend, fragments from the exact CPU ray caster (\`--fragments cpu\`) |
+
+**What is measured** (\`cdsm bench --help\`): every configuration renders the
+scene's camera view at 240x160, $REPEAT timed runs after one warm-up, each with a
+fresh renderer so every map is built, interleaved round-robin over the
+configurations of a scene (a changing load hits all of them alike); *time* is the median DSM build + camera
+pass (bars in the plots: min-max). Light-view fragment generation is the same
+for every method at a resolution and is in the CSVs (\`fragments_ms_median\`).
+Error is against the exact reference renderer (shadow rays, no maps) of the same
+view, rendered once and cached: transmittance |T - T_ref| at about 20,000
+stratified shaded points, weighted by their compositing weight (mean, p99, max,
+RMSE), and the image PSNR (DESIGN.md §7). Memory is index + nodes + slack of the
+\`packed\` layout (an AVSM or OSM in a fixed array would reserve N nodes for every
+texel). A machine with a load average above its core count gives noisy times:
+compare the load line above.
+
+Methods: **dsm** ε-bounded deep shadow maps (the product); **sm** a conventional
+shadow map (opaque where the opacity reaches 0.5: a surface's own alpha test, or
+the media's accumulated opacity); **osmN** opacity shadow maps (Kim & Neumann
+2001) with N uniform slices over each ray's extent through the casters; **avsmN**
+AVSM-style maps (Salvi et al. 2010) with at most N nodes, greedy smallest-area
+node removal; **reference** the reference renderer's own time (exact, no maps).
+All maps are built from the same light rays by the same walker and read by the
+same lookup (shadows/hd/baselines.h).
+
+Per scene: \`NAME.csv\` (every figure), \`NAME.md\` (the table), \`NAME.png\` (time
+and memory against transmittance RMSE, the Pareto fronts marked).
+
+## Default scene (\`content/scenes/default.json\`)
+
+![default](default.png)
+
+Pareto front (time against transmittance RMSE), from the run:
+
+$(fronts "$WORK/default.log")
+
+$(sed 1d "$OUT/default.md")
+
+EOF
+  if [ "$CT_NAME" != "$DEF_NAME" ]; then
+    cat <<EOF
+## CT "virtual X-ray" scene (\`$CT\`)
+
+![$CT_NAME]($CT_NAME.png)
+
+Pareto front (time against transmittance RMSE), from the run:
+
+$(fronts "$WORK/ct.log")
+
+$(sed 1d "$OUT/$CT_NAME.md")
+
+EOF
+  fi
+  cat <<EOF
+## Layouts (thesis §4.2): packed, fixed ("3D texture"), chunked
+
+The same maps in the three storage layouts (DESIGN.md §3): *fixed* reserves L
+node slots per texel (memory = slack where texels need fewer), *chunked* links
+chunks of nodes per texel. Raw rows: \`layouts.csv\`.
+
+$(sed_tables "$WORK/layouts/results.md")
+
+## Clusters (thesis §3.4, Alg. 4.2)
+
+At most m clustered maps per light, each res² texels, on the default scene.
+Raw rows: \`clusters.csv\`.
+
+$(sed_tables "$WORK/clusters/results.md")
+
+## The paper's Table 4: nodes per texel against ε
+
+Bornik et al. 2012, Table 4 (thesis Table 5.10): average and maximum "layers"
+(nodes) per DSM texel on the virtual X-ray scene, 4 x 256² maps. Here: the same
+ε on \`$CT\` with at most 4 clusters of 256² texels each (\`--sweep clusters=4
+--sweep res=256\`), averages over all texels of all maps. ${CT_NOTE}
+Two variants: the scene as checked in (its walls only receive shadows, so most
+texels see the volume alone or nothing) and a copy where every object casts
+(as in the thesis' system, where the wall behind the volume is in the maps and
+adds its step to every texel). Raw rows: \`table4.csv\`.
+
+As checked in (\`$CT_NAME\`):
+
+$("$PY" scripts/plot_bench.py --epsilon-table "$OUT/table4.csv" --scene "$CT_NAME")
+
+Every object casting (\`$CAST_NAME\`):
+
+$("$PY" scripts/plot_bench.py --epsilon-table "$OUT/table4.csv" --scene "$CAST_NAME")
+
+EOF
+} > "$OUT/README.md"
+echo "== wrote $OUT (README.md, CSVs, plots) in $MINUTES min" >&2

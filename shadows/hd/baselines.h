@@ -1,0 +1,245 @@
+// The baselines the benchmark compares deep shadow maps with (issue 6):
+// built from the same light rays and the same segment walker, stored as
+// node lists in the same layout, so the same lookup (hd/dsm.h) reads them.
+//
+//   ShadowMap      a conventional shadow map: a step 0 -> 1 at the first
+//                  depth where the ray turns opaque — a surface whose own
+//                  opacity reaches the threshold (alpha test), or the point
+//                  where the media's accumulated opacity crosses it.
+//   OpacitySlices  opacity shadow maps (Kim & Neumann 2001): alpha exactly
+//                  at N + 1 uniform slice boundaries over the ray's extent
+//                  through the casters, linear in between.
+//   FixedNodes     an AVSM-style map (Salvi et al. 2010): at most N nodes,
+//                  built by streaming the exact samples and, when over N,
+//                  dropping the interior node whose removal changes the area
+//                  under alpha(z) least.
+#pragma once
+
+#include "hd/compress.h"
+#include "hd/segments.h"
+#include "hd/view.h"
+
+namespace cdsm {
+
+// What a texel stores; the values of cdsm::ShadowMethod (public scene.h).
+inline constexpr uint32_t kMethodDsm = 0u;
+inline constexpr uint32_t kMethodShadowMap = 1u;
+inline constexpr uint32_t kMethodOpacitySlices = 2u;
+inline constexpr uint32_t kMethodFixedNodes = 3u;
+
+// Defaults when ShadowSettings::method_param is 0.
+inline constexpr float kDefaultOpacityThreshold = 0.5f;
+inline constexpr int kDefaultOpacitySlices = 32;
+inline constexpr int kDefaultFixedNodes = 8;
+
+// Spacing of the samples of a constant medium fed to the baselines: the
+// chord of 1 - exp(-sigma z) stays within 1e-4 of it (see light_pass.h).
+inline constexpr float kBaselineChordError = 1e-4f;
+inline constexpr int kMaxBaselineConstantSamples = 256;
+
+// Walks the exact opacity along a light ray and reports it to a builder as
+// surfaces and exponential pieces:
+//   bool surface(float z, float opacity, float before, float after)
+//   bool piece(float z0, float z1, float a0, float a1, float sigma)
+//        alpha(z) = 1 - (1 - a0) exp(-sigma (z - z0)) on [z0, z1], a1 at z1
+//        (sigma = 0: an empty stretch, alpha constant)
+// Both return false once the builder needs no more of the ray; the walk
+// also ends when the ray saturates.
+template <class Builder>
+struct ExactAlphaVisitor {
+  const SceneView& s;
+  Vec3 org, dir;
+  Builder& b;
+  float alpha = 0.0f;
+
+  CDSM_HD ExactAlphaVisitor(const SceneView& sv, Vec3 o, Vec3 d, Builder& builder)
+      : s(sv), org(o), dir(d), b(builder) {}
+
+  CDSM_HD bool saturated() const { return alpha >= kSaturatedAlpha; }
+
+  CDSM_HD bool surface(float t, uint32_t tri, bool /*front*/) {
+    float op = s.objects[s.tri_object[tri]].opacity;
+    if (op <= 0.0f) return true;
+    float before = alpha;
+    alpha = alpha + op * (1.0f - alpha);
+    return b.surface(t, op, before, alpha) && !saturated();
+  }
+
+  CDSM_HD bool piece(float z0, float z1, float sigma) {
+    float a0 = alpha;
+    alpha = 1.0f - (1.0f - a0) * expf(-sigma * (z1 - z0));
+    return b.piece(z0, z1, a0, alpha, sigma) && !saturated();
+  }
+
+  CDSM_HD bool segment(float t0, float t1, const SegmentMedia& m) {
+    if (m.volume_count == 0) {
+      float len = t1 - t0;
+      float h = sqrtf(8.0f * kBaselineChordError) / m.sigma;
+      float nf = ceilf(len / h);  // clamp in float: a huge sigma must not overflow the int
+      int n = nf >= float(kMaxBaselineConstantSamples) ? kMaxBaselineConstantSamples : (nf < 1.0f ? 1 : int(nf));
+      for (int i = 0; i < n; ++i) {
+        float za = t0 + len * float(i) / float(n), zb = t0 + len * float(i + 1) / float(n);
+        if (!piece(za, zb, m.sigma)) return false;
+      }
+      return true;
+    }
+    bool go_on = true;
+    march_segment(
+        s, m, org, dir, t0, t1,
+        [&](const MarchSample& ms) { return go_on = piece(ms.t0, ms.t1, ms.extinction); },
+        [&](float ta, float tb) {
+          if (go_on) go_on = piece(ta, tb, 0.0f);
+        });
+    return go_on;
+  }
+};
+
+// A conventional shadow map: one step to full opacity where the ray turns
+// opaque, no nodes if it never does.
+struct ShadowMapBuilder {
+  NodeBuffer& buf;
+  float threshold;         // opacity that counts as opaque, (0, 1]
+  float media_T = 1.0f;    // transmittance of the media crossed so far
+
+  CDSM_HD void opaque_at(float z) {
+    buf.emit(z, 0.0f);
+    buf.emit(z, 1.0f);
+  }
+  CDSM_HD bool surface(float z, float opacity, float, float) {
+    if (opacity < threshold) return true;
+    opaque_at(z);
+    return false;
+  }
+  CDSM_HD bool piece(float z0, float z1, float, float, float sigma) {
+    if (sigma <= 0.0f) return true;
+    float T1 = media_T * expf(-sigma * (z1 - z0));
+    if (1.0f - T1 < threshold) {
+      media_T = T1;
+      return true;
+    }
+    // Where the media's opacity reaches the threshold: T(z) = 1 - threshold.
+    float zc = z0 + logf(media_T / fmaxf(1.0f - threshold, 1e-30f)) / sigma;
+    opaque_at(clampf(zc, z0, z1));
+    return false;
+  }
+  CDSM_HD void finish() {}
+};
+
+// Opacity shadow maps: alpha at `slices` + 1 uniform boundaries over
+// [z_lo, z_hi], right-continuous at surfaces; the lookup interpolates.
+struct OpacitySliceBuilder {
+  NodeBuffer& buf;
+  int slices;
+  float z_lo, z_hi;
+  int next = 0;          // next boundary to emit
+  float alpha = 0.0f;    // alpha after everything reported so far
+
+  CDSM_HD float boundary(int k) const {
+    return k >= slices ? z_hi : z_lo + (z_hi - z_lo) * (float(k) / float(slices));
+  }
+  // Emits the boundaries before z (strictly), alpha constant there.
+  CDSM_HD void flat_until(float z) {
+    while (next <= slices && boundary(next) < z) buf.emit(boundary(next++), alpha);
+  }
+  CDSM_HD bool surface(float z, float, float, float after) {
+    flat_until(z);
+    alpha = after;
+    return true;
+  }
+  CDSM_HD bool piece(float z0, float z1, float a0, float a1, float sigma) {
+    flat_until(z0);
+    while (next <= slices && boundary(next) < z1) {
+      float z = boundary(next++);
+      buf.emit(z, 1.0f - (1.0f - a0) * expf(-sigma * (z - z0)));
+    }
+    alpha = a1;
+    return true;
+  }
+  CDSM_HD void finish() {
+    while (next <= slices) buf.emit(boundary(next++), alpha);
+  }
+};
+
+// AVSM-style: the exact samples stream into at most `max_nodes` nodes;
+// when one too many, the interior node whose removal changes the area
+// under alpha(z) least (the triangle it spans with its neighbours) goes.
+// First and last nodes stay, so the function keeps its extent and its
+// final opacity; removal keeps alpha monotone.
+struct FixedNodeBuilder {
+  NodeBuffer& buf;
+  int max_nodes;  // >= 2
+
+  CDSM_HD static float removal_area(DsmNode a, DsmNode b, DsmNode c) {
+    return 0.5f * fabsf((b.z - a.z) * (c.alpha - a.alpha) - (b.alpha - a.alpha) * (c.z - a.z));
+  }
+  CDSM_HD void add(float z, float a) {
+    if (buf.count > 0) {
+      DsmNode last = buf.nodes[buf.count - 1];
+      if (last.z == z && last.alpha == a) return;
+    }
+    buf.nodes[buf.count++] = DsmNode{z, a};
+    if (buf.count <= max_nodes) return;
+    int best = 1;
+    float best_area = 3.0e38f;
+    for (int i = 1; i + 1 < buf.count; ++i) {
+      float area = removal_area(buf.nodes[i - 1], buf.nodes[i], buf.nodes[i + 1]);
+      if (area < best_area) {
+        best_area = area;
+        best = i;
+      }
+    }
+    for (int i = best; i + 1 < buf.count; ++i) buf.nodes[i] = buf.nodes[i + 1];
+    --buf.count;
+  }
+  CDSM_HD bool surface(float z, float, float before, float after) {
+    add(z, before);
+    add(z, after);
+    return true;
+  }
+  CDSM_HD bool piece(float z0, float z1, float a0, float a1, float) {
+    add(z0, a0);
+    add(z1, a1);
+    return true;
+  }
+  CDSM_HD void finish() {}
+};
+
+// Builds one texel of a baseline map along unit ray `dir` from `org`,
+// walking [0, t_end]. `param` is ShadowSettings::method_param (0: default).
+CDSM_HD inline void build_baseline_texel(const SceneView& s, uint32_t method, float param,
+                                         Span<const uint32_t> inside, Span<Fragment> frags, Vec3 org,
+                                         Vec3 dir, float t_end, NodeBuffer& buf, WalkStats& st) {
+  if (method == kMethodShadowMap) {
+    float thr = param > 0.0f ? fminf(param, 1.0f) : kDefaultOpacityThreshold;
+    ShadowMapBuilder b{buf, thr};
+    ExactAlphaVisitor<ShadowMapBuilder> vis(s, org, dir, b);
+    walk_ray(s, frags, inside, 0.0f, t_end, vis, st);
+    b.finish();
+  } else if (method == kMethodOpacitySlices) {
+    int n = param >= 1.0f ? int(param) : kDefaultOpacitySlices;
+    n = n > buf.capacity - 1 ? buf.capacity - 1 : n;
+    // The slices span the ray's extent through the casters: from the light
+    // (when it is inside one) or the first fragment, to the last fragment.
+    float lo = inside.empty() ? 3.0e38f : 0.0f, hi = -3.0e38f;
+    for (uint64_t i = 0; i < frags.size(); ++i) {
+      lo = fminf(lo, frags[i].depth);
+      hi = fmaxf(hi, frags[i].depth);
+    }
+    if (!(hi >= lo)) return;  // the ray meets no caster
+    lo = clampf(lo, 0.0f, t_end);
+    hi = clampf(hi, lo, t_end);
+    OpacitySliceBuilder b{buf, n, lo, hi};
+    ExactAlphaVisitor<OpacitySliceBuilder> vis(s, org, dir, b);
+    walk_ray(s, frags, inside, 0.0f, t_end, vis, st);
+    b.finish();
+  } else if (method == kMethodFixedNodes) {
+    int n = param >= 2.0f ? int(param) : kDefaultFixedNodes;
+    n = n > buf.capacity - 1 ? buf.capacity - 1 : n;
+    FixedNodeBuilder b{buf, n};
+    ExactAlphaVisitor<FixedNodeBuilder> vis(s, org, dir, b);
+    walk_ray(s, frags, inside, 0.0f, t_end, vis, st);
+    b.finish();
+  }
+}
+
+}  // namespace cdsm

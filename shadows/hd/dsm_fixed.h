@@ -1,0 +1,144 @@
+// Write side of the `fixed` layout (thesis §4.2.1, the "3D texture";
+// DESIGN.md §3): every texel owns L node slots, its nodes first, then pads
+// (hd/dsm.h, kFixedPadZ). A texel with more than L nodes is re-compressed
+// until it fits — never truncated:
+//   1. the wedge again over its nodes with a larger tolerance e (doubling
+//      from max(2 eps, 1e-3) like compress.h's recompress, then bisected),
+//      which keeps every node within e;
+//   2. when steps alone need more than L nodes (the wedge keeps every
+//      surface as two nodes at any e), greedy removal: stream the nodes
+//      through the L slots, dropping each time the node whose removal changes
+//      alpha least.
+// The extra error is returned as a bound on |alpha_fit(z) - alpha(z)| over
+// all z (stage 1: e; stage 2: the sum of the removal costs).
+#pragma once
+
+#include "hd/dsm.h"
+
+namespace cdsm {
+
+// A wedge sink over the L slots: the first L nodes land in the slots, later
+// ones are only counted (a two-node ring keeps what the wedge reads back).
+struct FixedSlotSink {
+  struct Nodes {
+    FixedSlotSink* s;
+    CDSM_HD DsmNode& operator[](int i) const { return i < s->cap ? s->slots[i] : s->spill[i & 1]; }
+  };
+  DsmNode* slots;
+  int cap;
+  int count = 0;
+  DsmNode spill[2];
+  Nodes nodes;
+
+  CDSM_HD FixedSlotSink(DsmNode* sl, int c) : slots(sl), cap(c), spill{}, nodes{this} {}
+  FixedSlotSink(const FixedSlotSink&) = delete;
+  FixedSlotSink& operator=(const FixedSlotSink&) = delete;
+  CDSM_HD void emit(float z, float a) { nodes[count++] = DsmNode{z, a}; }
+};
+
+// Re-compresses a node list with tolerance e into `out` (steps stay steps);
+// every input node stays within e (+ float rounding) of the output.
+template <class Sink>
+CDSM_HD void rewedge_nodes(Span<const DsmNode> in, float e, Sink& out) {
+  Wedge<Sink> c(e);
+  for (uint64_t i = 0; i < in.size(); ++i) {
+    DsmNode nd = in[i];
+    if (i > 0 && nd.z == in[i - 1].z && nd.alpha > in[i - 1].alpha)
+      c.step(out, nd.z, nd.alpha);
+    else
+      c.push(out, nd.z, nd.alpha);
+  }
+  c.finish(out);
+}
+
+// How much alpha changes (at z_m, where it changes most) when node m is
+// removed from between its neighbours a and b.
+CDSM_HD CDSM_INLINE float removal_cost(DsmNode a, DsmNode m, DsmNode b) {
+  if (b.z <= a.z) return 0.0f;  // all three at one depth: m is never seen
+  float line = m.z <= a.z ? a.alpha : (m.z >= b.z ? b.alpha : alpha_between(a, b, m.z));
+  return fabsf(m.alpha - line);
+}
+
+// Stage 2: keeps at most L >= 2 nodes of `in` in `slots`, streaming; the
+// first and the last node are always kept. Returns the sum of the removal
+// costs (each removal changes alpha by at most its cost, so the sum bounds
+// the total change); `count` receives the nodes kept.
+CDSM_HD inline float greedy_fit_nodes(Span<const DsmNode> in, DsmNode* slots, int L, int& count) {
+  int n = 0;
+  float err = 0.0f;
+  for (uint64_t i = 0; i < in.size(); ++i) {
+    DsmNode x = in[i];
+    if (n < L) {
+      slots[n++] = x;
+      continue;
+    }
+    int best = 1;
+    float best_cost = 3.0e38f;
+    for (int k = 1; k < L; ++k) {
+      float c = removal_cost(slots[k - 1], slots[k], k + 1 < L ? slots[k + 1] : x);
+      if (c < best_cost) {
+        best_cost = c;
+        best = k;
+      }
+    }
+    for (int k = best; k + 1 < L; ++k) slots[k] = slots[k + 1];
+    slots[L - 1] = x;
+    err += best_cost;
+  }
+  count = n;
+  return err;
+}
+
+// What writing one texel did.
+struct FixedFit {
+  int count = 0;              // nodes stored (<= L)
+  float extra_error = 0.0f;   // bound of the error the re-compression added (0 if none)
+  bool recompressed = false;  // the texel had more than L nodes
+};
+
+// Stage 1 for tolerance e: writes into the slots, returns the node count
+// (the slots hold a valid result only when it is <= L).
+CDSM_HD CDSM_INLINE int fixed_rewedge(Span<const DsmNode> in, float e, DsmNode* slots, int L) {
+  FixedSlotSink sink(slots, L);
+  rewedge_nodes(in, e, sink);
+  return sink.count;
+}
+
+// Writes a texel's nodes `in` (eps: the tolerance they were built with) into
+// its L slots, re-compressing them when there are more than L, and pads the
+// rest. L >= 2.
+CDSM_HD inline FixedFit write_fixed_texel(Span<const DsmNode> in, float eps, DsmNode* slots, int L) {
+  CDSM_HD_ASSERT(L >= 2);
+  FixedFit r;
+  if (in.size() <= uint64_t(L)) {
+    for (uint64_t i = 0; i < in.size(); ++i) slots[i] = in[i];
+    r.count = int(in.size());
+  } else {
+    r.recompressed = true;
+    // Doubling: the first tolerance that fits, as compress.h's recompress.
+    float lo = 0.0f, hi = -1.0f;
+    for (float e = fmaxf(2.0f * eps, 1e-3f); e < 2.0f; e *= 2.0f) {
+      if (fixed_rewedge(in, e, slots, L) <= L) {
+        hi = e;
+        break;
+      }
+      lo = e;
+    }
+    if (hi > 0.0f) {
+      // A few bisection steps towards the smallest tolerance that fits.
+      for (int it = 0; it < 4 && lo > 0.0f; ++it) {
+        float mid = 0.5f * (lo + hi);
+        if (fixed_rewedge(in, mid, slots, L) <= L) hi = mid;
+        else lo = mid;
+      }
+      r.count = fixed_rewedge(in, hi, slots, L);  // the slots hold the last trial: redo the one that fits
+      r.extra_error = hi;
+    }
+    if (hi <= 0.0f || r.count > L) r.extra_error = greedy_fit_nodes(in, slots, L, r.count);
+  }
+  float last = r.count > 0 ? slots[r.count - 1].alpha : 0.0f;
+  for (int k = r.count; k < L; ++k) slots[k] = DsmNode{kFixedPadZ, last};
+  return r;
+}
+
+}  // namespace cdsm

@@ -1,0 +1,172 @@
+// Shared helpers of the unit tests: scenes built in code, exact chords of
+// tessellated meshes, piecewise-linear evaluation of node lists.
+#pragma once
+
+#include <algorithm>
+#include <cstdlib>
+#include <cmath>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "cdsm/procedural.h"
+#include "cdsm/scene.h"
+#include "cpu/frame.h"
+#include "cpu/scene_buffers.h"
+#include "hd/bvh.h"
+#include "hd/compress.h"
+
+namespace cdsm_test {
+
+using namespace cdsm;
+
+// Tests of known bugs skip with "BUG: ..." unless CDSM_RUN_KNOWN_BUGS is set
+// (to check a fix: CDSM_RUN_KNOWN_BUGS=1 ctest -L unit).
+inline bool run_known_bugs() {
+  const char* v = std::getenv("CDSM_RUN_KNOWN_BUGS");
+  return v != nullptr && v[0] != '\0' && v[0] != '0';
+}
+
+inline std::shared_ptr<const TriangleMesh> share(TriangleMesh m) {
+  return std::make_shared<const TriangleMesh>(std::move(m));
+}
+
+// An object with the given mesh, placement and surface opacity.
+inline Object make_object(const std::string& name, TriangleMesh mesh, Mat4 transform = Mat4{},
+                          float opacity = 1.0f) {
+  Object o;
+  o.name = name;
+  o.mesh = share(std::move(mesh));
+  o.transform = transform;
+  o.surface.opacity = opacity;
+  return o;
+}
+
+inline Mat4 translation(Vec3 t) { return make_transform(t, {0, 0, 0}, {1, 1, 1}); }
+
+// A scene with a camera and no objects or lights.
+inline Scene empty_scene(const std::string& name) {
+  Scene s;
+  s.source = name;
+  s.camera.position = {0, 2, 6};
+  s.camera.target = {0, 0, 0};
+  s.camera.width = 64;
+  s.camera.height = 48;
+  return s;
+}
+
+inline Light spot_light(Vec3 pos, Vec3 dir, float outer_deg, float inner_deg) {
+  Light l;
+  l.type = LightType::Spot;
+  l.position = pos;
+  l.direction = normalize(dir);
+  l.outer_cone_deg = outer_deg;
+  l.inner_cone_deg = inner_deg;
+  return l;
+}
+
+inline Light point_light(Vec3 pos) {
+  Light l;
+  l.type = LightType::Point;
+  l.position = pos;
+  return l;
+}
+
+// Every hit depth of the triangles of object `object` along org + t dir
+// (unit dir), over all triangles (no BVH), sorted.
+inline std::vector<float> object_hits(const SceneView& s, uint32_t object, Vec3 org, Vec3 dir) {
+  std::vector<float> ts;
+  WatertightRay wr = make_watertight_ray(org, dir);
+  const ObjectData& od = s.objects[object];
+  for (uint32_t tri = od.first_tri; tri < od.first_tri + od.tri_count; ++tri) {
+    TriHit h;
+    if (intersect_triangle(wr, s.tri_vertices[3 * tri], s.tri_vertices[3 * tri + 1],
+                           s.tri_vertices[3 * tri + 2], 0.0f, 3.0e38f, h))
+      ts.push_back(h.t);
+  }
+  std::sort(ts.begin(), ts.end());
+  return ts;
+}
+
+// Length of org + t dir, t in [0, tmax], inside the closed object (parity of
+// its crossings beyond t; the ray origin must be outside it or the hit list
+// odd). This is the exact chord of the tessellated mesh.
+inline double inside_length(const std::vector<float>& ts, double tmax) {
+  double len = 0.0;
+  bool inside = (ts.size() & 1u) != 0u;
+  double start = 0.0;
+  for (float t : ts) {
+    if (inside) len += std::max(0.0, std::min<double>(t, tmax) - start);
+    else start = std::min<double>(t, tmax);
+    inside = !inside;
+  }
+  if (inside) len += std::max(0.0, tmax - start);
+  return len;
+}
+
+inline double chord(const SceneView& s, uint32_t object, Vec3 org, Vec3 dir, double tmax) {
+  return inside_length(object_hits(s, object, org, dir), tmax);
+}
+
+// Piecewise-linear alpha of a node list, treating equal-z nodes as a jump:
+// left(z) is the value 'before' a step at z (what lookup_alpha returns),
+// right(z) the value from z on (the value 'after'). Binary searches.
+struct NodeFunction {
+  const std::vector<DsmNode>& n;
+
+  static double lerp_nodes(const DsmNode& a, const DsmNode& b, double z) {
+    double w = (z - a.z) / (double(b.z) - a.z);
+    return a.alpha + w * (double(b.alpha) - a.alpha);
+  }
+  double left(double z) const {
+    auto it = std::lower_bound(n.begin(), n.end(), z,
+                               [](const DsmNode& a, double v) { return double(a.z) < v; });
+    size_t j = size_t(it - n.begin());  // first node with depth >= z
+    if (j == n.size()) return n.empty() ? 0.0 : n.back().alpha;
+    if (double(n[j].z) == z) return n[j].alpha;
+    if (j == 0) return 0.0;
+    return lerp_nodes(n[j - 1], n[j], z);
+  }
+  double right(double z) const {
+    auto it = std::upper_bound(n.begin(), n.end(), z,
+                               [](double v, const DsmNode& a) { return v < double(a.z); });
+    size_t j = size_t(it - n.begin());  // first node with depth > z
+    if (j == 0) return 0.0;
+    if (j == n.size() || double(n[j - 1].z) == z) return n[j - 1].alpha;
+    return lerp_nodes(n[j - 1], n[j], z);
+  }
+};
+
+// A scene compiled and its lights' deep shadow maps built on the cpu
+// backend with the exact CPU fragment producer.
+struct ShadowFixture {
+  Scene scene;
+  SceneBuffers sb;
+  ShadowCache cache;
+  ShadowFrame frame;
+  explicit ShadowFixture(Scene s) : scene(std::move(s)), sb(compile_scene(scene)) {
+    build_shadow_frame(scene, sb, cpu_fragment_producer(sb.view()), cache, frame);
+  }
+  ShadowFixture(const ShadowFixture&) = delete;
+  ShadowView view() const { return frame.view(scene.shadows); }
+  SceneView scene_view() const { return sb.view(); }
+  const PinholeView& map_view(size_t i) const { return frame.dsm.maps[i].view; }
+};
+
+// Exactly what the camera pass uses for a surface point with normal n lit by
+// a light at `light`: 1 - alpha looked up just before the point's depth
+// (constant + slope-scaled bias, hd/camera_pass.h, hd/shading.h).
+inline float surface_visibility(const ShadowView& sv, int light, Vec3 p, Vec3 n) {
+  Vec3 l = normalize(sv.lights[uint32_t(light)].position - p);
+  float ndl = dot(n, l);
+  float tan_inc = std::sqrt(std::max(0.0f, 1.0f - ndl * ndl)) / std::max(ndl, 0.1f);
+  return DsmVisibility{sv}(light, p, tan_inc);
+}
+
+// A volume sample's visibility: looked up at its own depth.
+inline float sample_visibility(const ShadowView& sv, int light, Vec3 p) {
+  return 1.0f - shadow_alpha(sv, sv.lights[uint32_t(light)], p, 0.0f, 0.0f);
+}
+
+}  // namespace cdsm_test
