@@ -29,6 +29,9 @@ const char* kRenderHelp =
     "  --filtering on|off       bilinear DSM lookups (default: the scene's setting)\n"
     "  --clusters M             at most M clustered DSMs per light (1 = unclustered), overrides the scene\n"
     "  --d0 D                   clustering distance threshold in normalized light-map units\n"
+    "  --layout packed|fixed|chunked  DSM memory layout (packed: exact allocation; fixed: res x res x L,\n"
+    "                           --fixed-layers L; chunked: 64-node chunks linked per texel)\n"
+    "  --fixed-layers L         node layers of the fixed layout (default 32)\n"
     "  --compare-reference      also render the exact reference of the same view; report the\n"
     "                           transmittance error at sampled shaded points (mean, p99, max, RMSE)\n"
     "                           and the image RMSE/PSNR; write OUT.error.png (heat map) and\n"
@@ -82,6 +85,7 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
   t["reference"] = s.times.reference_ms;
   t["total_frame"] = s.times.total_ms;
   auto& m = j["dsm_memory"];
+  m["layout"] = std::vector<std::string>{"packed", "fixed", "chunked"}[size_t(scene.shadows.layout)];
   m["maps"] = s.memory.maps;
   m["texels"] = s.memory.texels;
   m["nodes"] = s.memory.nodes;
@@ -139,8 +143,9 @@ void print_summary(const FrameStats& s, const Scene& scene, bool reference_backe
     std::printf("\n");
   }
   std::printf("rebuilds     %u maps built, %u reused\n", s.maps_rebuilt, s.maps_reused);
-  std::printf("DSM memory   %llu maps, index %.2f MiB, nodes %.2f MiB, slack %.2f MiB\n",
-              (unsigned long long)s.memory.maps, s.memory.index_bytes / 1048576.0, s.memory.node_bytes / 1048576.0,
+  const char* layouts[] = {"packed", "fixed", "chunked"};
+  std::printf("DSM memory   %s layout, %llu maps, index %.2f MiB, nodes %.2f MiB, slack %.2f MiB\n",
+              layouts[int(scene.shadows.layout)], (unsigned long long)s.memory.maps, s.memory.index_bytes / 1048576.0, s.memory.node_bytes / 1048576.0,
               s.memory.slack_bytes / 1048576.0);
   std::printf("nodes/texel  avg %.2f, max %u (overflowed texels %llu)\n", s.memory.avg_nodes_per_texel,
               s.memory.max_nodes_per_texel, (unsigned long long)s.memory.overflow_texels);
@@ -185,6 +190,8 @@ int cmd_render(const std::vector<std::string>& args) {
   int filtering = -1;
   int clusters = 0;
   float d0 = -1.0f;
+  std::string layout;
+  int fixed_layers = 0;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     auto value = [&]() -> std::string {
@@ -231,6 +238,13 @@ int cmd_render(const std::vector<std::string>& args) {
     } else if (a == "--d0") {
       d0 = parse_float(a, value());
       if (d0 < 0) throw Error("--d0", "must be >= 0");
+    } else if (a == "--layout") {
+      layout = value();
+      if (layout != "packed" && layout != "fixed" && layout != "chunked")
+        throw Error("--layout", "unknown layout '" + layout + "' (packed, fixed or chunked)");
+    } else if (a == "--fixed-layers") {
+      fixed_layers = parse_int(a, value());
+      if (fixed_layers < 2 || fixed_layers > 4096) throw Error("--fixed-layers", "must be within [2, 4096]");
     } else if (a == "--compare-reference") {
       opt.compare_reference = true;
     } else if (a == "--error-samples") {
@@ -263,6 +277,10 @@ int cmd_render(const std::vector<std::string>& args) {
   if (filtering >= 0) scene.shadows.filtering = filtering == 1;
   if (clusters > 0) scene.shadows.max_clusters = clusters;
   if (d0 >= 0) scene.shadows.d0 = d0;
+  if (layout == "packed") scene.shadows.layout = DsmLayout::Packed;
+  if (layout == "fixed") scene.shadows.layout = DsmLayout::Fixed;
+  if (layout == "chunked") scene.shadows.layout = DsmLayout::Chunked;
+  if (fixed_layers > 0) scene.shadows.fixed_layers = fixed_layers;
 
   Renderer renderer;
   FrameStats stats;

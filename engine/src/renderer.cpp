@@ -36,6 +36,12 @@ void validate(const Scene& s) {
     throw Error(f + ": /camera/fov_y", "must be within (0, 179) degrees");
   if (length(s.camera.target - s.camera.position) <= 0.0f)
     throw Error(f + ": /camera", "target equals position");
+  if (sh.fixed_layers < 2 || sh.fixed_layers > 4096)
+    throw Error(f + ": /shadows/fixed_layers", "must be within [2, 4096]");
+  if (sh.chunk_nodes < 1 || sh.chunk_nodes > 4096)
+    throw Error(f + ": /shadows/chunk_nodes", "must be within [1, 4096]");
+  if (sh.max_clusters < 1 || sh.max_clusters > kMaxMapsPerLight)
+    throw Error(f + ": /shadows/clusters", "must be within [1, " + std::to_string(kMaxMapsPerLight) + "]");
   if (s.lights.size() > size_t(kMaxLights))
     throw Error(f + ": /lights", "at most " + std::to_string(kMaxLights) + " lights");
 }
