@@ -171,9 +171,12 @@ void write_markdown(const std::vector<Result>& results, const RunInfo& info, con
       if (r.scene_name == first.scene_name && r.is_reference)
         f << "Reference renderer (exact shadow rays, no maps): " << num(r.reference_ms, "%.1f") << " ms"
           << (r.reference_cached ? " (measured when it was cached)" : "") << ".\n\n";
-    f << "| method | ε | res | m | build ms | camera ms | memory KiB | nodes/texel avg / max | T mean | T p99 | "
-         "T max | T RMSE | PSNR dB | P |\n";
-    f << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    bool other_backend = false;
+    for (const Result& r : results)
+      if (r.scene_name == first.scene_name && !r.is_reference && r.config.backend != "cpu") other_backend = true;
+    f << "| method | ε | res | m | layout |" << (other_backend ? " backend |" : "")
+      << " build ms | camera ms | memory KiB | nodes/texel avg / max | T mean | T p99 | T max | T RMSE | PSNR dB | P |\n";
+    f << "|---|---|---|---|---|" << (other_backend ? "---|" : "") << "---|---|---|---|---|---|---|---|---|---|\n";
     for (const Result& r : results) {
       if (r.scene_name != first.scene_name || r.is_reference) continue;
       const Config& c = r.config;
@@ -181,7 +184,7 @@ void write_markdown(const std::vector<Result>& results, const RunInfo& info, con
       auto ms = [](const Spread& s) { return num(s.median, "%.1f") + " [" + num(s.min, "%.1f") + "–" + num(s.max, "%.1f") + "]"; };
       std::string p = std::string(r.pareto_time ? "t" : "") + (r.pareto_memory ? "m" : "");
       f << "| " << c.method.label << " | " << (dsm ? num(c.eps, "%g") : "") << " | " << c.res << " | " << c.clusters
-        << " | " << ms(r.build_ms) << " | " << ms(r.camera_ms) << " | " << num(r.memory_bytes() / 1024.0, "%.0f")
+        << " | " << c.layout << " | " << (other_backend ? c.backend + " | " : "") << ms(r.build_ms) << " | " << ms(r.camera_ms) << " | " << num(r.memory_bytes() / 1024.0, "%.0f")
         << " | " << num(r.stats.memory.avg_nodes_per_texel, "%.2f") << " / " << r.stats.memory.max_nodes_per_texel
         << " | " << num(r.transmittance.mean, "%.4f") << " | " << num(r.transmittance.p99, "%.3f") << " | "
         << num(r.transmittance.max, "%.3f") << " | " << num(r.transmittance.rmse, "%.4f") << " | "

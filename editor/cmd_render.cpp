@@ -288,6 +288,7 @@ int cmd_render(const std::vector<std::string>& args) {
   if (!stats.fragment_source.empty())
     std::fprintf(stderr, "cdsm: fragments from %s: %s\n", stats.fragment_source.c_str(),
                  stats.fragment_source_reason.c_str());
+  for (const std::string& w : stats.warnings) std::fprintf(stderr, "cdsm: warning: %s\n", w.c_str());
   write_png(img, out);
   print_summary(stats, scene, opt.backend == Backend::Reference);
   std::printf("wrote        %s\n", out.c_str());
@@ -322,9 +323,17 @@ int cmd_info(const std::vector<std::string>& args) {
                 o.mesh->triangle_count(), o.surface.opacity, interior[int(o.interior)],
                 is_closed(*o.mesh) ? "" : "  (open mesh)", o.casts_shadows ? "" : "  (receives only)");
   }
-  for (size_t i = 0; i < s.volumes.size(); ++i)
-    std::printf("  volume %zu %-12s %dx%dx%d\n", i, s.volumes[i].name.c_str(), s.volumes[i].grid->nx,
-                s.volumes[i].grid->ny, s.volumes[i].grid->nz);
+  for (size_t i = 0; i < s.volumes.size(); ++i) {
+    const Volume& v = s.volumes[i];
+    if (v.grid)
+      std::printf("  volume %zu %-12s dense %dx%dx%d\n", i, v.name.c_str(), v.grid->nx, v.grid->ny, v.grid->nz);
+    else if (v.sparse)
+      std::printf("  volume %zu %-12s sparse (NanoVDB), active box %dx%dx%d, %llu active voxels\n", i,
+                  v.name.c_str(), v.sparse->active_max[0] - v.sparse->active_min[0] + 1,
+                  v.sparse->active_max[1] - v.sparse->active_min[1] + 1,
+                  v.sparse->active_max[2] - v.sparse->active_min[2] + 1,
+                  (unsigned long long)v.sparse->active_voxels);
+  }
   return 0;
 }
 

@@ -42,6 +42,24 @@ void validate(const Scene& s) {
     throw Error(f + ": /shadows/chunk_nodes", "must be within [1, 4096]");
   if (sh.max_clusters < 1 || sh.max_clusters > kMaxMapsPerLight)
     throw Error(f + ": /shadows/clusters", "must be within [1, " + std::to_string(kMaxMapsPerLight) + "]");
+  const Camera& c = s.camera;
+  if (!is_finite(c.position) || !is_finite(c.target) || !is_finite(c.up) || !is_finite(c.fov_y_deg) ||
+      !is_finite(c.near) || !is_finite(c.far))
+    throw Error(f + ": /camera", "has a NaN or infinite value");
+  if (!is_finite(s.background) || !is_finite(sh.ambient_light) || !is_finite(sh.bias_constant) ||
+      !is_finite(sh.bias_slope) || !is_finite(sh.d0))
+    throw Error(f + ": /shadows", "has a NaN or infinite value");
+  for (size_t i = 0; i < s.lights.size(); ++i) {
+    const Light& l = s.lights[i];
+    std::string where = f + ": /lights/" + std::to_string(i);
+    if (!is_finite(l.position) || !is_finite(l.direction) || !is_finite(l.color) || !is_finite(l.intensity) ||
+        !is_finite(l.outer_cone_deg) || !is_finite(l.inner_cone_deg))
+      throw Error(where, "has a NaN or infinite value");
+    if (l.type == LightType::Spot && length(l.direction) <= 0.0f) throw Error(where, "spot direction is zero");
+    if (l.type == LightType::Spot && !(l.outer_cone_deg > 0.0f && l.outer_cone_deg < 90.0f))
+      throw Error(where + "/outer_cone", "half-angle must be within (0, 90) degrees");
+    if (!(l.intensity >= 0.0f)) throw Error(where + "/intensity", "must be >= 0");
+  }
   if (s.lights.size() > size_t(kMaxLights))
     throw Error(f + ": /lights", "at most " + std::to_string(kMaxLights) + " lights");
 }
@@ -95,6 +113,7 @@ struct Renderer::Impl {
     auto t0 = Clock::now();
     f.sb = compile_scene(scene);
     st.times.compile_ms = ms_since(t0);
+    st.warnings = f.sb.warnings;
     FragmentProducer produce = fragments.select(opt.fragments, f.sb, st.fragment_source, st.fragment_source_reason);
     if (opt.backend != Backend::Reference) {
       build_shadow_frame(scene, f.sb, produce, cache, f.shadows);
@@ -199,7 +218,7 @@ struct Renderer::Impl {
           Vec3 l = normalize(L.position - pt.p);
           float ndl = dot(pt.n, l);
           if (ndl <= 0.0f) continue;  // unlit side: no shadow term used
-          tan_inc = std::sqrt(std::max(0.0f, 1.0f - ndl * ndl)) / std::max(ndl, 0.1f);
+          tan_inc = bias_tangent(ndl);
         }
         float t_dsm = vis(int(li), pt.p, tan_inc);
         float t_ref = ref.transmittance(int(li), pt.p);

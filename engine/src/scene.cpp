@@ -30,6 +30,12 @@ bool is_closed(const TriangleMesh& mesh) {
       v[k] = id[idx];
     }
     if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) continue;  // degenerate: ignore
+    // Zero area (collinear corners), decided exactly: no surface, no edges.
+    const Vec3 &a = mesh.positions[mesh.indices[t]], &b = mesh.positions[mesh.indices[t + 1]],
+               &c = mesh.positions[mesh.indices[t + 2]];
+    double ux = double(b.x) - a.x, uy = double(b.y) - a.y, uz = double(b.z) - a.z;
+    double wx = double(c.x) - a.x, wy = double(c.y) - a.y, wz = double(c.z) - a.z;
+    if (uy * wz - uz * wy == 0.0 && uz * wx - ux * wz == 0.0 && ux * wy - uy * wx == 0.0) continue;
     for (int k = 0; k < 3; ++k) {
       uint64_t key = (uint64_t(v[k]) << 32) | v[(k + 1) % 3];
       if (++directed[key] > 1) return false;

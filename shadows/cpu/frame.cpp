@@ -144,6 +144,7 @@ std::vector<uint64_t> object_hashes(const SceneBuffers& sb) {
   Hasher vol;
   vol.bytes(sb.voxels.data(), sb.voxels.size() * sizeof(float));
   vol.bytes(sb.macro_max.data(), sb.macro_max.size() * sizeof(float));
+  vol.bytes(sb.nano_pool.data(), sb.nano_pool.size() * sizeof(sb.nano_pool[0]));
   std::vector<uint64_t> out(sb.objects.size());
   for (size_t o = 0; o < sb.objects.size(); ++o) {
     const ObjectData& od = sb.objects[o];

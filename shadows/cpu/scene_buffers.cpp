@@ -265,7 +265,10 @@ SceneBuffers compile_scene(const Scene& scene) {
       vd.voxel_world = std::min({length(ex), length(ey), length(ez)});
       vd.step = scene.volumes[size_t(o.volume)].step_voxels * vd.voxel_world;
     }
-    if (o.interior != InteriorKind::None && !closed) od.interior = 0;  // no interior without a closed boundary
+    if (o.interior != InteriorKind::None && !closed) {  // no interior without a closed boundary
+      od.interior = 0;
+      sb.warnings.push_back(where + ": mesh is not closed, its interior (medium or volume) is ignored");
+    }
     od.first_tri = uint32_t(sb.tri_object.size());
     od.tri_count = 0;
     Box3 bounds;

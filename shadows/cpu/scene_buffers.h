@@ -1,6 +1,7 @@
 // Host owner of a compiled scene (cdsm::Scene -> flat arrays + BVH).
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include "cdsm/scene.h"
@@ -21,6 +22,7 @@ struct SceneBuffers {
   std::vector<uint32_t> bvh_prims;
   std::vector<Box3> object_bounds;  // world-space box per object
   Box3 bounds;                      // whole scene
+  std::vector<std::string> warnings;  // content the renderer cannot honour (reported, not fatal)
 
   SceneView view() const;
   // Bitmask words selecting the objects for which pred(i) holds.

@@ -51,8 +51,8 @@ struct DsmVisitor {
       // Chords within min(eps, 1e-3) of the exponential, so chord and
       // compression errors together stay within eps + 1e-3.
       float h = sqrtf(8.0f * fminf(fmaxf(eps, 1e-5f), 1e-3f)) / m.sigma;
-      int n = int(ceilf(len / h));
-      n = n < 1 ? 1 : (n > kMaxConstantSamples ? kMaxConstantSamples : n);
+      float nf = fminf(fmaxf(ceilf(len / h), 1.0f), float(kMaxConstantSamples));  // clamp before converting
+      int n = int(nf);
       float base = 1.0f - alpha;
       for (int i = 1; i <= n; ++i) {
         float z = t0 + len * float(i) / float(n);

@@ -45,6 +45,14 @@ CDSM_HD CDSM_INLINE float cone_factor(const LightData& L, Vec3 p) {
   return t * t * (3.0f - 2.0f * t);
 }
 
+// Tangent of the light's incidence angle for the slope-scaled bias, from
+// n . l (> 0). Capped at 50 (about 1.1 degrees of elevation): a lit surface
+// at grazing incidence must not shadow itself through its neighbouring
+// texels, while the cap bounds how far the lookup can reach past a thin caster.
+CDSM_HD CDSM_INLINE float bias_tangent(float ndl) {
+  return sqrtf(fmaxf(0.0f, 1.0f - ndl * ndl)) / fmaxf(ndl, 0.02f);
+}
+
 // World size of one texel of map m at the point (for slope-scaled bias).
 CDSM_HD CDSM_INLINE float texel_footprint(const DsmMap& m, float axial) {
   return 2.0f * m.view.tan_half_x * axial / float(m.res);

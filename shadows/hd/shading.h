@@ -37,7 +37,7 @@ CDSM_HD Vec3 shade_point(const ShadeInput& in, Span<const LightData> lights, Vec
     }
     float ndl = dot(in.n, l);
     if (ndl <= 0.0f) continue;
-    float tan_inc = sqrtf(fmaxf(0.0f, 1.0f - ndl * ndl)) / fmaxf(ndl, 0.1f);
+    float tan_inc = bias_tangent(ndl);
     float vis = visibility(int(i), in.p, tan_inc);
     if (vis <= 0.0f) continue;
     Vec3 r = in.n * (2.0f * ndl) - l;

@@ -146,7 +146,7 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
         // Event list: every hit in [t_near, t_far] splits the ray.
         Vec3 color{0, 0, 0};
         double T = 1.0;
-        float t_prev = t_near;
+        float t_prev = 0.0f;  // media absorb from the eye; surfaces before near are clipped
         auto interval_media = [&](float ta, float tb, auto&& on_medium) {
           // Which interiors enclose (ta, tb)? Parity of each object's hits beyond the midpoint.
           float tm = 0.5f * (ta + tb);

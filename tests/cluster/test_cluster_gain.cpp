@@ -72,7 +72,7 @@ Probe probe(const Scene& scene) {
     if (surface[i]) {
       float ndl = dot(normals[i], normalize(L.position - p));
       if (ndl <= 0.0f) continue;
-      tan_inc = std::sqrt(std::max(0.0f, 1.0f - ndl * ndl)) / std::max(ndl, 0.1f);
+      tan_inc = bias_tangent(ndl);
     }
     double err = std::fabs(double(vis(0, p, tan_inc)) - double(ref.transmittance(0, p)));
     // Finest texel footprint among the maps whose window holds the point.

@@ -213,6 +213,26 @@ inline float max_abs_diff(const Image& a, const Image& b) {
   return m;
 }
 
+// Whether a per-texel node buffer still overflows when a texel crosses
+// more surfaces (steps) than it holds — probed on memory larger than the
+// declared capacity, so the probe itself cannot corrupt the heap. Returns
+// the node count written into a 16-node buffer by 16 steps.
+inline int probe_step_overflow() {
+  const int capacity = 16;
+  std::vector<DsmNode> mem(size_t(capacity) * 8);
+  NodeBuffer buf{mem.data(), capacity};
+  WedgeCompressor c(0.0f);
+  float alpha = 0.0f;
+  for (int i = 0; i < capacity; ++i) {
+    float z = 1.0f + 0.01f * float(i);
+    c.push(buf, z, alpha);
+    alpha += 0.05f * (1.0f - alpha);
+    c.step(buf, z, alpha);
+  }
+  c.finish(buf);
+  return buf.count;
+}
+
 // Fragment lists of a view of `sb` (CPU producer); per-pixel counts.
 struct ViewCounts {
   int width = 0, height = 0;

@@ -160,7 +160,7 @@ struct ShadowFixture {
 inline float surface_visibility(const ShadowView& sv, int light, Vec3 p, Vec3 n) {
   Vec3 l = normalize(sv.lights[uint32_t(light)].position - p);
   float ndl = dot(n, l);
-  float tan_inc = std::sqrt(std::max(0.0f, 1.0f - ndl * ndl)) / std::max(ndl, 0.1f);
+  float tan_inc = bias_tangent(ndl);
   return DsmVisibility{sv}(light, p, tan_inc);
 }
 

@@ -91,6 +91,7 @@ struct FrameStats {
   std::string fragment_source_reason;  // why it was chosen
   uint64_t unmatched_fragments = 0;    // entries/exits without partner (open meshes)
   uint64_t enclosing_overflow = 0;
+  std::vector<std::string> warnings;   // scene content that could not be honoured
   bool has_reference = false;
   TransmittanceError transmittance;
   ImageError image;

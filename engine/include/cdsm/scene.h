@@ -58,8 +58,10 @@ enum class VolumeShading : uint32_t { Scatter = 0, Phong = 1 };
 // sampled on the CPU and copied as is to a GPU). Made by load_vdb()
 // (cdsm/loaders.h) from an OpenVDB grid. Index coordinates are the VDB's:
 // voxel centres at integers, which may be negative. A value that is not
-// stored reads as `background`. The summary fields repeat what the bytes
-// say, for code that does not include NanoVDB.
+// stored reads as `background`. Every leaf holding a non-background value
+// has its 26 neighbour leaves (empty-space skipping relies on it;
+// load_vdb() adds them, compile_scene checks). The summary fields repeat
+// what the bytes say, for code that does not include NanoVDB.
 struct SparseGrid {
   struct alignas(32) Block {
     unsigned char bytes[32];
