@@ -18,6 +18,7 @@ struct MethodSpec {
   std::string label;  // as on the command line: dsm, sm, osm32, avsm8
   ShadowMethod method = ShadowMethod::Dsm;
   float param = 0.0f;  // ShadowSettings::method_param
+  int splits = 0;      // pssmN: N parallel-split deep shadow maps (ShadowSettings::parallel_splits)
 };
 
 // The sweep axes; every combination is one configuration (baselines ignore eps).

@@ -74,11 +74,14 @@ std::vector<MethodSpec> parse_methods(const std::string& list) {
     } else if (m.rfind("osm", 0) == 0 && m.size() > 3) {
       s.method = ShadowMethod::OpacitySlices;
       s.param = float(count_param(m, 3, 1, 512));
+    } else if (m.rfind("pssm", 0) == 0 && m.size() > 4) {
+      s.method = ShadowMethod::Dsm;  // deep shadow maps in parallel-split cascades
+      s.splits = count_param(m, 4, 2, 8);
     } else if (m.rfind("avsm", 0) == 0 && m.size() > 4) {
       s.method = ShadowMethod::FixedNodes;
       s.param = float(count_param(m, 4, 2, 512));
     } else {
-      throw Error("--methods " + m, "unknown method (dsm, sm, sm:T, osmN, avsmN)");
+      throw Error("--methods " + m, "unknown method (dsm, sm, sm:T, osmN, avsmN, pssmN)");
     }
     out.push_back(s);
   }
@@ -187,7 +190,7 @@ std::vector<Config> expand(const Sweep& sw, const Scene& scene) {
       for (int m : clusters)
         for (int r : res)
           for (const MethodSpec& method : methods) {
-            bool dsm = method.method == ShadowMethod::Dsm;
+            bool dsm = method.method == ShadowMethod::Dsm && method.splits == 0;
             for (size_t e = 0; e < (dsm ? eps.size() : 1); ++e) {
               Config c;
               c.method = method;
@@ -208,7 +211,8 @@ void apply(const Config& c, Scene& scene, RenderOptions& opt) {
   s.method_param = c.method.param;
   s.epsilon = c.eps;
   s.resolution = c.res;
-  s.max_clusters = c.clusters;
+  s.max_clusters = c.method.splits > 0 ? 1 : c.clusters;
+  s.parallel_splits = c.method.splits;
   for (const LayoutChoice& l : kLayouts)
     if (c.layout == l.name) s.layout = l.layout;
   for (const BackendChoice& b : kBackends)

@@ -29,6 +29,7 @@ const char* kRenderHelp =
     "  --filtering on|off       bilinear DSM lookups (default: the scene's setting)\n"
     "  --clusters M             at most M clustered DSMs per light (1 = unclustered), overrides the scene\n"
     "  --d0 D                   clustering distance threshold in normalized light-map units\n"
+    "  --splits N               baseline: N parallel-split (cascaded) maps per spot light instead of clusters\n"
     "  --layout packed|fixed|chunked  DSM memory layout (packed: exact allocation; fixed: res x res x L,\n"
     "                           --fixed-layers L; chunked: 64-node chunks linked per texel)\n"
     "  --fixed-layers L         node layers of the fixed layout (default 32)\n"
@@ -192,6 +193,7 @@ int cmd_render(const std::vector<std::string>& args) {
   float d0 = -1.0f;
   std::string layout;
   int fixed_layers = 0;
+  int splits = -1;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     auto value = [&]() -> std::string {
@@ -238,6 +240,9 @@ int cmd_render(const std::vector<std::string>& args) {
     } else if (a == "--d0") {
       d0 = parse_float(a, value());
       if (d0 < 0) throw Error("--d0", "must be >= 0");
+    } else if (a == "--splits") {
+      splits = parse_int(a, value());
+      if (splits != 0 && (splits < 2 || splits > 7)) throw Error("--splits", "must be 0 (off) or within [2, 7]");
     } else if (a == "--layout") {
       layout = value();
       if (layout != "packed" && layout != "fixed" && layout != "chunked")
@@ -281,6 +286,7 @@ int cmd_render(const std::vector<std::string>& args) {
   if (layout == "fixed") scene.shadows.layout = DsmLayout::Fixed;
   if (layout == "chunked") scene.shadows.layout = DsmLayout::Chunked;
   if (fixed_layers > 0) scene.shadows.fixed_layers = fixed_layers;
+  if (splits >= 0) scene.shadows.parallel_splits = splits;
 
   Renderer renderer;
   FrameStats stats;

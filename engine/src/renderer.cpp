@@ -40,6 +40,8 @@ void validate(const Scene& s) {
     throw Error(f + ": /shadows/fixed_layers", "must be within [2, 4096]");
   if (sh.chunk_nodes < 1 || sh.chunk_nodes > 4096)
     throw Error(f + ": /shadows/chunk_nodes", "must be within [1, 4096]");
+  if (sh.parallel_splits != 0 && (sh.parallel_splits < 2 || sh.parallel_splits > kMaxMapsPerLight - 1))
+    throw Error(f + ": /shadows/parallel_splits", "must be 0 (off) or within [2, " + std::to_string(kMaxMapsPerLight - 1) + "]");
   if (sh.max_clusters < 1 || sh.max_clusters > kMaxMapsPerLight)
     throw Error(f + ": /shadows/clusters", "must be within [1, " + std::to_string(kMaxMapsPerLight) + "]");
   const Camera& c = s.camera;

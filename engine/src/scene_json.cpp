@@ -90,7 +90,7 @@ struct Parser {
   ShadowSettings shadows(const JsonNode& n) {
     n.expect_object({"epsilon", "resolution", "filtering", "bias_constant", "bias_slope", "clusters", "d0",
                      "layout", "method", "method_param", "ambient",
-                     "fixed_layers", "chunk_nodes"});
+                     "fixed_layers", "chunk_nodes", "parallel_splits"});
     ShadowSettings s;
     s.epsilon = n.get("epsilon", s.epsilon);
     if (s.epsilon < 0) n.at("epsilon").fail("must be >= 0 (got " + std::to_string(s.epsilon) + ")");
@@ -103,6 +103,9 @@ struct Parser {
     s.max_clusters = n.get("clusters", s.max_clusters);
     if (s.max_clusters < 1 || s.max_clusters > kMaxMapsPerLight) n.at("clusters").fail("must be within [1, 8]");
     s.d0 = n.get("d0", s.d0);
+    s.parallel_splits = n.get("parallel_splits", s.parallel_splits);
+    if (s.parallel_splits != 0 && (s.parallel_splits < 2 || s.parallel_splits > kMaxMapsPerLight - 1))
+      n.at("parallel_splits").fail("must be 0 (off) or within [2, " + std::to_string(kMaxMapsPerLight - 1) + "]");
     if (!(s.d0 >= 0)) n.at("d0").fail("must be >= 0");
     std::string layout = n.get("layout", "packed");
     if (layout == "packed") s.layout = DsmLayout::Packed;

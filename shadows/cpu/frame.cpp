@@ -1,5 +1,7 @@
 #include "cpu/frame.h"
 
+#include "cluster/focus.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -173,6 +175,7 @@ uint64_t map_key(const MapPlan& plan, const std::vector<uint64_t>& hashes, const
   h.pod(s.chunk_nodes);
   h.pod(s.method);
   h.pod(s.method_param);
+  h.pod(s.parallel_splits);
   return h.h;
 }
 
@@ -248,6 +251,65 @@ void cluster_light(const Scene& scene, const SceneBuffers& sb, size_t li, const 
   lc.clustered = true;
 }
 
+// Replaces a spot light's map by parallel-split maps (near to far) along
+// the camera's view: slice i of the view frustum by the practical split
+// scheme (half logarithmic, half uniform), a light frustum focused on the
+// slice's box within the scene, holding every caster between the light and
+// the scene's far end.
+void split_light(const Scene& scene, const SceneBuffers& sb, size_t li, LightSetup& ls) {
+  const Light& light = scene.lights[li];
+  const int m = scene.shadows.parallel_splits;
+  if (ls.lights[li].map_mode != kMapsCombine || ls.lights[li].map_count != 1) return;  // spots only
+  PinholeView cam = camera_view(scene.camera);
+  // The view's depth range inside the scene box.
+  float far = 0.0f;
+  for (int c = 0; c < 8; ++c) far = std::max(far, dot(sb.bounds.corner(c) - cam.eye, cam.forward));
+  far = std::min(far, cam.far);
+  const float near = cam.near;
+  if (!(far > near)) return;
+  const MapPlan base = ls.maps[ls.lights[li].first_map];
+  cluster::FocusParams fp;
+  fp.resolution = scene.shadows.resolution;
+  std::vector<MapPlan> mine;
+  for (int i = 0; i < m; ++i) {
+    auto split_at = [&](int k) {
+      float t = float(k) / float(m);
+      return 0.5f * near * std::pow(far / near, t) + 0.5f * (near + (far - near) * t);
+    };
+    float z0 = split_at(i), z1 = split_at(i + 1);
+    Box3 slice;
+    for (float z : {z0, z1})
+      for (int c = 0; c < 4; ++c) {
+        float sx = (c & 1) ? cam.tan_half_x : -cam.tan_half_x, sy = (c & 2) ? cam.tan_half_y : -cam.tan_half_y;
+        slice.grow(cam.eye + (cam.forward + cam.right * sx + cam.up * sy) * z);
+      }
+    slice.lo = vmax(slice.lo, sb.bounds.lo);
+    slice.hi = vmin(slice.hi, sb.bounds.hi);
+    if (slice.empty()) continue;
+    cluster::FocusResult f = cluster::focus_cluster(light, {slice}, fp);
+    if (f.views.size() != 1) continue;
+    MapPlan p{f.views[0], uint32_t(li), base.members};
+    p.view.near = base.view.near;  // every caster between the light and the slice
+    p.view.far = base.view.far;
+    mine.push_back(std::move(p));
+  }
+  if (mine.empty()) return;
+  mine.push_back(base);  // the whole cone last: points outside every split
+  std::vector<MapPlan> all;
+  for (size_t l = 0; l < ls.lights.size(); ++l) {
+    uint32_t first = uint32_t(all.size());
+    if (l == li) {
+      for (auto& p : mine) all.push_back(p);
+      ls.lights[l].map_count = uint32_t(mine.size());
+      ls.lights[l].map_mode = kMapsFirstContaining;
+    } else {
+      for (uint32_t k = 0; k < ls.lights[l].map_count; ++k) all.push_back(ls.maps[ls.lights[l].first_map + k]);
+    }
+    ls.lights[l].first_map = first;
+  }
+  ls.maps.swap(all);
+}
+
 uint64_t lights_signature(const Scene& scene) {
   Hasher h;
   for (const Light& l : scene.lights) {
@@ -273,7 +335,11 @@ void build_shadow_frame(const Scene& scene, const SceneBuffers& sb, const Fragme
   frame.clusters.resize(scene.lights.size());
   uint64_t sig = lights_signature(scene);
   bool keep = sig == cache.light_signature;
-  if (s.max_clusters > 1) {
+  if (s.parallel_splits > 1) {
+    for (size_t li = 0; li < scene.lights.size(); ++li) split_light(scene, sb, li, frame.setup);
+    frame.clusters.assign(scene.lights.size(), LightClusters{});
+    for (LightClusters& lc : frame.clusters) lc.fallback_reason = "parallel-split maps (baseline)";
+  } else if (s.max_clusters > 1) {
     auto t0 = std::chrono::steady_clock::now();
     for (size_t li = 0; li < scene.lights.size(); ++li)
       cluster_light(scene, sb, li, cache, keep, frame.setup, frame.clusters[li]);

@@ -10,6 +10,7 @@ inline constexpr uint32_t kLightSpot = 0u;
 inline constexpr uint32_t kLightPoint = 1u;
 inline constexpr uint32_t kMapsCombine = 0u;    // clusters: alpha += alpha_c (1 - alpha)
 inline constexpr uint32_t kMapsCubeFaces = 1u;  // six faces +X,-X,+Y,-Y,+Z,-Z: pick by major axis
+inline constexpr uint32_t kMapsFirstContaining = 2u;  // parallel splits, near to far: the first map holding the point
 
 struct LightData {
   Vec3 position;
@@ -79,6 +80,13 @@ CDSM_HD inline float shadow_alpha(const ShadowView& sv, const LightData& L, Vec3
     const DsmMap& m = sv.maps[first + k];
     ViewProjection pr = project(m.view, p);
     if (pr.axial <= 0.0f) continue;
+    if (L.map_mode == kMapsFirstContaining) {
+      // Each split map holds every caster: use the finest map whose window
+      // (inside its one-texel guard band) holds the point, and only that one.
+      float lo = 1.0f, hi = float(m.res) - 1.0f;
+      if (k + 1 < count && (pr.u < lo || pr.v < lo || pr.u > hi || pr.v > hi)) continue;
+      count = k + 1;
+    }
     float bias = bias_world;
     if (tan_incidence > 0.0f) bias += sv.bias_slope * texel_footprint(m, pr.axial) * tan_incidence;
     float a = lookup_map(sv.storage, m, pr.u, pr.v, pr.depth - bias, sv.filtering);

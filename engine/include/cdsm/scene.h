@@ -144,6 +144,10 @@ struct ShadowSettings {
   float bias_constant = 0.0005f; // self-lookup offset, world units
   float bias_slope = 1.5f;      // times the DSM texel footprint at the point
   int32_t max_clusters = 1;     // m
+  // Baseline arrangement: > 1 replaces a spot light's map (and any clusters)
+  // by that many parallel-split maps along the camera's view (Zhang et al.
+  // 2006, the cascades clustering competes with); 0 = off.
+  int32_t parallel_splits = 0;
   float d0 = 0.25f;             // clustering threshold, normalized map units
   DsmLayout layout = DsmLayout::Packed;
   int32_t fixed_layers = 32;    // fixed layout: L, node slots per texel (thesis §4.2.1)
