@@ -7,7 +7,9 @@
 //                     fragments[offsets[pixel] - u_frag_base + cursor].
 // No depth test, no culling, depth clamp on (so GL never clips at its own
 // near/far), and the view's [near, far] on the view axis is applied here per
-// fragment, as the CPU ray caster does. Compiled once per stage with
+// fragment, as the CPU ray caster does: outside it, only the fragments of
+// media boundaries are kept, flagged clipped (shadows/hd/fragment.h), down to
+// u_clip_z (hd/view.h media_clip_axial). Compiled once per stage with
 // VERTEX_STAGE or FRAGMENT_STAGE defined.
 //
 // Projection = PinholeView (shadows/hd/view.h): with d = p - eye,
@@ -29,6 +31,7 @@ layout(location = 8) uniform uint u_frag_base; // band offset of the fill tile's
 layout(location = 9) uniform int u_pass;       // 0 count, 1 fill
 layout(location = 10) uniform uint u_tri_base; // first triangle of the bound normal range
 layout(location = 11) uniform float u_clip_z;  // user clip plane z >= u_clip_z (< near), drops geometry behind the eye
+layout(location = 12) uniform float u_x_shift; // NDC shift of the geometry: half a snapping step (see below)
 
 #if defined(VERTEX_STAGE)
 
@@ -38,7 +41,7 @@ layout(location = 0) in vec3 a_position;  // world space
 // CPU ray caster does. 3 floats each (std430 float array, no vec3 padding).
 layout(std430, binding = 3) readonly buffer TriNormals { float tri_normals[]; };
 
-out vec3 v_rel;              // p - eye; perspective-correct, so exact at the pixel centre
+out vec3 v_rel;              // p - eye; perspective-correct: a point of the triangle's plane at the sample
 flat out uint v_prim;        // global triangle index
 flat out vec3 v_normal;      // unnormalized geometric normal
 out float gl_ClipDistance[1];
@@ -46,7 +49,13 @@ out float gl_ClipDistance[1];
 void main() {
   vec3 d = a_position - u_eye;
   float z = dot(d, u_forward);
-  gl_Position = vec4((dot(d, u_right) - u_window.x * z) / u_window.z,
+  // GL snaps vertices to 2^-subpixel_bits of a pixel, and pixel centres lie
+  // on that grid: a snapped vertex exactly at a centre is covered by a
+  // tie-rule-dependent subset of its triangles, which at a silhouette
+  // vertex can be an exit without its entry. Shifting the geometry by half a
+  // snapping step in x keeps every sample off every snapped vertex (samples
+  // on edges are resolved consistently by the tie rule).
+  gl_Position = vec4((dot(d, u_right) - u_window.x * z) / u_window.z + u_x_shift * z,
                      (dot(d, u_up) - u_window.y * z) / u_window.w, 0.0, z);
   gl_ClipDistance[0] = z - u_clip_z;
   v_rel = d;
@@ -62,12 +71,14 @@ void main() {
 
 struct Fragment {   // cdsm::Fragment (shadows/hd/fragment.h), 8 bytes
   float depth;      // radial distance from the eye
-  uint bits;        // bits 0..29 primitive, bit 31 front-facing
+  uint bits;        // bits 0..28 primitive, bit 29 clipped, bit 31 front-facing
 };
 
 layout(std430, binding = 0) buffer Counts { uint counts[]; };          // per band pixel
 layout(std430, binding = 1) readonly buffer Offsets { uint offsets[]; }; // exclusive sums of counts
 layout(std430, binding = 2) writeonly buffer Fragments { Fragment fragments[]; };
+// Bit t set: triangle t bounds a medium (hd/scene_data.h bounds_medium).
+layout(std430, binding = 4) readonly buffer TriMedia { uint tri_media[]; };
 
 in vec3 v_rel;
 flat in uint v_prim;
@@ -75,7 +86,8 @@ flat in vec3 v_normal;
 
 void main() {
   float axial = dot(v_rel, u_forward);
-  if (axial < u_near_far.x || axial > u_near_far.y) return;
+  bool clipped = axial < u_near_far.x || axial > u_near_far.y;
+  if (clipped && (axial < u_clip_z || ((tri_media[v_prim >> 5u] >> (v_prim & 31u)) & 1u) == 0u)) return;
   int px = int(gl_FragCoord.x);
   int py = u_size.y - 1 - int(gl_FragCoord.y);  // image rows go down
   uint pixel = uint(py - u_row0) * uint(u_size.x) + uint(px);
@@ -90,10 +102,15 @@ void main() {
   vec2 s = u_window.xy + vec2((2.0 * (float(px) + 0.5) / float(u_size.x) - 1.0) * u_window.z,
                               (1.0 - 2.0 * (float(py) + 0.5) / float(u_size.y)) * u_window.w);
   vec3 dir = u_forward + u_right * s.x + u_up * s.y;
-  bool front = dot(v_normal, dir) < 0.0;
+  float facing = dot(v_normal, dir);
+  bool front = facing < 0.0;
   Fragment f;
-  f.depth = length(v_rel);
-  f.bits = (v_prim & 0x3fffffffu) | (front ? 0x80000000u : 0u);
+  // Radial depth along the pixel-centre ray (the CPU's ray), not the
+  // sample's (shifted by u_x_shift): the ray meets the triangle's plane,
+  // through the interpolated point v_rel, at dot(n, v_rel) / dot(n, unit dir).
+  float hit = facing != 0.0 ? dot(v_normal, v_rel) / facing * length(dir) : 0.0;
+  f.depth = hit > 0.0 ? hit : length(v_rel);
+  f.bits = (v_prim & 0x1fffffffu) | (clipped ? 0x20000000u : 0u) | (front ? 0x80000000u : 0u);
   fragments[offsets[pixel] - u_frag_base + left - 1u] = f;
 }
 

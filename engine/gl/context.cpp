@@ -155,6 +155,7 @@ bool Context::finish_setup(const std::string& platform_detail, std::string* reas
   limits_.max_viewport_height = dims[1];
   glGetIntegeri_v(GL_MAX_COMPUTE_WORK_GROUP_COUNT, 0, &limits_.max_compute_groups_x);
   glGetIntegeri_v(GL_MAX_COMPUTE_WORK_GROUP_COUNT, 1, &limits_.max_compute_groups_y);
+  glGetIntegerv(GL_SUBPIXEL_BITS, &limits_.subpixel_bits);
   if (GLenum e = glGetError(); e != GL_NO_ERROR) {
     if (reason) *reason = platform_detail + ": querying limits failed: " + error_name(e);
     return false;

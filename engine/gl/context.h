@@ -56,6 +56,7 @@ struct Limits {
   int32_t max_viewport_height = 0;
   int32_t max_compute_groups_x = 0;    // GL_MAX_COMPUTE_WORK_GROUP_COUNT[0]
   int32_t max_compute_groups_y = 0;    // GL_MAX_COMPUTE_WORK_GROUP_COUNT[1]
+  int32_t subpixel_bits = 0;           // GL_SUBPIXEL_BITS: window positions snap to 2^-bits pixel
 };
 
 class Context {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -18,9 +19,9 @@ namespace {
 // Uniform locations and SSBO bindings of content/shaders/fragment_lists.glsl.
 enum Uniform : GLint {
   kEye = 0, kRight = 1, kUp = 2, kForward = 3, kWindow = 4, kNearFar = 5, kSize = 6,
-  kRow0 = 7, kFragBase = 8, kPass = 9, kTriBase = 10, kClipZ = 11,
+  kRow0 = 7, kFragBase = 8, kPass = 9, kTriBase = 10, kClipZ = 11, kXShift = 12,
 };
-enum Binding : GLuint { kCounts = 0, kOffsets = 1, kFragments = 2, kNormals = 3 };
+enum Binding : GLuint { kCounts = 0, kOffsets = 1, kFragments = 2, kNormals = 3, kMedia = 4 };
 
 constexpr uint64_t kFragmentBytes = sizeof(Fragment);
 static_assert(kFragmentBytes == 8, "the shader writes 8-byte {float, uint} fragments");
@@ -66,6 +67,7 @@ struct FragmentRasterizer::Impl {
   Framebuffer fbo{"cdsm.fragments.fbo"};
   Buffer vertices{"cdsm.fragments.vertices"};  // 3 x vec3 per triangle (vertex attribute 0)
   Buffer normals{"cdsm.fragments.tri_normals"};  // cross(B-A, C-A) per triangle
+  Buffer media{"cdsm.fragments.tri_media"};      // bit per triangle: bounds a medium
   Buffer counts{"cdsm.fragments.counts"};      // per band pixel; count, then fill cursor
   Buffer offsets{"cdsm.fragments.offsets"};    // exclusive sums of counts, + total
   Buffer pool{"cdsm.fragments.pool"};          // fragments of the current tile
@@ -73,6 +75,7 @@ struct FragmentRasterizer::Impl {
   uint32_t tri_count = 0;
   std::vector<ObjectRun> runs;
   std::vector<float> normal_scratch;
+  std::vector<uint32_t> media_scratch;
   std::vector<DrawChunk> chunks;
   uint32_t chunk_tris = 0;  // triangles per bound normal range
   int32_t fbo_width = 0, fbo_height = 0;
@@ -91,6 +94,9 @@ struct FragmentRasterizer::Impl {
     pool.reserve(std::min<uint64_t>(std::max<uint64_t>(options.initial_pool_bytes, kFragmentBytes),
                                     max_pool_bytes()));
     stats.pool_bytes = pool.capacity();
+    const uint32_t no_media = 0;
+    media.reserve(sizeof(no_media));
+    media.upload(&no_media, sizeof(no_media));
     // Normal ranges bound at once must fit one SSBO; their offsets must be
     // multiples of the binding alignment.
     uint64_t align = uint64_t(std::max(context.limits().ssbo_offset_alignment, 1));
@@ -119,7 +125,7 @@ struct FragmentRasterizer::Impl {
     return options.max_band_pixels ? std::min(options.max_band_pixels, limit) : limit;
   }
 
-  void upload(Span<const Vec3> tri_vertices, Span<const uint32_t> tri_object) {
+  void upload(Span<const Vec3> tri_vertices, Span<const uint32_t> tri_object, Span<const ObjectData> objects) {
     uint64_t n = tri_object.size();
     if (tri_vertices.size() != 3 * n)
       throw Error(kWhere, "upload_scene: " + std::to_string(tri_vertices.size()) + " vertices for " +
@@ -141,6 +147,12 @@ struct FragmentRasterizer::Impl {
     }
     normals.reserve(n * 12);
     normals.upload(normal_scratch.data(), n * 12);
+    media_scratch.assign(n / 32 + 1, 0u);
+    for (uint64_t t = 0; t < n; ++t)
+      if (tri_object[t] < objects.size() && bounds_medium(objects[tri_object[t]]))
+        media_scratch[t >> 5] |= 1u << (t & 31u);
+    media.reserve(media_scratch.size() * 4);
+    media.upload(media_scratch.data(), media_scratch.size() * 4);
     CDSM_GL(glVertexArrayVertexBuffer(vao.id(), 0, vertices.id(), 0, sizeof(Vec3)));
     runs.clear();
     for (uint32_t t = 0; t < tri_count; ++t) {
@@ -200,8 +212,12 @@ struct FragmentRasterizer::Impl {
     CDSM_GL(glProgramUniform2f(p, kNearFar, v.near, v.far));
     CDSM_GL(glProgramUniform2i(p, kSize, v.width, v.height));
     // Drop what lies behind the eye before projection; the exact near test
-    // is per fragment. (Depth clamp disables GL's own near/far clipping.)
-    CDSM_GL(glProgramUniform1f(p, kClipZ, v.near > 0.0f ? 0.5f * v.near : 1e-6f));
+    // is per fragment, media boundaries are kept closer (view.h
+    // media_clip_axial). (Depth clamp disables GL's own near/far clipping.)
+    CDSM_GL(glProgramUniform1f(p, kClipZ, media_clip_axial(v)));
+    // Half a snapping step (2^-(bits+1) pixel) in NDC units: 2 / width per pixel.
+    const int bits = std::clamp(context.limits().subpixel_bits, 1, 16);
+    CDSM_GL(glProgramUniform1f(p, kXShift, 2.0f / float(v.width) * std::ldexp(1.0f, -(bits + 1))));
   }
 
   void bind_pipeline(int32_t width, int32_t height) {
@@ -232,6 +248,7 @@ struct FragmentRasterizer::Impl {
     CDSM_GL(glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kCounts, counts.id()));
     CDSM_GL(glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kOffsets, offsets.id()));
     CDSM_GL(glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kFragments, pool.id()));
+    CDSM_GL(glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kMedia, media.id()));
   }
 
   // Image rows [row_a, row_b), columns [col_a, col_b) -> GL scissor box.
@@ -376,8 +393,9 @@ FragmentRasterizer::FragmentRasterizer(Context& context, const RasterOptions& op
 
 FragmentRasterizer::~FragmentRasterizer() = default;
 
-void FragmentRasterizer::upload_scene(Span<const Vec3> tri_vertices, Span<const uint32_t> tri_object) {
-  impl_->upload(tri_vertices, tri_object);
+void FragmentRasterizer::upload_scene(Span<const Vec3> tri_vertices, Span<const uint32_t> tri_object,
+                                      Span<const ObjectData> objects) {
+  impl_->upload(tri_vertices, tri_object, objects);
 }
 
 void FragmentRasterizer::rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out) {

@@ -5,12 +5,17 @@
 //
 // What it reproduces of cast_fragments() (and how):
 //   - the PinholeView exactly: off-centre window, py = 0 the top row,
-//     pixel-centre sampling (GL's own coverage rule at pixel centres);
+//     pixel-centre sampling (GL's own coverage rule at pixel centres,
+//     the geometry shifted by half a snapping step, 2^-(GL_SUBPIXEL_BITS+1)
+//     pixel, in x so that no snapped vertex lies on a sample: 1/512 pixel
+//     with 8 bits);
 //   - depth = radial distance |p - eye| of the interpolated eye-relative
 //     position (float32), never NDC z;
 //   - a fragment is kept iff dot(p - eye, forward) is in [near, far]
 //     (GL_DEPTH_CLAMP on, so GL never clips at its own near/far; the test
-//     is done per fragment);
+//     is done per fragment), or, flagged clipped, when its triangle bounds
+//     a medium (bounds_medium) and the coordinate is at least
+//     media_clip_axial(view);
 //   - front-facing iff dot(cross(B-A, C-A), pixel ray) < 0 (the CPU rule),
 //     computed per fragment, independent of GL winding;
 //   - primitive = the triangle's index in the uploaded array, also when the
@@ -77,11 +82,13 @@ class FragmentRasterizer {
   FragmentRasterizer(const FragmentRasterizer&) = delete;
   FragmentRasterizer& operator=(const FragmentRasterizer&) = delete;
 
-  // Uploads world-space triangles (3 vertices each) and their object ids.
+  // Uploads world-space triangles (3 vertices each), their object ids and
+  // the objects (for which bound media; none when `objects` is empty).
   // Call again when the scene changes. Throws cdsm::Error when
   // tri_vertices.size() != 3 * tri_object.size() or there are more than
   // kMaxPrimitives triangles.
-  void upload_scene(Span<const Vec3> tri_vertices, Span<const uint32_t> tri_object);
+  void upload_scene(Span<const Vec3> tri_vertices, Span<const uint32_t> tri_object,
+                    Span<const ObjectData> objects = {});
 
   // Rasterizes the triangles of the objects in `mask` for `view` into `out`
   // (unsorted per pixel), exactly like cast_fragments() does by ray casting.

@@ -47,7 +47,7 @@ FragmentProducer FragmentSourceSelector::select(FragmentSource want, const Scene
   if (gl_) {
     // select() is called once per compiled scene: upload its triangles.
     gl_->raster->upload_scene({sb.tri_vertices.data(), sb.tri_vertices.size()},
-                              {sb.tri_object.data(), sb.tri_object.size()});
+                              {sb.tri_object.data(), sb.tri_object.size()}, {sb.objects.data(), sb.objects.size()});
     name = "gl";
     reason = (want == FragmentSource::Gl ? "requested, " : "default when a context exists, ") +
              gl_->context->description();

@@ -10,20 +10,26 @@ namespace cdsm {
 // One surface crossing of a pixel's ray.
 struct Fragment {
   float depth;    // radial distance from the eye, world units
-  uint32_t bits;  // bits 0..29 primitive index, bit 30 scratch (walker), bit 31 front-facing
+  uint32_t bits;  // bits 0..28 primitive index, bit 29 clipped, bit 30 scratch (walker),
+                  // bit 31 front-facing
 };
 static_assert(sizeof(Fragment) == 8, "Fragment is 8 bytes in std430");
 
 inline constexpr uint32_t kFragFrontBit = 0x80000000u;
 inline constexpr uint32_t kFragScratchBit = 0x40000000u;
-inline constexpr uint32_t kFragPrimMask = 0x3fffffffu;
+// A clipped fragment lies outside the view's [near, far] on the view axis:
+// its surface is not seen (not shaded, casts nothing), but it bounds a
+// medium, so the walker still matches it (DESIGN.md §2.3, media rule below).
+inline constexpr uint32_t kFragClippedBit = 0x20000000u;
+inline constexpr uint32_t kFragPrimMask = 0x1fffffffu;
 inline constexpr uint32_t kMaxPrimitives = kFragPrimMask;  // primitive ids must stay below
 
-CDSM_HD CDSM_INLINE Fragment make_fragment(float depth, uint32_t prim, bool front) {
-  return Fragment{depth, (prim & kFragPrimMask) | (front ? kFragFrontBit : 0u)};
+CDSM_HD CDSM_INLINE Fragment make_fragment(float depth, uint32_t prim, bool front, bool clipped = false) {
+  return Fragment{depth, (prim & kFragPrimMask) | (front ? kFragFrontBit : 0u) | (clipped ? kFragClippedBit : 0u)};
 }
 CDSM_HD CDSM_INLINE uint32_t frag_prim(Fragment f) { return f.bits & kFragPrimMask; }
 CDSM_HD CDSM_INLINE bool frag_front(Fragment f) { return (f.bits & kFragFrontBit) != 0u; }
+CDSM_HD CDSM_INLINE bool frag_clipped(Fragment f) { return (f.bits & kFragClippedBit) != 0u; }
 
 // Deterministic order: depth, then primitive id, then facing (DESIGN.md §2.2).
 CDSM_HD CDSM_INLINE bool frag_less(Fragment a, Fragment b) {

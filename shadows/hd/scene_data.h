@@ -27,6 +27,15 @@ struct ObjectData {
 };
 static_assert(sizeof(ObjectData) == 64, "ObjectData is 64 bytes");
 
+// Whether the object bounds a medium (a closed mesh with a constant or
+// volume interior). Producers keep such an object's fragments outside a
+// view's [near, far] as clipped fragments (hd/fragment.h), so media the
+// near or far plane cuts stay open: media absorb from the eye up to the
+// view's far distance, surfaces are seen only within [near, far].
+CDSM_HD CDSM_INLINE bool bounds_medium(const ObjectData& o) {
+  return (o.flags & kObjClosed) != 0u && o.interior != 0u;
+}
+
 // Piecewise-linear transfer function density -> (extinction, colour).
 struct TransferData {
   int32_t count;                        // control points used (1..kMaxTransferPoints)

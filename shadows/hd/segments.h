@@ -79,6 +79,41 @@ struct WalkStats {
   uint32_t unmatched = 0;           // entries or exits without a partner, ignored
 };
 
+// An object's exit sorted before its own entry by less than this relative
+// depth is one crossing point of its silhouette (an edge or vertex where the
+// ray touches the mesh): the ray enters and leaves there. The producers
+// compute each triangle's depth of that point separately; GL interpolates it
+// at a pixel centre that may lie a snapping step outside the exact triangle,
+// which at grazing incidence moves the depth by up to 1.4e-3 relative
+// (measured over 3,000 random views of a box at 32..254 px). A genuine exit
+// and re-entry this close changes only the medium of the gap between them.
+inline constexpr float kCrossingTolerance = 4e-3f;
+
+// After sorting: each exit of an object followed (within kCrossingTolerance)
+// by an entry of the same object with none of its fragments between them is
+// a silhouette crossing: the entry moves before the exit and takes its
+// depth, so the bracket matcher sees enter-then-leave and the list stays
+// sorted. Without this, both would be unmatched and ignored.
+CDSM_HD inline void order_crossings(const SceneView& s, Span<Fragment> f) {
+  const uint64_t n = f.size();
+  for (uint64_t i = 0; i + 1 < n; ++i) {
+    if (frag_front(f[i])) continue;
+    const uint32_t o = s.tri_object[frag_prim(f[i])];
+    const float limit = f[i].depth + kCrossingTolerance * fabsf(f[i].depth);
+    for (uint64_t j = i + 1; j < n && f[j].depth <= limit; ++j) {
+      if (s.tri_object[frag_prim(f[j])] != o) continue;
+      if (frag_front(f[j])) {  // move the entry to i, shifting [i, j) up by one
+        Fragment entry = f[j];
+        entry.depth = f[i].depth;
+        for (uint64_t k = j; k > i; --k) f[k] = f[k - 1];
+        f[i] = entry;
+        ++i;  // now at the exit
+      }
+      break;  // the next fragment of o decides
+    }
+  }
+}
+
 // Marks (kFragScratchBit) every front-facing fragment that has a matching
 // back-facing fragment of the same object later on the ray; unmatched
 // entries (open meshes, one-ulp silhouette ties) are then ignored.
@@ -118,11 +153,15 @@ CDSM_HD inline void mark_matched_entries(const SceneView& s, Span<Fragment> frag
 // Visitor interface:
 //   bool surface(float t, uint32_t tri, bool front)     -> false stops the walk
 //   bool segment(float t0, float t1, const SegmentMedia&) -> false stops
-// Segments are reported only where some object encloses them.
+// Segments are reported only where some object encloses them, within
+// [t_start, t_end]. Clipped fragments (outside the view's [near, far]) bound
+// media but are never reported as surfaces: media absorb from t_start (the
+// eye) to t_end (the far distance) wherever their boundaries lie.
 template <class Visitor>
 CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint32_t> inside,
                       float t_start, float t_end, Visitor& vis, WalkStats& st) {
   sort_fragments(frags);
+  order_crossings(s, frags);
   mark_matched_entries(s, frags, st);
   EnclosingSet set;
   for (uint64_t i = 0; i < inside.size(); ++i)
@@ -136,8 +175,9 @@ CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint3
       if ((m.sigma > 0.0f || m.volume_count > 0) && !vis.segment(t_prev, t, m)) return;
     }
     t_prev = fmaxf(t_prev, t);
+    if (frag_clipped(f) && f.depth > t_end) continue;  // beyond far: bounds nothing left to report
     uint32_t tri = frag_prim(f);
-    if (!vis.surface(f.depth, tri, frag_front(f))) return;
+    if (!frag_clipped(f) && !vis.surface(f.depth, tri, frag_front(f))) return;
     uint32_t o = s.tri_object[tri];
     if ((s.objects[o].flags & kObjClosed) == 0u) continue;  // open meshes have no interior
     if (frag_front(f)) {

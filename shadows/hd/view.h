@@ -9,7 +9,8 @@ namespace cdsm {
 // A pinhole view with an orthonormal frame. Pixel (px, py) covers
 // [px, px+1) x [py, py+1); py = 0 is the top row. Rays go through pixel
 // centres. A point's depth is its distance from `eye` (radial, float32);
-// clipping keeps points whose view-axis coordinate lies in [near, far].
+// surfaces are seen where their view-axis coordinate lies in [near, far];
+// media absorb from the eye up to `far` (clipped fragments, hd/fragment.h).
 // The window may be off-centre (focused cluster frusta): `center` shifts
 // it in tangent units.
 struct PinholeView {
@@ -26,6 +27,12 @@ struct PinholeView {
   int32_t height = 1;
 };
 static_assert(sizeof(PinholeView) == 80, "PinholeView layout is shared with GPU code");
+
+// The view-axis distance from which producers keep the clipped fragments of
+// media boundaries (hd/scene_data.h bounds_medium): a small fraction of
+// `near`, since geometry at the eye itself cannot be projected by GL. Media
+// closer than this to the eye plane are lost by both producers alike.
+CDSM_HD CDSM_INLINE float media_clip_axial(const PinholeView& v) { return v.near > 0.0f ? 1e-3f * v.near : 1e-6f; }
 
 // Unnormalized direction through continuous image position (u, v) in pixels.
 CDSM_HD CDSM_INLINE Vec3 view_direction(const PinholeView& v, float u, float px_v) {

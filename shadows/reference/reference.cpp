@@ -141,12 +141,14 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
       for (int px = 0; px < w; ++px) {
         Vec3 dir = pixel_ray(view, px, py);
         float c = dot(dir, view.forward);
-        float t_near = view.near / c, t_far = view.far / c;
+        float t_far = view.far / c;
         hits_along(view.eye, dir, 3.0e38f, ObjectMask{}, hits);
-        // Event list: every hit in [t_near, t_far] splits the ray.
         Vec3 color{0, 0, 0};
         double T = 1.0;
-        float t_prev = 0.0f;  // media absorb from the eye; surfaces before near are clipped
+        // Media absorb from the eye to far; only surfaces are clipped to
+        // [near, far] (view axis). Every hit up to far splits the ray, so
+        // each interval's media follow from parity at its midpoint.
+        float t_prev = 0.0f;
         auto interval_media = [&](float ta, float tb, auto&& on_medium) {
           // Which interiors enclose (ta, tb)? Parity of each object's hits beyond the midpoint.
           float tm = 0.5f * (ta + tb);
@@ -233,11 +235,12 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
           }
         };
         for (const Hit& hh : hits) {
-          float ax = hh.t * c;
-          if (ax < view.near || ax > view.far) continue;
+          if (hh.t > t_far) break;
           shade_interval(t_prev, hh.t);
           t_prev = std::max(t_prev, hh.t);
           if (T < 1.0 - kCompositeStop) break;
+          float ax = hh.t * c;
+          if (ax < view.near || ax > view.far) continue;  // a clipped surface
           const ObjectData& od = scene_.objects[hh.object];
           if (od.opacity <= 0.0f) continue;
           // Find the triangle again for the normal: nearest hit of this object at hh.t.

@@ -9,6 +9,7 @@
 
 #include "cdsm/procedural.h"
 #include "hd/fragment.h"
+#include "hd/segments.h"
 
 namespace cdsm::test {
 
@@ -100,7 +101,8 @@ void TestScene::add_triangle(Vec3 a, Vec3 b, Vec3 c, uint32_t object) {
 void TestScene::finish() { build_bvh(sb); }
 
 void TestScene::upload(gl::FragmentRasterizer& r) const {
-  r.upload_scene({sb.tri_vertices.data(), sb.tri_vertices.size()}, {sb.tri_object.data(), sb.tri_object.size()});
+  r.upload_scene({sb.tri_vertices.data(), sb.tri_vertices.size()}, {sb.tri_object.data(), sb.tri_object.size()},
+                 {sb.objects.data(), sb.objects.size()});
 }
 
 void TestScene::cast(const PinholeView& v, ObjectMask mask, FragmentBuffers& out) const {
@@ -346,17 +348,12 @@ uint64_t count_unpaired_pixels(const TestScene& scene, const FragmentBuffers& li
   for (int py = 0; py < lists.height; ++py)
     for (int px = 0; px < lists.width; ++px) {
       std::vector<Fragment> l = pixel_list(lists, px, py);
-      // Depth order; fragments within 1e-5 relative of each other are one
-      // crossing point (a silhouette edge hit by both of its triangles):
-      // there the entry goes first.
+      // Depth order, then the walker's own rule for silhouette crossings
+      // (an object's exit just before its own entry is one crossing point:
+      // hd/segments.h order_crossings).
       std::sort(l.begin(), l.end(), frag_less);
-      for (size_t a = 0; a < l.size();) {
-        size_t b = a + 1;
-        while (b < l.size() && l[b].depth - l[b - 1].depth <= 1e-5f * l[b].depth) ++b;
-        std::stable_sort(l.begin() + long(a), l.begin() + long(b),
-                         [](Fragment x, Fragment y) { return frag_front(x) && !frag_front(y); });
-        a = b;
-      }
+      SceneView sv = scene.view();
+      order_crossings(sv, Span<Fragment>{l.data(), l.size()});
       std::vector<int> inside(scene.object_count(), 0);
       bool ok = true;
       for (const Fragment& f : l) {

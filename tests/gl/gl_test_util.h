@@ -78,6 +78,13 @@ PinholeView row_view(const PinholeView& v, int row);
 // +inf when nothing of the triangle is in that range.
 double edge_distance_px(const PinholeView& view, const Vec3 tri[3], double u, double v);
 
+// Least share of pixels whose GL and CPU lists are equal. GL samples are
+// shifted by half a snapping step (1/512 px, gl/fragment_raster.h) in x, so
+// pixels whose centre lies that close to an edge may differ from the ray
+// caster; every differing pixel must still be explained by an edge within
+// 1/64 px (Comparison::unexplained == 0).
+inline constexpr double kMinEqualFraction = 0.998;
+
 struct Comparison {
   uint64_t pixels = 0;
   uint64_t equal = 0;          // lists equal after sorting by (depth, bits)
@@ -99,10 +106,9 @@ Comparison compare_fragments(const TestScene& scene, const PinholeView& view, co
                              int gl_row = -1);
 
 // Closed-mesh check on one producer's lists: per pixel and object, after
-// sorting by depth (front first among depths within 1e-5 relative: one
-// crossing point at a silhouette edge), fragments alternate
-// entry (front), exit (back) and come in pairs. Returns the pixels where not;
-// `first` describes the first one.
+// sorting by depth and the walker's silhouette rule (hd/segments.h
+// order_crossings), fragments alternate entry (front), exit (back) and come
+// in pairs. Returns the pixels where not; `first` describes the first one.
 uint64_t count_unpaired_pixels(const TestScene& scene, const FragmentBuffers& lists, std::string* first);
 
 }  // namespace cdsm::test

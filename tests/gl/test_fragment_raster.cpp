@@ -7,12 +7,13 @@
 #include "cdsm/error.h"
 #include "cdsm/procedural.h"
 #include "hd/fragment.h"
+#include "cpu/frame.h"
+#include "hd/segments.h"
 #include "gl_test_util.h"
 
 namespace cdsm::test {
 namespace {
 
-constexpr double kMinEqualFraction = 0.999;
 
 struct ViewRun {
   FragmentBuffers gl, cpu;
@@ -412,6 +413,92 @@ TEST_F(FragmentRaster, WatertightOnPixelCentres) {
   std::printf("[  watertight ] GL %llu, CPU %llu fragments; %.3f%% pixels differ (ties broken differently)\n",
               (unsigned long long)run.gl.total(), (unsigned long long)run.cpu.total(), run.cmp.mismatch_percent());
   EXPECT_EQ(run.cmp.unexplained, 0u) << run.cmp.report;
+}
+
+// Closed boxes (like the 12-triangle volume proxies) leave no unmatched
+// fragment in the segment walker with either producer: at a silhouette an
+// object's exit can sort a few ulps (GL: up to ~1e-3 relative) before its own
+// entry, and GL snaps vertices onto pixel centres; views face-on, edge-on,
+// aimed exactly at silhouette corners (odd sizes put them on a pixel centre)
+// and random, at several resolutions.
+TEST_F(FragmentRaster, ClosedBoxesLeaveNoUnmatchedFragments) {
+  TestScene s;
+  s.add(make_box({2, 2, 2}), Mat4{});
+  s.add(make_box({6, 6, 5.5f}), make_transform({0, 0, -4.25f}, {0, 0, 0}, {1, 1, 1}));  // proxy-like, off-origin
+  for (ObjectData& o : s.sb.objects) {
+    o.opacity = 0.0f;
+    o.interior = 1;  // a medium: the walker's matching decides its segments
+    o.sigma = 1.0f;
+  }
+  s.finish();
+  gl::FragmentRasterizer r(context());
+  s.upload(r);
+  struct View {
+    std::string name;
+    PinholeView v;
+  };
+  const SceneView sv = s.view();
+  std::vector<View> views;
+  for (int res : {63, 64, 127, 256, 511}) {
+    const std::string at = " " + std::to_string(res) + "px";
+    views.push_back({"face-on" + at, look_at({0, 0, 6}, {0, 0, 0}, {0, 1, 0}, 30.0f, res, res, 0.1f, 50.0f)});
+    views.push_back({"edge-on" + at, look_at({0, 1, 6}, {0, 1, 0}, {0, 1, 0}, 30.0f, res, res, 0.1f, 50.0f)});
+    views.push_back({"edge-on side" + at, look_at({1, 0.3f, 6}, {1, 0.3f, 0}, {0, 1, 0}, 40.0f, res, res, 0.1f, 50.0f)});
+    for (Vec3 corner : {Vec3{1, -1, 1}, Vec3{1, 1, -1}, Vec3{-1, 1, 1}, Vec3{3, -3, -1.5f}})
+      views.push_back({"corner" + at, look_at({4, 3, 5}, corner, {0, 1, 0}, 30.0f, res, res, 0.1f, 50.0f)});
+  }
+  // A spot light's map (tests/unit/test_view_clipping.cpp) in which the big
+  // box's corner (3, -3, -1.5) projects 1e-4 px from the centre of texel
+  // (165, 233): GL snaps it onto the centre.
+  views.push_back({"vertex on a pixel centre", light_view({3, 3, 1}, normalize(Vec3{-3, -3, -9}), {0, 1, 0},
+                                                          std::tan(40.0f * 3.14159265f / 180.0f), 256, 1, 1e-3f, 30.0f)});
+  std::mt19937 rng(5u);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (int i = 0; i < 240; ++i) {
+    int res = 32 + (i % 7) * 37;
+    Vec3 eye = normalize(Vec3{u(rng), u(rng), u(rng)}) * (3.5f + 3.0f * std::fabs(u(rng)));
+    if (!objects_containing(sv, eye, ObjectMask{}).empty()) continue;  // the pair check assumes an eye outside
+    Vec3 aim = i % 2 ? Vec3{std::round(u(rng)), std::round(u(rng)), std::round(u(rng))} : Vec3{u(rng), u(rng), u(rng)};
+    views.push_back({"random " + std::to_string(i),
+                     look_at(eye, aim, {0, 1, 0}, 30.0f + 40.0f * std::fabs(u(rng)), res, res, 0.1f, 50.0f)});
+  }
+  struct Count {
+    uint64_t unmatched = 0, unpaired = 0, fragments = 0;
+    std::string first;
+  } gl_count, cpu_count;
+  for (const View& view : views) {
+    FragmentBuffers gl, cpu;
+    r.rasterize(view.v, ObjectMask{}, gl);
+    s.cast(view.v, ObjectMask{}, cpu);
+    for (auto [lists, count] : {std::pair{&gl, &gl_count}, std::pair{&cpu, &cpu_count}}) {
+      std::string first;
+      count->unpaired += count_unpaired_pixels(s, *lists, &first);
+      FragmentLists fl = lists->lists();
+      std::vector<uint32_t> inside = objects_containing(sv, view.v.eye, ObjectMask{});
+      WalkStats st;
+      for (int py = 0; py < fl.height; ++py)
+        for (int px = 0; px < fl.width; ++px) {
+          struct Quiet {
+            bool surface(float, uint32_t, bool) { return true; }
+            bool segment(float, float, const SegmentMedia&) { return true; }
+          } quiet;
+          uint64_t before = st.unmatched;
+          walk_ray(sv, fl.pixel(px, py), {inside.data(), inside.size()}, 0.0f, 100.0f, quiet, st);
+          if (st.unmatched != before && count->first.empty())
+            count->first = view.name + " pixel (" + std::to_string(px) + ", " + std::to_string(py) + ")";
+        }
+      count->unmatched += st.unmatched;
+      count->fragments += lists->total();
+    }
+  }
+  std::printf("[  closed   ] %zu views: GL %llu fragments, %llu unmatched; CPU %llu fragments, %llu unmatched\n",
+              views.size(), (unsigned long long)gl_count.fragments, (unsigned long long)gl_count.unmatched,
+              (unsigned long long)cpu_count.fragments, (unsigned long long)cpu_count.unmatched);
+  EXPECT_GT(gl_count.fragments, 100000u);
+  EXPECT_EQ(gl_count.unmatched, 0u) << "GL, first at " << gl_count.first;
+  EXPECT_EQ(gl_count.unpaired, 0u) << "GL";
+  EXPECT_EQ(cpu_count.unmatched, 0u) << "CPU, first at " << cpu_count.first;
+  EXPECT_EQ(cpu_count.unpaired, 0u) << "CPU";
 }
 
 }  // namespace

@@ -36,7 +36,7 @@ void expect_match(const test::TestScene& ts, gl::FragmentRasterizer& r, const Pi
               what.c_str(), (unsigned long long)c.pixels, 100.0 * double(c.pixels - same) / double(c.pixels),
               100.0 * double(c.order_ties) / double(c.pixels), c.max_rel_depth);
   EXPECT_GT(c.cpu_fragments, 0u);
-  EXPECT_GE(double(same), 0.999 * double(c.pixels));
+  EXPECT_GE(double(same), test::kMinEqualFraction * double(c.pixels));
   EXPECT_EQ(c.unexplained, 0u) << c.report;
   EXPECT_LE(c.max_rel_depth, 1e-4);
 }
