@@ -276,8 +276,13 @@ SceneBuffers compile_scene(const Scene& scene) {
     Mat4 inv;
     invert(o.transform, inv);
     normal_m = transpose(inv);
+    // Meshes are counter-clockwise outward in object space; a mirroring
+    // transform (negative determinant) reverses that in world space, so the
+    // winding is flipped here — the one place it is (loaders never pre-flip
+    // for an object's transform) — and entries stay entries.
+    const bool mirrored = det3(o.transform) < 0.0f;
     for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
-      uint32_t idx[3] = {mesh.indices[t], mesh.indices[t + 1], mesh.indices[t + 2]};
+      uint32_t idx[3] = {mesh.indices[t], mesh.indices[t + (mirrored ? 2 : 1)], mesh.indices[t + (mirrored ? 1 : 2)]};
       for (uint32_t k : idx)
         if (k >= mesh.positions.size())
           throw Error(where, "triangle " + std::to_string(t / 3) + " refers to vertex " +

@@ -9,6 +9,8 @@
 #include <cstring>
 
 #include "cdsm/scene_io.h"
+#include "cdsm/procedural.h"
+#include "cdsm/renderer.h"
 #include "cpu/scene_buffers.h"
 #include "loader_test_util.h"
 
@@ -225,10 +227,13 @@ TEST(Gltf, GlbSceneWithLightsCameraAndMaterials) {
   EXPECT_NEAR(big.surface.opacity, 0.4f, 1e-6f);
   EXPECT_NEAR(big.surface.color.z, 0.6f, 1e-6f);
   EXPECT_EQ(big.interior, InteriorKind::None);
-  // The mirrored glass cube still faces outwards in world space, and its
-  // attenuation is a constant interior: mean of -ln(c)/d.
+  // The mirrored glass cube keeps glTF's winding in mesh space (outward
+  // there); compile_scene flips it under the mirroring transform, once (the
+  // compiled world triangles below face outwards). Its attenuation is a
+  // constant interior: mean of -ln(c)/d.
   EXPECT_TRUE(is_closed(*mir.mesh));
-  EXPECT_GT(signed_volume(*mir.mesh, mir.transform), 0.0);
+  EXPECT_LT(det3(mir.transform), 0.0f);
+  EXPECT_GT(signed_volume(*mir.mesh), 0.0);
   EXPECT_NEAR(mir.surface.opacity, 0.5f, 1e-6f);
   ASSERT_EQ(mir.interior, InteriorKind::Constant);
   EXPECT_NEAR(mir.sigma, float((std::log(2.0) + std::log(4.0) + 0.0) / 2.0 / 3.0), 1e-5f);
@@ -253,6 +258,12 @@ TEST(Gltf, GlbSceneWithLightsCameraAndMaterials) {
   // It compiles (closed glass keeps its interior) and renders.
   SceneBuffers sb = compile_scene(s);
   EXPECT_EQ(sb.objects[1].interior, uint32_t(InteriorKind::Constant));
+  for (uint32_t o = 0; o < 2; ++o) {
+    double v = 0.0;
+    for (uint32_t t = sb.objects[o].first_tri; t < sb.objects[o].first_tri + sb.objects[o].tri_count; ++t)
+      v += double(dot(sb.tri_vertices[3 * t], cross(sb.tri_vertices[3 * t + 1], sb.tri_vertices[3 * t + 2]))) / 6.0;
+    EXPECT_GT(v, 0.0) << "object " << o << ": compiled world triangles face inwards";
+  }
 
   // The same model as .gltf with an external buffer file, as a mesh reference.
   std::string gltf = write_model(fixture_model(), dir + "/fixture.gltf", false);
@@ -260,6 +271,53 @@ TEST(Gltf, GlbSceneWithLightsCameraAndMaterials) {
   EXPECT_EQ(all.triangle_count(), 24u);
   EXPECT_TRUE(is_closed(all));
   EXPECT_GT(signed_volume(all, Mat4{}), 0.0);
+}
+
+// A glass cube (KHR_materials_volume) under a mirroring node renders like
+// the reference and like the same cube unmirrored — also with the camera
+// inside it.
+TEST(Gltf, MirroredNodeRendersLikeTheReferenceAndUnmirrored) {
+  std::string dir = scratch_dir();
+  Image images[2];
+  for (int mirrored = 0; mirrored < 2; ++mirrored)
+    for (bool eye_inside : {false, true}) {
+      tinygltf::Model m = fixture_model();
+      m.nodes[2].scale = {mirrored ? -1.5 : 1.5, 1.5, 1.5};  // "mirror": the glass cube at (-3, 0, 0)
+      m.scenes[0].nodes = {2};                               // the glass cube only
+      std::string path = write_model(m, dir + "/mirror" + std::to_string(mirrored) + ".glb", true);
+      Scene s = load_scene(path);
+      ASSERT_EQ(s.objects.size(), 1u);
+      ASSERT_EQ(s.objects[0].interior, InteriorKind::Constant);
+      s.objects.push_back(Object{});
+      s.objects.back().name = "ground";
+      s.objects.back().mesh = std::make_shared<TriangleMesh>(make_ground(20, 20, 0.1f));
+      s.objects.back().transform = make_transform({0, -1.0f, 0}, {0, 0, 0}, {1, 1, 1});
+      Light l;
+      l.position = {-2.0f, 6.0f, 1.5f};
+      l.direction = normalize(Vec3{-1.0f, -6.0f, -1.5f});
+      l.outer_cone_deg = 35.0f;
+      l.inner_cone_deg = 30.0f;
+      s.lights = {l};
+      s.camera.position = eye_inside ? Vec3{-2.9f, 0.1f, 0.2f} : Vec3{-1.0f, 1.5f, 5.0f};
+      s.camera.target = eye_inside ? Vec3{-2.5f, -1.0f, -2.0f} : Vec3{-3.0f, 0.0f, 0.0f};
+      s.camera.width = 64;
+      s.camera.height = 48;
+      s.shadows.resolution = 256;
+      Renderer r;
+      RenderOptions opt;
+      opt.fragments = FragmentSource::Cpu;
+      opt.compare_reference = true;
+      opt.error_samples = 4000;
+      FrameStats st;
+      Image img = r.render(s, opt, &st);
+      std::printf("[ mirror ] glTF %s%s: %.2f dB against the reference, T mean %.4f\n", mirrored ? "mirrored" : "plain",
+                  eye_inside ? ", eye inside" : "", st.image.psnr, st.transmittance.mean);
+      EXPECT_GE(st.image.psnr, 40.0) << mirrored << eye_inside;
+      EXPECT_LE(st.transmittance.mean, 0.02) << mirrored << eye_inside;
+      EXPECT_EQ(st.unmatched_fragments, 0u) << mirrored << eye_inside;
+      if (!eye_inside) images[mirrored] = img;
+    }
+  EXPECT_GE(compare_images(images[0], images[1]).psnr, 50.0);
 }
 
 TEST(Gltf, UnsupportedFeaturesAreListedOnce) {

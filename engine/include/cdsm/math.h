@@ -116,6 +116,14 @@ CDSM_HD CDSM_INLINE Mat4 transpose(const Mat4& a) {
   return r;
 }
 
+// Determinant of the upper-left 3x3 (linear) block: < 0 means the
+// transform mirrors, which reverses the winding of the triangles it maps.
+CDSM_HD CDSM_INLINE float det3(const Mat4& a) {
+  return a.m[0][0] * (a.m[1][1] * a.m[2][2] - a.m[1][2] * a.m[2][1]) -
+         a.m[0][1] * (a.m[1][0] * a.m[2][2] - a.m[1][2] * a.m[2][0]) +
+         a.m[0][2] * (a.m[1][0] * a.m[2][1] - a.m[1][1] * a.m[2][0]);
+}
+
 // General inverse by cofactors; returns false (and identity) if singular.
 CDSM_HD inline bool invert(const Mat4& a, Mat4& out) {
   const float* s = &a.m[0][0];

@@ -216,10 +216,9 @@ Scene load_gltf_scene(const std::string& path) {
       Object o;
       o.name = nd.name.empty() ? "node " + std::to_string(ni) : nd.name;
       if (me.primitives.size() > 1) o.name += "/" + std::to_string(p);
-      // A mirroring transform reverses glTF's front faces: keep the mesh's
-      // triangles counter-clockwise seen from outside in world space.
-      if (gltf::det3(g) < 0.0f)
-        for (size_t t = 0; t + 2 < prim.indices.size(); t += 3) std::swap(prim.indices[t + 1], prim.indices[t + 2]);
+      // The mesh stays in mesh space, counter-clockwise outward as glTF
+      // stores it; a mirroring node transform `g` is undone by compile_scene
+      // (the one place winding follows the object-to-world determinant).
       const bool closed = is_closed(prim);
       o.mesh = std::make_shared<TriangleMesh>(std::move(prim));
       o.transform = g;

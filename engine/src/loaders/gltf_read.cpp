@@ -213,12 +213,6 @@ void Unsupported::report(const std::string& path) const {
   if (!empty()) warn(message(path));
 }
 
-float det3(const Mat4& m) {
-  return m.m[0][0] * (m.m[1][1] * m.m[2][2] - m.m[1][2] * m.m[2][1]) -
-         m.m[0][1] * (m.m[1][0] * m.m[2][2] - m.m[1][2] * m.m[2][0]) +
-         m.m[0][2] * (m.m[1][0] * m.m[2][1] - m.m[1][1] * m.m[2][0]);
-}
-
 File read_file(const std::string& path, Unsupported& unsupported) {
   File f;
   f.path = path;

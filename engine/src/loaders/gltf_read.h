@@ -65,13 +65,11 @@ int find_node(const File& f, const std::string& name_or_index);
 bool read_primitive(const File& f, int mesh, int prim, const std::string& where, Unsupported& unsupported,
                     TriangleMesh& out);
 
-// Determinant of the upper-left 3x3 block: < 0 means the transform mirrors
-// (glTF then reverses the winding of front faces).
-float det3(const Mat4& m);
-
 // Appends `src` transformed by `m` to `dst` (normals by the inverse
-// transpose; winding flipped when m mirrors). Drops dst's normals when the
-// two disagree about having them.
+// transpose). `m` is baked into the positions, so a mirroring `m` flips the
+// winding here (the result is counter-clockwise outward in dst's space;
+// compile_scene flips again only for the object's own transform). Drops
+// dst's normals when the two disagree about having them.
 void append_transformed(TriangleMesh& dst, const TriangleMesh& src, const Mat4& m);
 
 }  // namespace cdsm::gltf

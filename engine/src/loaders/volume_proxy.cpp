@@ -13,12 +13,6 @@
 namespace cdsm {
 namespace {
 
-float det3(const Mat4& m) {
-  return m.m[0][0] * (m.m[1][1] * m.m[2][2] - m.m[1][2] * m.m[2][1]) -
-         m.m[0][1] * (m.m[1][0] * m.m[2][2] - m.m[1][2] * m.m[2][0]) +
-         m.m[0][2] * (m.m[1][0] * m.m[2][1] - m.m[1][1] * m.m[2][0]);
-}
-
 // Appends quad (a, b, c, d), counter-clockwise seen from outside, as two triangles.
 void add_quad(TriangleMesh& m, uint32_t a, uint32_t b, uint32_t c, uint32_t d, bool flip) {
   uint32_t q[6] = {a, b, c, a, c, d};
@@ -29,7 +23,10 @@ void add_quad(TriangleMesh& m, uint32_t a, uint32_t b, uint32_t c, uint32_t d, b
   m.indices.insert(m.indices.end(), q, q + 6);
 }
 
-// Box [lo, hi] in index space, mapped to object space.
+// Box [lo, hi] in index space, mapped to object space. The index-to-object
+// map is baked into the positions, so a mirroring one flips the winding here
+// (counter-clockwise outward in object space); compile_scene flips again
+// only for the object's own transform.
 TriangleMesh index_box(Vec3 lo, Vec3 hi, const Mat4& index_to_object) {
   TriangleMesh m;
   for (int i = 0; i < 8; ++i)
