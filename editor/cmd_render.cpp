@@ -101,6 +101,8 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
   j["camera_fragments"] = s.camera_fragments;
   j["unmatched_fragments"] = s.unmatched_fragments;
   j["enclosing_overflow"] = s.enclosing_overflow;
+  j["ray_object_overflow"] = s.match_overflow;
+  j["march_steps_lengthened"] = s.march_lengthened;
   if (s.has_reference) {
     auto& e = j["transmittance_error"];
     e["points"] = s.transmittance.points;
@@ -150,6 +152,10 @@ void print_summary(const FrameStats& s, const Scene& scene, bool reference_backe
               s.memory.slack_bytes / 1048576.0);
   std::printf("nodes/texel  avg %.2f, max %u (overflowed texels %llu)\n", s.memory.avg_nodes_per_texel,
               s.memory.max_nodes_per_texel, (unsigned long long)s.memory.overflow_texels);
+  std::printf("segments     unmatched fragments %llu, enclosing overflow %llu, rays with > %d objects %llu, "
+              "march steps lengthened %llu\n",
+              (unsigned long long)s.unmatched_fragments, (unsigned long long)s.enclosing_overflow, kMaxRayObjects,
+              (unsigned long long)s.match_overflow, (unsigned long long)s.march_lengthened);
   if (s.has_reference) {
     std::printf("error        transmittance over %llu points: mean %.5f, p99 %.4f, max %.4f, RMSE %.5f\n",
                 (unsigned long long)s.transmittance.points, s.transmittance.mean, s.transmittance.p99,

@@ -156,6 +156,13 @@ struct Renderer::Impl {
     }
   }
 
+  static void add_walk(FrameStats& st, const WalkStats& w) {
+    st.unmatched_fragments += w.unmatched;
+    st.enclosing_overflow += w.enclosing_overflow;
+    st.match_overflow += w.match_overflow;
+    st.march_lengthened += w.march_lengthened;
+  }
+
   static void fill_memory(const Frame& f, FrameStats& st) {
     DsmMemory& m = st.memory;
     m = DsmMemory{};
@@ -169,8 +176,7 @@ struct Renderer::Impl {
       m.max_nodes_per_texel = std::max(m.max_nodes_per_texel, b.max_nodes);
       m.overflow_texels += b.overflow_texels;
       m.max_extra_error = std::max(m.max_extra_error, b.max_extra_error);
-      st.unmatched_fragments += b.walk.unmatched;
-      st.enclosing_overflow += b.walk.enclosing_overflow;
+      add_walk(st, b.walk);
     }
     m.avg_nodes_per_texel = m.texels ? double(m.nodes) / double(m.texels) : 0.0;
   }
@@ -348,8 +354,11 @@ Image Renderer::render(const Scene& scene, const RenderOptions& opt, FrameStats*
   render_camera(sv, shv, f.cam, f.camera_frags.lists(), img.rgb, ws);
   st.times.camera_ms = ms_since(t0);
   impl_->measure_popping(scene, f, st);
-  st.unmatched_fragments += ws.unmatched;
-  st.enclosing_overflow += ws.enclosing_overflow;
+  Impl::add_walk(st, ws);
+  if (st.march_lengthened > 0)
+    st.warnings.push_back(scene.source + ": " + std::to_string(st.march_lengthened) +
+                          " volume segments lie so far from the eye or light that their march step is below float "
+                          "resolution there; they were marched with the finest step float allows (coarser than asked)");
   st.times.total_ms = ms_since(t_total);
   if (opt.compare_reference) {
     t0 = Clock::now();

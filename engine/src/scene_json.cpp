@@ -14,6 +14,10 @@
 namespace cdsm {
 namespace {
 
+// Range of voxel_size / raw spacing, world units.
+constexpr float kMinVoxelSize = 1e-6f;
+constexpr float kMaxVoxelSize = 1e6f;
+
 struct Parser {
   std::string file;
   std::string base_dir;
@@ -209,8 +213,10 @@ struct Parser {
       v.grid = type == "raw" ? raw_grid(gn, has_spacing, spacing) : grid(gn);
       if (has_spacing && n.has("voxel_size")) n.fail("give the raw grid's spacing or the volume's voxel_size, not both");
       Vec3 vs = has_spacing ? spacing : n.get("voxel_size", Vec3{0.05f, 0.05f, 0.05f});
-      if (!(vs.x > 0 && vs.y > 0 && vs.z > 0))
-        (has_spacing ? gn.at("spacing") : n.at("voxel_size")).fail("must be > 0");
+      if (!(vs.x >= kMinVoxelSize && vs.y >= kMinVoxelSize && vs.z >= kMinVoxelSize && vs.x <= kMaxVoxelSize &&
+            vs.y <= kMaxVoxelSize && vs.z <= kMaxVoxelSize))
+        (has_spacing ? gn.at("spacing") : n.at("voxel_size"))
+            .fail("must be within [1e-6, 1e6] world units (a finer voxel cannot be marched at ordinary distances)");
       Vec3 origin = n.get("origin", Vec3{0, 0, 0});
       // Voxel (i,j,k) centre at origin + (i + 0.5) * voxel_size: the grid's
       // box spans [origin, origin + n * voxel_size].

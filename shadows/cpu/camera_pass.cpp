@@ -24,11 +24,7 @@ void render_camera(const SceneView& scene, const ShadowView& shadows, const Came
         o[2] = r.color.z;
       }
   });
-  partial.combine_each([&](const WalkStats& p) {
-    walk.enclosing_overflow += p.enclosing_overflow;
-    walk.match_overflow += p.match_overflow;
-    walk.unmatched += p.unmatched;
-  });
+  partial.combine_each([&](const WalkStats& p) { walk.add(p); });
 }
 
 }  // namespace cdsm

@@ -16,12 +16,6 @@
 namespace cdsm {
 namespace {
 
-void add(WalkStats& a, const WalkStats& b) {
-  a.enclosing_overflow += b.enclosing_overflow;
-  a.match_overflow += b.match_overflow;
-  a.unmatched += b.unmatched;
-}
-
 bool same_layout(const DsmLayoutParams& a, const DsmLayoutParams& b) {
   if (a.layout != b.layout) return false;
   if (a.layout == kDsmFixed) return a.fixed_layers == b.fixed_layers;
@@ -231,7 +225,7 @@ DsmBuildStats build_dsm(const SceneView& scene, const LightPassParams& params, F
         stats.overflow_texels += p.overflow_texels;
         stats.layout_overflow_texels += p.layout_overflow_texels;
         stats.max_extra_error = std::max(stats.max_extra_error, p.max_extra_error);
-        add(stats.walk, p.walk);
+        stats.walk.add(p.walk);
       });
       if (kind == kDsmChunked) stats.chunks = total;
       break;

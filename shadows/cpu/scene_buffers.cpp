@@ -11,6 +11,7 @@
 
 #include "cdsm/error.h"
 #include "hd/fragment.h"
+#include "hd/segments.h"
 #include "hd/volume.h"
 
 namespace cdsm {
@@ -301,6 +302,19 @@ SceneBuffers compile_scene(const Scene& scene) {
     }
     if (sb.tri_object.size() >= kMaxPrimitives)
       throw Error(scene.source, "more than " + std::to_string(kMaxPrimitives) + " triangles");
+    if (od.interior == uint32_t(InteriorKind::Volume) && !bounds.empty()) {
+      // The march must advance in float wherever the volume is: its step at
+      // least min_march_step of its own coordinates (marching from a distant
+      // eye or light is lengthened per segment and counted instead).
+      const VolumeData& vd = sb.volumes[size_t(o.volume)];
+      float reach = std::max({std::fabs(bounds.lo.x), std::fabs(bounds.lo.y), std::fabs(bounds.lo.z),
+                              std::fabs(bounds.hi.x), std::fabs(bounds.hi.y), std::fabs(bounds.hi.z)});
+      if (!(vd.step >= min_march_step(0.0f, reach)))
+        throw Error(where, "its march step of " + std::to_string(vd.step) +
+                               " world units (step_voxels x voxel size after the transform) is below the float "
+                               "resolution where the volume lies (coordinates up to " + std::to_string(reach) +
+                               "): it cannot be marched; use larger voxels or move it nearer the origin");
+    }
     sb.objects.push_back(od);
     sb.object_bounds.push_back(bounds);
     sb.bounds.grow(bounds);

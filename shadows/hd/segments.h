@@ -77,7 +77,22 @@ struct WalkStats {
   uint32_t enclosing_overflow = 0;  // entries dropped: more than kMaxEnclosing objects
   uint32_t match_overflow = 0;      // rays with more than kMaxRayObjects distinct objects
   uint32_t unmatched = 0;           // entries or exits without a partner, ignored
+  uint32_t march_lengthened = 0;    // volume segments whose march step was below the float
+                                    // resolution of their depth and was lengthened to it
+  CDSM_HD void add(const WalkStats& o) {
+    enclosing_overflow += o.enclosing_overflow;
+    match_overflow += o.match_overflow;
+    unmatched += o.unmatched;
+    march_lengthened += o.march_lengthened;
+  }
 };
+
+// The shortest march step a segment ending at depth t1 can take and still
+// advance in float: 4 ulps of |t1| (an ulp is at most |t| 2^-23). Marching a
+// volume far from the eye (or light) with a finer step would never advance.
+CDSM_HD CDSM_INLINE float min_march_step(float t0, float t1) {
+  return fmaxf(fmaxf(fabsf(t0), fabsf(t1)) * 4.77e-7f, 1e-30f);
+}
 
 // An object's exit sorted before its own entry by less than this relative
 // depth is one crossing point of its silhouette (an edge or vertex where the
@@ -148,6 +163,18 @@ CDSM_HD inline void mark_matched_entries(const SceneView& s, Span<Fragment> frag
   if (overflow) ++st.match_overflow;
 }
 
+// Lengthens a volume segment's march step to what float resolution allows
+// at its depth (counted), so the march always advances and takes at most
+// (t1 - t0) / min_march_step samples.
+CDSM_HD CDSM_INLINE void guard_march_step(SegmentMedia& m, float t0, float t1, WalkStats& st) {
+  if (m.volume_count == 0) return;
+  float h = min_march_step(t0, t1);
+  if (m.step < h) {
+    m.step = h;
+    ++st.march_lengthened;
+  }
+}
+
 // Walks a ray through its fragments. `frags` are sorted here (in place).
 // `inside` lists objects containing the eye (decided once per view).
 // Visitor interface:
@@ -172,6 +199,7 @@ CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint3
     float t = fminf(fmaxf(f.depth, t_start), t_end);
     if (set.count > 0 && t > t_prev) {
       SegmentMedia m = media_of(s, set);
+      guard_march_step(m, t_prev, t, st);
       if ((m.sigma > 0.0f || m.volume_count > 0) && !vis.segment(t_prev, t, m)) return;
     }
     t_prev = fmaxf(t_prev, t);
@@ -192,6 +220,7 @@ CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint3
   }
   if (set.count > 0 && t_end > t_prev) {
     SegmentMedia m = media_of(s, set);
+    guard_march_step(m, t_prev, t_end, st);
     if (m.sigma > 0.0f || m.volume_count > 0) vis.segment(t_prev, t_end, m);
   }
 }
@@ -240,6 +269,7 @@ CDSM_HD bool march_segment(const SceneView& s, const SegmentMedia& m, Vec3 org, 
       }
     }
     float te = fminf(t + h, t1);
+    if (!(te > t)) te = t1;  // a step below float resolution (walk_ray guards m.step): finish
     Vec3 p = org + dir * (0.5f * (t + te));
     MarchSample ms;
     ms.t0 = t;

@@ -89,8 +89,14 @@ struct FrameStats {
   uint64_t camera_fragments = 0;
   std::string fragment_source;         // "gl" or "cpu"
   std::string fragment_source_reason;  // why it was chosen
-  uint64_t unmatched_fragments = 0;    // entries/exits without partner (open meshes)
-  uint64_t enclosing_overflow = 0;
+  // Segment walker counters over the frame's maps and camera pass:
+  uint64_t unmatched_fragments = 0;    // entries/exits without partner (open meshes), ignored
+  uint64_t enclosing_overflow = 0;     // entries beyond kMaxEnclosing nested objects, dropped
+  uint64_t match_overflow = 0;         // rays with more than kMaxRayObjects objects (matched in
+                                       // extra passes: the answer is unchanged, only slower)
+  uint64_t march_lengthened = 0;       // volume segments marched with a step lengthened to the
+                                       // float resolution at their depth (volumes far from the
+                                       // eye or light; warned about)
   std::vector<std::string> warnings;   // scene content that could not be honoured
   bool has_reference = false;
   TransmittanceError transmittance;
