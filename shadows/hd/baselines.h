@@ -32,10 +32,9 @@ inline constexpr float kDefaultOpacityThreshold = 0.5f;
 inline constexpr int kDefaultOpacitySlices = 32;
 inline constexpr int kDefaultFixedNodes = 8;
 
-// Spacing of the samples of a constant medium fed to the baselines: the
-// chord of 1 - exp(-sigma z) stays within 1e-4 of it (see light_pass.h).
+// Chord error of the pieces a constant medium is cut into for the baselines
+// (hd/light_pass.h sample_constant_medium: spacing grows with saturation).
 inline constexpr float kBaselineChordError = 1e-4f;
-inline constexpr int kMaxBaselineConstantSamples = 256;
 
 // Walks the exact opacity along a light ray and reports it to a builder as
 // surfaces and exponential pieces:
@@ -73,15 +72,13 @@ struct ExactAlphaVisitor {
 
   CDSM_HD bool segment(float t0, float t1, const SegmentMedia& m) {
     if (m.volume_count == 0) {
-      float len = t1 - t0;
-      float h = sqrtf(8.0f * kBaselineChordError) / m.sigma;
-      float nf = ceilf(len / h);  // clamp in float: a huge sigma must not overflow the int
-      int n = nf >= float(kMaxBaselineConstantSamples) ? kMaxBaselineConstantSamples : (nf < 1.0f ? 1 : int(nf));
-      for (int i = 0; i < n; ++i) {
-        float za = t0 + len * float(i) / float(n), zb = t0 + len * float(i + 1) / float(n);
-        if (!piece(za, zb, m.sigma)) return false;
-      }
-      return true;
+      bool go_on = true;
+      float za = t0;
+      sample_constant_medium(t0, t1, 1.0f - alpha, m.sigma, kBaselineChordError, [&](float zb, float) {
+        if (go_on) go_on = piece(za, zb, m.sigma);
+        za = zb;
+      });
+      return go_on;
     }
     bool go_on = true;
     march_segment(

@@ -17,11 +17,6 @@ struct LightPassParams {
   float method_param = 0.0f;     // the baseline's parameter (0: its default)
 };
 
-// Compression-friendly sampling of a constant medium: the chord of
-// 1 - exp(-sigma z) over a spacing h deviates by at most h^2 sigma^2 / 8,
-// so h = sqrt(8 e) / sigma keeps linear pieces within e.
-inline constexpr int kMaxConstantSamples = 256;
-
 struct DsmVisitor {
   const SceneView& s;
   Vec3 org, dir;
@@ -47,20 +42,11 @@ struct DsmVisitor {
   CDSM_HD bool segment(float t0, float t1, const SegmentMedia& m) {
     c.push(buf, t0, alpha);
     if (m.volume_count == 0) {
-      float len = t1 - t0;
-      // Chords within min(eps, 1e-3) of the exponential, so chord and
-      // compression errors together stay within eps + 1e-3.
-      float h = sqrtf(8.0f * fminf(fmaxf(eps, 1e-5f), 1e-3f)) / m.sigma;
-      float nf = fminf(fmaxf(ceilf(len / h), 1.0f), float(kMaxConstantSamples));  // clamp before converting
-      int n = int(nf);
-      float base = 1.0f - alpha;
-      for (int i = 1; i <= n; ++i) {
-        float z = t0 + len * float(i) / float(n);
-        alpha = 1.0f - base * expf(-m.sigma * (z - t0));
+      sample_constant_medium(t0, t1, 1.0f - alpha, m.sigma, kConstantChordError, [&](float z, float a) {
+        alpha = a;
         c.push(buf, z, alpha);
-        if (saturated()) return false;
-      }
-      return true;
+      });
+      return !saturated();
     }
     return march_segment(
         s, m, org, dir, t0, t1,

@@ -296,4 +296,32 @@ CDSM_HD bool march_segment(const SceneView& s, const SegmentMedia& m, Vec3 org, 
   return true;
 }
 
+// Sampling of a constant medium (extinction sigma) for a compressor (the
+// light pass, the baselines): the
+// chord of alpha(z) = 1 - T0 exp(-sigma (z - z0)) over a spacing h deviates
+// from it by at most T h^2 sigma^2 / 8, T the transmittance at the chord's
+// start. Spacing h = sqrt(8 e / T) / sigma keeps every chord within e, and
+// grows as the medium saturates, so about 2 / sqrt(8 e) samples reach
+// transmittance kConstantTail whatever sigma * length is (224 for e = 1e-5);
+// sampling ends there. Chord and compression errors add: within eps + e.
+inline constexpr float kConstantChordError = 1e-5f;
+inline constexpr float kConstantTail = 1e-5f;     // transmittance where sampling ends (< 1 - kSaturatedAlpha)
+inline constexpr int kMaxConstantSamples = 1024;  // bound against float luck; the spacing needs about 224
+
+// The samples of a constant medium from t0 (transmittance T0 there) to t1,
+// chord error `e`: calls emit(z, alpha) for each; stops at kConstantTail.
+template <class Emit>
+CDSM_HD void sample_constant_medium(float t0, float t1, float T0, float sigma, float e, Emit&& emit) {
+  float z = t0, T = T0;
+  for (int i = 0; i < kMaxConstantSamples && z < t1 && T > kConstantTail; ++i) {
+    float h = sqrtf(8.0f * e / T) / sigma;
+    float zn = fminf(z + h, t1);
+    if (!(zn > z)) zn = fminf(nextafterf(z, 3.0e38f), t1);  // sigma beyond float resolution: a jump
+    if (i + 1 == kMaxConstantSamples) zn = t1;
+    T = T0 * expf(-sigma * (zn - t0));
+    emit(zn, 1.0f - T);
+    z = zn;
+  }
+}
+
 }  // namespace cdsm
