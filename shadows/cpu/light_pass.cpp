@@ -45,11 +45,18 @@ void check_u32(uint64_t v, const char* what) {
     throw std::length_error(std::string("DSM ") + what + " exceed 2^32 entries");
 }
 
-// Per-thread scratch: the node buffers of one tile's texels.
+// Per-thread scratch: the node buffers of one tile's texels, and the
+// working memory of node removal when a texel overflows (one at a time).
 struct Scratch {
   std::vector<DsmNode> nodes;     // kDsmTile^2 buffers of K nodes
   std::vector<uint32_t> counts;   // nodes per texel, tile order
   std::vector<TexelRange> heads;  // chunked: headers, tile order
+  std::vector<uint32_t> rm_words; // 4 K: prev, next, heap, heap position
+  std::vector<float> rm_floats;   // 2 K: cost, span error
+  RemovalScratch removal(int k) {
+    return {rm_words.data(), rm_words.data() + k, rm_words.data() + 2 * k, rm_words.data() + 3 * k,
+            rm_floats.data(), rm_floats.data() + k};
+  }
 };
 
 }  // namespace
@@ -138,6 +145,8 @@ DsmBuildStats build_dsm(const SceneView& scene, const LightPassParams& params, F
     s.nodes.resize(size_t(kDsmTile) * kDsmTile * size_t(node_capacity));
     s.counts.resize(size_t(kDsmTile) * kDsmTile);
     s.heads.resize(size_t(kDsmTile) * kDsmTile);
+    s.rm_words.resize(4 * size_t(node_capacity));
+    s.rm_floats.resize(2 * size_t(node_capacity));
     return s;
   });
 
@@ -160,10 +169,11 @@ DsmBuildStats build_dsm(const SceneView& scene, const LightPassParams& params, F
           s.counts[k] = 0;
           if (tx >= res || ty >= height) continue;
           NodeBuffer buf{s.nodes.data() + size_t(k) * node_capacity, node_capacity};
+          buf.scratch = s.removal(node_capacity);
           build_texel(scene, params, frags.pixel(tx, ty), tx, ty, buf, st.walk);
           st.max_built_nodes = std::max(st.max_built_nodes, uint32_t(buf.count));
           float extra = buf.extra_error;
-          bool recompressed = buf.recompressions > 0;
+          bool recompressed = buf.removed > 0;
           uint32_t count = uint32_t(buf.count);
           if (kind == kDsmFixed) {
             FixedFit fit = write_fixed_texel({buf.nodes, uint64_t(buf.count)}, params.epsilon,

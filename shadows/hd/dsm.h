@@ -109,6 +109,35 @@ CDSM_HD CDSM_INLINE float lookup_alpha(Span<const DsmNode> n, float z) {
   return alpha_at_index(n, z, lower_bound_z(n, z));
 }
 
+// alpha just after z (the right limit): after a step at z, its upper value.
+CDSM_HD CDSM_INLINE float alpha_after(Span<const DsmNode> n, float z) {
+  uint32_t lo = 0, hi = uint32_t(n.size());  // first node with z_j > z
+  while (lo < hi) {
+    uint32_t mid = (lo + hi) >> 1;
+    if (n[mid].z <= z) lo = mid + 1;
+    else hi = mid;
+  }
+  if (lo == 0) return 0.0f;
+  if (lo == n.size() || n[lo - 1].z == z) return n[lo - 1].alpha;
+  return alpha_between(n[lo - 1], n[lo], z);
+}
+
+// sup over z of |f(z) - g(z)| for two node lists: both are piecewise
+// linear with breakpoints at their nodes, so the largest difference of the
+// values before (lookup_alpha) or after (alpha_after) some node's depth.
+CDSM_HD inline float max_change(Span<const DsmNode> f, Span<const DsmNode> g) {
+  float worst = 0.0f;
+  for (int list = 0; list < 2; ++list) {
+    Span<const DsmNode> n = list == 0 ? f : g;
+    for (uint64_t i = 0; i < n.size(); ++i) {
+      float z = n[i].z;
+      worst = fmaxf(worst, fabsf(lookup_alpha(f, z) - lookup_alpha(g, z)));
+      worst = fmaxf(worst, fabsf(alpha_after(f, z) - alpha_after(g, z)));
+    }
+  }
+  return worst;
+}
+
 // The same, starting a galloping search at a hint (the previous sample's
 // index when marching along a ray); updates the hint.
 CDSM_HD CDSM_INLINE float lookup_alpha_from(Span<const DsmNode> n, float z, uint32_t& hint) {

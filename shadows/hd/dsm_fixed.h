@@ -9,8 +9,8 @@
 //      surface as two nodes at any e), greedy removal: stream the nodes
 //      through the L slots, dropping each time the node whose removal changes
 //      alpha least.
-// The extra error is returned as a bound on |alpha_fit(z) - alpha(z)| over
-// all z (stage 1: e; stage 2: the sum of the removal costs).
+// The extra error returned is the true sup over z of |alpha_fit(z) -
+// alpha(z)| (hd/dsm.h max_change).
 #pragma once
 
 #include "hd/dsm.h"
@@ -34,6 +34,11 @@ struct FixedSlotSink {
   FixedSlotSink(const FixedSlotSink&) = delete;
   FixedSlotSink& operator=(const FixedSlotSink&) = delete;
   CDSM_HD void emit(float z, float a) { nodes[count++] = DsmNode{z, a}; }
+  CDSM_HD int size() const { return count; }
+  CDSM_HD DsmNode& last() { return nodes[count - 1]; }
+  CDSM_HD DsmNode& before_last() { return nodes[count - 2]; }
+  CDSM_HD void raise_last(float a) { nodes[count - 1].alpha = a; }
+  CDSM_HD void compact() {}
 };
 
 // Re-compresses a node list with tolerance e into `out` (steps stay steps);
@@ -92,7 +97,7 @@ CDSM_HD inline float greedy_fit_nodes(Span<const DsmNode> in, DsmNode* slots, in
 // What writing one texel did.
 struct FixedFit {
   int count = 0;              // nodes stored (<= L)
-  float extra_error = 0.0f;   // bound of the error the re-compression added (0 if none)
+  float extra_error = 0.0f;   // the change the re-compression made, sup over z (0 if none)
   bool recompressed = false;  // the texel had more than L nodes
 };
 
@@ -132,10 +137,10 @@ CDSM_HD inline FixedFit write_fixed_texel(Span<const DsmNode> in, float eps, Dsm
         else lo = mid;
       }
       r.count = fixed_rewedge(in, hi, slots, L);  // the slots hold the last trial: redo the one that fits
-      r.extra_error = hi;
     }
-    if (hi <= 0.0f || r.count > L) r.extra_error = greedy_fit_nodes(in, slots, L, r.count);
+    if (hi <= 0.0f || r.count > L) greedy_fit_nodes(in, slots, L, r.count);
   }
+  if (r.recompressed) r.extra_error = max_change(in, {slots, uint64_t(r.count)});  // the true change
   float last = r.count > 0 ? slots[r.count - 1].alpha : 0.0f;
   for (int k = r.count; k < L; ++k) slots[k] = DsmNode{kFixedPadZ, last};
   return r;

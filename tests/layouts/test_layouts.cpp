@@ -4,6 +4,8 @@
 // (chunked) texels that need many nodes.
 #include <gtest/gtest.h>
 
+#include "common/minimax_fit.h"
+
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -463,7 +465,14 @@ TEST(Layouts, FixedRecompressesStepsGreedily) {
   EXPECT_EQ(out[0].z, in.front().z);
   EXPECT_EQ(out[5].z, in.back().z);
   EXPECT_EQ(out[5].alpha, in.back().alpha) << "the final opacity is kept";
-  EXPECT_LE(sup_diff({in.data(), in.size()}, out), fit.extra_error + 1e-6);
+  // Independent bounds: the best 6-node fit (exhaustive DP), and the
+  // recorded error must cover the true change.
+  double change = sup_diff({in.data(), in.size()}, out);
+  double best = cdsm_test::minimax_fit_error(in, 6);
+  std::printf("[ fixed ] 12 steps into 6 slots: change %.4f, optimum %.4f (x%.2f), recorded %.4f\n", change, best,
+              change / best, fit.extra_error);
+  EXPECT_LE(change, 2.0 * best + 1e-6);
+  EXPECT_GE(double(fit.extra_error) + 1e-6, change);
 }
 
 TEST(Layouts, FixedSmallLayersRecordOverflow) {
@@ -484,7 +493,7 @@ TEST(Layouts, FixedSmallLayersRecordOverflow) {
     for (const TexelRange& r : p.texels) m = std::max(m, r.count);
     return m;
   }());
-  double worst = 0.0;
+  double worst = 0.0, worst_ratio = 0.0;
   for (int ty = 0; ty < kRes; ++ty)
     for (int tx = 0; tx < kRes; ++tx) {
       std::vector<DsmNode> a = nodes_of(p, tx, ty), b = nodes_of(x, tx, ty);
@@ -493,6 +502,11 @@ TEST(Layouts, FixedSmallLayersRecordOverflow) {
       double d = sup_diff({a.data(), a.size()}, {b.data(), b.size()});
       if (a.size() <= size_t(L)) {
         EXPECT_EQ(d, 0.0) << "a texel that fits is stored as is";
+      } else {
+        // Independent: within twice the best L-node fit (exhaustive DP).
+        double best = cdsm_test::minimax_fit_error(a, size_t(L));
+        EXPECT_LE(d, 2.0 * best + 1e-5) << "texel " << tx << ", " << ty << ": optimum " << best;
+        worst_ratio = std::max(worst_ratio, d / std::max(best, 1e-9));
       }
       worst = std::max(worst, d);
       // Lookups through the padded slots agree with the stored nodes.
@@ -501,6 +515,7 @@ TEST(Layouts, FixedSmallLayersRecordOverflow) {
     }
   EXPECT_GT(worst, 0.0);
   EXPECT_LE(worst, double(st.max_extra_error) + 1e-5) << "the recorded error bounds the change";
+  std::printf("[ fixed ] L = %d: worst change %.4f, worst ratio to the optimum %.2f\n", L, worst, worst_ratio);
 }
 
 TEST(Layouts, AppendRebasesEveryLayout) {

@@ -356,7 +356,10 @@ TEST(ManyFragments, OverAThousandTranslucentLayersOverflowTheTexelBufferSafely) 
   for (const DsmBuildStats& st : rig.frame.map_stats) extra = std::max(extra, st.max_extra_error);
   EXPECT_GT(rig.overflow_texels(), 0u) << "re-compressed, and counted";
   EXPECT_GT(extra, 0.0f) << "the extra error is recorded";
-  EXPECT_NEAR(rig.alpha({0.05f, 0.5f, 0.05f}), 1.0f - std::pow(0.999f, float(layers)), 0.01f + extra + 1e-4f);
+  // Below every layer the function's last node holds: node removal keeps
+  // it, so the answer is exact up to eps and float accumulation.
+  EXPECT_NEAR(rig.alpha({0.05f, 0.5f, 0.05f}), 1.0f - std::pow(0.999f, float(layers)), 0.01f + 1e-4f);
+  EXPECT_LT(extra, 0.1f) << "1,200 equal steps into 1,024 nodes change the function little";
   EXPECT_TRUE(all_physical(rig));
 }
 
