@@ -75,7 +75,8 @@ CDSM_HD CDSM_INLINE SegmentMedia media_of(const SceneView& s, const EnclosingSet
 // Counters a walk reports (summed into frame statistics).
 struct WalkStats {
   uint32_t enclosing_overflow = 0;  // entries dropped: more than kMaxEnclosing objects
-  uint32_t match_overflow = 0;      // rays with more than kMaxRayObjects distinct objects
+  uint32_t match_overflow = 0;      // rays with more than kMaxRayObjects distinct objects (matched
+                                    // in further passes: same answer)
   uint32_t unmatched = 0;           // entries or exits without a partner, ignored
   uint32_t march_lengthened = 0;    // volume segments whose march step was below the float
                                     // resolution of their depth and was lengthened to it
@@ -131,10 +132,15 @@ CDSM_HD inline void order_crossings(const SceneView& s, Span<Fragment> f) {
 
 // Marks (kFragScratchBit) every front-facing fragment that has a matching
 // back-facing fragment of the same object later on the ray; unmatched
-// entries (open meshes, one-ulp silhouette ties) are then ignored.
+// entries (open meshes, one-ulp silhouette ties) are then ignored. Objects
+// are matched independently (an entry is matched by a later exit of its own
+// object, scanning backwards), kMaxRayObjects at a time: a ray crossing more
+// objects takes further passes over the objects with higher ids — the same
+// answer, bounded work (counted in match_overflow).
 CDSM_HD inline void mark_matched_entries(const SceneView& s, Span<Fragment> frags, WalkStats& st) {
   uint32_t obj[kMaxRayObjects];
   uint32_t pending[kMaxRayObjects];  // exits seen (scanning backwards) not yet matched
+  // First pass: the first kMaxRayObjects objects met scanning backwards.
   int n = 0;
   bool overflow = false;
   for (uint64_t k = frags.size(); k-- > 0;) {
@@ -144,9 +150,8 @@ CDSM_HD inline void mark_matched_entries(const SceneView& s, Span<Fragment> frag
     int i = 0;
     while (i < n && obj[i] != o) ++i;
     if (i == n) {
-      if (n == kMaxRayObjects) {  // cannot track: treat the entry as matched
+      if (n == kMaxRayObjects) {
         overflow = true;
-        if (frag_front(f)) f.bits |= kFragScratchBit;
         continue;
       }
       obj[n] = o;
@@ -160,7 +165,46 @@ CDSM_HD inline void mark_matched_entries(const SceneView& s, Span<Fragment> frag
       f.bits |= kFragScratchBit;
     }
   }
-  if (overflow) ++st.match_overflow;
+  if (!overflow) return;
+  ++st.match_overflow;
+  // More objects than the table holds: redo by object id, the
+  // kMaxRayObjects smallest ids not yet handled per pass (sorted table).
+  for (uint64_t k = 0; k < frags.size(); ++k) frags[k].bits &= ~kFragScratchBit;
+  uint32_t lo = 0;  // ids below lo are done
+  for (bool more = true; more;) {
+    more = false;
+    n = 0;
+    for (uint64_t k = 0; k < frags.size(); ++k) {  // collect the next ids
+      uint32_t o = s.tri_object[frag_prim(frags[k])];
+      if (o < lo) continue;
+      int i = 0;
+      while (i < n && obj[i] < o) ++i;
+      if (i < n && obj[i] == o) continue;
+      if (n == kMaxRayObjects) {
+        more = true;
+        if (i == n) continue;  // larger than every id kept: a later pass
+        --n;                   // drop the largest kept id: a later pass
+      }
+      for (int j = n; j > i; --j) obj[j] = obj[j - 1];
+      obj[i] = o;
+      ++n;
+    }
+    for (int i = 0; i < n; ++i) pending[i] = 0;
+    for (uint64_t k = frags.size(); k-- > 0;) {  // match them
+      Fragment& f = frags[k];
+      uint32_t o = s.tri_object[frag_prim(f)];
+      int i = 0;
+      while (i < n && obj[i] != o) ++i;
+      if (i == n) continue;
+      if (!frag_front(f)) {
+        ++pending[i];
+      } else if (pending[i] > 0) {
+        --pending[i];
+        f.bits |= kFragScratchBit;
+      }
+    }
+    if (n > 0) lo = obj[n - 1] + 1;
+  }
 }
 
 // Lengthens a volume segment's march step to what float resolution allows
@@ -191,6 +235,7 @@ CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint3
   order_crossings(s, frags);
   mark_matched_entries(s, frags, st);
   EnclosingSet set;
+  uint32_t dropped = 0;  // entries the full set dropped: their exits are expected, not unmatched
   for (uint64_t i = 0; i < inside.size(); ++i)
     if (!set.enter(inside[i])) ++st.enclosing_overflow;
   float t_prev = t_start;
@@ -210,12 +255,16 @@ CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint3
     if ((s.objects[o].flags & kObjClosed) == 0u) continue;  // open meshes have no interior
     if (frag_front(f)) {
       if ((f.bits & kFragScratchBit) != 0u) {
-        if (!set.enter(o)) ++st.enclosing_overflow;
+        if (!set.enter(o)) {
+          ++st.enclosing_overflow;
+          ++dropped;
+        }
       } else {
         ++st.unmatched;
       }
     } else if (!set.exit(o)) {
-      ++st.unmatched;
+      if (dropped > 0) --dropped;  // (an exit of a dropped entry; the count, not the object, is kept)
+      else ++st.unmatched;
     }
   }
   if (set.count > 0 && t_end > t_prev) {

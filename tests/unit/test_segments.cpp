@@ -7,6 +7,7 @@
 #include <random>
 #include <vector>
 
+#include "cdsm/renderer.h"
 #include "cpu/fragments_cpu.h"
 #include "hd/segments.h"
 #include "unit_util.h"
@@ -215,21 +216,30 @@ TEST(SegmentWalker, EyeInsideObjects) {
   EXPECT_TRUE(std::find(in_open.begin(), in_open.end(), 2u) == in_open.end());
 }
 
-// Twenty nested boxes: the set holds kMaxEnclosing; the entries beyond are
-// dropped and counted (and their exits then have no partner).
+// Twenty nested boxes with media: the set holds kMaxEnclosing; the entries
+// beyond are dropped and counted, and their exits are not unmatched. The
+// answer, stated: deeper than kMaxEnclosing shells, the innermost shells'
+// media are left out — the innermost segment carries the media of the 16
+// outermost shells only.
 TEST(SegmentWalker, EnclosingSetOverflowCounted) {
   Scene s = empty_scene("nested");
   const int n = 20;
-  for (int i = 0; i < n; ++i) s.objects.push_back(box_with_sigma("b" + std::to_string(i), 2.0f * float(n - i), 1.0f));
+  for (int i = 0; i < n; ++i)  // shell i (0 outermost) has sigma 2^-i
+    s.objects.push_back(box_with_sigma("b" + std::to_string(i), 2.0f * float(n - i), std::ldexp(1.0f, -i)));
   SceneBuffers sb = compile_scene(s);
   SceneView sv = sb.view();
   WalkStats st;
   Recorder r = walk(sv, ray_fragments(sv, {-25.0f, 0.1f, 0.3f}, kDirX, 8u), {}, st, 100.0f);
   EXPECT_EQ(r.surfaces.size(), size_t(2 * n));
   EXPECT_EQ(st.enclosing_overflow, uint32_t(n - kMaxEnclosing));
-  float deepest = 0.0f;
+  EXPECT_EQ(st.unmatched, 0u) << "exits of dropped shells are not unmatched fragments";
+  float deepest = 0.0f, outer16 = 0.0f;
+  for (int i = 0; i < kMaxEnclosing; ++i) outer16 += std::ldexp(1.0f, -i);
   for (const SegmentCall& c : r.segments) deepest = std::max(deepest, c.sigma);
-  EXPECT_FLOAT_EQ(deepest, float(kMaxEnclosing));
+  EXPECT_FLOAT_EQ(deepest, outer16);
+  // The segment at the centre (inside every shell) is that one.
+  for (const SegmentCall& c : r.segments)
+    if (c.t0 <= 25.0f && c.t1 >= 25.0f) EXPECT_FLOAT_EQ(c.sigma, outer16);
   // After the last exit nothing remains inside.
   for (const SegmentCall& c : r.segments) EXPECT_LE(c.t1, 45.0f);
 
@@ -243,6 +253,79 @@ TEST(SegmentWalker, EnclosingSetOverflowCounted) {
   EXPECT_TRUE(set.exit(3u));
   EXPECT_EQ(set.find(3u), -1);
   EXPECT_FALSE(set.exit(100u));
+}
+
+// More objects on a ray than the bracket matcher's table (kMaxRayObjects):
+// 40 constant-sigma boxes in a row; the ray meets boxes 39, 38, ... in turn,
+// and box 34 (among the first eight it meets, which a single pass over the
+// table would not track) lacks its exit fragment. Its entry is ignored
+// exactly as with few objects: no medium follows it, every other box keeps
+// its own segment, and the extra pass is counted.
+TEST(SegmentWalker, MoreObjectsThanTheMatcherTracks) {
+  Scene s = empty_scene("row");
+  const int n = 40;
+  for (int i = 0; i < n; ++i)
+    s.objects.push_back(box_with_sigma("b" + std::to_string(i), 1.0f, 1.0f + 0.01f * float(i), {2.0f * float(i), 0, 0}));
+  SceneBuffers sb = compile_scene(s);
+  SceneView sv = sb.view();
+  const Vec3 org{100.0f, 0.1f, 0.3f}, dir{-1, 0, 0};
+  std::vector<Fragment> all = ray_fragments(sv, org, dir, 11u);
+  ASSERT_EQ(all.size(), size_t(2 * n));
+  std::vector<Fragment> broken = without(sv, all, 34, false);
+  ASSERT_EQ(broken.size(), size_t(2 * n - 1));
+  WalkStats st;
+  Recorder r = walk(sv, broken, {}, st, 200.0f);
+  EXPECT_EQ(st.match_overflow, 1u);
+  EXPECT_EQ(st.unmatched, 1u);
+  ASSERT_EQ(r.segments.size(), size_t(n - 1));
+  for (const SegmentCall& c : r.segments) {
+    EXPECT_NEAR(c.t1 - c.t0, 1.0f, 1e-4f) << "a segment spans one box, nothing longer";
+    int box = int(std::lround((100.0f - 0.5f * (c.t0 + c.t1)) / 2.0f));
+    EXPECT_NE(box, 34);
+    EXPECT_FLOAT_EQ(c.sigma, 1.0f + 0.01f * float(box));
+  }
+  // The same boxes through a ray with only 10 objects on it: same segments.
+  std::vector<Fragment> few;
+  for (const Fragment& f : broken)
+    if (sv.tri_object[frag_prim(f)] >= 30) few.push_back(f);
+  WalkStats st_few;
+  Recorder r_few = walk(sv, few, {}, st_few, 200.0f);
+  EXPECT_EQ(st_few.match_overflow, 0u);
+  EXPECT_EQ(st_few.unmatched, 1u);
+  ASSERT_EQ(r_few.segments.size(), 9u);
+  for (size_t k = 0; k < r_few.segments.size(); ++k) {
+    EXPECT_EQ(r_few.segments[k].t0, r.segments[k].t0);
+    EXPECT_EQ(r_few.segments[k].t1, r.segments[k].t1);
+    EXPECT_EQ(r_few.segments[k].sigma, r.segments[k].sigma);
+  }
+}
+
+// Both counters reach the frame's statistics (and so --stats and the
+// printed summary): a camera looking down a row of 40 boxes, and into 20
+// nested shells.
+TEST(SegmentWalker, CountersReachFrameStats) {
+  Scene s = empty_scene("counters");
+  for (int i = 0; i < 40; ++i)
+    s.objects.push_back(box_with_sigma("row" + std::to_string(i), 0.5f, 0.02f, {0.0f, 0.0f, -2.0f * float(i)}));
+  for (int i = 0; i < 20; ++i)
+    s.objects.push_back(box_with_sigma("shell" + std::to_string(i), 30.0f - 1.0f * float(i), 0.01f, {0, 0, -40.0f}));
+  for (Object& o : s.objects) o.surface.opacity = 0.0f;  // the camera ray goes on through all of them
+  s.camera.position = {0.1f, 0.05f, 1.5f};
+  s.camera.target = {0.1f, 0.05f, -1.0f};
+  s.camera.far = 100.0f;
+  s.camera.fov_y_deg = 2.0f;  // every ray down the whole row
+  s.camera.width = 32;
+  s.camera.height = 24;
+  s.lights.push_back(spot_light({0, 5, 0}, {0, -1, 0}, 40.0f, 35.0f));
+  s.shadows.resolution = 32;
+  Renderer r;
+  RenderOptions opt;
+  opt.fragments = FragmentSource::Cpu;
+  FrameStats st;
+  r.render(s, opt, &st);
+  EXPECT_GT(st.camera_fragments, 0u);
+  EXPECT_GT(st.match_overflow, 0u) << st.camera_fragments << " camera fragments, " << st.unmatched_fragments << " unmatched";
+  EXPECT_GT(st.enclosing_overflow, 0u);
 }
 
 // Per-pixel sort: a total order (depth, primitive, facing), the same for the
