@@ -62,17 +62,20 @@ float max_extinction(const TransferData& tf, float lo, float hi) {
   return m;
 }
 
-// Maximum extinction over the voxels each macro-cell's samples can touch.
+// Maximum extinction over the voxels each macro-cell's samples can touch,
+// for the cells -1 .. ceil(n / K) on each axis (stored from 0): samples up
+// to a voxel outside the grid still read its border voxels (hd/volume.h).
 void build_macro_cells(SceneBuffers& sb, VolumeData& vd, const DenseGrid& g) {
-  vd.mx = (g.nx + kMacroCell - 1) / kMacroCell;
-  vd.my = (g.ny + kMacroCell - 1) / kMacroCell;
-  vd.mz = (g.nz + kMacroCell - 1) / kMacroCell;
+  vd.mx = (g.nx + kMacroCell - 1) / kMacroCell + 2;
+  vd.my = (g.ny + kMacroCell - 1) / kMacroCell + 2;
+  vd.mz = (g.nz + kMacroCell - 1) / kMacroCell + 2;
   vd.macro_offset = sb.macro_max.size();
   sb.macro_max.resize(sb.macro_max.size() + size_t(vd.mx) * vd.my * vd.mz, 0.0f);
   float* out = sb.macro_max.data() + vd.macro_offset;
-  for (int ck = 0; ck < vd.mz; ++ck)
-    for (int cj = 0; cj < vd.my; ++cj)
-      for (int ci = 0; ci < vd.mx; ++ci) {
+  for (int sk = 0; sk < vd.mz; ++sk)
+    for (int sj = 0; sj < vd.my; ++sj)
+      for (int si = 0; si < vd.mx; ++si) {
+        const int ci = si - 1, cj = sj - 1, ck = sk - 1;  // the cell's coordinates
         float lo = 3e38f, hi = -3e38f;
         for (int k = ck * kMacroCell - 1; k <= (ck + 1) * kMacroCell; ++k)
           for (int j = cj * kMacroCell - 1; j <= (cj + 1) * kMacroCell; ++j)
@@ -82,7 +85,7 @@ void build_macro_cells(SceneBuffers& sb, VolumeData& vd, const DenseGrid& g) {
               lo = std::min(lo, d);
               hi = std::max(hi, d);
             }
-        out[(size_t(ck) * vd.my + cj) * vd.mx + ci] = max_extinction(vd.tf, lo, hi);
+        out[(size_t(sk) * vd.my + sj) * vd.mx + si] = max_extinction(vd.tf, lo, hi);
       }
 }
 
@@ -107,10 +110,13 @@ void compile_dense(SceneBuffers& sb, VolumeData& vd, const DenseGrid& g, const s
 
 #if CDSM_HAVE_NANOVDB
 // Copies a NanoVDB grid into the pool and stores one maximum extinction
-// per leaf (= macro-cell, apron included). Checks what the sampling relies
-// on: a float grid whose bytes are complete, finite values, and leaves
-// around every leaf that holds a non-background value (so cells without a
-// leaf are background within their apron).
+// per leaf (= macro-cell, apron included). Checks a float grid whose bytes
+// are complete and finite values. A cell without a leaf is a constant (a
+// tile's value or the background): when every leaf with a non-background
+// value has its 26 neighbour leaves and no tile holds a non-background
+// value (load_vdb makes grids so), such a cell is background within its
+// apron; otherwise (tiles above leaf level, grids made in code) skipping
+// reads the cell's 27-cell neighbourhood (kNanoSkipNeighbours).
 void compile_nano(SceneBuffers& sb, VolumeData& vd, const SparseGrid& g, const std::string& where) {
   using Leaf = nanovdb::FloatTree::LeafNodeType;
   const uint64_t bytes = g.nanovdb_bytes;
@@ -172,9 +178,22 @@ void compile_nano(SceneBuffers& sb, VolumeData& vd, const SparseGrid& g, const s
                            std::to_string(first[bad_value].origin()[0]) + "," +
                            std::to_string(first[bad_value].origin()[1]) + "," +
                            std::to_string(first[bad_value].origin()[2]));
-  if (bad_apron >= 0)
-    throw Error(where, "sparse grid lacks the leaves around its data that empty-space skipping needs "
-                       "(make sparse grids with cdsm::load_vdb)");
+  // Tiles (values above leaf level) other than the background?
+  bool tiles = false;
+  auto check_tile = [&](float v) {
+    if (!is_finite(v)) throw Error(where, "sparse grid has a NaN or infinite tile value");
+    tiles = tiles || v != bg;
+  };
+  const auto* lower = tree.getFirstLower();
+  for (uint32_t i = 0; i < tree.nodeCount(1); ++i)
+    for (auto it = lower[i].beginValue(); it; ++it) check_tile(*it);
+  const auto* upper = tree.getFirstUpper();
+  for (uint32_t i = 0; i < tree.nodeCount(2); ++i)
+    for (auto it = upper[i].beginValue(); it; ++it) check_tile(*it);
+  const auto& root = tree.root();
+  for (uint32_t i = 0; i < root.tileCount(); ++i)
+    if (root.data()->tile(i)->isValue()) check_tile(root.data()->tile(i)->value);
+  vd.skip_mode = (tiles || bad_apron >= 0) ? kNanoSkipNeighbours : kNanoSkipLeaves;
 }
 #endif
 

@@ -54,16 +54,21 @@ struct TransferData {
 // for empty-space skipping. Cell c covers index positions
 // [c*K - 0.5, (c+1)*K - 0.5) on each axis.
 //  - kGridDense: a dense array in SceneView::voxels, x fastest, and a dense
-//    array of macro-cells.
+//    array of macro-cells -1 .. ceil(n/K) per axis (stored from 0): samples
+//    up to a voxel outside the grid read its border voxels.
 //  - kGridNano: a NanoVDB float grid in SceneView::nano_pool. Its leaf
 //    nodes (8^3 voxels) are exactly the macro-cells: one maximum per leaf,
-//    in the tree's leaf order. A cell without a leaf holds only the
-//    background value and has no non-background voxel within its apron
-//    (the loader adds the leaves that guarantee it), so its maximum is the
-//    background's extinction.
+//    in the tree's leaf order. A cell without a leaf holds one value (a
+//    tile's or the background); skip_mode says how its apron is bounded.
 inline constexpr int kMacroCell = 8;
 inline constexpr uint32_t kGridDense = 0u;
 inline constexpr uint32_t kGridNano = 1u;
+// How a sparse grid's cells without a leaf are skipped: kNanoSkipLeaves
+// (the cell is background within its apron: load_vdb's grids),
+// kNanoSkipNeighbours (the cell and its 26 neighbours decide: tiles, grids
+// made in code).
+inline constexpr uint32_t kNanoSkipLeaves = 0u;
+inline constexpr uint32_t kNanoSkipNeighbours = 1u;
 
 struct VolumeData {
   Mat4 world_to_index;   // world -> voxel index coordinates
@@ -72,13 +77,14 @@ struct VolumeData {
                          // nano: byte offset of the grid in SceneView::nano_pool (32-aligned)
   uint64_t macro_offset; // first macro-cell (dense) or per-leaf maximum (nano) in SceneView::macro_max
   int32_t nx, ny, nz;    // dense: voxels; nano: extent of the active bounding box (information)
-  int32_t mx, my, mz;    // dense: macro-cells; nano: mx = leaf count, my = mz = 1
+  int32_t mx, my, mz;    // dense: macro-cells (with the outer ring); nano: mx = leaf count, my = mz = 1
   float background;      // value where the grid stores none
   float step;            // march step, world units
   uint32_t shading;      // VolumeShading: 0 scatter, 1 phong
   float gradient_scale;  // phong: gradient -> normal scale
   float voxel_world;     // smallest world size of a voxel edge
   uint32_t grid_kind;    // kGridDense / kGridNano
+  uint32_t skip_mode;    // nano: kNanoSkipLeaves / kNanoSkipNeighbours
   TransferData tf;
 };
 

@@ -109,8 +109,9 @@ CDSM_HD CDSM_INLINE Vec3 density_gradient(const SceneView& s, const VolumeData& 
 }
 
 // Maximum extinction in the macro-cell containing index position q, or -1
-// where no maximum is stored (outside a dense grid's cells, a sparse cell
-// without a leaf): there the background decides emptiness.
+// where no maximum is stored (beyond a dense grid's outer ring of cells; a
+// sparse cell without a leaf whose neighbourhood needs no reading): there
+// the background decides emptiness.
 CDSM_HD CDSM_INLINE float macro_max_at(const SceneView& s, const VolumeData& v, Vec3 q) {
   // Cell c covers index positions [c*K - 0.5, (c+1)*K - 0.5): the voxels a
   // trilinear sample there touches lie in [c*K - 1, (c+1)*K], which the
@@ -122,12 +123,29 @@ CDSM_HD CDSM_INLINE float macro_max_at(const SceneView& s, const VolumeData& v, 
   if (v.grid_kind == kGridNano) {
     // Leaves are 8^3 voxels at multiples of 8: leaf (ci, cj, ck) is the cell.
     static_assert(nanovdb::FloatTree::LeafNodeType::DIM == kMacroCell, "a leaf is a macro-cell");
-    const nanovdb::FloatTree& tree = nano_grid(s, v)->tree();
+    const nanovdb::FloatGrid* grid = nano_grid(s, v);
+    const nanovdb::FloatTree& tree = grid->tree();
+    const auto* first = tree.getFirstLeaf();
     const auto* leaf = tree.root().probeLeaf(nanovdb::Coord(ci * kMacroCell, cj * kMacroCell, ck * kMacroCell));
-    if (leaf == nullptr) return -1.0f;
-    return s.macro_max[v.macro_offset + uint64_t(leaf - tree.getFirstLeaf())];
+    if (leaf != nullptr) return s.macro_max[v.macro_offset + uint64_t(leaf - first)];
+    if (v.skip_mode != kNanoSkipNeighbours) return -1.0f;
+    // A cell without a leaf is one value; its apron reaches into the 26
+    // neighbours: each a leaf (its stored maximum) or one value.
+    float m = 0.0f;
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          nanovdb::Coord o((ci + dx) * kMacroCell, (cj + dy) * kMacroCell, (ck + dz) * kMacroCell);
+          const auto* n = tree.root().probeLeaf(o);
+          m = fmaxf(m, n ? s.macro_max[v.macro_offset + uint64_t(n - first)]
+                         : apply_transfer(v.tf, tree.root().getValue(o)).extinction);
+        }
+    return m;
   }
 #endif
+  ci += 1;  // the stored cells start at -1
+  cj += 1;
+  ck += 1;
   if (ci < 0 || cj < 0 || ck < 0 || ci >= v.mx || cj >= v.my || ck >= v.mz) return -1.0f;
   return s.macro_max[v.macro_offset + (uint64_t(ck) * uint64_t(v.my) + uint64_t(cj)) * uint64_t(v.mx) +
                      uint64_t(ci)];

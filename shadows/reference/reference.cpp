@@ -13,12 +13,70 @@
 
 namespace cdsm {
 
+namespace {
+
+// The index-space box outside which a sample of volume v reads only the
+// background: a trilinear sample at q reads voxels floor(q) .. floor(q) + 1,
+// so one voxel of reach around the stored values. Dense: the grid. Sparse:
+// every leaf and every tile holding a non-background value, from the tree.
+void value_box(const SceneView& s, const VolumeData& v, Vec3& lo, Vec3& hi) {
+  lo = Vec3{3e38f, 3e38f, 3e38f};
+  hi = Vec3{-3e38f, -3e38f, -3e38f};
+  auto grow = [&](float x0, float y0, float z0, float x1, float y1, float z1) {
+    lo = vmin(lo, Vec3{x0 - 1.0f, y0 - 1.0f, z0 - 1.0f});
+    hi = vmax(hi, Vec3{x1 + 1.0f, y1 + 1.0f, z1 + 1.0f});
+  };
+  if (v.grid_kind == kGridDense) {
+    grow(0, 0, 0, float(v.nx - 1), float(v.ny - 1), float(v.nz - 1));
+    return;
+  }
+#if CDSM_HAVE_NANOVDB
+  const nanovdb::FloatTree& tree = nano_grid(s, v)->tree();
+  const float bg = tree.background();
+  auto grow_block = [&](const nanovdb::Coord& o, int dim) {
+    grow(float(o[0]), float(o[1]), float(o[2]), float(o[0] + dim - 1), float(o[1] + dim - 1), float(o[2] + dim - 1));
+  };
+  const auto* leaf = tree.getFirstLeaf();
+  for (uint32_t i = 0; i < tree.nodeCount(0); ++i) grow_block(leaf[i].origin(), 8);
+  // Tiles of an internal node: table slot n holds child block (x, y, z) =
+  // (n >> 2L, (n >> L) & (2^L - 1), n & (2^L - 1)), L = log2 of its size
+  // (NanoVDB's CoordToOffset; its iterators' getOrigin does not compile).
+  auto tiles_of = [&](const auto& node, int log2dim, int child_dim) {
+    const nanovdb::Coord o = node.origin();
+    const uint32_t mask = (1u << log2dim) - 1u;
+    for (auto it = node.beginValue(); it; ++it) {
+      if (*it == bg) continue;
+      uint32_t n = it.pos();
+      grow_block(o + nanovdb::Coord(int(n >> (2 * log2dim)) * child_dim, int((n >> log2dim) & mask) * child_dim,
+                                    int(n & mask) * child_dim),
+                 child_dim);
+    }
+  };
+  const auto* lower = tree.getFirstLower();
+  for (uint32_t i = 0; i < tree.nodeCount(1); ++i) tiles_of(lower[i], 4, 8);
+  const auto* upper = tree.getFirstUpper();
+  for (uint32_t i = 0; i < tree.nodeCount(2); ++i) tiles_of(upper[i], 5, 128);
+  const auto& root = tree.root();
+  for (uint32_t i = 0; i < root.tileCount(); ++i) {
+    const auto* t = root.data()->tile(i);
+    if (t->isValue() && t->value != bg) grow_block(t->origin(), 4096);
+  }
+#endif
+}
+
+}  // namespace
+
 ReferenceRenderer::ReferenceRenderer(const SceneView& scene, std::vector<LightData> lights,
                                      ReferenceOptions opt)
     : scene_(scene), lights_(std::move(lights)), opt_(opt) {
   caster_words_.assign((scene.objects.size() + 31) / 32, 0u);
   for (uint32_t o = 0; o < scene.objects.size(); ++o)
     if (scene.objects[o].flags & kObjCastsShadows) caster_words_[o >> 5] |= 1u << (o & 31u);
+  for (uint32_t vi = 0; vi < scene.volumes.size(); ++vi) {
+    ValueBox b;
+    value_box(scene, scene.volumes[vi], b.lo, b.hi);
+    value_boxes_.push_back(b);
+  }
 }
 
 void ReferenceRenderer::hits_along(Vec3 org, Vec3 dir, float tmax, ObjectMask mask,
@@ -32,41 +90,41 @@ void ReferenceRenderer::hits_along(Vec3 org, Vec3 dir, float tmax, ObjectMask ma
   });
 }
 
-// Simpson at <= step_voxels, exact zero over empty macro-cells.
+// Simpson at <= step_voxels inside the volume's value box (every sample
+// read from the grid: no skipping), the background's extinction exactly
+// outside it.
 float ReferenceRenderer::optical_depth_volume(uint32_t vi, Vec3 org, Vec3 dir, float t0, float t1) const {
   const VolumeData& v = scene_.volumes[vi];
-  float h = opt_.step_voxels * v.voxel_world;
-  Vec3 qo = v.world_to_index.point(org), qd = v.world_to_index.vector(dir);
-  float bg_ext = apply_transfer(v.tf, v.background).extinction;
-  double tau = 0.0;
-  float t = t0;
-  while (t < t1) {
-    float mx = macro_max_at(scene_, v, qo + qd * t);
-    if (mx < 0.0f) mx = bg_ext;
-    if (mx <= 0.0f) {
-      float te = std::min(t1, std::max(macro_cell_exit(qo, qd, t), t + 1e-6f * (1.0f + std::fabs(t))));
-      t = te;
+  const ValueBox& box = value_boxes_[vi];
+  const float h = opt_.step_voxels * v.voxel_world;
+  const Vec3 qo = v.world_to_index.point(org), qd = v.world_to_index.vector(dir);
+  const double bg_ext = apply_transfer(v.tf, v.background).extinction;
+  // The ray's interval inside the value box (slabs in index space).
+  float ta = t0, tb = t1;
+  for (int a = 0; a < 3; ++a) {
+    if (qd[a] == 0.0f) {
+      if (qo[a] < box.lo[a] || qo[a] > box.hi[a]) tb = ta - 1.0f;  // parallel and outside
       continue;
     }
-    // Integrate up to the end of this macro-cell with a uniform sub-step.
-    float cell_end = std::min(t1, std::max(macro_cell_exit(qo, qd, t), t + 1e-6f * (1.0f + std::fabs(t))));
-    // Simpson's rule on sub-steps of at most h/2 (fourth order where the
-    // integrand is smooth; the transfer function's kinks make it second
-    // order locally, still far below the midpoint rule's error).
-    // Two Simpson panels per step of at most h.
-    int n = 2 * std::max(1, int(std::ceil((cell_end - t) / h)));
-    float dt = (cell_end - t) / float(n);
-    auto sigma_at = [&](float tt) {
-      return double(apply_transfer(v.tf, density_at_index(scene_, v, qo + qd * tt)).extinction);
-    };
-    double f0 = sigma_at(t);
-    for (int i = 0; i < n; ++i) {
-      float ta = t + float(i) * dt;
-      double fm = sigma_at(ta + 0.5f * dt), f1 = sigma_at(ta + dt);
-      tau += (f0 + 4.0 * fm + f1) * (double(dt) / 6.0);
-      f0 = f1;
-    }
-    t = cell_end;
+    float u = (box.lo[a] - qo[a]) / qd[a], w = (box.hi[a] - qo[a]) / qd[a];
+    ta = std::max(ta, std::min(u, w));
+    tb = std::min(tb, std::max(u, w));
+  }
+  if (!(tb > ta)) return float(bg_ext * double(t1 - t0));
+  double tau = bg_ext * double((ta - t0) + (t1 - tb));
+  // Simpson's rule, two panels per step of at most h (fourth order where the
+  // integrand is smooth; second order at the transfer function's kinks).
+  const int n = 2 * std::max(1, int(std::ceil((tb - ta) / h)));
+  const double dt = (double(tb) - ta) / double(n);
+  auto sigma_at = [&](double t) {
+    return double(apply_transfer(v.tf, density_at_index(scene_, v, qo + qd * float(t))).extinction);
+  };
+  double f0 = sigma_at(ta);
+  for (int i = 0; i < n; ++i) {
+    double a = ta + double(i) * dt;
+    double fm = sigma_at(a + 0.5 * dt), f1 = sigma_at(a + dt);
+    tau += (f0 + 4.0 * fm + f1) * (dt / 6.0);
+    f0 = f1;
   }
   return float(tau);
 }

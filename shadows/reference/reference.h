@@ -1,8 +1,10 @@
 // The reference renderer (DESIGN.md §7): its own code path — exact hits,
 // fine marching, and for every shaded sample a shadow ray to each light with
 // exact transmittance through surfaces, constant media and volumes. No
-// shadow map. It shares only ray-triangle/BVH traversal, voxel sampling and
-// the shading models with the DSM path, so image error isolates shadows.
+// shadow map, and no empty-space skipping of the DSM path: volumes are
+// integrated everywhere inside the box that holds their grid's values. It
+// shares only ray-triangle/BVH traversal, voxel sampling and the shading
+// models with the DSM path, so image error isolates shadows.
 #pragma once
 
 #include <vector>
@@ -45,6 +47,14 @@ class ReferenceRenderer {
   std::vector<LightData> lights_;
   ReferenceOptions opt_;
   std::vector<uint32_t> caster_words_;
+  // Per volume, the index-space box outside which every sample reads only
+  // the background (the grid's data plus the one-voxel reach of trilinear
+  // filtering), found from the grid itself, not from the DSM path's
+  // macro-cells: the reference integrates everything inside it.
+  struct ValueBox {
+    Vec3 lo, hi;
+  };
+  std::vector<ValueBox> value_boxes_;
 };
 
 }  // namespace cdsm

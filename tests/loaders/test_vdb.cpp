@@ -426,7 +426,9 @@ TEST(VdbProxy, LeafHullIsClosedTighterAndMarchesFewerSamples) {
     EXPECT_NEAR(hb.lo[a], bb.lo[a], 1e-4f);  // the hull touches the active box
     EXPECT_NEAR(hb.hi[a], bb.hi[a], 1e-4f);
   }
-  // Same transmittance (outside the leaves there is only background 0).
+  // Same transmittance (outside the leaves there is only background 0), to
+  // the reference's convergence (1e-4: the hull splits the ray into other
+  // intervals, so Simpson's panels fall elsewhere).
   Scene sbox = volume_scene(v, 0.2f, VolumeProxy::Box), shull = volume_scene(v, 0.2f, VolumeProxy::Leaves);
   const Box3 wb = world_bounds(box, Mat4{});
   std::mt19937 rng(9);
@@ -436,7 +438,7 @@ TEST(VdbProxy, LeafHullIsClosedTighterAndMarchesFewerSamples) {
   for (int k = 0; k < 20; ++k) {
     Vec3 a = wb.lo + (wb.hi - wb.lo) * Vec3{u(rng), u(rng), -0.3f};
     Vec3 b = wb.lo + (wb.hi - wb.lo) * Vec3{u(rng), u(rng), 1.3f};
-    EXPECT_NEAR(r1.transmittance_segment(a, b), r2.transmittance_segment(a, b), 1e-5) << k;
+    EXPECT_NEAR(r1.transmittance_segment(a, b), r2.transmittance_segment(a, b), 1e-4) << k;
   }
   // Marched samples of the DSM path's sampler over the same rays.
   const Vec3 eye = wb.center() + Vec3{0.3f, 0.4f, 1.0f} * (2.0f * length(wb.extent()));
