@@ -261,6 +261,7 @@ int cmd_bench(const std::vector<std::string>& args) {
   std::error_code ec;
   fs::create_directories(out_dir, ec);
   if (ec) throw Error(out_dir, "cannot create the output directory: " + ec.message());
+  check_writable((fs::path(out_dir) / "results.csv").string());
 
   RunInfo info;
   info.command = command;

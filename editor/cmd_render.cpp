@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <unistd.h>
 
 #include "cdsm/cdsm.h"
 #include "commands.h"
@@ -189,6 +190,17 @@ int parse_int(const std::string& opt, const std::string& v) {
   }
 }
 
+void check_writable(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::path p(path);
+  if (fs::is_directory(p, ec)) throw Error(path, "is a directory, not a file that can be written");
+  fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+  if (!fs::is_directory(dir, ec)) throw Error(path, "cannot be written: the directory '" + dir.string() + "' does not exist");
+  if (fs::exists(p, ec) ? ::access(path.c_str(), W_OK) != 0 : ::access(dir.c_str(), W_OK) != 0)
+    throw Error(path, "cannot be written: permission denied");
+}
+
 int cmd_render(const std::vector<std::string>& args) {
   std::string scene_path, out, stats_path;
   RenderOptions opt;
@@ -276,9 +288,16 @@ int cmd_render(const std::vector<std::string>& args) {
   if (out.size() < 4 || out.substr(out.size() - 4) != ".png") throw Error(out, "output must be a .png file");
   namespace fs = std::filesystem;
   std::error_code ec;
-  for (const std::string& p : {out, stats_path})
-    if (!p.empty() && fs::exists(p, ec) && fs::equivalent(p, scene_path, ec))
-      throw Error(p, "refusing to overwrite the scene file");
+  std::vector<std::string> outputs{out};
+  if (!stats_path.empty()) outputs.push_back(stats_path);
+  if (opt.compare_reference && opt.backend != Backend::Reference) {
+    outputs.push_back(sibling(out, ".reference.png"));
+    outputs.push_back(sibling(out, ".error.png"));
+  }
+  for (const std::string& p : outputs) {
+    if (fs::exists(p, ec) && fs::equivalent(p, scene_path, ec)) throw Error(p, "refusing to overwrite the scene file");
+    check_writable(p);
+  }
 
   Scene scene = load_scene(scene_path);
   if (eps >= 0) scene.shadows.epsilon = eps;

@@ -14,4 +14,9 @@ int cmd_info(const std::vector<std::string>& args);
 float parse_float(const std::string& opt, const std::string& v);
 int parse_int(const std::string& opt, const std::string& v);
 
+// Throws cdsm::Error naming `path` unless a file can be written there: its
+// folder exists and is writable, and it is not a directory or a read-only
+// file. Called before any work, so a bad path costs nothing.
+void check_writable(const std::string& path);
+
 }  // namespace cdsm::cli

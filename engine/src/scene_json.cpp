@@ -1,4 +1,5 @@
 // JSON scene files -> cdsm::Scene. Field reference: README "Scene files".
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <fstream>
@@ -147,17 +148,37 @@ struct Parser {
     return make_transform(n.get("translate", Vec3{0, 0, 0}), n.get("rotate", Vec3{0, 0, 0}), s);
   }
 
+  // A grid size: three whole numbers within [lo, hi] whose product (taken
+  // in double, so it cannot wrap) is at most max_voxels.
+  static std::array<int32_t, 3> grid_size(const JsonNode& n, int lo, int hi, double max_voxels) {
+    Vec3 v = n.as_vec3();
+    std::array<int32_t, 3> out{};
+    double product = 1.0;
+    for (int a = 0; a < 3; ++a) {
+      double x = v[a];
+      if (x != std::floor(x)) n.fail("must be whole numbers of voxels, got " + format_number(x));
+      if (!(x >= lo && x <= hi))
+        n.fail("each dimension must be within [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " +
+               format_number(x));
+      out[size_t(a)] = int32_t(x);
+      product *= x;
+    }
+    if (product > max_voxels)
+      n.fail("holds " + format_number(product) + " voxels, at most " + format_number(max_voxels));
+    return out;
+  }
+
   std::shared_ptr<DenseGrid> grid(const JsonNode& n) {
     std::string type = n.at("type").as_string();
     if (type == "noise") {
       n.expect_object({"type", "size", "seed", "frequency", "octaves", "plume", "scale"});
       NoiseVolumeParams p;
-      Vec3 size = n.get("size", Vec3{float(p.nx), float(p.ny), float(p.nz)});
-      p.nx = int(size.x);
-      p.ny = int(size.y);
-      p.nz = int(size.z);
-      if (p.nx < 2 || p.ny < 2 || p.nz < 2 || p.nx > 1024 || p.ny > 1024 || p.nz > 1024)
-        n.at("size").fail("each dimension must be within [2, 1024]");
+      if (n.has("size")) {
+        std::array<int32_t, 3> d = grid_size(n.at("size"), 2, 1024, 1024.0 * 1024.0 * 1024.0);
+        p.nx = d[0];
+        p.ny = d[1];
+        p.nz = d[2];
+      }
       p.seed = uint32_t(n.get("seed", 1));
       p.frequency = n.get("frequency", p.frequency);
       p.octaves = n.get("octaves", p.octaves);
@@ -168,12 +189,10 @@ struct Parser {
     if (type == "dense") {  // small inline grids: tests and analytic cases
       n.expect_object({"type", "size", "fill", "values", "background"});
       auto g = std::make_shared<DenseGrid>();
-      Vec3 size = n.at("size").as_vec3();
-      g->nx = int(size.x);
-      g->ny = int(size.y);
-      g->nz = int(size.z);
-      if (g->nx < 1 || g->ny < 1 || g->nz < 1 || size_t(g->nx) * g->ny * g->nz > (size_t(1) << 28))
-        n.at("size").fail("dimensions must be >= 1 and hold at most 2^28 voxels");
+      std::array<int32_t, 3> d = grid_size(n.at("size"), 1, 1 << 30, double(1 << 28));
+      g->nx = d[0];
+      g->ny = d[1];
+      g->nz = d[2];
       size_t count = size_t(g->nx) * g->ny * g->nz;
       g->background = n.get("background", 0.0f);
       if (n.has("values")) {
@@ -496,6 +515,7 @@ Scene load_scene(const std::string& path) {
       if (std::tolower(static_cast<unsigned char>(path[path.size() - e.size() + i])) != e[i]) return false;
     return true;
   };
+  require_file(path, ends_with(".gltf") || ends_with(".glb") ? "glTF file" : "scene file");
   if (ends_with(".gltf") || ends_with(".glb")) return load_gltf_scene(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "cannot open scene file (missing or unreadable)");

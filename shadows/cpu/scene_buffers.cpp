@@ -22,6 +22,20 @@ std::string where_object(const Scene& s, size_t i) {
   return s.source + ": object " + std::to_string(i) + (n.empty() ? "" : " '" + n + "'");
 }
 
+std::string mib(uint64_t bytes) { return format_number(double(bytes) / 1048576.0 < 10 ? std::round(double(bytes) / 104857.6) / 10 : std::round(double(bytes) / 1048576.0)) + " MiB"; }
+
+// Runs an allocation; a failure becomes an Error saying what and how large.
+template <class F>
+void allocating(const std::string& where, const std::string& what, uint64_t bytes, F&& f) {
+  try {
+    f();
+  } catch (const std::bad_alloc&) {
+    throw Error(where, "out of memory while " + what + " (" + mib(bytes) + ")");
+  } catch (const std::length_error&) {
+    throw Error(where, "out of memory while " + what + " (" + mib(bytes) + ")");
+  }
+}
+
 bool finite_matrix(const Mat4& m) {
   for (auto& row : m.m)
     for (float v : row)
@@ -65,12 +79,14 @@ float max_extinction(const TransferData& tf, float lo, float hi) {
 // Maximum extinction over the voxels each macro-cell's samples can touch,
 // for the cells -1 .. ceil(n / K) on each axis (stored from 0): samples up
 // to a voxel outside the grid still read its border voxels (hd/volume.h).
-void build_macro_cells(SceneBuffers& sb, VolumeData& vd, const DenseGrid& g) {
+void build_macro_cells(SceneBuffers& sb, VolumeData& vd, const DenseGrid& g, const std::string& where) {
   vd.mx = (g.nx + kMacroCell - 1) / kMacroCell + 2;
   vd.my = (g.ny + kMacroCell - 1) / kMacroCell + 2;
   vd.mz = (g.nz + kMacroCell - 1) / kMacroCell + 2;
   vd.macro_offset = sb.macro_max.size();
-  sb.macro_max.resize(sb.macro_max.size() + size_t(vd.mx) * vd.my * vd.mz, 0.0f);
+  const size_t cells = size_t(vd.mx) * vd.my * vd.mz;
+  allocating(where, "building its " + std::to_string(cells) + " macro-cells", cells * sizeof(float),
+             [&] { sb.macro_max.resize(sb.macro_max.size() + cells, 0.0f); });
   float* out = sb.macro_max.data() + vd.macro_offset;
   for (int sk = 0; sk < vd.mz; ++sk)
     for (int sj = 0; sj < vd.my; ++sj)
@@ -104,8 +120,9 @@ void compile_dense(SceneBuffers& sb, VolumeData& vd, const DenseGrid& g, const s
   vd.nz = g.nz;
   vd.background = g.background;
   vd.voxel_offset = sb.voxels.size();
-  sb.voxels.insert(sb.voxels.end(), g.values.begin(), g.values.end());
-  build_macro_cells(sb, vd, g);
+  allocating(where, "copying its " + std::to_string(g.values.size()) + " voxels", g.values.size() * sizeof(float),
+             [&] { sb.voxels.insert(sb.voxels.end(), g.values.begin(), g.values.end()); });
+  build_macro_cells(sb, vd, g, where);
 }
 
 #if CDSM_HAVE_NANOVDB
@@ -134,8 +151,10 @@ void compile_nano(SceneBuffers& sb, VolumeData& vd, const SparseGrid& g, const s
   // Pool: whole 32-byte blocks, so every grid starts aligned.
   vd.grid_kind = kGridNano;
   vd.voxel_offset = sb.nano_pool.size() * sizeof(SparseGrid::Block);
-  sb.nano_pool.insert(sb.nano_pool.end(), g.nanovdb.begin(),
-                      g.nanovdb.begin() + ptrdiff_t((bytes + sizeof(SparseGrid::Block) - 1) / sizeof(SparseGrid::Block)));
+  allocating(where, "copying its NanoVDB grid", bytes, [&] {
+    sb.nano_pool.insert(sb.nano_pool.end(), g.nanovdb.begin(),
+                        g.nanovdb.begin() + ptrdiff_t((bytes + sizeof(SparseGrid::Block) - 1) / sizeof(SparseGrid::Block)));
+  });
   vd.background = bg;
   const nanovdb::CoordBBox box = tree.bbox();
   vd.nx = box.max()[0] - box.min()[0] + 1;
@@ -144,7 +163,8 @@ void compile_nano(SceneBuffers& sb, VolumeData& vd, const SparseGrid& g, const s
   vd.mx = int32_t(leaves);
   vd.my = vd.mz = 1;
   vd.macro_offset = sb.macro_max.size();
-  sb.macro_max.resize(sb.macro_max.size() + leaves, 0.0f);
+  allocating(where, "building its " + std::to_string(leaves) + " leaf maxima", uint64_t(leaves) * sizeof(float),
+             [&] { sb.macro_max.resize(sb.macro_max.size() + leaves, 0.0f); });
   float* out = sb.macro_max.data() + vd.macro_offset;
   const Leaf* first = tree.getFirstLeaf();
   std::atomic<int64_t> bad_value{-1}, bad_apron{-1};
@@ -292,10 +312,17 @@ SceneBuffers compile_scene(const Scene& scene) {
     od.first_tri = uint32_t(sb.tri_object.size());
     od.tri_count = 0;
     Box3 bounds;
-    Mat4 normal_m;  // inverse transpose of the linear part
     Mat4 inv;
-    invert(o.transform, inv);
-    normal_m = transpose(inv);
+    if (!invert(o.transform, inv))
+      throw Error(where, "transform is singular (determinant " + format_number(det3(o.transform)) +
+                             "): it flattens the mesh and has no inverse for its normals");
+    const Mat4 normal_m = transpose(inv);  // inverse transpose of the linear part
+    allocating(where, "copying its " + std::to_string(mesh.triangle_count()) + " triangles",
+               mesh.triangle_count() * (6 * sizeof(Vec3) + sizeof(uint32_t)), [&] {
+                 sb.tri_vertices.reserve(sb.tri_vertices.size() + 3 * mesh.triangle_count());
+                 sb.tri_normals.reserve(sb.tri_normals.size() + 3 * mesh.triangle_count());
+                 sb.tri_object.reserve(sb.tri_object.size() + mesh.triangle_count());
+               });
     // Meshes are counter-clockwise outward in object space; a mirroring
     // transform (negative determinant) reverses that in world space, so the
     // winding is flipped here — the one place it is (loaders never pre-flip
@@ -308,7 +335,12 @@ SceneBuffers compile_scene(const Scene& scene) {
           throw Error(where, "triangle " + std::to_string(t / 3) + " refers to vertex " +
                                  std::to_string(k) + " of " + std::to_string(mesh.positions.size()));
       Vec3 p[3];
-      for (int k = 0; k < 3; ++k) p[k] = o.transform.point(mesh.positions[idx[k]]);
+      for (int k = 0; k < 3; ++k) {
+        p[k] = o.transform.point(mesh.positions[idx[k]]);
+        if (!is_finite(p[k]))
+          throw Error(where, "transform turns vertex " + std::to_string(idx[k]) +
+                                 " (finite in object space) into an infinite or NaN position in world space");
+      }
       Vec3 ng = normalize(cross(p[1] - p[0], p[2] - p[0]));
       for (int k = 0; k < 3; ++k) {
         sb.tri_vertices.push_back(p[k]);
@@ -341,7 +373,8 @@ SceneBuffers compile_scene(const Scene& scene) {
   for (size_t vi = 0; vi < scene.volumes.size(); ++vi)
     if (!volume_placed[vi])
       throw Error(scene.source + ": volume " + std::to_string(vi), "is not used by any object");
-  build_bvh(sb);
+  allocating(scene.source, "building the BVH over " + std::to_string(sb.tri_object.size()) + " triangles",
+             sb.tri_object.size() * (sizeof(BvhNode) + sizeof(uint32_t)), [&] { build_bvh(sb); });
   return sb;
 }
 

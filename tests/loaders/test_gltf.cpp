@@ -387,6 +387,28 @@ TEST(GltfBad, CorruptJson) {
   expect_error([&] { load_scene(dir + "/empty.gltf"); }, {dir + "/empty.gltf"});
 }
 
+// A text .gltf cut inside its 223,000-character base64 buffer: one error
+// line of reasonable length (the parser's context is capped), naming the
+// file and where the JSON broke.
+TEST(GltfBad, TruncatedBase64GivesAShortError) {
+  std::string dir = scratch_dir();
+  std::string text = read_text(data_path("mesh/vsa_teapot.gltf"));
+  size_t at = text.find("base64,");
+  ASSERT_NE(at, std::string::npos);
+  std::string p = dir + "/cut_in_base64.gltf";
+  write_text(p, text.substr(0, at + 100000));
+  try {
+    load_scene(p);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    std::string m = e.what();
+    EXPECT_NE(m.find(p), std::string::npos) << m.substr(0, 300);
+    EXPECT_NE(m.find("invalid glTF"), std::string::npos) << m.substr(0, 300);
+    EXPECT_LE(m.size(), p.size() + 400) << m.substr(0, 600);
+    EXPECT_EQ(m.find('\n'), std::string::npos) << "one line";
+  }
+}
+
 TEST(GltfBad, ReferencesOutsideTheirData) {
   std::string dir = box_dir(scratch_dir());
   auto check = [&](const std::string& name, const std::function<void(json&)>& edit, std::vector<std::string> parts) {

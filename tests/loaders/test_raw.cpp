@@ -103,7 +103,7 @@ TEST(RawVolume, DimensionsThatDoNotMatchTheFileSize) {
   d.nx = 0;
   expect_error([&] { load_raw(path, d); }, {path, ">= 1"});
   d.nx = 5;
-  expect_error([&] { load_raw(dir + "/missing.raw", d); }, {dir + "/missing.raw", "cannot open"});
+  expect_error([&] { load_raw(dir + "/missing.raw", d); }, {dir + "/missing.raw", "raw volume not found"});
   // A truncated shared scan.
   std::string cut = truncated_copy(data_path("raw/bucky_32x32x32_uint8.raw"), 32768 - 1, dir + "/bucky_cut.raw");
   d = RawVolumeDesc{};

@@ -113,6 +113,25 @@ TEST(AssetPaths, RelativeSharedAndMissing) {
   ::unsetenv("CDSM_DATA_DIR");
 }
 
+// A directory where a file is expected is reported as a directory, by every
+// loader and by scene references (issue "No silent wrong answers", item 8).
+TEST(AssetPaths, DirectoriesAreNotFiles) {
+  std::string dir = scratch_dir();
+  std::string sub = dir + "/folder.gltf";
+  ASSERT_EQ(std::system(("mkdir -p '" + sub + "' '" + dir + "/scene.json' '" + dir + "/grid.vdb' '" + dir +
+                         "/scan.raw'").c_str()),
+            0);
+  expect_error([&] { load_scene(dir + "/scene.json"); }, {dir + "/scene.json", "is a directory"});
+  expect_error([&] { load_scene(sub); }, {sub, "is a directory"});
+  expect_error([&] { load_gltf_mesh(sub); }, {sub, "is a directory"});
+  RawVolumeDesc raw;
+  raw.nx = raw.ny = raw.nz = 2;
+  expect_error([&] { load_raw(dir + "/scan.raw", raw); }, {dir + "/scan.raw", "is a directory"});
+  expect_error([&] { parse_scene(with_file("folder.gltf"), dir + "/s.json", dir); },
+               {dir + "/s.json: /objects/0/mesh/file", sub, "is a directory"});
+  if (vdb_supported()) expect_error([&] { load_vdb(dir + "/grid.vdb"); }, {dir + "/grid.vdb", "is a directory"});
+}
+
 TEST(SceneFields, VolumeFieldErrors) {
   std::string dir = scratch_dir();
   auto volume_scene = [](const std::string& volume) {

@@ -223,7 +223,13 @@ TEST(VdbFixture, RepeatedGridNamesAreAnErrorListingTheGrids) {
   EXPECT_EQ(load_vdb(dir + "/dup.vdb", "density[1]").grid->active_voxels, 1024u);
   EXPECT_EQ(load_vdb(dir + "/dup.vdb", "density[0]").grid->active_voxels, 512u);
   EXPECT_EQ(load_vdb(dir + "/dup.vdb", "temperature").grid->active_voxels, 512u);
-  expect_error([&] { load_vdb(dir + "/dup.vdb", "density[2]"); }, {"2 grids are named 'density'"});
+  expect_error([&] { load_vdb(dir + "/dup.vdb", "density[2]"); },
+               {"no grid 'density[2]'", "2 grids are named 'density'", "'density[0]' to 'density[1]'"});
+  // One grid of that name: an index beyond it says so (not "'density[0]' to 'density[0]'").
+  write_vdb(dir + "/one.vdb", {a, t});
+  expect_error([&] { load_vdb(dir + "/one.vdb", "density[1]"); },
+               {"no grid 'density[1]'", "only one grid is named 'density'", "use 'density' or 'density[0]'"});
+  EXPECT_EQ(load_vdb(dir + "/one.vdb", "density[0]").grid->active_voxels, 512u);
   expect_error([&] { load_vdb(dir + "/dup.vdb", "velocity"); }, {"no grid named 'velocity'", "'temperature'"});
 }
 

@@ -249,7 +249,7 @@ TEST(SceneJson, ReferencedFileMissing) {
     ADD_FAILURE() << "no error";
   } catch (const Error& e) {
     EXPECT_EQ(e.where(), missing);
-    EXPECT_NE(e.problem().find("cannot open"), std::string::npos) << e.problem();
+    EXPECT_NE(e.problem().find("scene file not found"), std::string::npos) << e.problem();
   }
   // A volume grid read from a file that does not exist.
   json j = base();
@@ -291,6 +291,26 @@ TEST(SceneJson, ImpossibleValues) {
   j = base();
   j["lights"] = json::array();
   EXPECT_TRUE(fails_at(j, "/lights", "at least one light"));
+}
+
+// Grid sizes are whole numbers of voxels, and their product is checked
+// before it can wrap (issue "No silent wrong answers", item 8).
+TEST(SceneJson, GridSizes) {
+  json j = base();
+  j["volumes"][0]["grid"]["size"] = {2.5, 2, 2};
+  EXPECT_TRUE(fails_at(j, "/volumes/0/grid/size", "whole number"));
+  j = base();
+  j["volumes"][0]["grid"]["size"] = {4194304, 4194304, 4194304};
+  EXPECT_TRUE(fails_at(j, "/volumes/0/grid/size", "holds 7.3787e+19 voxels, at most"));
+  j = base();
+  j["volumes"][0]["grid"]["size"] = {0, 2, 2};
+  EXPECT_TRUE(fails_at(j, "/volumes/0/grid/size", "within [1,"));
+  j = base();
+  j["volumes"][0]["grid"] = {{"type", "noise"}, {"size", {16.7, 16, 16}}};
+  EXPECT_TRUE(fails_at(j, "/volumes/0/grid/size", "whole number"));
+  j = base();
+  j["volumes"][0]["grid"] = {{"type", "noise"}, {"size", {1e12, 16, 16}}};
+  EXPECT_TRUE(fails_at(j, "/volumes/0/grid/size", "within [2, 1024]"));
 }
 
 namespace {

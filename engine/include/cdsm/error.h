@@ -2,10 +2,18 @@
 // raises cdsm::Error naming the file and the place in it (STYLE.md 8).
 #pragma once
 
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
 namespace cdsm {
+
+// A number as messages print it: six significant digits ("2.5", "7.37870e+19").
+inline std::string format_number(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", x);
+  return buf;
+}
 
 class Error : public std::runtime_error {
  public:

@@ -38,8 +38,12 @@ std::string shared_data_dir();
 //  - an absolute path -> itself,
 //  - a relative path -> base_dir/path, else shared_data_dir()/path.
 // A file found nowhere throws Error(where, "file 'ref' not found; looked
-// in: <every path tried>").
+// in: <every path tried>"); a directory where the file should be says so.
 std::string resolve_asset(const std::string& ref, const std::string& base_dir, const std::string& where);
+
+// Throws Error(path, ...) unless `path` is a readable regular file: "is a
+// directory, not a <what>", "<what> not found", or "is not a regular file".
+void require_file(const std::string& path, const std::string& what);
 
 // ---- OpenVDB -----------------------------------------------------------------
 

@@ -19,6 +19,11 @@ bool is_regular_file(const std::string& p) {
   return ::stat(p.c_str(), &st) == 0 && S_ISREG(st.st_mode);
 }
 
+bool is_directory(const std::string& p) {
+  struct stat st {};
+  return ::stat(p.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+}
+
 std::string join(const std::string& dir, const std::string& rest) {
   if (dir.empty()) return rest;
   return dir.back() == '/' ? dir + rest : dir + "/" + rest;
@@ -57,10 +62,19 @@ std::string resolve_asset(const std::string& ref, const std::string& base_dir, c
   }
   for (const std::string& p : tried)
     if (is_regular_file(p)) return p;
+  for (const std::string& p : tried)
+    if (is_directory(p)) throw Error(where, "'" + p + "' is a directory, not a file");
   std::string list;
   for (const std::string& p : tried) list += (list.empty() ? "" : ", ") + p;
   throw Error(where, "file '" + ref + "' not found; looked in: " + list +
                          " (the shared data directory is $CDSM_DATA_DIR or " + CDSM_SHARED_DATA_DIR_DEFAULT + ")");
+}
+
+void require_file(const std::string& path, const std::string& what) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) throw Error(path, what + " not found");
+  if (S_ISDIR(st.st_mode)) throw Error(path, "is a directory, not a " + what);
+  if (!S_ISREG(st.st_mode)) throw Error(path, "is not a regular file (a " + what + " was expected)");
 }
 
 }  // namespace cdsm

@@ -26,6 +26,25 @@ bool appearance_only(const std::string& ext) {
          ext.rfind("EXT_texture_", 0) == 0 || ext == "MSFT_texture_dds";
 }
 
+// tinygltf's messages quote what the JSON parser last read: in a truncated
+// .gltf that is the rest of a base64 buffer (hundreds of kB). One line, the
+// quote cut to 100 characters, at most 300 in all.
+std::string shorten_context(std::string m) {
+  for (char& c : m)
+    if (c == '\n' || c == '\r') c = ' ';
+  const std::string mark = "last read: '";
+  size_t at = m.find(mark);
+  if (at != std::string::npos) {
+    size_t from = at + mark.size(), end = m.find('\'', from);
+    size_t len = (end == std::string::npos ? m.size() : end) - from;
+    if (len > 100)
+      m = m.substr(0, from + 100) + "...' (" + std::to_string(len) + " characters)" +
+          (end == std::string::npos ? "" : m.substr(end + 1));
+  }
+  if (m.size() > 300) m = m.substr(0, 300) + "... (" + std::to_string(m.size()) + " characters)";
+  return m;
+}
+
 bool regular_file(const std::string& p, uint64_t* size = nullptr) {
   struct stat st {};
   if (::stat(p.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return false;
@@ -218,6 +237,7 @@ File read_file(const std::string& path, Unsupported& unsupported) {
   f.path = path;
   std::vector<unsigned char> bytes;
   std::string err;
+  require_file(path, "glTF file");
   if (!read_bytes(path, bytes, &err)) throw Error(path, "cannot read glTF file (" + trim(err) + ")");
   std::string dir;
   size_t slash = path.find_last_of('/');
@@ -247,7 +267,7 @@ File read_file(const std::string& path, Unsupported& unsupported) {
     throw Error(path, std::string("invalid glTF file: ") + e.what());
   }
   if (!ok) {
-    std::string why = trim(err.empty() ? warn_text : err);
+    std::string why = shorten_context(trim(err.empty() ? warn_text : err));
     throw Error(path, std::string(binary ? "invalid or truncated .glb file" : "invalid glTF file") +
                           (why.empty() ? "" : ": " + why));
   }

@@ -19,7 +19,8 @@ std::shared_ptr<DenseGrid> load_raw(const std::string& path, const RawVolumeDesc
   const uint64_t bpv = d.format == RawFormat::UInt16 ? 2 : 1;
   const uint64_t expected = d.header_bytes + count * bpv;
   struct stat st {};
-  if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) throw Error(path, "cannot open raw volume");
+  require_file(path, "raw volume");
+  if (::stat(path.c_str(), &st) != 0) throw Error(path, "cannot open raw volume");
   const uint64_t size = uint64_t(st.st_size);
   if (size != expected) {
     std::string msg = "raw volume is " + std::to_string(size) + " bytes, but " + std::to_string(d.nx) + "x" +

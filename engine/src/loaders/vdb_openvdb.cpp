@@ -262,8 +262,13 @@ openvdb::GridBase::Ptr select_grid(const std::string& path, const openvdb::GridP
   std::string list;
   for (const auto& g : grids) list += (list.empty() ? "" : ", ") + (g ? describe(*g) : std::string("(null)"));
   if (matches.empty()) throw Error(path, "no grid named '" + wanted + "'; the file has " + list);
-  throw Error(path, std::to_string(matches.size()) + " grids are named '" + name + "' (pick one as '" + name +
-                        "[0]' to '" + name + "[" + std::to_string(matches.size() - 1) + "]'); the file has " + list);
+  const std::string missing = index >= 0 ? "no grid '" + wanted + "': " : "";
+  if (matches.size() == 1)
+    throw Error(path, missing + "only one grid is named '" + name + "' (use '" + name + "' or '" + name +
+                          "[0]'); the file has " + list);
+  throw Error(path, missing + std::to_string(matches.size()) + " grids are named '" + name + "' (pick one as '" +
+                        name + "[0]' to '" + name + "[" + std::to_string(matches.size() - 1) + "]'); the file has " +
+                        list);
 }
 
 openvdb::FloatGrid::Ptr as_float_grid(const std::string& path, const openvdb::GridBase::Ptr& g) {
@@ -309,7 +314,8 @@ VdbVolume load_vdb(const std::string& path, const std::string& grid_name) {
   static std::once_flag init;
   std::call_once(init, [] { openvdb::initialize(); });
   struct stat st {};
-  if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) throw Error(path, "cannot open VDB file (missing)");
+  require_file(path, "VDB file");
+  if (::stat(path.c_str(), &st) != 0) throw Error(path, "cannot open VDB file (missing)");
 
   openvdb::GridPtrVecPtr grids = read_all_grids(path);
   openvdb::GridBase::Ptr base = select_grid(path, *grids, grid_name);

@@ -1,0 +1,93 @@
+// The cdsm program as a user runs it (tests/cli): every bad option or
+// output path is one error line naming it, exit code 1, found before any
+// rendering work; the summary and --stats report the frame's counters.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <sys/stat.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace {
+
+struct CliRun {
+  int code = -1;
+  std::string out, err;
+};
+
+std::string output_dir() {
+  std::string d = std::string(CDSM_TEST_OUTPUT_DIR) + "/cli";
+  ::mkdir(d.c_str(), 0755);
+  return d;
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Runs `cdsm ARGS` (a shell word list) and captures its streams.
+CliRun cdsm(const std::string& args) {
+  const std::string out = output_dir() + "/stdout.txt", err = output_dir() + "/stderr.txt";
+  std::string cmd = std::string("'") + CDSM_EXE + "' " + args + " >'" + out + "' 2>'" + err + "'";
+  int status = std::system(cmd.c_str());
+  CliRun r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  r.out = slurp(out);
+  r.err = slurp(err);
+  return r;
+}
+
+const std::string kScene = std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/default.json";
+
+}  // namespace
+
+// Output paths that cannot be written are refused before the render: one
+// error line naming the path, exit 1, nothing rendered (no summary), and
+// nothing the user had is touched.
+TEST(Cli, UnwritableOutputsFailBeforeRendering) {
+  const std::string dir = output_dir();
+  ::mkdir((dir + "/a_directory.png").c_str(), 0755);
+  struct Case {
+    std::string args, names;
+  } cases[] = {
+      {"-o /nonexistent-dir/out.png", "/nonexistent-dir/out.png"},
+      {"-o '" + dir + "/a_directory.png'", dir + "/a_directory.png"},
+      {"-o '" + dir + "/ok.png' --stats /nonexistent-dir/s.json", "/nonexistent-dir/s.json"},
+      {"-o '" + dir + "/ok.png' --stats '" + dir + "'", dir},
+      {"-o '" + dir + "/a_directory.png' --compare-reference", dir + "/a_directory.png"},
+  };
+  for (const Case& c : cases) {
+    CliRun r = cdsm("render '" + kScene + "' --width 32 --height 24 " + c.args);
+    EXPECT_EQ(r.code, 1) << c.args << "\n" << r.err;
+    EXPECT_NE(r.err.find("cdsm: error: " + c.names), std::string::npos) << c.args << ": " << r.err;
+    EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "one line: " << r.err;
+    EXPECT_EQ(r.out.find("scene "), std::string::npos) << "rendered before refusing: " << r.out;
+  }
+  // The sibling images of --compare-reference are checked too.
+  ::mkdir((dir + "/sib.reference.png").c_str(), 0755);
+  CliRun r = cdsm("render '" + kScene + "' --width 32 --height 24 -o '" + dir + "/sib.png' --compare-reference");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find(dir + "/sib.reference.png"), std::string::npos) << r.err;
+  EXPECT_EQ(r.out.find("scene "), std::string::npos);
+}
+
+// The walker's counters are in the summary and in --stats.
+TEST(Cli, SummaryAndStatsReportTheSegmentCounters) {
+  const std::string dir = output_dir();
+  CliRun r = cdsm("render '" + kScene + "' --width 48 --height 32 --dsm-res 64 --fragments cpu -o '" + dir +
+               "/counters.png' --stats '" + dir + "/counters.json'");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("segments     unmatched fragments 0, enclosing overflow 0, rays with > 32 objects 0, "
+                       "march steps lengthened 0"),
+            std::string::npos)
+      << r.out;
+  nlohmann::json j = nlohmann::json::parse(slurp(dir + "/counters.json"));
+  for (const char* key : {"unmatched_fragments", "enclosing_overflow", "ray_object_overflow", "march_steps_lengthened"})
+    EXPECT_TRUE(j.contains(key)) << key;
+}

@@ -1,0 +1,95 @@
+// Scenes built in code that compile_scene must refuse with a clear error
+// (issue "No silent wrong answers", item 8): transforms that turn finite
+// vertices into Inf/NaN in world space, singular transforms, and an
+// allocation that fails while compiling (named, with its size).
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+
+#include "cdsm/error.h"
+#include "unit_util.h"
+
+using namespace cdsm;
+using namespace cdsm_test;
+
+namespace {
+
+::testing::AssertionResult refused(const Scene& s, const std::vector<std::string>& parts) {
+  try {
+    compile_scene(s);
+  } catch (const Error& e) {
+    std::string m = e.what();
+    for (const std::string& p : parts)
+      if (m.find(p) == std::string::npos) return ::testing::AssertionFailure() << "'" << p << "' not in: " << m;
+    return ::testing::AssertionSuccess();
+  } catch (const std::exception& e) {
+    return ::testing::AssertionFailure() << "not a cdsm::Error: " << e.what();
+  }
+  return ::testing::AssertionFailure() << "no error";
+}
+
+}  // namespace
+
+TEST(CompileErrors, TransformTurnsVerticesInfinite) {
+  Scene s = empty_scene("huge");
+  TriangleMesh m = make_box({2e30f, 2e30f, 2e30f});  // finite: +-1e30
+  s.objects.push_back(make_object("big box", m, make_transform({0, 0, 0}, {0, 0, 0}, {1e10f, 1, 1})));
+  EXPECT_TRUE(refused(s, {"huge", "big box", "world space", "infinite"}));
+}
+
+TEST(CompileErrors, SingularTransform) {
+  Scene s = empty_scene("flat");
+  Mat4 flat = make_transform({0, 1, 0}, {0, 0, 0}, {1, 1, 1});
+  flat.m[1][1] = 0.0f;  // squashes y: no inverse, no shading normals
+  s.objects.push_back(make_object("squashed", make_sphere(1.0f, 12, 6), flat));
+  EXPECT_TRUE(refused(s, {"flat", "squashed", "singular"}));
+}
+
+// Builds a 600 MB grid, limits the address space to what is mapped plus
+// 256 MB, compiles (copying the grid cannot succeed), prints the error and
+// exits 0: the body of a death test.
+[[noreturn]] void compile_big_grid_with_little_memory() {
+  Scene s = empty_scene("big grid");
+  auto g = std::make_shared<DenseGrid>();
+  g->nx = 600;
+  g->ny = 500;
+  g->nz = 500;  // 150 M voxels, 600 MB
+  g->values.assign(size_t(g->nx) * g->ny * g->nz, 0.5f);
+  Volume v;
+  v.name = "fog";
+  v.grid = g;
+  v.transfer = {TransferPoint{0, 1, {1, 1, 1}}};
+  s.volumes.push_back(v);
+  Object o = make_object("fog", make_box({1, 1, 1}));
+  o.interior = InteriorKind::Volume;
+  o.volume = 0;
+  s.objects.push_back(o);
+  long pages = 0;
+  std::ifstream("/proc/self/statm") >> pages;
+  rlimit lim{};
+  lim.rlim_cur = lim.rlim_max = rlim_t(pages) * 4096 + (rlim_t(256) << 20);
+  setrlimit(RLIMIT_AS, &lim);
+  try {
+    compile_scene(s);
+    std::fprintf(stderr, "no error\n");
+  } catch (const Error& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+  }
+  std::exit(0);
+}
+
+// An allocation that fails while compiling says what and how large (in a
+// child process, a death test, whose address space is limited).
+TEST(CompileErrorsDeathTest, AllocationFailureIsNamed) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  GTEST_SKIP() << "address-space limits and sanitizer shadow memory do not mix";
+#else
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(compile_big_grid_with_little_memory(), ::testing::ExitedWithCode(0),
+              "big grid: volume 0 'fog': out of memory while copying its 150000000 voxels \\(572 MiB\\)");
+#endif
+}
