@@ -134,6 +134,8 @@ struct Renderer::Impl {
             cs.changed.push_back(c.members_changed || c.views_changed ? 1 : 0);
           }
         cs.maps = f.shadows.setup.lights[li].map_count;
+        cs.directions = lc.clustering.directions;
+        cs.warped_directions = lc.clustering.perspective_directions;
         st.clusters.push_back(std::move(cs));
       }
       st.times.fragments_ms = f.shadows.fragments_ms;

@@ -1,5 +1,7 @@
 // Built-in content (procedural.h): closedness, analytic volumes, orientation,
 // the Newell models from the shipped patch files, loader errors, noise volumes.
+#include <algorithm>
+#include <array>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -203,6 +205,36 @@ Box3 control_point_bounds(const std::string& file) {
   return b;
 }
 
+// Bounding box of the corner control points of every patch (a Bezier patch
+// passes through its four corners: the surface reaches at least this far).
+Box3 patch_corner_bounds(const std::string& file) {
+  std::ifstream in(file);
+  int patches = 0, points = 0;
+  std::string line;
+  in >> patches;
+  std::getline(in, line);
+  std::vector<std::array<int, 16>> idx(static_cast<size_t>(patches));
+  for (int i = 0; i < patches; ++i) {
+    std::getline(in, line);
+    std::replace(line.begin(), line.end(), ',', ' ');
+    std::istringstream ls(line);
+    for (int& k : idx[size_t(i)]) ls >> k;
+  }
+  in >> points;
+  std::getline(in, line);
+  std::vector<Vec3> cp;
+  for (int i = 0; i < points && std::getline(in, line); ++i) {
+    Vec3 p;
+    char c1, c2;
+    std::istringstream(line) >> p.x >> c1 >> p.y >> c2 >> p.z;
+    cp.push_back(p);
+  }
+  Box3 b;
+  for (const auto& patch : idx)
+    for (int corner : {0, 3, 12, 15}) b.grow(cp.at(size_t(patch[size_t(corner)] - 1)));
+  return b;
+}
+
 TEST(Newell, TeapotIsClosedOutwardAndYUp) {
   const std::string file = newell_file("teapot");
   const TriangleMesh m = make_newell_mesh(file, 8);
@@ -236,13 +268,18 @@ TEST(Newell, TeacupIsClosedOutwardAndStandsUpright) {
   std::string why;
   EXPECT_TRUE(closed_by_edges(m, &why)) << why;
   EXPECT_GT(signed_volume(m), 0.1);
-  // Cup on a saucer of radius ~1: wide and flat, round about the vertical axis.
-  const Box3 b = bounds(m);
+  // Extents derived from the file (y up, like the mesh): the surface lies in
+  // the hull of its control points and passes through every patch corner.
+  const Box3 b = bounds(m), cp = control_point_bounds(file), corners = patch_corner_bounds(file);
   EXPECT_FLOAT_EQ(b.lo.y, 0.0f);
-  EXPECT_NEAR(b.hi.y, 0.858f, 0.01f);
-  EXPECT_NEAR(b.hi.x, 0.977f, 0.01f);
-  EXPECT_NEAR(b.lo.z, -0.977f, 0.01f);
-  EXPECT_NEAR(b.hi.z, 0.977f, 0.01f);
+  for (int a : {0, 2}) {  // x, z (the mesh is only shifted in y, to rest on y = 0)
+    EXPECT_GE(b.lo[a], cp.lo[a] - 1e-4f) << a;
+    EXPECT_LE(b.hi[a], cp.hi[a] + 1e-4f) << a;
+    EXPECT_LE(b.lo[a], corners.lo[a] + 1e-4f) << a;
+    EXPECT_GE(b.hi[a], corners.hi[a] - 1e-4f) << a;
+  }
+  EXPECT_LE(b.hi.y - b.lo.y, cp.hi.y - cp.lo.y + 1e-4f);
+  EXPECT_GE(b.hi.y - b.lo.y, corners.hi.y - corners.lo.y - 1e-4f);
   EXPECT_GT(normals_agreeing(m), 0.995);
 }
 

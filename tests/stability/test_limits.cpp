@@ -162,9 +162,11 @@ TEST(Epsilon, OneAndAboveStayPhysicalWithTheExactEnd) {
   for (float eps : {1.0f, 10.0f}) {
     Rig rig(mixed(eps));
     EXPECT_TRUE(all_physical(rig)) << "eps " << eps;
-    for (float y : {3.5f, 2.9f, 2.2f, 1.4f, 0.5f}) {
-      float a = rig.alpha({0.05f, y, 0.05f});
-      EXPECT_TRUE(a >= 0.0f && a <= 1.0f) << a;
+    // Surfaces are steps at any eps: between the layers (no medium there
+    // yet) alpha is exactly 1 - 0.9^k after k layers.
+    for (int k = 1; k < 10; ++k) {
+      float y = 3.0f + 0.05f * float(10 - k) - 0.025f;  // below the k-th layer from the top
+      EXPECT_NEAR(rig.alpha({0.05f, y, 0.05f}), 1.0f - std::pow(0.9f, float(k)), 1e-5f) << "eps " << eps << ", " << k;
     }
     // Below everything: the last node is the exact final opacity.
     EXPECT_NEAR(rig.alpha({0.05f, 0.5f, 0.05f}), exact.alpha({0.05f, 0.5f, 0.05f}), 1e-5f) << "eps " << eps;
@@ -242,25 +244,46 @@ TEST(WideSpot, SceneFilesAcceptAn85DegreeHalfAngle) {
 
 // ---- view parallel to the light (LiSPSM degenerate) -----------------------------------------
 
-TEST(Lispsm, ViewParallelToTheLightFallsBackAndStaysCorrect) {
+// The camera looks straight down the light's axis (LiSPSM degenerates): the
+// clustering measures in uniform light space instead (asserted), and the
+// shadows — pillars' shadows the camera sees beside them — stay right.
+Scene parallel_view(Vec3 camera_dir) {
   Scene s = scene_named("view parallel to light");
   for (int i = 0; i < 6; ++i)
-    s.objects.push_back(surface_object("b", make_box({0.4f, 0.4f, 0.4f}), at({-3.0f + 1.2f * i, 0.6f, (i % 2) ? 1.5f : -1.5f}), 1.0f));
-  s.objects.push_back(surface_object("ground", make_quad(12, 12), Mat4{}, 1.0f, false));
-  s.lights.push_back(spot({0, 10, 0}, {0, -1, 0}, 30, 25));
-  s.camera.position = {0, 8, 0};
-  s.camera.target = {0, 0, 0};
+    s.objects.push_back(
+        surface_object("pillar", make_box({0.5f, 4.0f, 0.5f}), at({-3.0f + 1.2f * i, 2.0f, (i % 2) ? 1.5f : -1.5f}), 1.0f));
+  s.objects.push_back(surface_object("ground", make_quad(14, 14), Mat4{}, 1.0f, false));
+  s.lights.push_back(spot({0, 10, 0}, {0, -1, 0}, 35, 30));
+  s.camera.position = {0.7f, 9.0f, 0.4f};
+  s.camera.target = s.camera.position + camera_dir;
   s.camera.up = {0, 0, -1};
+  s.camera.fov_y_deg = 60.0f;
   s.shadows.max_clusters = 4;
   s.shadows.resolution = 128;
+  return s;
+}
+
+TEST(Lispsm, ViewParallelToTheLightFallsBackAndStaysCorrect) {
   Renderer r;
   RenderOptions o = cpu_options();
-  FrameStats st;
-  ASSERT_TRUE(finite_image(r.render(s, o, &st)));
+  FrameStats st, tilted;
+  Scene s = parallel_view({0, -1, 0});
+  Image img = r.render(s, o, &st);
+  ASSERT_TRUE(finite_image(img));
   ASSERT_EQ(st.clusters.size(), 1u);
-  if (!st.clusters[0].clustered) {
-    EXPECT_FALSE(st.clusters[0].fallback_reason.empty());
-  }
+  ASSERT_TRUE(st.clusters[0].clustered) << st.clusters[0].fallback_reason;
+  EXPECT_EQ(st.clusters[0].directions, 1);
+  EXPECT_EQ(st.clusters[0].warped_directions, 0) << "view parallel to the light: uniform light space";
+  Renderer r2;
+  r2.render(parallel_view(normalize(Vec3{0.0f, -1.0f, -1.2f})), o, &tilted);
+  EXPECT_EQ(tilted.clusters[0].warped_directions, 1) << "a tilted view uses the LiSPSM warp";
+  // The shadows are in the picture: without them it differs.
+  Scene unshadowed = s;
+  for (Object& ob : unshadowed.objects) ob.casts_shadows = false;
+  Renderer r3;
+  ImageError seen = compare_images(img, r3.render(unshadowed, o));
+  std::printf("[ lispsm ] with and without shadows: %.1f dB apart\n", seen.psnr);
+  EXPECT_LT(seen.psnr, 30.0) << "the camera must see shadows for this test to mean anything";
   TransmittanceError te = r.transmittance_error(s, o);
   EXPECT_GT(te.points, 0u);
   EXPECT_LT(te.mean, 0.03);

@@ -21,13 +21,6 @@ namespace cdsm_test {
 
 using namespace cdsm;
 
-// Tests of known bugs skip with "BUG: ..." unless CDSM_RUN_KNOWN_BUGS is set
-// (to check a fix: CDSM_RUN_KNOWN_BUGS=1 ctest -L unit).
-inline bool run_known_bugs() {
-  const char* v = std::getenv("CDSM_RUN_KNOWN_BUGS");
-  return v != nullptr && v[0] != '\0' && v[0] != '0';
-}
-
 inline std::shared_ptr<const TriangleMesh> share(TriangleMesh m) {
   return std::make_shared<const TriangleMesh>(std::move(m));
 }

@@ -64,6 +64,9 @@ struct LightClusterStats {
   std::vector<std::vector<int>> members;  // object indices per cluster
   std::vector<uint8_t> changed;           // per cluster: member set or frustum changed since the last frame
   uint32_t maps = 0;               // DSMs of this light
+  int32_t directions = 0;          // light directions the clustering measured (1 or 6)
+  int32_t warped_directions = 0;   // of those, measured in LiSPSM space (the rest: uniform light
+                                   // space, where the view is parallel to the light)
 };
 
 // Change of shadowing at static receivers when a light's maps changed
