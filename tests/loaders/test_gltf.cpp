@@ -454,6 +454,63 @@ TEST(GltfBad, NaNInTheData) {
   expect_error([&] { load_scene(p); }, {p, "'rig' (node 0)", "NaN or infinite"});
 }
 
+// Normals are optional: NaN, infinite or zero-length ones (files exported
+// by other tools have them) are recomputed from the geometry with one
+// warning naming the file, mesh, primitive and count (issue "No silent wrong
+// answers", item 10). NaN positions stay an error (above).
+TEST(Gltf, BadNormalsAreRecomputedWithAWarning) {
+  std::string dir = scratch_dir();
+  tinygltf::Model m = fixture_model();
+  // Per-vertex normals of the 8 cube corners (outward diagonals), three bad.
+  std::vector<float> n(24);
+  const float c[8][3] = {{-1, -1, -1}, {1, -1, -1}, {-1, 1, -1}, {1, 1, -1}, {-1, -1, 1}, {1, -1, 1}, {-1, 1, 1}, {1, 1, 1}};
+  for (int v = 0; v < 8; ++v)
+    for (int k = 0; k < 3; ++k) n[size_t(3 * v + k)] = c[v][k] / std::sqrt(3.0f);
+  n[3 * 2 + 1] = std::nanf("");  // vertex 2: NaN
+  n[3 * 5 + 0] = INFINITY;       // vertex 5: infinite
+  n[3 * 7 + 0] = n[3 * 7 + 1] = n[3 * 7 + 2] = 0.0f;  // vertex 7: zero
+  tinygltf::Buffer& buf = m.buffers[0];
+  size_t at = buf.data.size();
+  buf.data.resize(at + n.size() * 4);
+  std::memcpy(buf.data.data() + at, n.data(), n.size() * 4);
+  tinygltf::BufferView nv;
+  nv.buffer = 0, nv.byteOffset = at, nv.byteLength = n.size() * 4;
+  m.bufferViews.push_back(nv);
+  tinygltf::Accessor na;
+  na.bufferView = int(m.bufferViews.size() - 1), na.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT, na.count = 8;
+  na.type = TINYGLTF_TYPE_VEC3;
+  m.accessors.push_back(na);
+  for (tinygltf::Mesh& me : m.meshes) me.primitives[0].attributes["NORMAL"] = int(m.accessors.size() - 1);
+  std::string p = write_model(m, dir + "/bad_normals.glb", true);
+  WarningCapture warnings;
+  Scene s = load_scene(p);
+  ASSERT_EQ(s.objects.size(), 2u);
+  // One warning per primitive that had bad normals (both meshes share the data).
+  ASSERT_EQ(warnings.lines.size(), 2u) << warnings.all();
+  for (const std::string& w : warnings.lines) {
+    EXPECT_NE(w.find(p), std::string::npos) << w;
+    EXPECT_NE(w.find("primitive 0"), std::string::npos) << w;
+    EXPECT_NE(w.find("3 normals"), std::string::npos) << w;
+    EXPECT_NE(w.find("recomputed"), std::string::npos) << w;
+  }
+  EXPECT_NE(warnings.all().find("mesh 0 'cube'"), std::string::npos) << warnings.all();
+  for (const Object& o : s.objects) {
+    ASSERT_EQ(o.mesh->normals.size(), 8u);
+    for (size_t v = 0; v < 8; ++v) {
+      Vec3 nv3 = o.mesh->normals[v];
+      ASSERT_TRUE(is_finite(nv3)) << v;
+      EXPECT_NEAR(length(nv3), 1.0f, 1e-5f) << v;
+      // Outward: along the corner's diagonal (area-weighted face normals).
+      Vec3 d = normalize(o.mesh->positions[v]);
+      EXPECT_GT(dot(nv3, d), 0.5f) << v;
+    }
+    EXPECT_NEAR(o.mesh->normals[0].x, -1.0f / std::sqrt(3.0f), 1e-6f) << "good normals are kept";
+  }
+  // It compiles and renders.
+  SceneBuffers sb = compile_scene(s);
+  for (const Vec3& nv3 : sb.tri_normals) EXPECT_TRUE(is_finite(nv3));
+}
+
 TEST(GltfBad, NoMeshes) {
   std::string dir = scratch_dir();
   tinygltf::Model m = fixture_model();

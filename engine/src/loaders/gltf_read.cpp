@@ -165,7 +165,9 @@ T load(const unsigned char* p) {
   return x;
 }
 
-std::vector<Vec3> read_vec3(const File& f, int index, const std::string& what) {
+// VEC3 of FLOAT; NaN or infinite elements are an error unless `lenient`
+// (then they are read as they are and the caller repairs them).
+std::vector<Vec3> read_vec3(const File& f, int index, const std::string& what, bool lenient = false) {
   AccessorView v = view_accessor(f, index, what);
   if (v.type != TINYGLTF_TYPE_VEC3 || v.component != TINYGLTF_COMPONENT_TYPE_FLOAT)
     throw Error(f.path, what + ": accessor " + std::to_string(index) + " is not VEC3 of FLOAT");
@@ -173,10 +175,37 @@ std::vector<Vec3> read_vec3(const File& f, int index, const std::string& what) {
   for (size_t i = 0; i < v.count; ++i) {
     const unsigned char* p = v.base + i * v.stride;
     out[i] = {load<float>(p), load<float>(p + 4), load<float>(p + 8)};
-    if (!is_finite(out[i]))
+    if (!lenient && !is_finite(out[i]))
       throw Error(f.path, what + ": element " + std::to_string(i) + " is NaN or infinite");
   }
   return out;
+}
+
+// A normal the shading can use: finite and of non-zero length.
+bool usable_normal(Vec3 n) { return is_finite(n) && dot(n, n) > 1e-24f; }
+
+// Replaces unusable normals of `m` by the area-weighted normal of the
+// triangles around their vertex (outward for counter-clockwise triangles);
+// returns how many were replaced.
+size_t repair_normals(TriangleMesh& m) {
+  std::vector<uint8_t> bad(m.normals.size(), 0);
+  size_t count = 0;
+  for (size_t i = 0; i < m.normals.size(); ++i)
+    if (!usable_normal(m.normals[i])) {
+      bad[i] = 1;
+      ++count;
+      m.normals[i] = Vec3{0, 0, 0};
+    }
+  if (count == 0) return 0;
+  for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+    const uint32_t a = m.indices[t], b = m.indices[t + 1], c = m.indices[t + 2];
+    Vec3 area = cross(m.positions[b] - m.positions[a], m.positions[c] - m.positions[a]);  // twice the area
+    for (uint32_t v : {a, b, c})
+      if (bad[v]) m.normals[v] += area;
+  }
+  for (size_t i = 0; i < m.normals.size(); ++i)
+    if (bad[i]) m.normals[i] = usable_normal(m.normals[i]) ? normalize(m.normals[i]) : Vec3{0, 1, 0};
+  return count;
 }
 
 std::vector<uint32_t> read_indices(const File& f, int index, size_t vertices, const std::string& what) {
@@ -417,7 +446,7 @@ bool read_primitive(const File& f, int mesh, int prim, const std::string& where,
   out.positions = read_vec3(f, pos->second, what + " POSITION");
   auto nrm = p.attributes.find("NORMAL");
   if (nrm != p.attributes.end()) {
-    out.normals = read_vec3(f, nrm->second, what + " NORMAL");
+    out.normals = read_vec3(f, nrm->second, what + " NORMAL", /*lenient=*/true);
     if (out.normals.size() != out.positions.size())
       throw Error(f.path, what + " has " + std::to_string(out.normals.size()) + " normals for " +
                               std::to_string(out.positions.size()) + " positions");
@@ -444,6 +473,8 @@ bool read_primitive(const File& f, int mesh, int prim, const std::string& where,
       throw Error(f.path, what + " has " + std::to_string(idx.size()) + " indices, not a multiple of 3");
     out.indices = std::move(idx);
   }
+  if (size_t bad = repair_normals(out))
+    warn(f.path + ": " + what + ": " + std::to_string(bad) + " normals are NaN, infinite or zero; recomputed from the geometry");
   return true;
 }
 
