@@ -2,33 +2,21 @@
 
 namespace cdsm::cuda {
 
-__global__ void count_fragments_kernel(SceneView scene, PinholeView view, ObjectMask mask,
+__global__ void count_fragments_kernel(SceneView scene, PinholeView view, ObjectMask mask, bool any_media,
                                        uint32_t* counts) {
   int px = blockIdx.x * blockDim.x + threadIdx.x, py = blockIdx.y * blockDim.y + threadIdx.y;
   if (px >= view.width || py >= view.height) return;
-  Vec3 dir = pixel_ray(view, px, py);
-  float c = dot(dir, view.forward);
   uint32_t n = 0;
-  for_each_hit(scene, mask, view.eye, dir, view.near / c * 0.999f, view.far / c * 1.001f,
-               [&](uint32_t, const TriHit& h) {
-                 float ax = h.t * c;
-                 if (ax >= view.near && ax <= view.far) ++n;
-               });
+  cast_pixel(scene, view, mask, any_media, px, py, [&](Fragment) { ++n; });
   counts[size_t(py) * view.width + px] = n;
 }
 
-__global__ void fill_fragments_kernel(SceneView scene, PinholeView view, ObjectMask mask,
+__global__ void fill_fragments_kernel(SceneView scene, PinholeView view, ObjectMask mask, bool any_media,
                                       const uint32_t* offsets, Fragment* out) {
   int px = blockIdx.x * blockDim.x + threadIdx.x, py = blockIdx.y * blockDim.y + threadIdx.y;
   if (px >= view.width || py >= view.height) return;
-  Vec3 dir = pixel_ray(view, px, py);
-  float c = dot(dir, view.forward);
   uint32_t at = offsets[size_t(py) * view.width + px];
-  for_each_hit(scene, mask, view.eye, dir, view.near / c * 0.999f, view.far / c * 1.001f,
-               [&](uint32_t tri, const TriHit& h) {
-                 float ax = h.t * c;
-                 if (ax >= view.near && ax <= view.far) out[at++] = make_fragment(h.t, tri, h.front);
-               });
+  cast_pixel(scene, view, mask, any_media, px, py, [&](Fragment f) { out[at++] = f; });
 }
 
 __global__ void build_texels_kernel(SceneView scene, LightPassParams params, FragmentLists frags,

@@ -5,15 +5,16 @@
 #include "hd/dsm_chunked.h"
 #include "hd/dsm_fixed.h"
 #include "hd/light_pass.h"
-#include "hd/bvh.h"
+#include "hd/cast.h"
 
 namespace cdsm::cuda {
 
-// Fragment count pass of the ray caster: hits per pixel.
-__global__ void count_fragments_kernel(SceneView scene, PinholeView view, ObjectMask mask,
+// Fragment count pass of the ray caster (hd/cast.h): fragments per pixel.
+// any_media: mask_has_media(scene, mask).
+__global__ void count_fragments_kernel(SceneView scene, PinholeView view, ObjectMask mask, bool any_media,
                                        uint32_t* counts);
 // Fill pass: writes each pixel's fragments at offsets[pixel].
-__global__ void fill_fragments_kernel(SceneView scene, PinholeView view, ObjectMask mask,
+__global__ void fill_fragments_kernel(SceneView scene, PinholeView view, ObjectMask mask, bool any_media,
                                       const uint32_t* offsets, Fragment* out);
 // Light pass: one texel per thread into a per-thread node buffer of K nodes,
 // node counts written to counts[texel].

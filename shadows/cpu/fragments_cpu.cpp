@@ -5,7 +5,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_scan.h>
 
-#include "hd/bvh.h"
+#include "hd/cast.h"
 
 namespace cdsm {
 
@@ -16,36 +16,12 @@ void cast_fragments(const SceneView& scene, const PinholeView& view, ObjectMask 
   out.width = w;
   out.height = h;
   out.offsets.assign(n + 1, 0u);
-  // Surfaces are kept where the axial coordinate lies in [near, far]; the
-  // boundaries of media (bounds_medium) also before near and beyond far, as
-  // clipped fragments, so the walker keeps the media open (view.h).
-  bool any_media = false;
-  for (uint32_t o = 0; o < scene.objects.size(); ++o)
-    any_media = any_media || (mask.contains(o) && bounds_medium(scene.objects[o]));
-  const float clip_axial = media_clip_axial(view);
-  auto ray_range = [&](int px, int py, Vec3& dir, float& t0, float& t1) {
-    dir = pixel_ray(view, px, py);
-    float c = dot(dir, view.forward);
-    // tmin is exclusive in the test: start just below the first kept depth.
-    t0 = (any_media ? clip_axial : view.near) / c * 0.999f;
-    t1 = any_media ? 3.0e38f : view.far / c * 1.001f;
-  };
-  // 0: dropped, 1: kept, 2: kept as clipped.
-  auto keep = [&](const Vec3& dir, uint32_t tri, float t) {
-    float ax = t * dot(dir, view.forward);
-    if (ax >= view.near && ax <= view.far) return 1;
-    return ax >= clip_axial && bounds_medium(scene.objects[scene.tri_object[tri]]) ? 2 : 0;
-  };
+  const bool any_media = mask_has_media(scene, mask);
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     for (int py = rows.begin(); py < rows.end(); ++py)
       for (int px = 0; px < w; ++px) {
-        Vec3 dir;
-        float t0, t1;
-        ray_range(px, py, dir, t0, t1);
         uint32_t count = 0;
-        for_each_hit(scene, mask, view.eye, dir, t0, t1, [&](uint32_t tri, const TriHit& hit) {
-          if (keep(dir, tri, hit.t)) ++count;
-        });
+        cast_pixel(scene, view, mask, any_media, px, py, [&](Fragment) { ++count; });
         out.offsets[size_t(py) * w + px] = count;
       }
   });
@@ -61,15 +37,8 @@ void cast_fragments(const SceneView& scene, const PinholeView& view, ObjectMask 
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     for (int py = rows.begin(); py < rows.end(); ++py)
       for (int px = 0; px < w; ++px) {
-        Vec3 dir;
-        float t0, t1;
-        ray_range(px, py, dir, t0, t1);
-        size_t i = size_t(py) * w + px;
-        uint32_t at = out.offsets[i];
-        for_each_hit(scene, mask, view.eye, dir, t0, t1, [&](uint32_t tri, const TriHit& hit) {
-          int k = keep(dir, tri, hit.t);
-          if (k) out.fragments[at++] = make_fragment(hit.t, tri, hit.front, k == 2);
-        });
+        uint32_t at = out.offsets[size_t(py) * w + px];
+        cast_pixel(scene, view, mask, any_media, px, py, [&](Fragment f) { out.fragments[at++] = f; });
       }
   });
 }
