@@ -10,6 +10,17 @@ namespace {
 constexpr int kBins = 16;
 constexpr uint32_t kLeafSize = 4;
 
+// The bin of centroid coordinate c in [lo, hi] (hi > lo): computed as a
+// relative position and clamped in float before any conversion, so extreme
+// extents (hi - lo below float's range or beyond it: tiny, denormal or huge
+// objects) give a bin in [0, kBins) — never int(NaN) or int(inf).
+int bin_of(float c, float lo, float hi) {
+  float f = (c - lo) / (hi - lo) * float(kBins);
+  if (!(f > 0.0f)) return 0;  // also NaN
+  if (f >= float(kBins - 1)) return kBins - 1;
+  return int(f);
+}
+
 struct Builder {
   SceneBuffers& sb;
   std::vector<Box3> tri_box;
@@ -54,10 +65,9 @@ struct Builder {
       if (!(hi > lo)) continue;
       Box3 bin_box[kBins];
       uint32_t bin_n[kBins] = {};
-      float scale = float(kBins) / (hi - lo);
       for (uint32_t i = first; i < first + count; ++i) {
         uint32_t t = sb.bvh_prims[i];
-        int b = std::min(kBins - 1, int((tri_center[t][axis] - lo) * scale));
+        int b = bin_of(tri_center[t][axis], lo, hi);
         bin_box[b].grow(tri_box[t]);
         ++bin_n[b];
       }
@@ -99,13 +109,9 @@ struct Builder {
                          return tri_center[a][axis] < tri_center[b][axis];
                        });
     } else {
-      float lo = cbounds.lo[best_axis];
-      float scale = float(kBins) / (cbounds.hi[best_axis] - lo);
+      const float lo = cbounds.lo[best_axis], hi = cbounds.hi[best_axis];
       auto it = std::partition(sb.bvh_prims.begin() + first, sb.bvh_prims.begin() + first + count,
-                               [&](uint32_t t) {
-                                 int b = std::min(kBins - 1, int((tri_center[t][best_axis] - lo) * scale));
-                                 return b <= best_bin;
-                               });
+                               [&](uint32_t t) { return bin_of(tri_center[t][best_axis], lo, hi) <= best_bin; });
       mid = uint32_t(it - sb.bvh_prims.begin());
       if (mid == first || mid == first + count) mid = first + count / 2;
     }
@@ -127,7 +133,7 @@ void build_bvh(SceneBuffers& sb) {
   for (uint32_t t = 0; t < n; ++t) {
     sb.bvh_prims[t] = t;
     for (int k = 0; k < 3; ++k) b.tri_box[t].grow(sb.tri_vertices[3 * t + k]);
-    b.tri_center[t] = b.tri_box[t].center();
+    b.tri_center[t] = b.tri_box[t].lo * 0.5f + b.tri_box[t].hi * 0.5f;  // no overflow at +-3e38
   }
   sb.bvh.reserve(2 * n / kLeafSize + 1);
   b.build(0, n, 0);
