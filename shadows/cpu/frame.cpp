@@ -41,12 +41,23 @@ std::vector<uint32_t> mask_words(const std::vector<uint32_t>& members, size_t ob
   return w;
 }
 
-// Depth range of a light over the scene box.
-void light_range(const Light& l, const Box3& box, float& near, float& far) {
+// Depth range of a light: far over the scene box; near half the distance
+// to the closest caster box that does not hold the light, not a fraction of
+// far — one huge object must not push near past the small ones near the
+// light. (Near only clips surfaces: depths are radial floats, there is no
+// depth buffer, and media boundaries before near are kept anyway.)
+void light_range(const Light& l, const SceneBuffers& sb, float& near, float& far) {
   far = 0.0f;
-  for (int c = 0; c < 8; ++c) far = std::max(far, length(box.corner(c) - l.position));
+  for (int c = 0; c < 8; ++c) far = std::max(far, length(sb.bounds.corner(c) - l.position));
   far = far * 1.01f + 1e-3f;
-  near = std::max(1e-4f, far * 1e-5f);
+  float closest = far;
+  for (size_t o = 0; o < sb.objects.size(); ++o) {
+    if (!(sb.objects[o].flags & kObjCastsShadows) || sb.object_bounds[o].empty()) continue;
+    const Box3& b = sb.object_bounds[o];
+    float d = length(vmax(vmax(b.lo - l.position, l.position - b.hi), Vec3{0, 0, 0}));
+    if (d > 0.0f) closest = std::min(closest, d);
+  }
+  near = std::max(0.5f * closest, 1e-6f);
 }
 
 LightData light_data(const Light& l) {
@@ -123,7 +134,7 @@ LightSetup setup_lights(const Scene& scene, const SceneBuffers& sb, int res) {
     LightData ld = light_data(l);
     ld.first_map = uint32_t(ls.maps.size());
     float near, far;
-    light_range(l, sb.bounds, near, far);
+    light_range(l, sb, near, far);
     bool faces = l.type == LightType::Point || l.outer_cone_deg > 60.0f;
     if (faces) {
       for (const PinholeView& v : cube_face_views(l.position, res, near, far))

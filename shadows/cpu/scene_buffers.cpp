@@ -84,6 +84,10 @@ void build_macro_cells(SceneBuffers& sb, VolumeData& vd, const DenseGrid& g, con
   vd.my = (g.ny + kMacroCell - 1) / kMacroCell + 2;
   vd.mz = (g.nz + kMacroCell - 1) / kMacroCell + 2;
   vd.macro_offset = sb.macro_max.size();
+  // Stored cells -1 .. ceil(n/K): cell c covers [c K - 0.5, (c + 1) K - 0.5).
+  vd.cells_lo = vec3(-float(kMacroCell) - 0.5f);
+  vd.cells_hi = Vec3{float((vd.mx - 1) * kMacroCell) - 0.5f, float((vd.my - 1) * kMacroCell) - 0.5f,
+                     float((vd.mz - 1) * kMacroCell) - 0.5f};
   const size_t cells = size_t(vd.mx) * vd.my * vd.mz;
   allocating(where, "building its " + std::to_string(cells) + " macro-cells", cells * sizeof(float),
              [&] { sb.macro_max.resize(sb.macro_max.size() + cells, 0.0f); });
@@ -214,6 +218,33 @@ void compile_nano(SceneBuffers& sb, VolumeData& vd, const SparseGrid& g, const s
   for (uint32_t i = 0; i < root.tileCount(); ++i)
     if (root.data()->tile(i)->isValue()) check_tile(root.data()->tile(i)->value);
   vd.skip_mode = (tiles || bad_apron >= 0) ? kNanoSkipNeighbours : kNanoSkipLeaves;
+  // The cells that can read a non-background value: every leaf and every
+  // non-background tile, one cell of apron around them (a sample reads one
+  // voxel beyond its cell), as index positions of the cells' extents.
+  Vec3 lo = vec3(3e38f), hi = vec3(-3e38f);
+  auto grow = [&](const nanovdb::Coord& o, int dim) {
+    lo = vmin(lo, Vec3{float(o[0] - kMacroCell), float(o[1] - kMacroCell), float(o[2] - kMacroCell)} - vec3(0.5f));
+    hi = vmax(hi, Vec3{float(o[0] + dim + kMacroCell), float(o[1] + dim + kMacroCell), float(o[2] + dim + kMacroCell)} -
+                      vec3(0.5f));
+  };
+  for (uint32_t i = 0; i < leaves; ++i) grow(first[i].origin(), kMacroCell);
+  auto tiles_of = [&](const auto& node, int log2dim, int child_dim) {  // slot n: child (n >> 2L, (n >> L) & m, n & m)
+    const nanovdb::Coord o = node.origin();
+    const uint32_t mask = (1u << log2dim) - 1u;
+    for (auto it = node.beginValue(); it; ++it) {
+      if (*it == bg) continue;
+      uint32_t n = it.pos();
+      grow(o + nanovdb::Coord(int(n >> (2 * log2dim)) * child_dim, int((n >> log2dim) & mask) * child_dim,
+                              int(n & mask) * child_dim),
+           child_dim);
+    }
+  };
+  for (uint32_t i = 0; i < tree.nodeCount(1); ++i) tiles_of(lower[i], 4, 8);
+  for (uint32_t i = 0; i < tree.nodeCount(2); ++i) tiles_of(upper[i], 5, 128);
+  for (uint32_t i = 0; i < root.tileCount(); ++i)
+    if (root.data()->tile(i)->isValue() && root.data()->tile(i)->value != bg) grow(root.data()->tile(i)->origin(), 4096);
+  vd.cells_lo = lo;
+  vd.cells_hi = hi;
 }
 #endif
 
@@ -314,8 +345,8 @@ SceneBuffers compile_scene(const Scene& scene) {
     Box3 bounds;
     Mat4 inv;
     if (!invert(o.transform, inv))
-      throw Error(where, "transform is singular (determinant " + format_number(det3(o.transform)) +
-                             "): it flattens the mesh and has no inverse for its normals");
+      throw Error(where, "transform is singular: it flattens the mesh (or holds values float cannot invert) and "
+                         "has no inverse for its normals");
     const Mat4 normal_m = transpose(inv);  // inverse transpose of the linear part
     allocating(where, "copying its " + std::to_string(mesh.triangle_count()) + " triangles",
                mesh.triangle_count() * (6 * sizeof(Vec3) + sizeof(uint32_t)), [&] {
@@ -327,7 +358,7 @@ SceneBuffers compile_scene(const Scene& scene) {
     // transform (negative determinant) reverses that in world space, so the
     // winding is flipped here — the one place it is (loaders never pre-flip
     // for an object's transform) — and entries stay entries.
-    const bool mirrored = det3(o.transform) < 0.0f;
+    const bool mirrored = mirrors(o.transform);
     for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
       uint32_t idx[3] = {mesh.indices[t], mesh.indices[t + (mirrored ? 2 : 1)], mesh.indices[t + (mirrored ? 1 : 2)]};
       for (uint32_t k : idx)
@@ -354,12 +385,17 @@ SceneBuffers compile_scene(const Scene& scene) {
     if (sb.tri_object.size() >= kMaxPrimitives)
       throw Error(scene.source, "more than " + std::to_string(kMaxPrimitives) + " triangles");
     if (od.interior == uint32_t(InteriorKind::Volume) && !bounds.empty()) {
-      // The march must advance in float wherever the volume is: its step at
-      // least min_march_step of its own coordinates (marching from a distant
-      // eye or light is lengthened per segment and counted instead).
+      // The march must advance in float wherever the volume holds data (its
+      // cells box): its step at least min_march_step of those coordinates
+      // (marching from a distant eye or light is lengthened and counted).
       const VolumeData& vd = sb.volumes[size_t(o.volume)];
-      float reach = std::max({std::fabs(bounds.lo.x), std::fabs(bounds.lo.y), std::fabs(bounds.lo.z),
-                              std::fabs(bounds.hi.x), std::fabs(bounds.hi.y), std::fabs(bounds.hi.z)});
+      float reach = 0.0f;
+      for (int c = 0; c < 8; ++c) {
+        Vec3 q{(c & 1) ? vd.cells_hi.x : vd.cells_lo.x, (c & 2) ? vd.cells_hi.y : vd.cells_lo.y,
+               (c & 4) ? vd.cells_hi.z : vd.cells_lo.z};
+        Vec3 w = vd.index_to_world.point(q);
+        reach = std::max({reach, std::fabs(w.x), std::fabs(w.y), std::fabs(w.z)});
+      }
       if (!(vd.step >= min_march_step(0.0f, reach)))
         throw Error(where, "its march step of " + std::to_string(vd.step) +
                                " world units (step_voxels x voxel size after the transform) is below the float "

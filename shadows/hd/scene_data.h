@@ -85,6 +85,8 @@ struct VolumeData {
   float voxel_world;     // smallest world size of a voxel edge
   uint32_t grid_kind;    // kGridDense / kGridNano
   uint32_t skip_mode;    // nano: kNanoSkipLeaves / kNanoSkipNeighbours
+  Vec3 cells_lo;         // index-space box of the macro-cells that can hold a non-background
+  Vec3 cells_hi;         // value (apron included); outside it every sample reads the background
   TransferData tf;
 };
 

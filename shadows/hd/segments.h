@@ -50,6 +50,7 @@ struct EnclosingSet {
 struct SegmentMedia {
   float sigma = 0.0f;       // summed extinction of enclosing constant media
   float step = 3.0e38f;     // smallest march step of the enclosing volumes
+  uint32_t* lengthened = nullptr;  // counts segments whose march step had to grow to float resolution
   int volume_count = 0;
   uint32_t volume[kMaxEnclosing];
   uint32_t volume_object[kMaxEnclosing];  // the object bounding each volume
@@ -207,18 +208,6 @@ CDSM_HD inline void mark_matched_entries(const SceneView& s, Span<Fragment> frag
   }
 }
 
-// Lengthens a volume segment's march step to what float resolution allows
-// at its depth (counted), so the march always advances and takes at most
-// (t1 - t0) / min_march_step samples.
-CDSM_HD CDSM_INLINE void guard_march_step(SegmentMedia& m, float t0, float t1, WalkStats& st) {
-  if (m.volume_count == 0) return;
-  float h = min_march_step(t0, t1);
-  if (m.step < h) {
-    m.step = h;
-    ++st.march_lengthened;
-  }
-}
-
 // Walks a ray through its fragments. `frags` are sorted here (in place).
 // `inside` lists objects containing the eye (decided once per view).
 // Visitor interface:
@@ -244,7 +233,7 @@ CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint3
     float t = fminf(fmaxf(f.depth, t_start), t_end);
     if (set.count > 0 && t > t_prev) {
       SegmentMedia m = media_of(s, set);
-      guard_march_step(m, t_prev, t, st);
+      m.lengthened = &st.march_lengthened;
       if ((m.sigma > 0.0f || m.volume_count > 0) && !vis.segment(t_prev, t, m)) return;
     }
     t_prev = fmaxf(t_prev, t);
@@ -269,7 +258,7 @@ CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint3
   }
   if (set.count > 0 && t_end > t_prev) {
     SegmentMedia m = media_of(s, set);
-    guard_march_step(m, t_prev, t_end, st);
+    m.lengthened = &st.march_lengthened;
     if (m.sigma > 0.0f || m.volume_count > 0) vis.segment(t_prev, t_end, m);
   }
 }
@@ -282,43 +271,86 @@ struct MarchSample {
   int dominant;      // index into media.volume of the largest extinction, -1 if none
 };
 
-// Marches [t0, t1] with the segment's smallest step, skipping macro-cells
-// whose transfer-function output is zero in every enclosing volume.
+// The parameter interval [enter, leave] of the index-space ray qo + t qd
+// inside box [lo, hi] (enter > leave: it misses).
+CDSM_HD CDSM_INLINE void ray_box_span(Vec3 qo, Vec3 qd, Vec3 lo, Vec3 hi, float& enter, float& leave) {
+  enter = -3.0e38f;
+  leave = 3.0e38f;
+  for (int a = 0; a < 3; ++a) {
+    if (qd[a] == 0.0f) {
+      if (qo[a] < lo[a] || qo[a] > hi[a]) leave = -3.0e38f;
+      continue;
+    }
+    float u = (lo[a] - qo[a]) / qd[a], w = (hi[a] - qo[a]) / qd[a];
+    enter = fmaxf(enter, fminf(u, w));
+    leave = fminf(leave, fmaxf(u, w));
+  }
+}
+
+// Marches [t0, t1] through the segment's volumes, each with its own step
+// where it can hold data (inside its cells box, VolumeData::cells_lo/hi)
+// and not at all elsewhere (there it reads its background: constant), and
+// skips stretches where every volume's macro-cell is empty of extinction
+// (transfer-function output). Every iteration ends at a sample, a cell
+// boundary, or a box boundary, each found from the index-space ray, at
+// least 4 ulps of t on (a step below that is lengthened and counted in
+// *m.lengthened): the work is bounded by the cells along the ray and by each
+// volume's extent over its step, whatever the depth.
 // Callback: bool sample(const MarchSample&) (false stops), and
 // void skip(float ta, float tb) for an empty stretch (so visitors can
 // keep flat runs in the visibility function).
 template <class OnSample, class OnSkip>
 CDSM_HD bool march_segment(const SceneView& s, const SegmentMedia& m, Vec3 org, Vec3 dir, float t0,
                            float t1, OnSample&& on_sample, OnSkip&& on_skip) {
-  float h = m.step;
+  Vec3 qo[kMaxEnclosing], qd[kMaxEnclosing];
+  float enter[kMaxEnclosing], leave[kMaxEnclosing];
+  for (int i = 0; i < m.volume_count; ++i) {
+    const VolumeData& v = s.volumes[m.volume[i]];
+    qo[i] = v.world_to_index.point(org);
+    qd[i] = v.world_to_index.vector(dir);
+    ray_box_span(qo[i], qd[i], v.cells_lo, v.cells_hi, enter[i], leave[i]);
+  }
+  bool lengthened = false;
   float t = t0;
   while (t < t1) {
-    // Empty-space skipping: all enclosing volumes empty here?
-    if (m.sigma <= 0.0f) {
-      float exit_t = t1;
-      bool empty = true;
-      for (int i = 0; i < m.volume_count && empty; ++i) {
-        const VolumeData& v = s.volumes[m.volume[i]];
-        Vec3 qo = v.world_to_index.point(org);
-        Vec3 qd = v.world_to_index.vector(dir);
-        float mx = macro_max_at(s, v, qo + qd * t);
-        if (mx < 0.0f) mx = apply_transfer(v.tf, v.background).extinction;
-        if (mx > 0.0f) {
-          empty = false;
-        } else {
-          exit_t = fminf(exit_t, macro_cell_exit(qo, qd, t));
+    // No step below float resolution here (4 ulps of t): counted once.
+    const float progress = min_march_step(t, t);
+    // This stretch: the finest step of the volumes whose box holds t, and
+    // the next box boundary of any volume.
+    float h = 3.0e38f, next = t1;
+    bool empty = m.sigma <= 0.0f;
+    float empty_until = t1;
+    for (int i = 0; i < m.volume_count; ++i) {
+      const VolumeData& v = s.volumes[m.volume[i]];
+      const bool inside = t >= enter[i] && t < leave[i];
+      if (inside) {
+        if (v.step < progress && !lengthened && m.lengthened) {
+          lengthened = true;
+          ++*m.lengthened;
         }
+        h = fminf(h, fmaxf(v.step, progress));
+        next = fminf(next, leave[i]);
+      } else if (enter[i] > t && enter[i] <= leave[i]) {
+        next = fminf(next, enter[i]);
       }
-      if (empty) {
-        // Step just past the boundary so the next lookup lands in the next cell.
-        float tb = fminf(t1, fmaxf(exit_t, t + 1e-6f * (1.0f + fabsf(t))));
-        on_skip(t, tb);
-        t = tb;
-        continue;
+      if (!empty) continue;
+      float mx = inside ? macro_max_at(s, v, qo[i] + qd[i] * t) : -1.0f;
+      if (mx < 0.0f) mx = apply_transfer(v.tf, v.background).extinction;
+      if (mx > 0.0f) {
+        empty = false;
+      } else {
+        empty_until = fminf(empty_until, inside ? macro_cell_exit(qo[i], qd[i], t) : next);
       }
     }
-    float te = fminf(t + h, t1);
-    if (!(te > t)) te = t1;  // a step below float resolution (walk_ray guards m.step): finish
+    if (empty) {
+      float tb = fminf(t1, fmaxf(fminf(empty_until, next), t + progress));
+      on_skip(t, tb);
+      t = tb;
+      continue;
+    }
+    float te = fminf(fminf(t + h, next), t1);  // h = 3e38 outside every box: one sample to the next event
+    if (!(te > t)) te = fminf(t + progress, t1);
+    if (!(te > t)) te = t1;
     Vec3 p = org + dir * (0.5f * (t + te));
     MarchSample ms;
     ms.t0 = t;

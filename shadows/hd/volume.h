@@ -152,7 +152,9 @@ CDSM_HD CDSM_INLINE float macro_max_at(const SceneView& s, const VolumeData& v, 
 }
 
 // Ray parameter where the ray leaves the macro-cell that contains the point
-// at parameter t (index-space ray: q(t) = qo + t * qd).
+// at parameter t (index-space ray: q(t) = qo + t * qd). Rounding may put it
+// at or just before t when q(t) lies on the boundary: callers step at least
+// a float-resolvable amount on (march_segment).
 CDSM_HD CDSM_INLINE float macro_cell_exit(Vec3 qo, Vec3 qd, float t) {
   Vec3 q = qo + qd * t;
   float best = 3.0e38f;

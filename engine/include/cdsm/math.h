@@ -124,8 +124,59 @@ CDSM_HD CDSM_INLINE float det3(const Mat4& a) {
          a.m[0][2] * (a.m[1][0] * a.m[2][1] - a.m[1][1] * a.m[2][0]);
 }
 
-// General inverse by cofactors; returns false (and identity) if singular.
+// Whether the transform mirrors, decided on the linear block scaled to unit
+// size, so tiny or huge transforms keep their sign (det3 would under- or
+// overflow).
+CDSM_HD CDSM_INLINE bool mirrors(const Mat4& a) {
+  float s = 0.0f;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) s = fmaxf(s, fabsf(a.m[i][j]));
+  if (!(s > 0.0f)) return false;
+  Mat4 n = a;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) n.m[i][j] = a.m[i][j] / s;
+  return det3(n) < 0.0f;
+}
+
+// Inverse of an affine matrix (last row 0 0 0 1), scale-normalized so that
+// transforms of any magnitude float can hold invert (scale 1e-30 or 1e20:
+// the plain cofactors would under- or overflow): A = s N, A^-1 = N^-1 / s.
+// Returns false (and identity) when N is singular (det N = 0: the transform
+// flattens space) or the inverse does not fit in float.
+CDSM_HD inline bool invert_affine(const Mat4& a, Mat4& out) {
+  float s = 0.0f;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) s = fmaxf(s, fabsf(a.m[i][j]));
+  out = Mat4{};
+  if (!(s > 0.0f) || !(s < 3.0e38f)) return false;
+  float n[3][3];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) n[i][j] = a.m[i][j] / s;
+  float c00 = n[1][1] * n[2][2] - n[1][2] * n[2][1], c01 = n[1][2] * n[2][0] - n[1][0] * n[2][2],
+        c02 = n[1][0] * n[2][1] - n[1][1] * n[2][0];
+  float det = n[0][0] * c00 + n[0][1] * c01 + n[0][2] * c02;
+  if (!(fabsf(det) > 0.0f)) return false;
+  float inv[3][3] = {{c00, n[0][2] * n[2][1] - n[0][1] * n[2][2], n[0][1] * n[1][2] - n[0][2] * n[1][1]},
+                     {c01, n[0][0] * n[2][2] - n[0][2] * n[2][0], n[0][2] * n[1][0] - n[0][0] * n[1][2]},
+                     {c02, n[0][1] * n[2][0] - n[0][0] * n[2][1], n[0][0] * n[1][1] - n[0][1] * n[1][0]}};
+  const float k = 1.0f / (det * s);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) out.m[i][j] = inv[i][j] * k;
+  for (int i = 0; i < 3; ++i)
+    out.m[i][3] = -(out.m[i][0] * a.m[0][3] + out.m[i][1] * a.m[1][3] + out.m[i][2] * a.m[2][3]);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 4; ++j)
+      if (!is_finite(out.m[i][j])) {
+        out = Mat4{};
+        return false;
+      }
+  return true;
+}
+
+// General inverse by cofactors (affine matrices: invert_affine); returns
+// false (and identity) if singular.
 CDSM_HD inline bool invert(const Mat4& a, Mat4& out) {
+  if (a.m[3][0] == 0.0f && a.m[3][1] == 0.0f && a.m[3][2] == 0.0f && a.m[3][3] == 1.0f) return invert_affine(a, out);
   const float* s = &a.m[0][0];
   float inv[16];
   inv[0] = s[5] * s[10] * s[15] - s[5] * s[11] * s[14] - s[9] * s[6] * s[15] + s[9] * s[7] * s[14] + s[13] * s[6] * s[11] - s[13] * s[7] * s[10];

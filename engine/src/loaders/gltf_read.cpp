@@ -495,7 +495,7 @@ void append_transformed(TriangleMesh& dst, const TriangleMesh& src, const Mat4& 
       dst.normals.push_back(l > 0.0f ? n * (1.0f / l) : Vec3{0, 1, 0});
     }
   }
-  const bool flip = det3(m) < 0.0f;
+  const bool flip = mirrors(m);
   for (size_t t = 0; t + 2 < src.indices.size(); t += 3) {
     dst.indices.push_back(base + src.indices[t]);
     dst.indices.push_back(base + src.indices[t + (flip ? 2 : 1)]);

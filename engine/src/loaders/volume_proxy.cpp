@@ -31,7 +31,7 @@ TriangleMesh index_box(Vec3 lo, Vec3 hi, const Mat4& index_to_object) {
   TriangleMesh m;
   for (int i = 0; i < 8; ++i)
     m.positions.push_back(index_to_object.point({(i & 1) ? hi.x : lo.x, (i & 2) ? hi.y : lo.y, (i & 4) ? hi.z : lo.z}));
-  const bool flip = det3(index_to_object) < 0.0f;
+  const bool flip = mirrors(index_to_object);
   add_quad(m, 0, 2, 3, 1, flip);  // -z
   add_quad(m, 4, 5, 7, 6, flip);  // +z
   add_quad(m, 0, 1, 5, 4, flip);  // -y
@@ -104,7 +104,7 @@ TriangleMesh leaf_hull(const SparseGrid& g, const Mat4& index_to_object) {
     if (it.second) m.positions.push_back(index_to_object.point({corner(0, x), corner(1, y), corner(2, z)}));
     return it.first->second;
   };
-  const bool flip = det3(index_to_object) < 0.0f;
+  const bool flip = mirrors(index_to_object);
   for (const auto& b : blocks) {
     const int64_t x = b[0], y = b[1], z = b[2];
     if (!has(x, y, z - 1)) add_quad(m, vid(x, y, z), vid(x, y + 1, z), vid(x + 1, y + 1, z), vid(x + 1, y, z), flip);
