@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "cdsm/error.h"
+#include "cdsm/scene_io.h"
 #include "cpu/frame.h"
 #include "fragment_source.h"
 #include "reference/reference.h"
@@ -20,50 +21,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
-void validate(const Scene& s) {
-  const ShadowSettings& sh = s.shadows;
-  const std::string& f = s.source;
-  if (!(sh.epsilon >= 0.0f) || !is_finite(sh.epsilon)) throw Error(f + ": /shadows/epsilon", "must be finite and >= 0");
-  if (sh.resolution < 4 || sh.resolution > 8192)
-    throw Error(f + ": /shadows/resolution", "must be within [4, 8192], got " + std::to_string(sh.resolution));
-  if (s.camera.width < 1 || s.camera.height < 1 || s.camera.width > 16384 || s.camera.height > 16384)
-    throw Error(f + ": /camera", "width and height must be within [1, 16384]");
-  if (!(s.camera.near > 0.0f) || !(s.camera.far > s.camera.near))
-    throw Error(f + ": /camera", "needs 0 < near < far");
-  if (!(s.camera.fov_y_deg > 0.0f && s.camera.fov_y_deg < 179.0f))
-    throw Error(f + ": /camera/fov_y", "must be within (0, 179) degrees");
-  if (length(s.camera.target - s.camera.position) <= 0.0f)
-    throw Error(f + ": /camera", "target equals position");
-  if (sh.fixed_layers < 2 || sh.fixed_layers > 4096)
-    throw Error(f + ": /shadows/fixed_layers", "must be within [2, 4096]");
-  if (sh.chunk_nodes < 1 || sh.chunk_nodes > 4096)
-    throw Error(f + ": /shadows/chunk_nodes", "must be within [1, 4096]");
-  if (sh.parallel_splits != 0 && (sh.parallel_splits < 2 || sh.parallel_splits > kMaxMapsPerLight - 1))
-    throw Error(f + ": /shadows/parallel_splits", "must be 0 (off) or within [2, " + std::to_string(kMaxMapsPerLight - 1) + "]");
-  if (sh.max_clusters < 1 || sh.max_clusters > kMaxMapsPerLight)
-    throw Error(f + ": /shadows/clusters", "must be within [1, " + std::to_string(kMaxMapsPerLight) + "]");
-  const Camera& c = s.camera;
-  if (!is_finite(c.position) || !is_finite(c.target) || !is_finite(c.up) || !is_finite(c.fov_y_deg) ||
-      !is_finite(c.near) || !is_finite(c.far))
-    throw Error(f + ": /camera", "has a NaN or infinite value");
-  if (!is_finite(s.background) || !is_finite(sh.ambient_light) || !is_finite(sh.bias_constant) ||
-      !is_finite(sh.bias_slope) || !is_finite(sh.d0))
-    throw Error(f + ": /shadows", "has a NaN or infinite value");
-  for (size_t i = 0; i < s.lights.size(); ++i) {
-    const Light& l = s.lights[i];
-    std::string where = f + ": /lights/" + std::to_string(i);
-    if (!is_finite(l.position) || !is_finite(l.direction) || !is_finite(l.color) || !is_finite(l.intensity) ||
-        !is_finite(l.outer_cone_deg) || !is_finite(l.inner_cone_deg))
-      throw Error(where, "has a NaN or infinite value");
-    if (l.type == LightType::Spot && length(l.direction) <= 0.0f) throw Error(where, "spot direction is zero");
-    if (l.type == LightType::Spot && !(l.outer_cone_deg > 0.0f && l.outer_cone_deg < 90.0f))
-      throw Error(where + "/outer_cone", "half-angle must be within (0, 90) degrees");
-    if (!(l.intensity >= 0.0f)) throw Error(where + "/intensity", "must be >= 0");
-  }
-  if (s.lights.size() > size_t(kMaxLights))
-    throw Error(f + ": /lights", "at most " + std::to_string(kMaxLights) + " lights");
 }
 
 // Collects the shaded points of a camera ray (the error probe).
@@ -111,11 +68,11 @@ struct Renderer::Impl {
   };
 
   void prepare(const Scene& scene, const RenderOptions& opt, Frame& f, FrameStats& st) {
-    validate(scene);
+    validate_scene(scene, &st.warnings);
     auto t0 = Clock::now();
     f.sb = compile_scene(scene);
     st.times.compile_ms = ms_since(t0);
-    st.warnings = f.sb.warnings;
+    st.warnings.insert(st.warnings.end(), f.sb.warnings.begin(), f.sb.warnings.end());
     FragmentProducer produce = fragments.select(opt.fragments, f.sb, st.fragment_source, st.fragment_source_reason);
     if (opt.backend != Backend::Reference) {
       build_shadow_frame(scene, f.sb, produce, cache, f.shadows);

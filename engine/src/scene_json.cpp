@@ -85,42 +85,30 @@ struct Parser {
     c.far = n.get("far", c.far);
     c.width = n.get("width", c.width);
     c.height = n.get("height", c.height);
-    if (c.width < 1 || c.height < 1) n.fail("width and height must be >= 1");
-    if (!(c.near > 0) || !(c.far > c.near)) n.fail("needs 0 < near < far");
-    if (!(c.fov_y_deg > 0 && c.fov_y_deg < 179)) n.at("fov_y").fail("must be within (0, 179) degrees");
-    if (length(c.target - c.position) <= 0) n.at("target").fail("equals the camera position");
-    return c;
+    return c;  // ranges: validate_scene
   }
 
   ShadowSettings shadows(const JsonNode& n) {
     n.expect_object({"epsilon", "resolution", "filtering", "bias_constant", "bias_slope", "clusters", "d0",
                      "layout", "method", "method_param", "ambient",
-                     "fixed_layers", "chunk_nodes", "parallel_splits"});
-    ShadowSettings s;
+                     "fixed_layers", "chunk_nodes", "parallel_splits", "max_memory"});
+    ShadowSettings s;  // ranges: validate_scene
     s.epsilon = n.get("epsilon", s.epsilon);
-    if (s.epsilon < 0) n.at("epsilon").fail("must be >= 0 (got " + std::to_string(s.epsilon) + ")");
     s.resolution = n.get("resolution", s.resolution);
-    if (s.resolution < 4 || s.resolution > 8192) n.at("resolution").fail("must be within [4, 8192]");
     s.filtering = n.get("filtering", s.filtering);
     s.bias_constant = n.get("bias_constant", s.bias_constant);
     s.bias_slope = n.get("bias_slope", s.bias_slope);
-    if (s.bias_constant < 0 || s.bias_slope < 0) n.fail("biases must be >= 0");
     s.max_clusters = n.get("clusters", s.max_clusters);
-    if (s.max_clusters < 1 || s.max_clusters > kMaxMapsPerLight) n.at("clusters").fail("must be within [1, 8]");
     s.d0 = n.get("d0", s.d0);
     s.parallel_splits = n.get("parallel_splits", s.parallel_splits);
-    if (s.parallel_splits != 0 && (s.parallel_splits < 2 || s.parallel_splits > kMaxMapsPerLight - 1))
-      n.at("parallel_splits").fail("must be 0 (off) or within [2, " + std::to_string(kMaxMapsPerLight - 1) + "]");
-    if (!(s.d0 >= 0)) n.at("d0").fail("must be >= 0");
+    s.max_memory_mib = n.get("max_memory", int(s.max_memory_mib));
     std::string layout = n.get("layout", "packed");
     if (layout == "packed") s.layout = DsmLayout::Packed;
     else if (layout == "fixed") s.layout = DsmLayout::Fixed;
     else if (layout == "chunked") s.layout = DsmLayout::Chunked;
     else n.at("layout").fail("unknown layout '" + layout + "' (packed, fixed or chunked)");
     s.fixed_layers = n.get("fixed_layers", s.fixed_layers);
-    if (s.fixed_layers < 2 || s.fixed_layers > 4096) n.at("fixed_layers").fail("must be within [2, 4096]");
     s.chunk_nodes = n.get("chunk_nodes", s.chunk_nodes);
-    if (s.chunk_nodes < 1 || s.chunk_nodes > 4096) n.at("chunk_nodes").fail("must be within [1, 4096]");
     // The benchmark's baselines (DESIGN.md §7): what a texel stores.
     std::string method = n.get("method", "dsm");
     if (method == "dsm") s.method = ShadowMethod::Dsm;
@@ -129,14 +117,6 @@ struct Parser {
     else if (method == "fixed_nodes") s.method = ShadowMethod::FixedNodes;
     else n.at("method").fail("unknown method '" + method + "' (dsm, shadow_map, opacity_slices or fixed_nodes)");
     s.method_param = n.get("method_param", s.method_param);
-    if (s.method == ShadowMethod::ShadowMap && !(s.method_param >= 0 && s.method_param <= 1))
-      n.at("method_param").fail("shadow_map: the opacity threshold must be within (0, 1] (0: default 0.5)");
-    if (s.method == ShadowMethod::OpacitySlices &&
-        !(s.method_param == 0 || (s.method_param >= 1 && s.method_param <= 512 && s.method_param == std::floor(s.method_param))))
-      n.at("method_param").fail("opacity_slices: the slice count must be an integer within [1, 512] (0: default 32)");
-    if (s.method == ShadowMethod::FixedNodes &&
-        !(s.method_param == 0 || (s.method_param >= 2 && s.method_param <= 512 && s.method_param == std::floor(s.method_param))))
-      n.at("method_param").fail("fixed_nodes: the node count must be an integer within [2, 512] (0: default 8)");
     s.ambient_light = n.get("ambient", s.ambient_light);
     return s;
   }
@@ -179,11 +159,20 @@ struct Parser {
         p.ny = d[1];
         p.nz = d[2];
       }
-      p.seed = uint32_t(n.get("seed", 1));
+      const double seed = n.has("seed") ? double(n.at("seed").as_float()) : 1.0;
+      if (!(seed >= 0 && seed <= 4294967295.0 && seed == std::floor(seed)))
+        n.at("seed").fail("must be a whole number within [0, 4294967295], got " + format_number(seed));
+      p.seed = uint32_t(seed);
       p.frequency = n.get("frequency", p.frequency);
+      if (!(p.frequency > 0 && p.frequency <= 1000)) n.at("frequency").fail("must be within (0, 1000], got " + format_number(p.frequency));
       p.octaves = n.get("octaves", p.octaves);
+      if (!(p.octaves >= 1 && p.octaves <= 12 && p.octaves == std::floor(p.octaves)))
+        n.at("octaves").fail("must be a whole number within [1, 12], got " + format_number(p.octaves));
       p.plume = n.get("plume", p.plume);
+      if (!(p.plume >= 0 && p.plume <= 1)) n.at("plume").fail("must be within [0, 1], got " + format_number(p.plume));
       p.density_scale = n.get("scale", p.density_scale);
+      if (!(p.density_scale >= 0 && p.density_scale <= 1e6))
+        n.at("scale").fail("must be within [0, 1e+06], got " + format_number(p.density_scale));
       return make_noise_volume(p);
     }
     if (type == "dense") {  // small inline grids: tests and analytic cases
@@ -194,16 +183,21 @@ struct Parser {
       g->ny = d[1];
       g->nz = d[2];
       size_t count = size_t(g->nx) * g->ny * g->nz;
-      g->background = n.get("background", 0.0f);
+      // Densities are >= 0 (the transfer function maps them to extinction).
+      auto density = [](const JsonNode& at, float d) {
+        if (!(d >= 0)) at.fail("a density must be >= 0, got " + format_number(d));
+        return d;
+      };
+      g->background = n.has("background") ? density(n.at("background"), n.at("background").as_float()) : 0.0f;
       if (n.has("values")) {
         JsonNode v = n.at("values");
         v.expect_array();
         if (v.size() != count)
           v.fail("has " + std::to_string(v.size()) + " values, size needs " + std::to_string(count));
         g->values.resize(count);
-        for (size_t i = 0; i < count; ++i) g->values[i] = v.at(i).as_float();
+        for (size_t i = 0; i < count; ++i) g->values[i] = density(v.at(i), v.at(i).as_float());
       } else {
-        g->values.assign(count, n.get("fill", 1.0f));
+        g->values.assign(count, n.has("fill") ? density(n.at("fill"), n.at("fill").as_float()) : 1.0f);
       }
       return g;
     }
@@ -263,17 +257,14 @@ struct Parser {
       TransferPoint tp;
       tp.density = p.at("density").as_float();
       tp.extinction = p.at("extinction").as_float();
-      if (tp.extinction < 0) p.at("extinction").fail("must be >= 0");
       tp.color = p.get("color", tp.color);
-      if (i > 0 && tp.density < v.transfer.back().density) p.at("density").fail("control points must be sorted by density");
-      v.transfer.push_back(tp);
+      v.transfer.push_back(tp);  // ranges and order: validate_scene
     }
     std::string shading = n.get("shading", "scatter");
     if (shading == "scatter") v.shading = VolumeShading::Scatter;
     else if (shading == "phong") v.shading = VolumeShading::Phong;
     else n.at("shading").fail("unknown shading '" + shading + "' (scatter or phong)");
     v.step_voxels = n.get("step_voxels", v.step_voxels);
-    if (!(v.step_voxels >= 0.05f && v.step_voxels <= 8.0f)) n.at("step_voxels").fail("must be within [0.05, 8]");
     v.gradient_scale = n.get("gradient_scale", v.gradient_scale);
     return v;
   }
@@ -327,7 +318,10 @@ struct Parser {
     if (type == "gltf") {  // {"type":"gltf", "file", "node": name or index, "subtree": bool}
       n.expect_object({"type", "file", "node", "subtree"});
       std::string node;
-      if (n.has("node")) node = n.at("node").is_number() ? std::to_string(n.at("node").as_int()) : n.at("node").as_string();
+      if (n.has("node")) {
+        node = n.at("node").is_number() ? std::to_string(n.at("node").as_int()) : n.at("node").as_string();
+        if (node.empty()) n.at("node").fail("names no node (omit \"node\" for the whole file)");
+      }
       bool subtree = n.get("subtree", true);
       if (!subtree && node.empty()) n.at("subtree").fail("subtree false needs a node");
       std::string path = resolve(n.at("file"));
@@ -349,12 +343,10 @@ struct Parser {
       SurfaceMaterial& s = o.surface;
       s.color = m.get("color", s.color);
       s.opacity = m.get("opacity", s.opacity);
-      if (!(s.opacity >= 0 && s.opacity <= 1)) m.at("opacity").fail("must be within [0, 1]");
       s.ambient = m.get("ambient", s.ambient);
       s.diffuse = m.get("diffuse", s.diffuse);
       s.specular = m.get("specular", s.specular);
-      s.shininess = m.get("shininess", s.shininess);
-      if (!(s.shininess >= 0)) m.at("shininess").fail("must be >= 0");
+      s.shininess = m.get("shininess", s.shininess);  // ranges: validate_scene
     }
     if (n.has("interior")) {
       JsonNode in = n.at("interior");
@@ -365,7 +357,6 @@ struct Parser {
         in.expect_object({"type", "sigma"});
         o.interior = InteriorKind::Constant;
         o.sigma = in.at("sigma").as_float();
-        if (!(o.sigma >= 0)) in.at("sigma").fail("must be >= 0");
       } else if (type == "volume") {
         in.expect_object({"type", "volume"});
         o.interior = InteriorKind::Volume;
@@ -406,15 +397,10 @@ struct Parser {
       l.direction = normalize(l.direction);
       l.outer_cone_deg = n.get("outer_cone", l.outer_cone_deg);
       l.inner_cone_deg = n.get("inner_cone", std::min(l.inner_cone_deg, l.outer_cone_deg));
-      if (!(l.outer_cone_deg > 0 && l.outer_cone_deg <= 89.5f))
-        n.at("outer_cone").fail("half-angle must be within (0, 89.5] degrees");
-      if (!(l.inner_cone_deg >= 0 && l.inner_cone_deg <= l.outer_cone_deg))
-        n.at("inner_cone").fail("must be within [0, outer_cone]");
     }
     l.color = n.get("color", l.color);
     l.intensity = n.get("intensity", l.intensity);
-    if (!(l.intensity >= 0)) n.at("intensity").fail("must be >= 0");
-    return l;
+    return l;  // ranges: validate_scene
   }
 
   void parse(const nlohmann::json& root) {
@@ -442,6 +428,9 @@ struct Parser {
     if (ls.size() == 0) ls.fail("a scene needs at least one light");
     if (ls.size() > size_t(kMaxLights)) ls.fail("at most " + std::to_string(kMaxLights) + " lights");
     for (size_t i = 0; i < ls.size(); ++i) scene.lights.push_back(light(ls.at(i)));
+    std::vector<std::string> notes;
+    validate_scene(scene, &notes);
+    for (const std::string& w : notes) warn(w);
     // Each volume is placed by exactly one object.
     std::vector<int> users(scene.volumes.size(), 0);
     for (const Object& o : scene.objects)

@@ -511,6 +511,24 @@ TEST(Gltf, BadNormalsAreRecomputedWithAWarning) {
   for (const Vec3& nv3 : sb.tri_normals) EXPECT_TRUE(is_finite(nv3));
 }
 
+// glTF values outside their range (issue "Reliability"): a camera aspect
+// ratio of 1e10 (a 1x480 image through an out-of-range conversion before),
+// and a scene's glTF mesh reference naming the empty node.
+TEST(GltfBad, ValuesOutsideTheirRange) {
+  std::string dir = scratch_dir();
+  for (double aspect : {1e10, 1e-5}) {
+    tinygltf::Model m = fixture_model();
+    m.cameras[0].perspective.aspectRatio = aspect;
+    std::string p = write_model(m, dir + "/aspect.glb", true);
+    expect_error([&] { load_scene(p); }, {p, "aspectRatio", "outside [0.01, 100]"});
+  }
+  std::string glb = write_model(fixture_model(), dir + "/ok.glb", true);
+  const std::string scene = std::string(R"({"camera": {"position": [0, 2, 6], "target": [0, 0, 0]},
+    "objects": [{"name": "m", "mesh": {"type": "gltf", "file": ")") + glb + R"(", "node": ""}}],
+    "lights": [{"type": "point", "position": [0, 3, 0]}]})";
+  expect_error([&] { parse_scene(scene, dir + "/s.json", dir); }, {"/objects/0/mesh/node", "names no node"});
+}
+
 TEST(GltfBad, NoMeshes) {
   std::string dir = scratch_dir();
   tinygltf::Model m = fixture_model();

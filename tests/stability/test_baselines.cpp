@@ -121,7 +121,9 @@ TEST(Baselines, SceneFilesNameTheMethod) {
   EXPECT_EQ(s.shadows.method, ShadowMethod::OpacitySlices);
   EXPECT_EQ(s.shadows.method_param, 64.0f);
   std::string bad = R"({"camera": {"position": [0, 2, 6], "target": [0, 0, 0]},
-                        "shadows": {"method": "fixed_nodes", "method_param": 1.5}})";
+                        "shadows": {"method": "fixed_nodes", "method_param": 1.5},
+                        "objects": [{"name": "box", "mesh": {"type": "box", "size": [1, 1, 1]}}],
+                        "lights": [{"type": "point", "position": [0, 3, 0]}]})";
   try {
     parse_scene(bad, "bad.json", ".");
     ADD_FAILURE() << "a fractional node count accepted";

@@ -157,9 +157,9 @@ TEST(Epsilon, ZeroStoresEverySampleExactly) {
   EXPECT_EQ(steps, 10);
 }
 
-TEST(Epsilon, OneAndAboveStayPhysicalWithTheExactEnd) {
+TEST(Epsilon, LargeTolerancesStayPhysicalWithTheExactEnd) {
   Rig exact(mixed(0.0f));
-  for (float eps : {1.0f, 10.0f}) {
+  for (float eps : {0.5f, 1.0f}) {  // 1 is the largest: beyond it any function would do
     Rig rig(mixed(eps));
     EXPECT_TRUE(all_physical(rig)) << "eps " << eps;
     // Surfaces are steps at any eps: between the layers (no medium there
@@ -177,7 +177,7 @@ TEST(Epsilon, OneAndAboveStayPhysicalWithTheExactEnd) {
 
 TEST(Epsilon, NaNOrInfiniteIsAClearError) {
   Renderer r;
-  for (float eps : {std::nanf(""), INFINITY, -0.5f}) {
+  for (float eps : {std::nanf(""), INFINITY, -0.5f, 10.0f}) {
     Scene s = mixed(eps);
     try {
       r.render(s, cpu_options());

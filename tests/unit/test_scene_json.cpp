@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "cdsm/error.h"
+#include "cdsm/loaders.h"
 #include "cdsm/scene_io.h"
 #include "unit_util.h"
 
@@ -267,7 +268,7 @@ TEST(SceneJson, ReferencedFileMissing) {
 TEST(SceneJson, ImpossibleValues) {
   json j = base();
   j["shadows"]["epsilon"] = -0.01;
-  EXPECT_TRUE(fails_at(j, "/shadows/epsilon", "must be >= 0"));
+  EXPECT_TRUE(fails_at(j, "/shadows/epsilon", "must be within [0, 1], got -0.01"));
   j = base();
   j["shadows"]["resolution"] = 0;
   EXPECT_TRUE(fails_at(j, "/shadows/resolution", "must be within [4, 8192]"));
@@ -287,10 +288,63 @@ TEST(SceneJson, ImpossibleValues) {
   EXPECT_TRUE(fails_at(j, "/objects/2/material/opacity", "must be within [0, 1]"));
   j = base();
   j["objects"][2]["interior"]["sigma"] = -1;
-  EXPECT_TRUE(fails_at(j, "/objects/2/interior/sigma", "must be >= 0"));
+  EXPECT_TRUE(fails_at(j, "/objects/2/interior/sigma", "must be within [0, 1e+38], got -1"));
   j = base();
   j["lights"] = json::array();
   EXPECT_TRUE(fails_at(j, "/lights", "at least one light"));
+}
+
+// Values that used to be accepted without a word (issue "Reliability"):
+// each is an error naming the field, its value and its range.
+TEST(SceneJson, RangesOfEveryKindOfField) {
+  struct Case {
+    std::function<void(json&)> edit;
+    std::string path, problem;
+  };
+  const Case cases[] = {
+      {[](json& j) { j["objects"][1]["material"] = {{"color", {0.5, -0.1, 0.5}}}; }, "/objects/1/material/color/1",
+       "must be within [0, 100], got -0.1"},
+      {[](json& j) { j["objects"][1]["material"] = {{"diffuse", -1}}; }, "/objects/1/material/diffuse", "got -1"},
+      {[](json& j) { j["objects"][1]["material"] = {{"specular", -0.5}}; }, "/objects/1/material/specular", "got -0.5"},
+      {[](json& j) { j["objects"][1]["material"] = {{"ambient", -0.5}}; }, "/objects/1/material/ambient", "got -0.5"},
+      {[](json& j) { j["lights"][0]["color"] = {1, 1, -2}; }, "/lights/0/color/2", "got -2"},
+      {[](json& j) { j["volumes"][0]["transfer"][1]["color"] = {-1, 0, 0}; }, "/volumes/0/transfer/1/color/0", "got -1"},
+      {[](json& j) { j["shadows"]["ambient"] = {-1, 0, 0}; }, "/shadows/ambient/0", "got -1"},
+      {[](json& j) { j["background"] = {0.1, -0.2, 0}; }, "/background/1", "got -0.2"},
+      {[](json& j) { j["volumes"][0]["gradient_scale"] = -3; }, "/volumes/0/gradient_scale", "within [0, 1e+06], got -3"},
+      {[](json& j) { j["volumes"][0]["grid"] = {{"type", "noise"}, {"octaves", -1}}; }, "/volumes/0/grid/octaves", "got -1"},
+      {[](json& j) { j["volumes"][0]["grid"] = {{"type", "noise"}, {"octaves", 2147483647}}; }, "/volumes/0/grid/octaves",
+       "within [1, 12]"},
+      {[](json& j) { j["volumes"][0]["grid"] = {{"type", "noise"}, {"scale", -1}}; }, "/volumes/0/grid/scale", "got -1"},
+      {[](json& j) { j["volumes"][0]["grid"] = {{"type", "noise"}, {"frequency", 0}}; }, "/volumes/0/grid/frequency", "got 0"},
+      {[](json& j) { j["volumes"][0]["grid"]["fill"] = -1; }, "/volumes/0/grid/fill", "must be >= 0, got -1"},
+      {[](json& j) { j["shadows"]["d0"] = 9; }, "/shadows/d0", "within [0, 4], got 9"},
+      {[](json& j) { j["shadows"]["bias_slope"] = 1000; }, "/shadows/bias_slope", "within [0, 100], got 1000"},
+      {[](json& j) { j["shadows"]["epsilon"] = 2; }, "/shadows/epsilon", "within [0, 1], got 2"},
+      {[](json& j) { j["shadows"]["max_memory"] = -5; }, "/shadows/max_memory", "got -5"},
+      {[](json& j) { j["lights"][0]["intensity"] = -1; }, "/lights/0/intensity", "got -1"},
+      {[](json& j) { j["objects"][1]["material"] = {{"shininess", 1e9}}; }, "/objects/1/material/shininess", "within [0, 10000]"},
+  };
+  for (const Case& c : cases) {
+    json j = base();
+    c.edit(j);
+    EXPECT_TRUE(fails_at(j, c.path, c.problem)) << c.path;
+  }
+}
+
+// camera.up zero or parallel to the view: a fallback, said in a warning.
+TEST(SceneJson, CameraUpParallelToTheViewWarns) {
+  for (json up : {json{0, 0, 0}, json{0, -2, -6}}) {
+    json j = base();
+    j["camera"]["up"] = up;
+    std::vector<std::string> lines;
+    set_warning_sink([&](const std::string& w) { lines.push_back(w); });
+    Scene s = parse_scene(j.dump(), "scene.json", "/nonexistent-base");
+    set_warning_sink(nullptr);
+    ASSERT_EQ(lines.size(), 1u) << up.dump();
+    EXPECT_NE(lines[0].find("scene.json: /camera/up is"), std::string::npos) << lines[0];
+    EXPECT_NE(lines[0].find("a perpendicular up is used"), std::string::npos) << lines[0];
+  }
 }
 
 // Grid sizes are whole numbers of voxels, and their product is checked

@@ -155,6 +155,9 @@ struct ShadowSettings {
   ShadowMethod method = ShadowMethod::Dsm;
   float method_param = 0.0f;    // ShadowMap: opacity threshold; slices / nodes count
   Vec3 ambient_light{1, 1, 1};  // i_a
+  // Memory a frame may use, MiB: scenes and settings estimated to need more
+  // are refused before anything is allocated. 0: half the physical memory.
+  int64_t max_memory_mib = 0;
 };
 
 struct Scene {

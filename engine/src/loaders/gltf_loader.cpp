@@ -251,7 +251,12 @@ Scene load_gltf_scene(const std::string& path) {
       cam.near = float(p.znear);
       const float reach = length(bounds.center() - cam.position) + length(bounds.extent());
       cam.far = p.zfar > 0.0 ? float(p.zfar) : std::max(reach * 2.0f, cam.near * 10.0f);
-      if (p.aspectRatio > 0.0) cam.width = std::max(1, int(std::lround(cam.height * p.aspectRatio)));
+      if (p.aspectRatio != 0.0) {  // optional; 0 = absent
+        if (!(p.aspectRatio >= 0.01 && p.aspectRatio <= 100.0))
+          throw Error(path, "camera of node " + gltf::node_label(f, camera_node) + ": aspectRatio " +
+                                format_number(p.aspectRatio) + " is outside [0.01, 100]");
+        cam.width = std::max(1, int(std::lround(cam.height * p.aspectRatio)));
+      }
       if (!is_finite(cam.position) || !is_finite(cam.target) || !is_finite(cam.up) || !(cam.fov_y_deg > 0) ||
           !(cam.fov_y_deg < 179) || !(cam.near > 0) || !(cam.far > cam.near))
         throw Error(path, "camera of node " + gltf::node_label(f, camera_node) +

@@ -1,0 +1,170 @@
+// Every numeric field of a scene against its documented range (README
+// "Scene files"), for scenes from files and scenes built in code alike.
+// Errors name the scene, the field as a JSON pointer, the value and the
+// range; where a fallback is reasonable, a warning says what is used.
+#include <cmath>
+#include <string>
+
+#include "cdsm/config.h"
+#include "cdsm/error.h"
+#include "cdsm/scene_io.h"
+
+namespace cdsm {
+namespace {
+
+struct Checker {
+  const Scene& s;
+  std::vector<std::string>* warnings;
+
+  [[noreturn]] void fail(const std::string& path, const std::string& what) const {
+    throw Error(s.source + ": " + path, what);
+  }
+
+  static std::string range(double lo, double hi, bool open_lo = false, bool open_hi = false) {
+    return std::string(open_lo ? "(" : "[") + format_number(lo) + ", " + format_number(hi) + (open_hi ? ")" : "]");
+  }
+
+  void number(const std::string& path, double v, double lo, double hi, bool open_lo = false, bool open_hi = false) const {
+    bool ok = std::isfinite(v) && (open_lo ? v > lo : v >= lo) && (open_hi ? v < hi : v <= hi);
+    if (!ok) fail(path, "must be within " + range(lo, hi, open_lo, open_hi) + ", got " + format_number(v));
+  }
+
+  void integer(const std::string& path, int64_t v, int64_t lo, int64_t hi) const {
+    if (v < lo || v > hi)
+      fail(path, "must be within [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " + std::to_string(v));
+  }
+
+  void finite(const std::string& path, Vec3 v) const {
+    if (!is_finite(v)) fail(path, "has a NaN or infinite value");
+  }
+
+  // A colour: each channel within [0, 100] (linear RGB; > 1 is a light's or
+  // an emitter's intensity, negative light does not exist).
+  void color(const std::string& path, Vec3 c) const {
+    for (int a = 0; a < 3; ++a) number(path + "/" + std::to_string(a), c[a], 0.0, 100.0);
+  }
+
+  void camera() const {
+    const Camera& c = s.camera;
+    finite("/camera/position", c.position);
+    finite("/camera/target", c.target);
+    finite("/camera/up", c.up);
+    integer("/camera/width", c.width, 1, 16384);
+    integer("/camera/height", c.height, 1, 16384);
+    if (!std::isfinite(c.near) || !std::isfinite(c.far) || !(c.near > 0.0f) || !(c.far > c.near))
+      fail("/camera", "needs 0 < near < far (finite), got near " + format_number(c.near) + ", far " + format_number(c.far));
+    number("/camera/fov_y", c.fov_y_deg, 0.0, 179.0, true, true);
+    Vec3 d = c.target - c.position;
+    if (!(length(d) > 0.0f)) fail("/camera/target", "equals the camera position");
+    Vec3 side = cross(normalize(d), c.up);
+    if (warnings && !(length(side) >= 1e-6f * std::max(length(c.up), 1e-30f)))
+      warnings->push_back(s.source + ": /camera/up is " + (length(c.up) > 0.0f ? "parallel to the view direction" : "zero") +
+                          "; a perpendicular up is used instead");
+  }
+
+  void shadows() const {
+    const ShadowSettings& sh = s.shadows;
+    number("/shadows/epsilon", sh.epsilon, 0.0, 1.0);
+    integer("/shadows/resolution", sh.resolution, 4, 8192);
+    number("/shadows/bias_constant", sh.bias_constant, 0.0, 10.0);
+    number("/shadows/bias_slope", sh.bias_slope, 0.0, 100.0);
+    integer("/shadows/clusters", sh.max_clusters, 1, kMaxMapsPerLight);
+    number("/shadows/d0", sh.d0, 0.0, 4.0);
+    if (sh.parallel_splits != 0 && (sh.parallel_splits < 2 || sh.parallel_splits > kMaxMapsPerLight - 1))
+      fail("/shadows/parallel_splits", "must be 0 (off) or within [2, " + std::to_string(kMaxMapsPerLight - 1) +
+                                           "], got " + std::to_string(sh.parallel_splits));
+    integer("/shadows/fixed_layers", sh.fixed_layers, 2, 4096);
+    integer("/shadows/chunk_nodes", sh.chunk_nodes, 1, 4096);
+    integer("/shadows/max_memory", sh.max_memory_mib, 0, int64_t(1) << 30);
+    const float p = sh.method_param;
+    switch (sh.method) {
+      case ShadowMethod::ShadowMap:
+        if (!(p >= 0 && p <= 1))
+          fail("/shadows/method_param", "shadow_map: the opacity threshold must be within (0, 1] (0: default 0.5), got " +
+                                            format_number(p));
+        break;
+      case ShadowMethod::OpacitySlices:
+        if (!(p == 0 || (p >= 1 && p <= 512 && p == std::floor(p))))
+          fail("/shadows/method_param",
+               "opacity_slices: the slice count must be an integer within [1, 512] (0: default 32), got " + format_number(p));
+        break;
+      case ShadowMethod::FixedNodes:
+        if (!(p == 0 || (p >= 2 && p <= 512 && p == std::floor(p))))
+          fail("/shadows/method_param",
+               "fixed_nodes: the node count must be an integer within [2, 512] (0: default 8), got " + format_number(p));
+        break;
+      default:
+        if (!std::isfinite(p)) fail("/shadows/method_param", "has a NaN or infinite value");
+    }
+    color("/shadows/ambient", sh.ambient_light);
+  }
+
+  void volumes() const {
+    for (size_t i = 0; i < s.volumes.size(); ++i) {
+      const Volume& v = s.volumes[i];
+      const std::string at = "/volumes/" + std::to_string(i);
+      number(at + "/step_voxels", v.step_voxels, 0.05, 8.0);
+      number(at + "/gradient_scale", v.gradient_scale, 0.0, 1e6);
+      if (v.transfer.empty() || v.transfer.size() > size_t(kMaxTransferPoints))
+        fail(at + "/transfer", "needs 1 to " + std::to_string(kMaxTransferPoints) + " control points, got " +
+                                   std::to_string(v.transfer.size()));
+      for (size_t k = 0; k < v.transfer.size(); ++k) {
+        const TransferPoint& tp = v.transfer[k];
+        const std::string pt = at + "/transfer/" + std::to_string(k);
+        if (!std::isfinite(tp.density)) fail(pt + "/density", "has a NaN or infinite value");
+        if (k > 0 && tp.density < v.transfer[k - 1].density) fail(pt + "/density", "control points must be sorted by density");
+        number(pt + "/extinction", tp.extinction, 0.0, 1e38);
+        color(pt + "/color", tp.color);
+      }
+    }
+  }
+
+  void objects() const {
+    for (size_t i = 0; i < s.objects.size(); ++i) {
+      const Object& o = s.objects[i];
+      const std::string at = "/objects/" + std::to_string(i);
+      const SurfaceMaterial& m = o.surface;
+      color(at + "/material/color", m.color);
+      number(at + "/material/opacity", m.opacity, 0.0, 1.0);
+      number(at + "/material/ambient", m.ambient, 0.0, 100.0);
+      number(at + "/material/diffuse", m.diffuse, 0.0, 100.0);
+      number(at + "/material/specular", m.specular, 0.0, 100.0);
+      number(at + "/material/shininess", m.shininess, 0.0, 1e4);
+      if (o.interior == InteriorKind::Constant) number(at + "/interior/sigma", o.sigma, 0.0, 1e38);
+      if (o.interior == InteriorKind::Volume && (o.volume < 0 || size_t(o.volume) >= s.volumes.size()))
+        fail(at + "/interior/volume", "volume " + std::to_string(o.volume) + " does not exist");
+    }
+  }
+
+  void lights() const {
+    if (s.lights.size() > size_t(kMaxLights))
+      fail("/lights", "at most " + std::to_string(kMaxLights) + " lights, got " + std::to_string(s.lights.size()));
+    for (size_t i = 0; i < s.lights.size(); ++i) {
+      const Light& l = s.lights[i];
+      const std::string at = "/lights/" + std::to_string(i);
+      finite(at + "/position", l.position);
+      color(at + "/color", l.color);
+      number(at + "/intensity", l.intensity, 0.0, 1e9);
+      if (l.type == LightType::Spot) {
+        finite(at + "/direction", l.direction);
+        if (!(length(l.direction) > 0.0f)) fail(at + "/direction", "spot direction is zero");
+        number(at + "/outer_cone", l.outer_cone_deg, 0.0, 89.5, true);
+        number(at + "/inner_cone", l.inner_cone_deg, 0.0, l.outer_cone_deg);
+      }
+    }
+  }
+};
+
+}  // namespace
+
+void validate_scene(const Scene& scene, std::vector<std::string>* warnings) {
+  Checker c{scene, warnings};
+  c.camera();
+  c.shadows();
+  c.color("/background", scene.background);
+  c.volumes();
+  c.objects();
+  c.lights();
+}
+
+}  // namespace cdsm
