@@ -65,6 +65,7 @@ const char* kBenchHelp =
     "  --error-samples N        shaded points for the transmittance error (default 20000)\n"
     "\n"
     "output:\n"
+    "  --max-memory N[M|G]      refuse runs estimated to need more than N MiB (default: half the memory)\n"
     "  --out DIR                where to write (default bench-out): results.csv (every row),\n"
     "                           results.md (a table per scene), and per scene NAME.csv and NAME.png\n"
     "                           (time and memory against transmittance RMSE, Pareto front marked)\n"
@@ -233,6 +234,8 @@ int cmd_bench(const std::vector<std::string>& args) {
     } else if (a == "--error-samples") {
       opt.error_samples = parse_int(a, value());
       if (opt.error_samples < 1 || opt.error_samples > 10000000) throw Error("--error-samples", "must be within [1, 1e7]");
+    } else if (a == "--max-memory") {
+      set_memory_limit_mib(parse_memory_mib(a, value()));
     } else if (a == "--out") {
       out_dir = value();
     } else if (a == "--cache") {

@@ -39,6 +39,8 @@ const char* kRenderHelp =
     "                           and the image RMSE/PSNR; write OUT.error.png (heat map) and\n"
     "                           OUT.reference.png beside the output\n"
     "  --error-samples N        shaded points for the transmittance error (default 20000)\n"
+    "  --max-memory N[M|G]      refuse scenes and settings estimated to need more than N MiB (or GiB);\n"
+    "                           default: the scene's shadows.max_memory, else half the physical memory\n"
     "  --stats PATH             write every figure as JSON\n"
     "  --help                   this text\n";
 
@@ -179,6 +181,25 @@ float parse_float(const std::string& opt, const std::string& v) {
   }
 }
 
+int64_t parse_memory_mib(const std::string& opt, const std::string& v) {
+  std::string digits = v;
+  int64_t unit = 1;
+  if (!digits.empty() && (digits.back() == 'G' || digits.back() == 'g')) {
+    unit = 1024;
+    digits.pop_back();
+  } else if (!digits.empty() && (digits.back() == 'M' || digits.back() == 'm')) {
+    digits.pop_back();
+  }
+  int n = 0;
+  try {
+    n = parse_int(opt, digits);
+  } catch (const Error&) {
+    throw Error(opt, "expected a size in MiB (or with M or G), got '" + v + "'");
+  }
+  if (n < 1 || int64_t(n) * unit > (int64_t(1) << 30)) throw Error(opt, "must be within [1 MiB, 1 PiB], got '" + v + "'");
+  return int64_t(n) * unit;
+}
+
 int parse_int(const std::string& opt, const std::string& v) {
   try {
     size_t n = 0;
@@ -212,6 +233,7 @@ int cmd_render(const std::vector<std::string>& args) {
   std::string layout;
   int fixed_layers = 0;
   int splits = -1;
+  int64_t max_memory = 0;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     auto value = [&]() -> std::string {
@@ -275,6 +297,8 @@ int cmd_render(const std::vector<std::string>& args) {
       if (opt.error_samples < 1 || opt.error_samples > 10000000) throw Error("--error-samples", "must be within [1, 1e7]");
     } else if (a == "--stats") {
       stats_path = value();
+    } else if (a == "--max-memory") {
+      max_memory = parse_memory_mib(a, value());
     } else if (!a.empty() && a[0] == '-') {
       throw Error(a, "unknown option (try cdsm render --help)");
     } else if (scene_path.empty()) {
@@ -299,7 +323,9 @@ int cmd_render(const std::vector<std::string>& args) {
     check_writable(p);
   }
 
+  if (max_memory > 0) set_memory_limit_mib(max_memory);  // also for what the scene reader generates
   Scene scene = load_scene(scene_path);
+  if (max_memory > 0) scene.shadows.max_memory_mib = 0;  // the command line over the scene: its limit applies
   if (eps >= 0) scene.shadows.epsilon = eps;
   if (res > 0) scene.shadows.resolution = res;
   if (width > 0) scene.camera.width = width;

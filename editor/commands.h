@@ -1,6 +1,7 @@
 // Headless commands of the cdsm program.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,8 @@ int cmd_info(const std::vector<std::string>& args);
 // Parsing helpers shared by commands: a bad value throws cdsm::Error naming the option.
 float parse_float(const std::string& opt, const std::string& v);
 int parse_int(const std::string& opt, const std::string& v);
+// "N", "NM" (MiB) or "NG" (GiB) -> MiB within [1, 2^30].
+int64_t parse_memory_mib(const std::string& opt, const std::string& v);
 
 // Throws cdsm::Error naming `path` unless a file can be written there: its
 // folder exists and is writable, and it is not a directory or a read-only

@@ -13,6 +13,7 @@
 #include "cdsm/scene_io.h"
 #include "cpu/frame.h"
 #include "fragment_source.h"
+#include "memory_budget.h"
 #include "reference/reference.h"
 
 namespace cdsm {
@@ -69,6 +70,7 @@ struct Renderer::Impl {
 
   void prepare(const Scene& scene, const RenderOptions& opt, Frame& f, FrameStats& st) {
     validate_scene(scene, &st.warnings);
+    check_memory(scene, estimate_frame_memory(scene, opt));
     auto t0 = Clock::now();
     f.sb = compile_scene(scene);
     st.times.compile_ms = ms_since(t0);

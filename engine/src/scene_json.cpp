@@ -11,6 +11,7 @@
 #include "cdsm/procedural.h"
 #include "cdsm/scene_io.h"
 #include "json_reader.h"
+#include "memory_budget.h"
 
 namespace cdsm {
 namespace {
@@ -148,6 +149,15 @@ struct Parser {
     return out;
   }
 
+  // A grid of nx ny nz voxels is made here and compiled later: twice its
+  // floats, against the scene's memory limit (before generating it).
+  void check_grid_memory(const JsonNode& n, int nx, int ny, int nz) const {
+    double voxels = double(nx) * double(ny) * double(nz);
+    check_allocation(n.file() + ": " + n.path() + "/size",
+                     "a " + std::to_string(nx) + "x" + std::to_string(ny) + "x" + std::to_string(nz) + " grid", voxels * 8.0,
+                     scene.shadows);
+  }
+
   std::shared_ptr<DenseGrid> grid(const JsonNode& n) {
     std::string type = n.at("type").as_string();
     if (type == "noise") {
@@ -159,6 +169,7 @@ struct Parser {
         p.ny = d[1];
         p.nz = d[2];
       }
+      check_grid_memory(n, p.nx, p.ny, p.nz);
       const double seed = n.has("seed") ? double(n.at("seed").as_float()) : 1.0;
       if (!(seed >= 0 && seed <= 4294967295.0 && seed == std::floor(seed)))
         n.at("seed").fail("must be a whole number within [0, 4294967295], got " + format_number(seed));
@@ -182,6 +193,7 @@ struct Parser {
       g->nx = d[0];
       g->ny = d[1];
       g->nz = d[2];
+      check_grid_memory(n, g->nx, g->ny, g->nz);
       size_t count = size_t(g->nx) * g->ny * g->nz;
       // Densities are >= 0 (the transfer function maps them to extinction).
       auto density = [](const JsonNode& at, float d) {
@@ -289,6 +301,10 @@ struct Parser {
       int seg = n.get("segments", 48), rings = n.get("rings", 24);
       if (!(r > 0)) n.at("radius").fail("must be > 0");
       if (seg < 3 || rings < 2 || seg > 4096 || rings > 4096) n.fail("needs 3 <= segments, 2 <= rings (<= 4096)");
+      // The mesh (two triangles per quad, ~100 bytes each) and its compiled copy.
+      check_allocation(n.file() + ": " + n.path(),
+                       "a sphere of " + std::to_string(seg) + " x " + std::to_string(rings) + " segments",
+                       2.0 * seg * (rings - 1) * 250.0, scene.shadows);
       return std::make_shared<TriangleMesh>(make_sphere(r, seg, rings));
     }
     if (type == "ground") {

@@ -91,3 +91,22 @@ TEST(Cli, SummaryAndStatsReportTheSegmentCounters) {
   for (const char* key : {"unmatched_fragments", "enclosing_overflow", "ray_object_overflow", "march_steps_lengthened"})
     EXPECT_TRUE(j.contains(key)) << key;
 }
+
+// --max-memory: a too-small limit refuses the frame up front, naming the
+// setting that needs the memory; a bad value is an error naming the option.
+TEST(Cli, MaxMemory) {
+  const std::string dir = output_dir();
+  CliRun r = cdsm("render '" + kScene + "' --max-memory 8 -o '" + dir + "/mem.png'");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("needs an estimated"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("more than the limit of 8 MiB (--max-memory)"), std::string::npos) << r.err;
+  EXPECT_EQ(r.out.find("scene "), std::string::npos);
+  for (const char* bad : {"abc", "0", "-5", "2T"}) {
+    r = cdsm("render '" + kScene + "' --max-memory " + bad + " -o '" + dir + "/mem.png'");
+    EXPECT_EQ(r.code, 1) << bad;
+    EXPECT_NE(r.err.find("cdsm: error: --max-memory"), std::string::npos) << bad << ": " << r.err;
+  }
+  r = cdsm("render '" + kScene + "' --max-memory 4G --width 32 --height 24 --dsm-res 64 --fragments cpu -o '" + dir +
+           "/mem.png'");
+  EXPECT_EQ(r.code, 0) << r.err;
+}

@@ -2,6 +2,7 @@
 // = 0 and >= 1, a 170-degree spot light, view parallel to the light
 // (LiSPSM degenerate), and NaN / Inf in the input.
 #include <algorithm>
+#include <functional>
 
 #include "common/minimax_fit.h"
 #include "stability_util.h"
@@ -391,6 +392,66 @@ TEST(BadNumbers, SceneFilesRejectOutOfRangeNumbersWithTheirPath) {
   } catch (const std::exception& e) {
     ADD_FAILURE() << "not a cdsm::Error: " << e.what();
   }
+}
+
+// ---- up-front memory limits (issue "Reliability") --------------------------------------
+
+// Expects the scene (or its settings) refused before anything large is
+// allocated: an error naming the setting, the estimate and the limit.
+void expect_refused(const std::function<void()>& f, const std::vector<std::string>& parts) {
+  try {
+    f();
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    std::string m = e.what();
+    for (const std::string& p : parts) EXPECT_NE(m.find(p), std::string::npos) << "'" << p << "' not in: " << m;
+  }
+}
+
+TEST(MemoryLimits, HugeSettingsAreRefusedUpFrontNamingTheSetting) {
+  Renderer r;
+  // A fixed layout of 8192^2 x 4096 layers: terabytes, refused at any limit.
+  Scene s = simple();
+  s.shadows.resolution = 8192;
+  s.shadows.layout = DsmLayout::Fixed;
+  s.shadows.fixed_layers = 4096;
+  expect_refused([&] { r.render(s, cpu_options()); },
+                 {"nan.json: /shadows/fixed_layers", "needs an estimated", "TiB", "more than the limit of"});
+  // 8192^2 maps under a 1 GiB limit set in the scene.
+  s = simple();
+  s.shadows.resolution = 8192;
+  s.shadows.max_memory_mib = 1024;
+  expect_refused([&] { r.render(s, cpu_options()); }, {"/shadows/resolution", "1 GiB", "/shadows/max_memory"});
+  // The same through the process-wide limit (--max-memory).
+  s.shadows.max_memory_mib = 0;
+  set_memory_limit_mib(1024);
+  expect_refused([&] { r.render(s, cpu_options()); }, {"/shadows/resolution", "--max-memory"});
+  set_memory_limit_mib(0);
+  // Within the limit it renders.
+  s = simple();
+  s.shadows.max_memory_mib = 1024;
+  EXPECT_TRUE(finite_image(r.render(s, cpu_options())));
+}
+
+TEST(MemoryLimits, TheSceneReaderRefusesHugeGridsAndMeshesBeforeMakingThem) {
+  const std::string head = R"({"camera": {"position": [0, 2, 6], "target": [0, 0, 0]}, "shadows": {"max_memory": 2048},)";
+  const std::string tail = R"("lights": [{"type": "point", "position": [0, 3, 0]}]})";
+  // A 1024^3 noise grid (4 GiB of floats): refused in milliseconds, not generated for minutes.
+  expect_refused(
+      [&] {
+        parse_scene(head + R"("volumes": [{"name": "fog", "grid": {"type": "noise", "size": [1024, 1024, 1024]},
+          "transfer": [{"density": 0, "extinction": 1}]}], "objects": [{"name": "fog",
+          "interior": {"type": "volume", "volume": "fog"}}],)" + tail,
+                    "big.json", ".");
+      },
+      {"big.json: /volumes/0/grid/size", "1024x1024x1024 grid needs 8 GiB", "limit of 2 GiB"});
+  // A sphere of 4096 x 4096 segments (33 M triangles).
+  expect_refused(
+      [&] {
+        parse_scene(head + R"("objects": [{"name": "ball", "mesh": {"type": "sphere", "segments": 4096, "rings": 4096}}],)" + tail,
+                    "ball.json", ".");
+      },
+      {"ball.json: /objects/0/mesh", "sphere of 4096 x 4096 segments", "limit of 2 GiB"});
 }
 
 }  // namespace

@@ -106,6 +106,13 @@ struct FrameStats {
   ImageError image;
 };
 
+// The memory a frame may use when a scene does not say (/shadows/max_memory),
+// MiB; 0 restores the default, half the physical memory. Scenes and settings
+// estimated to need more are refused, naming the setting, before anything
+// large is allocated (also by the scene reader, for grids and meshes it
+// generates). Process-wide; cheap.
+void set_memory_limit_mib(int64_t mib);
+
 class Renderer {
  public:
   Renderer();
