@@ -10,6 +10,19 @@ if(CDSM_SANITIZE)
   target_link_options(cdsm_sanitize INTERFACE -fsanitize=address,undefined)
 endif()
 
+# Fuzz builds (CDSM_FUZZ, clang only): everything that links cdsm_sanitize
+# (the engine, the shadows and cluster libraries) gets libFuzzer's coverage
+# instrumentation; the fuzz targets link cdsm_fuzz, which adds libFuzzer's main.
+add_library(cdsm_fuzz INTERFACE)
+if(CDSM_FUZZ)
+  if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+    message(FATAL_ERROR "CDSM_FUZZ needs clang (libFuzzer), e.g. -DCMAKE_CXX_COMPILER=clang++-14; see scripts/fuzz.sh")
+  endif()
+  target_compile_options(cdsm_sanitize INTERFACE $<$<COMPILE_LANGUAGE:CXX>:-fsanitize=fuzzer-no-link>)
+  target_compile_options(cdsm_fuzz INTERFACE $<$<COMPILE_LANGUAGE:CXX>:-fsanitize=fuzzer>)
+  target_link_options(cdsm_fuzz INTERFACE -fsanitize=fuzzer)
+endif()
+
 add_library(cdsm_fp INTERFACE)
 if(CDSM_FP_STRICT)
   target_compile_options(cdsm_fp INTERFACE $<$<COMPILE_LANGUAGE:CXX>:-ffp-contract=off>

@@ -2,7 +2,8 @@
 # Second command of the README: installs the dependencies, builds, and runs
 # the whole test suite (ctest; GL tests headless through EGL, window tests
 # under Xvfb), then the ASan+UBSan build of the core, loader and stability
-# tests. Exits non-zero on any failure.
+# tests, then 60 s of each libFuzzer target (scripts/fuzz.sh; skip with
+# CDSM_SKIP_FUZZ=1). Exits non-zero on any failure or fuzzer finding.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
@@ -18,4 +19,9 @@ if [[ "${CDSM_SKIP_SANITIZERS:-0}" != 1 ]]; then
   cmake --build build-asan -j "$jobs"
   (cd build-asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
      ctest --output-on-failure -j "$jobs" -L 'unit|stability' -LE slow --timeout 900)
+fi
+
+if [[ "${CDSM_SKIP_FUZZ:-0}" != 1 ]]; then
+  echo "== fuzzing (build-fuzz/, clang libFuzzer + ASan/UBSan/LSan): every target for 60 s"
+  bash scripts/fuzz.sh all 60
 fi

@@ -10,6 +10,14 @@
 #include <cstring>
 #include <random>
 
+#include <sys/resource.h>
+
+#include <fstream>
+
+#include <openvdb/io/Stream.h>
+#include <openvdb/openvdb.h>
+
+#include "cdsm/procedural.h"
 #include "cdsm/scene_io.h"
 #include "cpu/frame.h"
 #include "cpu/scene_buffers.h"
@@ -336,8 +344,53 @@ TEST(VdbBad, TruncatedCorruptMissing) {
     std::printf("%s with corrupted bytes: %d of %d rejected, the rest loaded\n", f, errors, count);
   }
   write_text(dir + "/text.vdb", "this is not a VDB file\n");
-  expect_error([&] { load_vdb(dir + "/text.vdb"); }, {dir + "/text.vdb", "not a readable VDB file"});
+  expect_error([&] { load_vdb(dir + "/text.vdb"); }, {dir + "/text.vdb", "not a VDB file"});
   expect_error([&] { load_vdb(dir + "/missing.vdb"); }, {dir + "/missing.vdb", "missing"});
+}
+
+// Inputs found by fuzz_vdb (tests/fuzz/corpus/fuzz_vdb/) that made the
+// loader allocate what a corrupt or tiny file asked for: 4 GiB strings
+// from descriptors the prologue never checked (unchecked file versions, or
+// a descriptor read where a corrupt grid's data happened to end), and a
+// 13 KB file of active tiles voxelized into gigabytes. Each is now a clear
+// error, and reading all of them raises the peak memory by little.
+long peak_rss_kib() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_maxrss;
+}
+
+TEST(VdbBad, FuzzFindingsAreClearErrorsWithoutHugeAllocations) {
+  const std::string corpus = content_dir() + "/../tests/fuzz/corpus/fuzz_vdb/";
+  const long before = peak_rss_kib();
+  expect_error([&] { load_vdb(corpus + "active_tiles_voxelized.vdb"); }, {"active_tiles_voxelized.vdb", "VDB file"});
+  expect_error([&] { load_vdb(corpus + "prologue_skipped_version_4GiB_descriptor.vdb"); },
+               {"prologue_skipped_version_4GiB_descriptor.vdb", "VDB file version", "not supported"});
+  expect_error([&] { load_vdb(corpus + "prologue_skipped_version_80GiB_stream.vdb"); },
+               {"prologue_skipped_version_80GiB_stream.vdb", "not supported"});
+  expect_error([&] { load_vdb(corpus + "prologue_desync_huge_descriptor.vdb"); },
+               {"prologue_desync_huge_descriptor.vdb", "VDB file"});
+  const long grown_mib = (peak_rss_kib() - before) / 1024;
+  std::printf("peak resident memory grew by %ld MiB over the four files\n", grown_mib);
+  EXPECT_LT(grown_mib, 256);
+
+  // The same kind of tiles made here: one active root tile of 4096^3 voxels.
+  openvdb::initialize();
+  const std::string dir = scratch_dir();
+  auto g = openvdb::FloatGrid::create(0.0f);
+  g->setName("density");
+  g->tree().addTile(3, openvdb::Coord(0, 0, 0), 0.5f, true);
+  openvdb::io::File(dir + "/tile.vdb").write({g});
+  expect_error([&] { load_vdb(dir + "/tile.vdb"); }, {"tile.vdb", "68719476736 voxels", "limit"});
+  // A file written as a stream has no grid offsets to check: refused.
+  {
+    std::ofstream out(dir + "/stream.vdb", std::ios::binary);
+    auto small = openvdb::FloatGrid::create(0.0f);
+    small->setName("density");
+    small->tree().setValue(openvdb::Coord(1, 2, 3), 1.0f);
+    openvdb::io::Stream(out).write({small});
+  }
+  expect_error([&] { load_vdb(dir + "/stream.vdb"); }, {"stream.vdb", "without grid offsets"});
 }
 
 // ---- empty-space skipping and proxies ----------------------------------------

@@ -66,6 +66,11 @@ struct VdbVolume {
 // empty-space skipping at leaf granularity needs (hd/scene_data.h).
 VdbVolume load_vdb(const std::string& path, const std::string& grid_name = "density");
 
+// load_vdb() on the bytes of a .vdb file held in memory (fuzzing, archives);
+// `name` stands for the file in messages.
+VdbVolume load_vdb_from_memory(const std::vector<unsigned char>& bytes, const std::string& name,
+                               const std::string& grid_name = "density");
+
 // ---- raw volumes -------------------------------------------------------------
 
 enum class RawFormat { UInt8, UInt16 };
@@ -81,6 +86,11 @@ struct RawVolumeDesc {
 // Reads a raw scalar volume into a dense grid (background 0). The file size
 // must be exactly header_bytes + nx*ny*nz*bytes-per-voxel.
 std::shared_ptr<DenseGrid> load_raw(const std::string& path, const RawVolumeDesc& desc);
+
+// load_raw() on the bytes of a raw file held in memory; `name` stands for
+// the file in messages.
+std::shared_ptr<DenseGrid> load_raw_from_memory(const std::vector<unsigned char>& bytes, const std::string& name,
+                                                const RawVolumeDesc& desc);
 
 // ---- glTF 2.0 ----------------------------------------------------------------
 
@@ -110,6 +120,12 @@ TriangleMesh load_gltf_mesh(const std::string& path, const std::string& node = "
 // skins, morph targets, directional lights, orthographic cameras, ...) is
 // listed in one warning. A file with no triangle meshes is an error.
 Scene load_gltf_scene(const std::string& path);
+
+// load_gltf_scene() on the bytes of a .gltf or .glb file held in memory;
+// `name` stands for the file in messages (and Scene::source). Buffers must
+// be embedded (data: URIs, or the .glb's own chunk): an external URI is
+// an error, nothing is read from the file system.
+Scene load_gltf_scene_from_memory(const std::vector<unsigned char>& bytes, const std::string& name);
 
 // ---- volume proxies ------------------------------------------------------------
 

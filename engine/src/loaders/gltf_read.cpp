@@ -83,6 +83,22 @@ bool fs_write(std::string* err, const std::string&, const std::vector<unsigned c
   if (err) *err += "writing is disabled\n";
   return false;
 }
+// Loading from memory: the file system stays shut (an external buffer or
+// image URI is not found).
+bool mem_exists(const std::string&, void*) { return false; }
+bool mem_read(std::vector<unsigned char>*, std::string* err, const std::string& p, void*) {
+  if (err) *err += "cannot read the external file '" + p + "' when loading from memory\n";
+  return false;
+}
+
+// load_gltf_scene_from_memory() runs load_gltf_scene() with this set: a
+// read_file() of `name` on this thread parses `bytes` instead of a file.
+struct MemoryFile {
+  const std::string* name;
+  const std::vector<unsigned char>* bytes;
+};
+thread_local const MemoryFile* t_memory_file = nullptr;
+
 // Images are never decoded: textures are not supported.
 bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
   return true;
@@ -261,22 +277,20 @@ void Unsupported::report(const std::string& path) const {
   if (!empty()) warn(message(path));
 }
 
-File read_file(const std::string& path, Unsupported& unsupported) {
+namespace {
+
+// Parses the bytes of a .gltf or .glb named `path` in messages; `dir`
+// resolves external URIs, `from_memory` shuts the file system.
+File parse_bytes(const std::string& path, const std::vector<unsigned char>& bytes, const std::string& dir,
+                 bool from_memory, Unsupported& unsupported) {
   File f;
   f.path = path;
-  std::vector<unsigned char> bytes;
   std::string err;
-  require_file(path, "glTF file");
-  if (!read_bytes(path, bytes, &err)) throw Error(path, "cannot read glTF file (" + trim(err) + ")");
-  std::string dir;
-  size_t slash = path.find_last_of('/');
-  if (slash != std::string::npos) dir = path.substr(0, slash);
-
   tinygltf::TinyGLTF loader;
   tinygltf::FsCallbacks fs{};
-  fs.FileExists = fs_exists;
+  fs.FileExists = from_memory ? mem_exists : fs_exists;
   fs.ExpandFilePath = fs_expand;
-  fs.ReadWholeFile = fs_read;
+  fs.ReadWholeFile = from_memory ? mem_read : fs_read;
   fs.WriteWholeFile = fs_write;
   fs.user_data = nullptr;
   loader.SetFsCallbacks(fs);
@@ -330,6 +344,21 @@ File read_file(const std::string& path, Unsupported& unsupported) {
   if (m.defaultScene >= 0 && size_t(m.defaultScene) >= m.scenes.size())
     throw Error(path, "default scene " + std::to_string(m.defaultScene) + " does not exist");
   return f;
+}
+
+}  // namespace
+
+File read_file(const std::string& path, Unsupported& unsupported) {
+  if (t_memory_file && *t_memory_file->name == path)
+    return parse_bytes(path, *t_memory_file->bytes, "", /*from_memory=*/true, unsupported);
+  std::vector<unsigned char> bytes;
+  std::string err;
+  require_file(path, "glTF file");
+  if (!read_bytes(path, bytes, &err)) throw Error(path, "cannot read glTF file (" + trim(err) + ")");
+  std::string dir;
+  size_t slash = path.find_last_of('/');
+  if (slash != std::string::npos) dir = path.substr(0, slash);
+  return parse_bytes(path, bytes, dir, /*from_memory=*/false, unsupported);
 }
 
 std::string node_label(const File& f, int node) {
@@ -504,3 +533,19 @@ void append_transformed(TriangleMesh& dst, const TriangleMesh& src, const Mat4& 
 }
 
 }  // namespace cdsm::gltf
+
+namespace cdsm {
+
+// load_gltf_scene() (gltf_loader.cpp) builds the scene; its read_file() of
+// `name` parses `bytes` while this call lasts.
+Scene load_gltf_scene_from_memory(const std::vector<unsigned char>& bytes, const std::string& name) {
+  const gltf::MemoryFile source{&name, &bytes};
+  struct Restore {
+    const gltf::MemoryFile* previous;
+    ~Restore() { gltf::t_memory_file = previous; }
+  } restore{gltf::t_memory_file};
+  gltf::t_memory_file = &source;
+  return load_gltf_scene(name);
+}
+
+}  // namespace cdsm

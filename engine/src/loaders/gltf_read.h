@@ -36,6 +36,8 @@ struct File {
   tinygltf::Model model;
   std::vector<int> parent;  // per node, -1 for roots; validated: a forest
 };
+// During load_gltf_scene_from_memory(bytes, name), read_file(name) on that
+// thread parses `bytes` instead, with the file system shut.
 File read_file(const std::string& path, Unsupported& unsupported);
 
 // "'name' (node 3)" for messages.

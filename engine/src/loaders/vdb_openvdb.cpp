@@ -15,6 +15,7 @@
 #include <limits>
 #include <mutex>
 #include <new>
+#include <sstream>
 
 #include "cdsm/error.h"
 #include "cdsm/loaders.h"
@@ -107,8 +108,11 @@ void unzipFromStream(std::istream& is, char* data, size_t numBytes) {
 namespace cdsm {
 namespace {
 
-// Voxelizing inactive non-background tiles larger than this is refused.
-constexpr uint64_t kMaxTileLeaves = uint64_t(1) << 21;
+// Voxelizing tiles (active ones, and inactive ones whose value is not the
+// background) into more leaves than this is refused: 2^18 leaves of 8^3
+// float voxels are 512^3 voxels, about 0.55 GB once voxelized. A file of a
+// few kilobytes can hold tiles that would voxelize to terabytes.
+constexpr uint64_t kMaxTileLeaves = uint64_t(1) << 18;
 
 std::string describe(const openvdb::GridBase& g) {
   std::string type = g.valueType();
@@ -132,41 +136,64 @@ void split_index(const std::string& s, std::string& name, int& index) {
   index = n;
 }
 
+// Where a .vdb's parts lie: the header up to the grid count, and each
+// grid's descriptor and data as the descriptors' end offsets place them.
+struct VdbLayout {
+  uint64_t count_pos = 0;  // the header is [0, count_pos)
+  struct Grid {
+    std::string name, parent;  // unique name; instance parent ("" if none)
+    uint64_t begin = 0, end = 0;  // descriptor + data
+  };
+  std::vector<Grid> grids;
+};
+
 // Checks the parts of a .vdb (file versions 222 to 224, with grid offsets)
 // that OpenVDB sizes its allocations from before reading them: every
 // length-prefixed string and metadata value must fit in the file, and every
 // grid must end within it. OpenVDB would otherwise allocate (and zero) what
-// a corrupt length says, up to 4 GiB, before its read fails. Other files
-// go to OpenVDB unchecked.
+// a corrupt length says, up to 4 GiB, before its read fails. Files it
+// cannot check (other versions, no grid offsets) are refused.
 class Prologue {
  public:
   Prologue(const std::string& path, std::istream& in, uint64_t size) : path_(path), in_(in), size_(size) {}
 
-  void check() {
-    if (size_ < 8 || u64() != 0x56444220u) return;  // OpenVDB reports "not a VDB file"
+  VdbLayout check() {
+    if (size_ < 8 || u64() != 0x56444220u) throw Error(path_, "not a VDB file (no VDB magic number)");
     const uint32_t version = u32();
-    if (version < 222 || version > 224) return;
+    if (version < 222 || version > 224)
+      throw Error(path_, "VDB file version " + std::to_string(version) +
+                             " is not supported (versions 222 to 224: OpenVDB 3 and later)");
     u32();  // library major, minor
     u32();
-    if (u8() == 0) return;  // no grid offsets: nothing to check cheaply
-    skip(36);               // UUID
+    if (u8() == 0)
+      throw Error(path_, "VDB file without grid offsets (written as a stream) is not supported; "
+                         "save it with openvdb::io::File");
+    skip(36);  // UUID
     metadata("file metadata");
+    VdbLayout layout;
+    layout.count_pos = uint64_t(in_.tellg());
     const uint32_t grids = u32();
     for (uint32_t g = 0; g < grids; ++g) {
-      const std::string name = str("grid name"), type = str("grid type");
-      str("instance parent");
+      VdbLayout::Grid grid;
+      grid.begin = uint64_t(in_.tellg());
+      grid.name = str("grid name");
+      const std::string type = str("grid type");
+      grid.parent = str("instance parent");
       const uint64_t grid_pos = u64(), block_pos = u64(), end_pos = u64();
-      if (!(grid_pos <= block_pos && block_pos <= end_pos))
-        throw Error(path_, "corrupt VDB file: grid '" + name + "' has inconsistent offsets");
+      if (!(grid.begin < grid_pos && grid_pos <= block_pos && block_pos <= end_pos))
+        throw Error(path_, "corrupt VDB file: grid '" + grid.name + "' has inconsistent offsets");
       if (end_pos > size_)
-        throw Error(path_, "truncated VDB file: grid '" + name + "' (" + type + ") ends at byte " +
+        throw Error(path_, "truncated VDB file: grid '" + grid.name + "' (" + type + ") ends at byte " +
                                std::to_string(end_pos) + ", the file has " + std::to_string(size_) + " bytes");
       seek(grid_pos);
       u32();  // compression flags
-      metadata("metadata of grid '" + name + "'");
-      str("transform of grid '" + name + "'");
+      metadata("metadata of grid '" + grid.name + "'");
+      str("transform of grid '" + grid.name + "'");
       seek(end_pos);  // the next descriptor follows the grid
+      grid.end = end_pos;
+      layout.grids.push_back(std::move(grid));
     }
+    return layout;
   }
 
  private:
@@ -217,15 +244,17 @@ class Prologue {
   uint64_t size_;
 };
 
-openvdb::GridPtrVecPtr read_all_grids(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path, "cannot open VDB file (missing or unreadable)");
-  in.seekg(0, std::ios::end);
-  const uint64_t size = uint64_t(in.tellg());
-  in.seekg(0);
-  Prologue(path, in, size).check();
-  in.clear();
-  in.seekg(0);
+// Reads the bytes [begin, end) of `in` onto `out`.
+void append_region(std::istream& in, uint64_t begin, uint64_t end, std::string& out) {
+  const size_t at = out.size();
+  out.resize(at + size_t(end - begin));
+  in.seekg(std::streamoff(begin));
+  in.read(&out[at], std::streamsize(end - begin));
+}
+
+// The grids of one stream (`bytes`, a header and its grids) read by OpenVDB.
+openvdb::GridPtrVecPtr read_stream(const std::string& path, std::string bytes) {
+  std::istringstream in(std::move(bytes), std::ios::binary);
   openvdb::GridPtrVecPtr grids;
   try {
     // OpenVDB does not check for short reads: a truncated or corrupt file
@@ -242,8 +271,51 @@ openvdb::GridPtrVecPtr read_all_grids(const std::string& path) {
     throw Error(path, std::string("not a readable VDB file: ") + e.what());
   }
   if (in.fail()) throw Error(path, "truncated or corrupt VDB file (the data end before the file says)");
-  if (!grids || grids->empty()) throw Error(path, "VDB file holds no grids");
   return grids;
+}
+
+// Every grid of a .vdb held in the stream `in` of `size` bytes (a file or
+// memory); `path` names it in messages. Each grid is read on its own, from
+// the header and the bytes its descriptor's offsets give it (with its
+// instance parent before it): OpenVDB's reader takes the next descriptor
+// where the previous grid's data happened to end, so after a corrupt grid
+// it would read a descriptor the prologue never checked.
+openvdb::GridPtrVecPtr read_all_grids(const std::string& path, std::istream& in, uint64_t size) {
+  const VdbLayout layout = Prologue(path, in, size).check();
+  in.clear();
+  auto grids = std::make_shared<openvdb::GridPtrVec>();
+  for (size_t g = 0; g < layout.grids.size(); ++g) {
+    std::vector<size_t> chain{g};  // the grid, then its instance parents
+    while (!layout.grids[chain.back()].parent.empty()) {
+      size_t p = 0;
+      while (p < layout.grids.size() && layout.grids[p].name != layout.grids[chain.back()].parent) ++p;
+      if (p == layout.grids.size() || chain.size() > layout.grids.size())
+        throw Error(path, "corrupt VDB file: grid '" + layout.grids[g].name + "' is an instance of the missing grid '" +
+                              layout.grids[chain.back()].parent + "'");
+      chain.push_back(p);
+    }
+    std::string bytes;
+    append_region(in, 0, layout.count_pos, bytes);
+    const uint32_t count = uint32_t(chain.size());
+    bytes.append(reinterpret_cast<const char*>(&count), sizeof count);
+    for (size_t i = chain.size(); i-- > 0;) append_region(in, layout.grids[chain[i]].begin, layout.grids[chain[i]].end, bytes);
+    if (!in) throw Error(path, "cannot read VDB file (a read failed)");
+    openvdb::GridPtrVecPtr one = read_stream(path, std::move(bytes));
+    if (!one || one->size() != chain.size() || !one->back())
+      throw Error(path, "corrupt VDB file: grid '" + layout.grids[g].name + "' could not be read");
+    grids->push_back(one->back());
+  }
+  if (grids->empty()) throw Error(path, "VDB file holds no grids");
+  return grids;
+}
+
+openvdb::GridPtrVecPtr read_all_grids(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path, "cannot open VDB file (missing or unreadable)");
+  in.seekg(0, std::ios::end);
+  const uint64_t size = uint64_t(in.tellg());
+  in.seekg(0);
+  return read_all_grids(path, in, size);
 }
 
 openvdb::GridBase::Ptr select_grid(const std::string& path, const openvdb::GridPtrVec& grids,
@@ -306,19 +378,14 @@ Mat4 index_to_object(const std::string& path, const std::string& grid, const ope
   return m;
 }
 
-}  // namespace
-
-bool vdb_supported() { return true; }
-
-VdbVolume load_vdb(const std::string& path, const std::string& grid_name) {
+void initialize_once() {
   static std::once_flag init;
   std::call_once(init, [] { openvdb::initialize(); });
-  struct stat st {};
-  require_file(path, "VDB file");
-  if (::stat(path.c_str(), &st) != 0) throw Error(path, "cannot open VDB file (missing)");
+}
 
-  openvdb::GridPtrVecPtr grids = read_all_grids(path);
-  openvdb::GridBase::Ptr base = select_grid(path, *grids, grid_name);
+// The grid named `grid_name` of `grids` (read from `path`) as NanoVDB.
+VdbVolume convert_grid(const std::string& path, const openvdb::GridPtrVec& grids, const std::string& grid_name) {
+  openvdb::GridBase::Ptr base = select_grid(path, grids, grid_name);
   const std::string name = base->getName();
   if (base->getGridClass() == openvdb::GRID_LEVEL_SET)
     throw Error(path, "grid '" + name + "' is a level set (signed distances), not a density; convert it to a fog volume");
@@ -334,7 +401,7 @@ VdbVolume load_vdb(const std::string& path, const std::string& grid_name) {
   // that differ from the background (voxelized below).
   float lo = 3e38f, hi = -3e38f;
   std::vector<openvdb::CoordBBox> odd_tiles;
-  uint64_t odd_leaves = 0;
+  uint64_t tile_leaves = 0;  // leaves the voxelized tiles become
   for (auto it = tree.cbeginValueAll(); it; ++it) {
     const float v = *it;
     if (!std::isfinite(v)) {
@@ -345,10 +412,11 @@ VdbVolume load_vdb(const std::string& path, const std::string& grid_name) {
     if (it.isValueOn()) {
       lo = std::min(lo, v);
       hi = std::max(hi, v);
+      if (it.isTileValue()) tile_leaves += it.getVoxelCount() / 512;
     } else if (it.isTileValue() && v != sg->background) {
       openvdb::CoordBBox box;
       it.getBoundingBox(box);
-      odd_leaves += box.volume() / 512;
+      tile_leaves += it.getVoxelCount() / 512;
       odd_tiles.push_back(box);
     }
   }
@@ -366,8 +434,11 @@ VdbVolume load_vdb(const std::string& path, const std::string& grid_name) {
   // Leaf-granular empty-space skipping (hd/scene_data.h) needs every value
   // that differs from the background in a leaf, and a leaf in each of the
   // 26 blocks around such a leaf (its trilinear apron).
-  if (odd_leaves > kMaxTileLeaves)
-    throw Error(path, "grid '" + name + "' has huge inactive tiles with non-background values");
+  if (tile_leaves > kMaxTileLeaves)
+    throw Error(path, "grid '" + name + "' has tiles (active, or inactive with a value other than the background) of " +
+                          std::to_string(tile_leaves * 512) + " voxels; voxelized they would take about " +
+                          std::to_string(tile_leaves * 2200 >> 20) + " MiB, more than the loader's limit of " +
+                          std::to_string(kMaxTileLeaves * 512) + " tile voxels");
   tree.voxelizeActiveTiles();
   for (const openvdb::CoordBBox& box : odd_tiles)
     for (int z = box.min().z(); z <= box.max().z(); z += 8)
@@ -393,6 +464,27 @@ VdbVolume load_vdb(const std::string& path, const std::string& grid_name) {
   std::memcpy(sg->nanovdb.data(), handle.data(), bytes);
   sg->nanovdb_bytes = bytes;
   return {sg, xf};
+}
+
+}  // namespace
+
+bool vdb_supported() { return true; }
+
+VdbVolume load_vdb(const std::string& path, const std::string& grid_name) {
+  initialize_once();
+  struct stat st {};
+  require_file(path, "VDB file");
+  if (::stat(path.c_str(), &st) != 0) throw Error(path, "cannot open VDB file (missing)");
+  openvdb::GridPtrVecPtr grids = read_all_grids(path);
+  return convert_grid(path, *grids, grid_name);
+}
+
+VdbVolume load_vdb_from_memory(const std::vector<unsigned char>& bytes, const std::string& name,
+                               const std::string& grid_name) {
+  initialize_once();
+  std::istringstream in(std::string(bytes.begin(), bytes.end()), std::ios::binary);
+  openvdb::GridPtrVecPtr grids = read_all_grids(name, in, bytes.size());
+  return convert_grid(name, *grids, grid_name);
 }
 
 }  // namespace cdsm

@@ -1,0 +1,79 @@
+#!/usr/bin/env bash
+# Runs the libFuzzer targets of tests/fuzz (clang, ASan+UBSan, LSan on).
+#   bash scripts/fuzz.sh TARGET SECONDS [extra libFuzzer args]
+#   bash scripts/fuzz.sh all SECONDS [extra libFuzzer args]   # every target in turn
+# Configures and builds build-fuzz/ when needed, then runs each target on a
+# copy of tests/fuzz/corpus/TARGET/ in build-fuzz/fuzz-work/TARGET/ (the
+# checked-in corpus is never modified; new inputs and any crash, leak,
+# timeout or OOM reproducer land there). Prints the final stats; exits
+# non-zero on any finding.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+if (($# < 2)) || ! [[ $2 =~ ^[0-9]+$ ]]; then
+  echo "usage: $0 TARGET|all SECONDS [extra libFuzzer args]" >&2
+  exit 2
+fi
+target=$1 seconds=$2
+shift 2
+
+bash scripts/install-deps.sh
+jobs=$(nproc 2>/dev/null || echo 2)
+build=build-fuzz
+if [[ ! -f $build/build.ninja ]]; then
+  echo "== configuring $build/ (clang-14, libFuzzer, ASan+UBSan)"
+  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" \
+    -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 -DCDSM_FUZZ=ON -DCDSM_SANITIZE=ON \
+    -DCDSM_GL=OFF -DCDSM_CUDA=OFF -DCDSM_EDITOR=OFF -DCDSM_TESTS=OFF >/dev/null
+fi
+cmake --build "$build" -j "$jobs"
+
+read -r -a all_targets <"$build/fuzz_targets.txt"
+if [[ $target == all ]]; then
+  targets=("${all_targets[@]}")
+elif [[ " ${all_targets[*]} " == *" $target "* ]]; then
+  targets=("$target")
+else
+  echo "fuzz: unknown target '$target' (this build has: ${all_targets[*]})" >&2
+  exit 2
+fi
+
+supp=$PWD/tests/fuzz/lsan.supp
+failed=()
+for t in "${targets[@]}"; do
+  work=$build/fuzz-work/$t
+  rm -rf "$work"
+  mkdir -p "$work/corpus" "$work/artifacts"
+  cp -R "tests/fuzz/corpus/$t/." "$work/corpus/"
+  args=(-max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1
+        -artifact_prefix="$work/artifacts/")
+  [[ -f tests/fuzz/$t.dict ]] && args+=(-dict="tests/fuzz/$t.dict")
+  asan=detect_leaks=1:symbolize=1
+  # OpenVDB's readers run in a library without frame pointers: only the
+  # slow unwinder puts their callers on a leak's stack (lsan.supp names one).
+  [[ $t == fuzz_vdb ]] && asan+=:fast_unwind_on_malloc=0
+  echo "== $t: ${seconds}s on a copy of tests/fuzz/corpus/$t ($(ls "$work/corpus" | wc -l) seeds); log: $work/log.txt"
+  rc=0
+  ASAN_OPTIONS=$asan \
+  LSAN_OPTIONS=suppressions=$supp:print_suppressions=0 \
+  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+    "$build/tests/fuzz/$t" "${args[@]}" "$@" "$work/corpus" >"$work/log.txt" 2>&1 || rc=$?
+  findings=$(ls "$work/artifacts")
+  # Final stats: the last status line (cov: ft: corp:) and libFuzzer's stat:: lines.
+  grep -E '^#[0-9]+' "$work/log.txt" | tail -n 1 || true
+  grep -E '^stat::' "$work/log.txt" || true
+  echo "corpus: $(ls "$work/corpus" | wc -l) files, $(($(cat "$work/corpus"/* 2>/dev/null | wc -c) / 1024)) KiB"
+  if ((rc != 0)) || [[ -n $findings ]]; then
+    echo "== $t: FINDING (exit $rc); reproducers in $work/artifacts/: ${findings:-none}" >&2
+    grep -n -m 1 -E 'ERROR: (AddressSanitizer|LeakSanitizer|libFuzzer)|runtime error|SUMMARY' "$work/log.txt" >&2 || true
+    tail -n 60 "$work/log.txt" >&2
+    failed+=("$t")
+  else
+    echo "== $t: no findings"
+  fi
+done
+
+if ((${#failed[@]})); then
+  echo "fuzz: findings in ${failed[*]}" >&2
+  exit 1
+fi
