@@ -3,7 +3,9 @@
 # the whole test suite (ctest; GL tests headless through EGL, window tests
 # under Xvfb), then the ASan+UBSan build of the core, loader and stability
 # tests, then 60 s of each libFuzzer target (scripts/fuzz.sh; skip with
-# CDSM_SKIP_FUZZ=1). Exits non-zero on any failure or fuzzer finding.
+# CDSM_SKIP_FUZZ=1); with CDSM_TSAN=1 also the ThreadSanitizer build
+# (scripts/tsan.sh, about 25 minutes more). Exits non-zero on any failure
+# or fuzzer finding.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
@@ -24,4 +26,8 @@ fi
 if [[ "${CDSM_SKIP_FUZZ:-0}" != 1 ]]; then
   echo "== fuzzing (build-fuzz/, clang libFuzzer + ASan/UBSan/LSan): every target for 60 s"
   bash scripts/fuzz.sh all 60
+fi
+
+if [[ "${CDSM_TSAN:-0}" == 1 ]]; then
+  bash scripts/tsan.sh
 fi

@@ -527,6 +527,16 @@ TEST(GltfBad, ValuesOutsideTheirRange) {
     "objects": [{"name": "m", "mesh": {"type": "gltf", "file": ")") + glb + R"(", "node": ""}}],
     "lights": [{"type": "point", "position": [0, 3, 0]}]})";
   expect_error([&] { parse_scene(scene, dir + "/s.json", dir); }, {"/objects/0/mesh/node", "names no node"});
+  // A .glb header of version 1 (binary glTF 1.0; tinygltf read it as 2),
+  // and a glTF 1.0 asset.
+  std::vector<char> bytes = read_bytes(glb);
+  bytes[4] = 1;
+  write_bytes(dir + "/v1.glb", bytes);
+  expect_error([&] { load_scene(dir + "/v1.glb"); }, {dir + "/v1.glb", "header says version 1", "only binary glTF 2"});
+  tinygltf::Model old = fixture_model();
+  old.asset.version = "1.0";
+  std::string p1 = write_model(old, dir + "/old.gltf", false);
+  expect_error([&] { load_scene(p1); }, {p1, "asset.version is '1.0'"});
 }
 
 TEST(GltfBad, NoMeshes) {

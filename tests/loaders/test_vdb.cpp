@@ -370,8 +370,12 @@ TEST(VdbBad, FuzzFindingsAreClearErrorsWithoutHugeAllocations) {
                {"prologue_skipped_version_80GiB_stream.vdb", "not supported"});
   expect_error([&] { load_vdb(corpus + "prologue_desync_huge_descriptor.vdb"); },
                {"prologue_desync_huge_descriptor.vdb", "VDB file"});
+  // Metadata whose size field disagrees with its type (a 12-byte "mat4d"):
+  // OpenVDB read 128 bytes, lost its place and allocated a 1.8 GB name.
+  expect_error([&] { load_vdb(corpus + "grid_pos_elsewhere_huge_metadata.vdb"); },
+               {"grid_pos_elsewhere_huge_metadata.vdb", "'file_bbox_min' of type mat4d has 12 bytes, not 128"});
   const long grown_mib = (peak_rss_kib() - before) / 1024;
-  std::printf("peak resident memory grew by %ld MiB over the four files\n", grown_mib);
+  std::printf("peak resident memory grew by %ld MiB over the five files\n", grown_mib);
   EXPECT_LT(grown_mib, 256);
 
   // The same kind of tiles made here: one active root tile of 4096^3 voxels.

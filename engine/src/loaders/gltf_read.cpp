@@ -298,6 +298,15 @@ File parse_bytes(const std::string& path, const std::vector<unsigned char>& byte
   std::string warn_text;
   bool ok = false;
   const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+  if (bytes.size() > std::numeric_limits<unsigned>::max())
+    throw Error(path, "glTF file of " + std::to_string(bytes.size()) + " bytes is larger than 4 GiB");
+  if (binary) {  // the 12-byte header: magic, version, total length (little-endian)
+    if (bytes.size() < 12) throw Error(path, "invalid or truncated .glb file: the 12-byte header is cut off");
+    const uint32_t version = uint32_t(bytes[4]) | uint32_t(bytes[5]) << 8 | uint32_t(bytes[6]) << 16 |
+                             uint32_t(bytes[7]) << 24;
+    if (version != 2)
+      throw Error(path, "the .glb header says version " + std::to_string(version) + "; only binary glTF 2 is supported");
+  }
   try {
     if (binary)
       ok = loader.LoadBinaryFromMemory(&f.model, &err, &warn_text, bytes.data(), unsigned(bytes.size()), dir);
@@ -315,6 +324,8 @@ File parse_bytes(const std::string& path, const std::vector<unsigned char>& byte
                           (why.empty() ? "" : ": " + why));
   }
   const tinygltf::Model& m = f.model;
+  if (m.asset.version.compare(0, 2, "2.") != 0)
+    throw Error(path, "asset.version is '" + m.asset.version + "'; only glTF 2.x is supported");
   for (const std::string& ext : m.extensionsRequired)
     if (!kHandled.count(ext) && !appearance_only(ext))
       throw Error(path, "requires the glTF extension " + ext + ", which this loader does not support");

@@ -136,23 +136,23 @@ void split_index(const std::string& s, std::string& name, int& index) {
   index = n;
 }
 
-// Where a .vdb's parts lie: the header up to the grid count, and each
-// grid's descriptor and data as the descriptors' end offsets place them.
+// Where a .vdb's parts lie, and the metadata OpenVDB may read of them:
+// the header up to the file metadata, and each grid's descriptor, its
+// metadata (re-serialized, only entries whose size matches their type) and
+// the rest of its bytes (transform, topology, buffers), as the descriptors'
+// end offsets place them.
 struct VdbLayout {
-  uint64_t count_pos = 0;  // the header is [0, count_pos)
+  uint64_t header_end = 0;  // magic, versions, offsets flag, UUID: [0, header_end)
   struct Grid {
-    std::string name, parent;  // unique name; instance parent ("" if none)
-    uint64_t begin = 0, end = 0;  // descriptor + data
+    std::string name, parent;     // unique name; instance parent ("" if none)
+    uint64_t begin = 0;           // descriptor [begin, grid_pos)
+    uint64_t grid_pos = 0;        // + the compression flags (4 bytes)
+    std::string metadata;         // the checked entries, serialized
+    uint64_t rest = 0, end = 0;   // transform, topology, buffers: [rest, end)
   };
   std::vector<Grid> grids;
 };
 
-// Checks the parts of a .vdb (file versions 222 to 224, with grid offsets)
-// that OpenVDB sizes its allocations from before reading them: every
-// length-prefixed string and metadata value must fit in the file, and every
-// grid must end within it. OpenVDB would otherwise allocate (and zero) what
-// a corrupt length says, up to 4 GiB, before its read fails. Files it
-// cannot check (other versions, no grid offsets) are refused.
 class Prologue {
  public:
   Prologue(const std::string& path, std::istream& in, uint64_t size) : path_(path), in_(in), size_(size) {}
@@ -169,9 +169,9 @@ class Prologue {
       throw Error(path_, "VDB file without grid offsets (written as a stream) is not supported; "
                          "save it with openvdb::io::File");
     skip(36);  // UUID
-    metadata("file metadata");
     VdbLayout layout;
-    layout.count_pos = uint64_t(in_.tellg());
+    layout.header_end = uint64_t(in_.tellg());
+    metadata("file metadata", nullptr);
     const uint32_t grids = u32();
     for (uint32_t g = 0; g < grids; ++g) {
       VdbLayout::Grid grid;
@@ -180,15 +180,18 @@ class Prologue {
       const std::string type = str("grid type");
       grid.parent = str("instance parent");
       const uint64_t grid_pos = u64(), block_pos = u64(), end_pos = u64();
-      if (!(grid.begin < grid_pos && grid_pos <= block_pos && block_pos <= end_pos))
+      // OpenVDB writes a grid right after its descriptor (and reads it from
+      // there, whatever grid_pos says): the prologue checks what it will read.
+      if (!(grid_pos == uint64_t(in_.tellg()) && grid_pos <= block_pos && block_pos <= end_pos))
         throw Error(path_, "corrupt VDB file: grid '" + grid.name + "' has inconsistent offsets");
       if (end_pos > size_)
         throw Error(path_, "truncated VDB file: grid '" + grid.name + "' (" + type + ") ends at byte " +
                                std::to_string(end_pos) + ", the file has " + std::to_string(size_) + " bytes");
-      seek(grid_pos);
+      grid.grid_pos = grid_pos;
       u32();  // compression flags
-      metadata("metadata of grid '" + grid.name + "'");
-      str("transform of grid '" + grid.name + "'");
+      metadata("metadata of grid '" + grid.name + "'", &grid.metadata);
+      grid.rest = uint64_t(in_.tellg());
+      if (grid.rest > end_pos) throw Error(path_, "corrupt VDB file: the metadata of grid '" + grid.name + "' run past its end");
       seek(end_pos);  // the next descriptor follows the grid
       grid.end = end_pos;
       layout.grids.push_back(std::move(grid));
@@ -228,15 +231,44 @@ class Prologue {
     if (n > 0) in_.read(&s[0], n);
     return s;
   }
-  void metadata(const std::string& what) {
+  // A metadata block: a count, then (name, type, size, value) entries.
+  // OpenVDB reads a typed value's own size whatever the size field says (a
+  // "mat4d" of 12 bytes is read as 128, and the stream is lost), so those
+  // must match; entries of other types (delayed-load tables, unregistered
+  // types) are dropped. `keep` receives the checked entries, serialized.
+  void metadata(const std::string& what, std::string* keep) {
+    static const std::pair<const char*, uint32_t> kSizes[] = {
+        {"bool", 1},    {"int32", 4},   {"int64", 8},   {"float", 4},   {"double", 8},  {"vec2i", 8},
+        {"vec2s", 8},   {"vec2d", 16},  {"vec3i", 12},  {"vec3s", 12},  {"vec3d", 24},  {"vec4i", 16},
+        {"vec4s", 16},  {"vec4d", 32},  {"mat4s", 64},  {"mat4d", 128}};
     const uint32_t count = u32();
+    std::string entries;
+    uint32_t kept = 0;
     for (uint32_t i = 0; i < count; ++i) {
-      str(what + " name");
-      str(what + " type");
+      const std::string name = str(what + " name"), type = str(what + " type");
       const uint32_t n = u32();  // the value's size in bytes, then the value
       need(n, what + " value");
-      in_.seekg(std::streamoff(n), std::ios::cur);
+      bool known = type == "string";
+      for (const auto& [t, size] : kSizes)
+        if (type == t) {
+          if (n != size)
+            throw Error(path_, "corrupt VDB file: " + what + " '" + name + "' of type " + type + " has " +
+                                   std::to_string(n) + " bytes, not " + std::to_string(size));
+          known = true;
+        }
+      if (!known || !keep) {
+        in_.seekg(std::streamoff(n), std::ios::cur);
+        continue;
+      }
+      std::string value(n, '\0');
+      if (n > 0) in_.read(&value[0], n);
+      for (const std::string* part : std::initializer_list<const std::string*>{&name, &type, &value}) {
+        const uint32_t len = uint32_t(part->size());
+        entries.append(reinterpret_cast<const char*>(&len), sizeof len).append(*part);
+      }
+      ++kept;
     }
+    if (keep) keep->assign(reinterpret_cast<const char*>(&kept), sizeof kept).append(entries);
   }
 
   std::string path_;
@@ -277,9 +309,10 @@ openvdb::GridPtrVecPtr read_stream(const std::string& path, std::string bytes) {
 // Every grid of a .vdb held in the stream `in` of `size` bytes (a file or
 // memory); `path` names it in messages. Each grid is read on its own, from
 // the header and the bytes its descriptor's offsets give it (with its
-// instance parent before it): OpenVDB's reader takes the next descriptor
-// where the previous grid's data happened to end, so after a corrupt grid
-// it would read a descriptor the prologue never checked.
+// instance parent before it) and with only the metadata the prologue
+// checked: OpenVDB's reader takes the next descriptor where the previous
+// grid's data happened to end, so after a corrupt grid it would read a
+// descriptor the prologue never checked.
 openvdb::GridPtrVecPtr read_all_grids(const std::string& path, std::istream& in, uint64_t size) {
   const VdbLayout layout = Prologue(path, in, size).check();
   in.clear();
@@ -294,11 +327,18 @@ openvdb::GridPtrVecPtr read_all_grids(const std::string& path, std::istream& in,
                               layout.grids[chain.back()].parent + "'");
       chain.push_back(p);
     }
+    // The header, no file metadata, the chain's grids with checked metadata.
     std::string bytes;
-    append_region(in, 0, layout.count_pos, bytes);
-    const uint32_t count = uint32_t(chain.size());
+    append_region(in, 0, layout.header_end, bytes);
+    const uint32_t no_metadata = 0, count = uint32_t(chain.size());
+    bytes.append(reinterpret_cast<const char*>(&no_metadata), sizeof no_metadata);
     bytes.append(reinterpret_cast<const char*>(&count), sizeof count);
-    for (size_t i = chain.size(); i-- > 0;) append_region(in, layout.grids[chain[i]].begin, layout.grids[chain[i]].end, bytes);
+    for (size_t i = chain.size(); i-- > 0;) {
+      const VdbLayout::Grid& gr = layout.grids[chain[i]];
+      append_region(in, gr.begin, gr.grid_pos + 4, bytes);  // descriptor, compression flags
+      bytes += gr.metadata;
+      append_region(in, gr.rest, gr.end, bytes);
+    }
     if (!in) throw Error(path, "cannot read VDB file (a read failed)");
     openvdb::GridPtrVecPtr one = read_stream(path, std::move(bytes));
     if (!one || one->size() != chain.size() || !one->back())
