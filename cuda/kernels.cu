@@ -95,7 +95,7 @@ __global__ void lookup_kernel(ShadowView shadows, const Vec3* points, int n, flo
   if (i >= n) return;
   float a = 0.0f;
   for (uint32_t l = 0; l < shadows.lights.size(); ++l)
-    a = fmaxf(a, shadow_alpha(shadows, shadows.lights[l], points[i], 0.0f, 0.0f));
+    a = fmaxf(a, shadow_alpha(shadows, shadows.lights[l], points[i]));
   alpha[i] = a;
 }
 

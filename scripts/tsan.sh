@@ -44,7 +44,7 @@ if [[ ! -f $build/build.ninja ]]; then
   cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DCMAKE_CXX_FLAGS="-fsanitize=thread -O1 -g" -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=thread -Wl,-rpath,$tbb/lib" \
     -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=thread" -DTBB_DIR="$tbb/lib/cmake/TBB" \
-    -DCDSM_GL=OFF -DCDSM_CUDA=OFF -DCDSM_EDITOR=OFF >/dev/null
+    -DCDSM_GL=OFF -DCDSM_CUDA=OFF -DCDSM_EDITOR=OFF -DCDSM_TEST_TIMEOUT_SCALE=15 >/dev/null
 fi
 cmake --build "$build" -j "$jobs"
 
@@ -54,4 +54,4 @@ echo "== ThreadSanitizer: unit and stability tests (cpu backend)"
 # for libraries that link it too (OpenVDB).
 (cd "$build" && LD_LIBRARY_PATH="$tbb/lib" \
    TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:report_signal_unsafe=0" \
-   ctest --output-on-failure -j "$jobs" -L 'unit|stability' -LE slow --timeout 1800)
+   ctest --output-on-failure -j "$jobs" -L 'unit|stability' -LE slow)

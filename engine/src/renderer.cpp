@@ -12,6 +12,7 @@
 #include "cdsm/error.h"
 #include "cdsm/scene_io.h"
 #include "cpu/frame.h"
+#include "cpu/lookup_recorder.h"
 #include "fragment_source.h"
 #include "memory_budget.h"
 #include "reference/reference.h"
@@ -23,19 +24,6 @@ using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
-
-// Collects the shaded points of a camera ray (the error probe).
-struct ProbeRecorder {
-  struct Point {
-    Vec3 p, n;
-    bool surface;
-    float weight;
-  };
-  std::vector<Point>* out;
-  void shaded(Vec3 p, Vec3 n, bool surface, float w) {
-    if (w > 1e-4f) out->push_back({p, n, surface, w});
-  }
-};
 
 uint32_t hash32(uint32_t x) {
   x ^= x >> 16;
@@ -57,7 +45,7 @@ struct Renderer::Impl {
     bool valid = false;
     ShadowFrame shadows;
     ShadowSettings settings;
-    std::vector<Vec3> receivers;
+    std::vector<Receiver> receivers;
   } previous;
 
   struct Frame {
@@ -148,54 +136,46 @@ struct Renderer::Impl {
     DsmVisibility vis{shv};
     const int w = f.cam.view.width, h = f.cam.view.height;
     // Stratified pixels: one jittered pixel per cell of a grid with about
-    // error_samples / 2 cells (rays yield several points each).
+    // error_samples / 2 cells (rays yield several lookups each), shaded by
+    // the camera pass with its own visibility functor, each lookup recorded
+    // (shadows/cpu/lookup_recorder.h): the probe measures what the image uses.
     int cells = std::max(1, opt.error_samples / 2);
     double cell = std::sqrt(double(w) * h / double(cells));
     int gx = std::max(1, int(std::ceil(w / cell))), gy = std::max(1, int(std::ceil(h / cell)));
-    std::vector<std::vector<ProbeRecorder::Point>> per_row(static_cast<size_t>(gy));
+    std::vector<std::vector<RecordedLookup>> per_row(static_cast<size_t>(gy));
+    // Cells finer than pixels (small images) pick the same pixel from
+    // different rows: each walk sorts a copy of the pixel's list, never the
+    // shared one (found by ThreadSanitizer).
     tbb::parallel_for(0, gy, [&](int cy) {
       WalkStats ws;
-      ProbeRecorder rec{&per_row[size_t(cy)]};
+      std::vector<Fragment> frags;
       for (int cx = 0; cx < gx; ++cx) {
         uint32_t hsh = hash32(uint32_t(cy * 7919 + cx * 104729 + 17));
         int px = std::min(w - 1, int((cx + (hsh & 0xffff) / 65536.0) * w / gx));
         int py = std::min(h - 1, int((cy + (hsh >> 16) / 65536.0) * h / gy));
-        shade_pixel(sv, shv.lights, vis, f.cam, f.camera_frags.lists().pixel(px, py), px, py, rec, ws);
+        Span<Fragment> shared = f.camera_frags.lists().pixel(px, py);
+        frags.assign(shared.begin(), shared.end());
+        record_pixel_lookups(sv, shv.lights, vis, f.cam, Span<Fragment>{frags.data(), frags.size()}, px, py,
+                             per_row[size_t(cy)], ws);
       }
     });
-    std::vector<ProbeRecorder::Point> pts;
-    for (auto& r : per_row) pts.insert(pts.end(), r.begin(), r.end());
-    if (pts.size() > size_t(opt.error_samples)) {  // deterministic thinning
-      std::vector<ProbeRecorder::Point> kept;
-      double stride = double(pts.size()) / opt.error_samples;
-      for (int i = 0; i < opt.error_samples; ++i) kept.push_back(pts[size_t(i * stride)]);
-      pts.swap(kept);
+    std::vector<RecordedLookup> lookups;
+    for (auto& r : per_row) lookups.insert(lookups.end(), r.begin(), r.end());
+    if (lookups.size() > size_t(opt.error_samples)) {  // deterministic thinning
+      std::vector<RecordedLookup> kept;
+      double stride = double(lookups.size()) / opt.error_samples;
+      for (int i = 0; i < opt.error_samples; ++i) kept.push_back(lookups[size_t(i * stride)]);
+      lookups.swap(kept);
     }
     ReferenceRenderer ref(sv, f.shadows.setup.lights, ReferenceOptions{opt.reference_step_voxels});
     struct Sample {
       float err, weight;
     };
-    std::vector<std::vector<Sample>> samples(pts.size());
-    tbb::parallel_for(size_t(0), pts.size(), [&](size_t i) {
-      const auto& pt = pts[i];
-      for (uint32_t li = 0; li < shv.lights.size(); ++li) {
-        const LightData& L = shv.lights[li];
-        float cone = cone_factor(L, pt.p);
-        if (cone <= 0.0f) continue;
-        float tan_inc = 0.0f;
-        if (pt.surface) {
-          Vec3 l = normalize(L.position - pt.p);
-          float ndl = dot(pt.n, l);
-          if (ndl <= 0.0f) continue;  // unlit side: no shadow term used
-          tan_inc = bias_tangent(ndl);
-        }
-        float t_dsm = vis(int(li), pt.p, tan_inc);
-        float t_ref = ref.transmittance(int(li), pt.p);
-        samples[i].push_back({std::fabs(t_dsm - t_ref), pt.weight});
-      }
+    std::vector<Sample> all(lookups.size());
+    tbb::parallel_for(size_t(0), lookups.size(), [&](size_t i) {
+      const RecordedLookup& l = lookups[i];
+      all[i] = {std::fabs(l.transmittance - ref.transmittance(l.light, l.at.p)), l.weight};
     });
-    std::vector<Sample> all;
-    for (auto& s : samples) all.insert(all.end(), s.begin(), s.end());
     TransmittanceError e;
     e.points = all.size();
     if (all.empty()) return e;
@@ -221,24 +201,25 @@ struct Renderer::Impl {
     return e;
   }
 
-  // Surface points of the camera view on a coarse grid (receivers for the popping probe).
-  std::vector<Vec3> sample_receivers(Frame& f) {
+  // Surface points of the camera view on a coarse grid (receivers for the
+  // popping probe; their plane from the shading normal, looked up as casters).
+  std::vector<Receiver> sample_receivers(Frame& f) {
     SceneView sv = f.sb.view();
     struct FirstSurface {
-      Vec3 p;
+      Receiver r{};
       bool found = false;
-      void shaded(Vec3 q, Vec3, bool surface, float) {
+      void shaded(Vec3 q, Vec3 n, bool surface, float) {
         if (surface && !found) {
-          p = q;
+          r = Receiver{q, n, true};
           found = true;
         }
       }
     };
     struct NoShadow {
-      float operator()(int, Vec3, float) const { return 1.0f; }
+      float operator()(int, const Receiver&) const { return 1.0f; }
     } vis;
     std::vector<LightData> none;
-    std::vector<Vec3> out;
+    std::vector<Receiver> out;
     const int w = f.cam.view.width, h = f.cam.view.height;
     const int g = 48;
     FragmentLists lists = f.camera_frags.lists();
@@ -248,7 +229,7 @@ struct Renderer::Impl {
         FirstSurface rec;
         WalkStats ws;
         shade_pixel(sv, Span<const LightData>{none.data(), 0}, vis, f.cam, lists.pixel(px, py), px, py, rec, ws);
-        if (rec.found) out.push_back(rec.p);
+        if (rec.found) out.push_back(rec.r);
       }
     return out;
   }
@@ -259,11 +240,11 @@ struct Renderer::Impl {
       ShadowView now = f.shadows.view(scene.shadows), before = previous.shadows.view(previous.settings);
       double sum = 0.0, mx = 0.0;
       uint64_t n = 0;
-      for (const Vec3& p : previous.receivers)
+      for (const Receiver& r : previous.receivers)
         for (uint32_t li = 0; li < now.lights.size(); ++li) {
-          if (cone_factor(now.lights[li], p) <= 0.0f) continue;
-          float a = shadow_alpha(now, now.lights[li], p, scene.shadows.bias_constant, 0.0f);
-          float b = shadow_alpha(before, before.lights[li], p, previous.settings.bias_constant, 0.0f);
+          if (cone_factor(now.lights[li], r.p) <= 0.0f) continue;
+          float a = shadow_alpha(now, now.lights[li], r);
+          float b = shadow_alpha(before, before.lights[li], r);
           double d = std::fabs(double(a) - double(b));
           sum += d;
           mx = std::max(mx, d);

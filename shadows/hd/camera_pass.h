@@ -21,6 +21,14 @@ struct PixelResult {
 };
 
 // Interpolated shading normal of triangle `tri` at p, facing the viewer.
+// Unit geometric normal of triangle `tri` (0 for a degenerate one).
+CDSM_HD CDSM_INLINE Vec3 geometric_normal(const SceneView& s, uint32_t tri) {
+  Vec3 a = s.tri_vertices[3 * tri], b = s.tri_vertices[3 * tri + 1], c = s.tri_vertices[3 * tri + 2];
+  Vec3 ng = cross(b - a, c - a);
+  float l = length(ng);
+  return l > 0.0f ? ng * (1.0f / l) : Vec3{0, 0, 0};
+}
+
 CDSM_HD CDSM_INLINE Vec3 surface_normal(const SceneView& s, uint32_t tri, Vec3 p, Vec3 dir) {
   Vec3 a = s.tri_vertices[3 * tri], b = s.tri_vertices[3 * tri + 1], c = s.tri_vertices[3 * tri + 2];
   Vec3 ng = cross(b - a, c - a);
@@ -44,13 +52,12 @@ struct NoRecorder {
   CDSM_HD void shaded(Vec3, Vec3, bool, float) {}
 };
 
-// Visibility = DSM lookups; surfaces look themselves up just before their
-// own depth (constant + slope-scaled bias), volume samples at their depth.
+// Visibility = DSM lookups at the receiver (hd/lights.h): surfaces by their
+// plane (casters stop short of their own step), volume samples at their depth.
 struct DsmVisibility {
   const ShadowView& sv;
-  CDSM_HD float operator()(int light, Vec3 p, float tan_incidence) const {
-    float bias = tan_incidence > 0.0f ? sv.bias_constant : 0.0f;
-    return 1.0f - shadow_alpha(sv, sv.lights[uint32_t(light)], p, bias, tan_incidence);
+  CDSM_HD float operator()(int light, const Receiver& r) const {
+    return 1.0f - shadow_alpha(sv, sv.lights[uint32_t(light)], r);
   }
 };
 
@@ -79,6 +86,8 @@ struct CameraVisitor {
     in.ks = o.ks;
     in.shininess = o.shininess;
     in.has_normal = true;
+    in.plane = geometric_normal(s, tri);
+    in.own_step_in_maps = (o.flags & kObjCastsShadows) != 0u;
     Vec3 c = shade_point(in, lights, ambient, visibility);
     float w = T * o.opacity;
     rec.shaded(in.p, in.n, true, w);
@@ -109,6 +118,8 @@ struct CameraVisitor {
             in.ks = 0.0f;
             in.shininess = 1.0f;
             in.has_normal = false;
+            in.plane = Vec3{0, 0, 0};
+            in.own_step_in_maps = false;
             in.n = Vec3{0, 0, 0};
             if (v.shading == 1u) {  // phong: normal from the density gradient
               Vec3 g = density_gradient(s, v, in.p) * v.gradient_scale;

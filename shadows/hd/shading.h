@@ -14,10 +14,17 @@ struct ShadeInput {
   Vec3 color;      // base colour / albedo
   float ka, kd, ks, shininess;
   bool has_normal; // false: isotropic scattering sample
+  // Surfaces: the geometric normal of the triangle (the receiver's plane
+  // for shadow lookups, hd/lights.h Receiver); 0 for volume samples, Phong
+  // ones too (their gradient normal is for shading only: no plane, no offset).
+  Vec3 plane;
+  // The surface is in the shadow maps (a caster's): the lookup stops short
+  // of its own step. False for receive-only surfaces and volume samples.
+  bool own_step_in_maps;
 };
 
-// Visibility callback form: float vis(int light_index, Vec3 p, float tan_incidence)
-// returns 1 - alpha (the transmittance) — from DSMs or from the reference.
+// Visibility callback form: float vis(int light_index, const Receiver& r)
+// returns 1 - alpha (the transmittance) at r — from DSMs or the reference.
 template <class Visibility>
 CDSM_HD Vec3 shade_point(const ShadeInput& in, Span<const LightData> lights, Vec3 ambient,
                          Visibility&& visibility) {
@@ -30,15 +37,15 @@ CDSM_HD Vec3 shade_point(const ShadeInput& in, Span<const LightData> lights, Vec
     float dist = length(to_l);
     if (dist <= 0.0f) continue;
     Vec3 l = to_l * (1.0f / dist);
+    const Receiver rc{in.p, in.plane, in.own_step_in_maps};
     if (!in.has_normal) {
-      float vis = visibility(int(i), in.p, 0.0f);
+      float vis = visibility(int(i), rc);
       c += in.color * L.radiance * (cone * vis);
       continue;
     }
     float ndl = dot(in.n, l);
     if (ndl <= 0.0f) continue;
-    float tan_inc = bias_tangent(ndl);
-    float vis = visibility(int(i), in.p, tan_inc);
+    float vis = visibility(int(i), rc);
     if (vis <= 0.0f) continue;
     Vec3 r = in.n * (2.0f * ndl) - l;
     float rv = fmaxf(0.0f, dot(r, in.v));

@@ -191,7 +191,7 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
   const int w = view.width, h = view.height;
   rgb.assign(size_t(w) * h * 3, 0.0f);
   Span<const LightData> lights{lights_.data(), lights_.size()};
-  auto visibility = [&](int light, Vec3 p, float) { return transmittance(light, p); };
+  auto visibility = [&](int light, const Receiver& r) { return transmittance(light, r.p); };
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     std::vector<Hit> hits;
     std::vector<float> ts;
@@ -271,6 +271,8 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
               in.ks = 0.0f;
               in.shininess = 1.0f;
               in.has_normal = false;
+              in.plane = Vec3{0, 0, 0};
+              in.own_step_in_maps = false;
               in.n = Vec3{0, 0, 0};
               if (v.shading == 1u) {
                 Vec3 g = density_gradient(scene_, v, p) * v.gradient_scale;
@@ -322,6 +324,8 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
           in.ks = od.ks;
           in.shininess = od.shininess;
           in.has_normal = true;
+          in.plane = Vec3{0, 0, 0};
+          in.own_step_in_maps = false;  // exact shadow rays exclude the own surface by identity
           Vec3 col = shade_point(in, lights, params.ambient, visibility);
           color += col * float(T * od.opacity);
           T *= 1.0 - od.opacity;

@@ -9,6 +9,7 @@
 #include "cdsm/renderer.h"
 #include "cdsm/scene_io.h"
 #include "cpu/frame.h"
+#include "cpu/lookup_recorder.h"
 #include "reference/reference.h"
 
 namespace cdsm {
@@ -23,19 +24,6 @@ struct Region {
 
 struct Probe {
   Region near, far;
-};
-
-// Shaded surface and volume points of the camera view on a pixel grid.
-struct Recorder {
-  std::vector<std::pair<Vec3, float>>* out;
-  std::vector<Vec3>* normals;
-  std::vector<uint8_t>* surface;
-  void shaded(Vec3 p, Vec3 n, bool s, float w) {
-    if (w <= 1e-3f) return;
-    out->push_back({p, w});
-    normals->push_back(n);
-    surface->push_back(s ? 1 : 0);
-  }
 };
 
 Probe probe(const Scene& scene) {
@@ -53,29 +41,21 @@ Probe probe(const Scene& scene) {
   cam.background = scene.background;
   FragmentBuffers fb;
   cast_fragments(sv, cam.view, ObjectMask{}, fb);
-  std::vector<std::pair<Vec3, float>> pts;
-  std::vector<Vec3> normals;
-  std::vector<uint8_t> surface;
-  Recorder rec{&pts, &normals, &surface};
+  // The camera pass's own lookups (shadows/cpu/lookup_recorder.h).
   DsmVisibility vis{shv};
   WalkStats ws;
   FragmentLists lists = fb.lists();
+  std::vector<RecordedLookup> lookups;
   for (int py = 1; py < cam.view.height; py += 2)
     for (int px = 1; px < cam.view.width; px += 2)
-      shade_pixel(sv, shv.lights, vis, cam, lists.pixel(px, py), px, py, rec, ws);
+      record_pixel_lookups(sv, shv.lights, vis, cam, lists.pixel(px, py), px, py, lookups, ws);
   ReferenceRenderer ref(sv, frame.setup.lights);
   const LightData& L = shv.lights[0];
   Probe out;
-  for (size_t i = 0; i < pts.size(); ++i) {
-    Vec3 p = pts[i].first;
-    if (cone_factor(L, p) <= 0.0f) continue;
-    float tan_inc = 0.0f;
-    if (surface[i]) {
-      float ndl = dot(normals[i], normalize(L.position - p));
-      if (ndl <= 0.0f) continue;
-      tan_inc = bias_tangent(ndl);
-    }
-    double err = std::fabs(double(vis(0, p, tan_inc)) - double(ref.transmittance(0, p)));
+  for (const RecordedLookup& l : lookups) {
+    if (l.weight <= 1e-3f || l.light != 0) continue;
+    const Vec3 p = l.at.p;
+    double err = std::fabs(double(l.transmittance) - double(ref.transmittance(0, p)));
     // Finest texel footprint among the maps whose window holds the point.
     double texel = 1e30;
     for (uint32_t k = 0; k < L.map_count; ++k) {
@@ -87,8 +67,8 @@ Probe probe(const Scene& scene) {
     float dist = length(p - cam.view.eye);
     Region* r = dist < 10.0f ? &out.near : (dist > 30.0f ? &out.far : nullptr);
     if (!r) continue;
-    r->err += err * pts[i].second;
-    r->weight += pts[i].second;
+    r->err += err * l.weight;
+    r->weight += l.weight;
     if (texel < 1e29) {
       r->texel += texel;
       ++r->points;

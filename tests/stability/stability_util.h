@@ -142,7 +142,7 @@ struct Rig {
   // Opacity between light `li` and p from the maps (no bias).
   float alpha(Vec3 p, int li = 0) const {
     ShadowView v = view();
-    return shadow_alpha(v, v.lights[size_t(li)], p, 0.0f, 0.0f);
+    return shadow_alpha(v, v.lights[size_t(li)], p);
   }
   // Exact transmittance from the reference renderer.
   float reference_T(Vec3 p, int li = 0) const {

@@ -147,19 +147,16 @@ struct ShadowFixture {
   const PinholeView& map_view(size_t i) const { return frame.dsm.maps[i].view; }
 };
 
-// Exactly what the camera pass uses for a surface point with normal n lit by
-// a light at `light`: 1 - alpha looked up just before the point's depth
-// (constant + slope-scaled bias, hd/camera_pass.h, hd/shading.h).
+// What the camera pass uses for a caster's surface point on a plane with
+// normal n: 1 - alpha with each tap at the plane's depth along its own ray,
+// stopped short of the own step (hd/lights.h Receiver, hd/camera_pass.h).
 inline float surface_visibility(const ShadowView& sv, int light, Vec3 p, Vec3 n) {
-  Vec3 l = normalize(sv.lights[uint32_t(light)].position - p);
-  float ndl = dot(n, l);
-  float tan_inc = bias_tangent(ndl);
-  return DsmVisibility{sv}(light, p, tan_inc);
+  return DsmVisibility{sv}(light, Receiver{p, n, true});
 }
 
 // A volume sample's visibility: looked up at its own depth.
 inline float sample_visibility(const ShadowView& sv, int light, Vec3 p) {
-  return 1.0f - shadow_alpha(sv, sv.lights[uint32_t(light)], p, 0.0f, 0.0f);
+  return 1.0f - shadow_alpha(sv, sv.lights[uint32_t(light)], p);
 }
 
 }  // namespace cdsm_test

@@ -141,8 +141,12 @@ struct ShadowSettings {
   float epsilon = 0.01f;        // compression error bound (DESIGN.md §2.4)
   int32_t resolution = 512;     // DSM texels per side
   bool filtering = true;        // bilinear lookup (thesis eq. 4.18-4.19)
-  float bias_constant = 0.0005f; // self-lookup offset, world units
-  float bias_slope = 1.5f;      // times the DSM texel footprint at the point
+  // Casters' own surfaces: each lookup tap stops this far short of the
+  // surface's plane along its ray (hd/lights.h Receiver): world units, plus
+  // bias_slope texel footprints, plus 2e-5 of the depth. Receive-only
+  // surfaces and volume samples take no offset.
+  float bias_constant = 0.0002f;
+  float bias_slope = 0.05f;
   int32_t max_clusters = 1;     // m
   // Baseline arrangement: > 1 replaces a spot light's map (and any clusters)
   // by that many parallel-split maps along the camera's view (Zhang et al.
