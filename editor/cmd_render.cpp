@@ -34,6 +34,8 @@ const char* kRenderHelp =
     "  --layout packed|fixed|chunked  DSM memory layout (packed: exact allocation; fixed: res x res x L,\n"
     "                           --fixed-layers L; chunked: 64-node chunks linked per texel)\n"
     "  --fixed-layers L         node layers of the fixed layout (default 32)\n"
+    "  --receiver plane|slope_bias  how surfaces look themselves up: per-tap receiver planes (default),\n"
+    "                           or the previous constant + slope-scaled bias (a baseline)\n"
     "  --compare-reference      also render the exact reference of the same view; report the\n"
     "                           transmittance error at sampled shaded points (mean, p99, max, RMSE)\n"
     "                           and the image RMSE/PSNR; write OUT.error.png (heat map) and\n"
@@ -90,6 +92,7 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
   t["total_frame"] = s.times.total_ms;
   auto& m = j["dsm_memory"];
   m["layout"] = std::vector<std::string>{"packed", "fixed", "chunked"}[size_t(scene.shadows.layout)];
+  j["receiver_lookup"] = scene.shadows.receiver == ReceiverLookup::Plane ? "plane" : "slope_bias";
   m["maps"] = s.memory.maps;
   m["texels"] = s.memory.texels;
   m["nodes"] = s.memory.nodes;
@@ -113,6 +116,19 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
     e["p99"] = s.transmittance.p99;
     e["max"] = s.transmittance.max;
     e["rmse"] = s.transmittance.rmse;
+    auto summary = [](const ErrorSummary& x) {
+      return nlohmann::json{{"mean", x.mean}, {"p99", x.p99}, {"max", x.max}, {"rmse", x.rmse}};
+    };
+    e["map_error_dsm_vs_filtered_exact"] = summary(s.transmittance.map);
+    e["resolution_error_filtered_exact_vs_exact"] = summary(s.transmittance.resolution);
+    e["total_error_dsm_vs_exact"] = summary(s.transmittance.total);
+    for (const auto& [key, c] : {std::pair<const char*, const ErrorClass&>{"edge_points", s.transmittance.edge},
+                                 std::pair<const char*, const ErrorClass&>{"interior_points", s.transmittance.interior}}) {
+      e[key]["share_of_points"] = c.share;
+      e[key]["map_error"] = summary(c.map);
+      e[key]["resolution_error"] = summary(c.resolution);
+      e[key]["total_error"] = summary(c.total);
+    }
     j["image_error"]["rmse"] = s.image.rmse;
     j["image_error"]["psnr_db"] = std::isfinite(s.image.psnr) ? s.image.psnr : 999.0;
   }
@@ -160,9 +176,18 @@ void print_summary(const FrameStats& s, const Scene& scene, bool reference_backe
               (unsigned long long)s.unmatched_fragments, (unsigned long long)s.enclosing_overflow, kMaxRayObjects,
               (unsigned long long)s.match_overflow, (unsigned long long)s.march_lengthened);
   if (s.has_reference) {
+    const TransmittanceError& t = s.transmittance;
     std::printf("error        transmittance over %llu points: mean %.5f, p99 %.4f, max %.4f, RMSE %.5f\n",
-                (unsigned long long)s.transmittance.points, s.transmittance.mean, s.transmittance.p99,
-                s.transmittance.max, s.transmittance.rmse);
+                (unsigned long long)t.points, t.mean, t.p99, t.max, t.rmse);
+    std::printf("  map        |T_dsm - T_filtered_exact| (eps, offsets): mean %.5f, p99 %.4f, max %.4f\n", t.map.mean,
+                t.map.p99, t.map.max);
+    std::printf("  resolution |T_filtered_exact - T_exact| (texels, clusters): mean %.5f, p99 %.4f, max %.4f\n",
+                t.resolution.mean, t.resolution.p99, t.resolution.max);
+    for (const auto& [name, c] : {std::pair<const char*, const ErrorClass&>{"interior", t.interior},
+                                  std::pair<const char*, const ErrorClass&>{"edge    ", t.edge}})
+      std::printf("  %s   %.1f%% of points: total mean %.5f, p99 %.4f, max %.4f; map p99 %.4f, max %.4f; "
+                  "resolution p99 %.4f\n",
+                  name, 100.0 * c.share, c.total.mean, c.total.p99, c.total.max, c.map.p99, c.map.max, c.resolution.p99);
     std::printf("image        RMSE %.5f, PSNR %.2f dB against the reference (%.1f ms)\n", s.image.rmse, s.image.psnr,
                 s.times.reference_ms);
   }
@@ -230,7 +255,7 @@ int cmd_render(const std::vector<std::string>& args) {
   int filtering = -1;
   int clusters = 0;
   float d0 = -1.0f;
-  std::string layout;
+  std::string layout, receiver;
   int fixed_layers = 0;
   int splits = -1;
   int64_t max_memory = 0;
@@ -287,6 +312,10 @@ int cmd_render(const std::vector<std::string>& args) {
       layout = value();
       if (layout != "packed" && layout != "fixed" && layout != "chunked")
         throw Error("--layout", "unknown layout '" + layout + "' (packed, fixed or chunked)");
+    } else if (a == "--receiver") {
+      receiver = value();
+      if (receiver != "plane" && receiver != "slope_bias")
+        throw Error("--receiver", "unknown receiver lookup '" + receiver + "' (plane or slope_bias)");
     } else if (a == "--fixed-layers") {
       fixed_layers = parse_int(a, value());
       if (fixed_layers < 2 || fixed_layers > 4096) throw Error("--fixed-layers", "must be within [2, 4096]");
@@ -336,6 +365,8 @@ int cmd_render(const std::vector<std::string>& args) {
   if (layout == "packed") scene.shadows.layout = DsmLayout::Packed;
   if (layout == "fixed") scene.shadows.layout = DsmLayout::Fixed;
   if (layout == "chunked") scene.shadows.layout = DsmLayout::Chunked;
+  if (receiver == "plane") scene.shadows.receiver = ReceiverLookup::Plane;
+  if (receiver == "slope_bias") scene.shadows.receiver = ReceiverLookup::SlopeBias;
   if (fixed_layers > 0) scene.shadows.fixed_layers = fixed_layers;
   if (splits >= 0) scene.shadows.parallel_splits = splits;
 

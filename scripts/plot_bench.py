@@ -4,7 +4,9 @@
   plot_bench.py RESULTS.csv OUT_DIR
       one PNG per scene, OUT_DIR/<scene_name>.png: time (DSM build + camera
       pass, median, min-max bars) and memory against the transmittance RMSE,
-      the Pareto front of each marked; the reference renderer's time as a line.
+      the Pareto front of each marked, the reference renderer's time as a
+      line; and time against the map error p99 (|T - T_filtered_exact|: the
+      part of the error epsilon controls, without resolution error).
 
   plot_bench.py --epsilon-table RESULTS.csv [--scene NAME] [--res R] [--clusters M]
       prints the Markdown table of nodes per texel against epsilon beside the
@@ -78,13 +80,18 @@ def plot_scene(plt, name, rows, out_dir):
     marker_of = {res: RES_MARKERS[i % len(RES_MARKERS)] for i, res in enumerate(resolutions)}
     clusters = sorted({int(r["clusters"]) for r in rows})
     floor = 1e-6
-    fig, axes = plt.subplots(1, 2, figsize=(14, 6))
+    fig, axes = plt.subplots(1, 3, figsize=(20, 6))
+    time_label = "DSM build + camera pass [ms] (median; bars: min–max)"
+    rmse_label = "transmittance RMSE against the reference"
     panels = [
-        (axes[0], "time_ms", "DSM build + camera pass [ms] (median; bars: min–max)", "pareto_time"),
-        (axes[1], "memory_bytes", "shadow-map memory: index + nodes + slack [KiB]", "pareto_memory"),
+        (axes[0], "time_ms", time_label, "pareto_time", "t_rmse", rmse_label),
+        (axes[1], "memory_bytes", "shadow-map memory: index + nodes + slack [KiB]", "pareto_memory", "t_rmse",
+         rmse_label),
+        (axes[2], "time_ms", time_label, None, "map_err_p99",
+         "map error p99: |T - T_filtered_exact| (what ε controls)"),
     ]
     from matplotlib.lines import Line2D
-    for ax, xkey, xlabel, pkey in panels:
+    for ax, xkey, xlabel, pkey, ykey, ylabel in panels:
         seen = set()
         for r in rows:
             fam = family(r["method"])
@@ -92,9 +99,9 @@ def plot_scene(plt, name, rows, out_dir):
             x = fnum(r[xkey])
             if xkey == "memory_bytes":
                 x /= 1024.0
-            y = max(fnum(r["t_rmse"]), floor)
+            y = max(fnum(r.get(ykey)), floor)
             seen.add(fam)
-            on_front = r[pkey] == "1"
+            on_front = pkey is not None and r[pkey] == "1"
             xerr = None
             if xkey == "time_ms":
                 lo = fnum(r["build_ms_min"]) + fnum(r["camera_ms_min"])
@@ -111,9 +118,9 @@ def plot_scene(plt, name, rows, out_dir):
                           label=FAMILY_STYLE.get(f, ("tab:gray", f))[1]) for f in ("dsm", "sm", "osm", "avsm") if f in seen]
         pts = []
         for r in rows:
-            if r[pkey] == "1":
+            if pkey is not None and r[pkey] == "1":
                 x = fnum(r[xkey]) / (1024.0 if xkey == "memory_bytes" else 1.0)
-                pts.append((x, max(fnum(r["t_rmse"]), floor)))
+                pts.append((x, max(fnum(r[ykey]), floor)))
         if pts:
             xs, ys = front_line(pts)
             handles += ax.plot(xs, ys, "-", color="black", lw=1.0, alpha=0.6, label="Pareto front (outlined)", zorder=0)
@@ -128,7 +135,7 @@ def plot_scene(plt, name, rows, out_dir):
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel(xlabel)
-        ax.set_ylabel("transmittance RMSE against the reference")
+        ax.set_ylabel(ylabel)
         ax.grid(True, which="both", alpha=0.25)
         ax.legend(handles=handles, fontsize=7, loc="best")
     fig.suptitle("%s — speed and memory against error (lower left is better; outlined: on the Pareto front)" % name)

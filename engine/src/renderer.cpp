@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 
 #include "cdsm/error.h"
 #include "cdsm/scene_io.h"
@@ -32,6 +34,68 @@ uint32_t hash32(uint32_t x) {
   x *= 0x846ca68bU;
   x ^= x >> 16;
   return x;
+}
+
+// One compared lookup: its map, resolution and total error, weight, class.
+struct PointError {
+  float map, resolution, total, weight;
+  bool edge;
+};
+
+// Weighted mean, RMSE, max and 99th percentile of one kind of error.
+ErrorSummary summarize(std::vector<std::pair<float, float>> e) {  // (error, weight)
+  ErrorSummary s;
+  double sw = 0, se = 0, se2 = 0;
+  for (const auto& [err, w] : e) {
+    sw += w;
+    se += double(w) * err;
+    se2 += double(w) * err * err;
+    s.max = std::max(s.max, double(err));
+  }
+  if (sw <= 0.0) return s;
+  s.mean = se / sw;
+  s.rmse = std::sqrt(se2 / sw);
+  std::sort(e.begin(), e.end());
+  double acc = 0;
+  s.p99 = e.back().first;
+  for (const auto& [err, w] : e) {
+    acc += w;
+    if (acc >= 0.99 * sw) {
+      s.p99 = err;
+      break;
+    }
+  }
+  return s;
+}
+
+// The decomposition over all points and per class (edge, interior).
+TransmittanceError summarize_errors(const std::vector<PointError>& pts) {
+  TransmittanceError e;
+  e.points = pts.size();
+  if (pts.empty()) return e;
+  auto pick = [&](int cls, float PointError::*field) {  // cls: -1 all, 0 interior, 1 edge
+    std::vector<std::pair<float, float>> v;
+    for (const PointError& p : pts)
+      if (cls < 0 || int(p.edge) == cls) v.push_back({p.*field, p.weight});
+    return summarize(std::move(v));
+  };
+  e.map = pick(-1, &PointError::map);
+  e.resolution = pick(-1, &PointError::resolution);
+  e.total = pick(-1, &PointError::total);
+  e.mean = e.total.mean;
+  e.p99 = e.total.p99;
+  e.max = e.total.max;
+  e.rmse = e.total.rmse;
+  size_t edges = 0;
+  for (const PointError& p : pts) edges += p.edge;
+  for (int cls = 0; cls < 2; ++cls) {
+    ErrorClass& c = cls ? e.edge : e.interior;
+    c.share = double(cls ? edges : pts.size() - edges) / double(pts.size());
+    c.map = pick(cls, &PointError::map);
+    c.resolution = pick(cls, &PointError::resolution);
+    c.total = pick(cls, &PointError::total);
+  }
+  return e;
 }
 
 }  // namespace
@@ -168,37 +232,61 @@ struct Renderer::Impl {
       lookups.swap(kept);
     }
     ReferenceRenderer ref(sv, f.shadows.setup.lights, ReferenceOptions{opt.reference_step_voxels});
-    struct Sample {
-      float err, weight;
-    };
-    std::vector<Sample> all(lookups.size());
+    // Each map's members, for the filtered exact reference of its taps.
+    std::vector<std::vector<uint32_t>> member_words(f.shadows.setup.maps.size());
+    for (size_t k = 0; k < member_words.size(); ++k) {
+      member_words[k].assign((sv.objects.size() + 31) / 32, 0u);
+      for (uint32_t o : f.shadows.setup.maps[k].members) member_words[k][o >> 5] |= 1u << (o & 31u);
+    }
+    // T_f's taps read at the receiver's plane along their rays (volume
+    // samples: at their depth) whatever the lookup does, so the resolution
+    // error is the same for every receiver lookup and the map error holds
+    // the lookup's offsets.
+    ShadowView exact_taps = shv;
+    exact_taps.receiver = kReceiverPlane;
+    std::vector<PointError> errors(lookups.size());
     tbb::parallel_for(size_t(0), lookups.size(), [&](size_t i) {
       const RecordedLookup& l = lookups[i];
-      all[i] = {std::fabs(l.transmittance - ref.transmittance(l.light, l.at.p)), l.weight};
+      const LightData& L = shv.lights[uint32_t(l.light)];
+      float tap_lo = 1.0f, tap_hi = 0.0f;
+      // T_f: the lookup's own maps, taps, weights and depths (hd/lights.h),
+      // each tap's texel exact through its map's members.
+      const float alpha_f = combine_maps(shv, L, l.at.p, [&](uint32_t k, const DsmMap& m, const ViewProjection& pr) {
+        const ObjectMask members{{member_words[k].data(), member_words[k].size()}};
+        float a = 0.0f;
+        for_each_tap(m, pr.u, pr.v, shv.filtering, [&](int tx, int ty, float w) {
+          const Vec3 d = normalize(view_direction(m.view, float(tx) + 0.5f, float(ty) + 0.5f));
+          const Vec3 q = m.view.eye + d * tap_depth(exact_taps, m, pr, l.at, tx, ty);
+          const float te = ref.transmittance_segment(L.position, q, members);
+          tap_lo = std::min(tap_lo, te);
+          tap_hi = std::max(tap_hi, te);
+          a += w * (1.0f - te);
+        });
+        return a;
+      });
+      const float t_f = 1.0f - alpha_f, t_exact = ref.transmittance(l.light, l.at.p);
+      // Edge: the taps' exact transmittances, and the point's own, differ by
+      // more than 0.05 (the point's own: a feature finer than a texel,
+      // which all taps miss or all taps see).
+      tap_lo = std::min(tap_lo, t_exact);
+      tap_hi = std::max(tap_hi, t_exact);
+      errors[i] = {std::fabs(l.transmittance - t_f), std::fabs(t_f - t_exact), std::fabs(l.transmittance - t_exact),
+                   l.weight, tap_hi - tap_lo > 0.05f};
     });
-    TransmittanceError e;
-    e.points = all.size();
-    if (all.empty()) return e;
-    double sw = 0, se = 0, se2 = 0;
-    for (const Sample& s : all) {
-      sw += s.weight;
-      se += double(s.weight) * s.err;
-      se2 += double(s.weight) * s.err * s.err;
-      e.max = std::max(e.max, double(s.err));
-    }
-    e.mean = se / sw;
-    e.rmse = std::sqrt(se2 / sw);
-    std::sort(all.begin(), all.end(), [](const Sample& a, const Sample& b) { return a.err < b.err; });
-    double acc = 0;
-    e.p99 = all.back().err;
-    for (const Sample& s : all) {
-      acc += s.weight;
-      if (acc >= 0.99 * sw) {
-        e.p99 = s.err;
-        break;
+    // CDSM_PROBE_DUMP=FILE: every compared lookup, one line each (README).
+    if (const char* dump = std::getenv("CDSM_PROBE_DUMP")) {
+      FILE* fo = std::fopen(dump, "w");
+      if (!fo) throw Error(dump, "cannot write the probe dump (CDSM_PROBE_DUMP)");
+      std::fprintf(fo, "# x y z  plane_x plane_y plane_z own_step  T_dsm map_error resolution_error total_error edge\n");
+      for (size_t i = 0; i < lookups.size(); ++i) {
+        const RecordedLookup& l = lookups[i];
+        std::fprintf(fo, "%g %g %g  %g %g %g %d  %g %g %g %g %d\n", l.at.p.x, l.at.p.y, l.at.p.z, l.at.plane.x,
+                     l.at.plane.y, l.at.plane.z, int(l.at.own_step), l.transmittance, errors[i].map, errors[i].resolution,
+                     errors[i].total, int(errors[i].edge));
       }
+      std::fclose(fo);
     }
-    return e;
+    return summarize_errors(errors);
   }
 
   // Surface points of the camera view on a coarse grid (receivers for the

@@ -92,7 +92,7 @@ struct Parser {
   ShadowSettings shadows(const JsonNode& n) {
     n.expect_object({"epsilon", "resolution", "filtering", "bias_constant", "bias_slope", "clusters", "d0",
                      "layout", "method", "method_param", "ambient",
-                     "fixed_layers", "chunk_nodes", "parallel_splits", "max_memory"});
+                     "fixed_layers", "chunk_nodes", "parallel_splits", "max_memory", "receiver"});
     ShadowSettings s;  // ranges: validate_scene
     s.epsilon = n.get("epsilon", s.epsilon);
     s.resolution = n.get("resolution", s.resolution);
@@ -110,6 +110,10 @@ struct Parser {
     else n.at("layout").fail("unknown layout '" + layout + "' (packed, fixed or chunked)");
     s.fixed_layers = n.get("fixed_layers", s.fixed_layers);
     s.chunk_nodes = n.get("chunk_nodes", s.chunk_nodes);
+    std::string receiver = n.get("receiver", "plane");
+    if (receiver == "plane") s.receiver = ReceiverLookup::Plane;
+    else if (receiver == "slope_bias") s.receiver = ReceiverLookup::SlopeBias;
+    else n.at("receiver").fail("unknown receiver lookup '" + receiver + "' (plane or slope_bias)");
     // The benchmark's baselines (DESIGN.md §7): what a texel stores.
     std::string method = n.get("method", "dsm");
     if (method == "dsm") s.method = ShadowMethod::Dsm;

@@ -198,6 +198,7 @@ ShadowView ShadowFrame::view(const ShadowSettings& s) const {
   v.filtering = s.filtering;
   v.bias_constant = s.bias_constant;
   v.bias_slope = s.bias_slope;
+  v.receiver = uint32_t(s.receiver);
   return v;
 }
 

@@ -229,28 +229,37 @@ CDSM_HD inline uint32_t read_texel(const DsmStorage& st, const DsmMap& m, int tx
   return count;
 }
 
-// alpha at light-space position (u, v) in texels, radial depth z; taps
-// outside the map count as alpha = 0. Bilinear per thesis eq. 4.18-4.19, or
-// the nearest texel when filtering is off.
-CDSM_HD CDSM_INLINE float lookup_map(const DsmStorage& st, const DsmMap& m, float u, float v, float z,
-                                     bool filtering) {
+// The taps of a lookup at light-space position (u, v) in texels: the
+// bilinear taps (thesis eq. 4.18-4.19) with their weights, or the nearest
+// texel (weight 1) when filtering is off; taps outside the map are skipped
+// (they count as alpha = 0). f(tx, ty, weight).
+template <class F>
+CDSM_HD CDSM_INLINE void for_each_tap(const DsmMap& m, float u, float v, bool filtering, F&& f) {
   int res = int(m.res);
   if (!filtering) {
     int tx = int(floorf(u)), ty = int(floorf(v));
-    if (tx < 0 || ty < 0 || tx >= res || ty >= res) return 0.0f;
-    return texel_alpha(st, m, tx, ty, z);
+    if (tx < 0 || ty < 0 || tx >= res || ty >= res) return;
+    f(tx, ty, 1.0f);
+    return;
   }
   float lx = u - 0.5f, ly = v - 0.5f;
   float fx = floorf(lx), fy = floorf(ly);
   float wx = lx - fx, wy = ly - fy;
   int x0 = int(fx), y0 = int(fy);
-  float acc = 0.0f;
   for (int k = 0; k < 4; ++k) {
     int tx = x0 + (k & 1), ty = y0 + (k >> 1);
     float w = ((k & 1) ? wx : 1.0f - wx) * ((k >> 1) ? wy : 1.0f - wy);
     if (w <= 0.0f || tx < 0 || ty < 0 || tx >= res || ty >= res) continue;
-    acc += w * texel_alpha(st, m, tx, ty, z);
+    f(tx, ty, w);
   }
+}
+
+// alpha at light-space position (u, v) in texels, radial depth z (every tap
+// at the same depth).
+CDSM_HD CDSM_INLINE float lookup_map(const DsmStorage& st, const DsmMap& m, float u, float v, float z,
+                                     bool filtering) {
+  float acc = 0.0f;
+  for_each_tap(m, u, v, filtering, [&](int tx, int ty, float w) { acc += w * texel_alpha(st, m, tx, ty, z); });
   return acc;
 }
 

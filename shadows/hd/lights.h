@@ -34,7 +34,14 @@ struct ShadowView {
   bool filtering;
   float bias_constant;  // casters' offset from their own plane: world units
   float bias_slope;     // + this many texel footprints at the point
+  uint32_t receiver;    // kReceiverPlane / kReceiverSlopeBias (cdsm::ReceiverLookup)
 };
+
+inline constexpr uint32_t kReceiverPlane = 0u;
+inline constexpr uint32_t kReceiverSlopeBias = 1u;
+// The slope-bias baseline's constants (the defaults before receiver planes).
+inline constexpr float kSlopeBiasConstant = 0.0005f;
+inline constexpr float kSlopeBiasTexels = 1.5f;
 
 // How far (in texel footprints) a tap's plane depth may lie from the
 // point's depth: rays nearly parallel to the receiver's plane.
@@ -102,43 +109,45 @@ CDSM_HD CDSM_INLINE float plane_depth_at_texel(const PinholeView& v, int tx, int
   return t;
 }
 
-// alpha of map m at receiver r (projected to pr), bilinear or nearest.
-CDSM_HD CDSM_INLINE float lookup_receiver(const DsmStorage& st, const DsmMap& m, const ViewProjection& pr,
-                                          const Receiver& r, float offset, float reach, bool filtering) {
-  const int res = int(m.res);
-  if (!filtering) {
-    int tx = int(floorf(pr.u)), ty = int(floorf(pr.v));
-    if (tx < 0 || ty < 0 || tx >= res || ty >= res) return 0.0f;
-    return texel_alpha(st, m, tx, ty, plane_depth_at_texel(m.view, tx, ty, r.p, r.plane, pr.depth, reach) - offset);
-  }
-  float lx = pr.u - 0.5f, ly = pr.v - 0.5f;
-  float fx = floorf(lx), fy = floorf(ly);
-  float wx = lx - fx, wy = ly - fy;
-  int x0 = int(fx), y0 = int(fy);
-  float acc = 0.0f;
-  for (int k = 0; k < 4; ++k) {
-    int tx = x0 + (k & 1), ty = y0 + (k >> 1);
-    float w = ((k & 1) ? wx : 1.0f - wx) * ((k >> 1) ? wy : 1.0f - wy);
-    if (w <= 0.0f || tx < 0 || ty < 0 || tx >= res || ty >= res) continue;
-    acc += w * texel_alpha(st, m, tx, ty, plane_depth_at_texel(m.view, tx, ty, r.p, r.plane, pr.depth, reach) - offset);
-  }
-  return acc;
+// The depth at which tap (tx, ty) of map m reads its texel for receiver r
+// (projected to pr), before any offset: the receiver's plane along the
+// tap's ray, or the point's own depth (volume samples; the slope-bias
+// baseline for every tap).
+CDSM_HD CDSM_INLINE float tap_depth(const ShadowView& sv, const DsmMap& m, const ViewProjection& pr,
+                                    const Receiver& r, int tx, int ty) {
+  if (sv.receiver == kReceiverSlopeBias || !(dot(r.plane, r.plane) > 0.0f)) return pr.depth;
+  return plane_depth_at_texel(m.view, tx, ty, r.p, r.plane, pr.depth,
+                              kPlaneReachTexels * texel_footprint(m, pr.axial));
 }
 
-// Opacity between light L and receiver r from the light's DSMs (thesis
-// eq. 3.12 over clusters; cube faces by major axis; parallel splits: the
-// first map holding the point).
-CDSM_HD inline float shadow_alpha(const ShadowView& sv, const LightData& L, const Receiver& r) {
+// How far short of tap_depth() receiver r's taps read in map m.
+CDSM_HD CDSM_INLINE float receiver_offset(const ShadowView& sv, const LightData& L, const DsmMap& m,
+                                          const ViewProjection& pr, const Receiver& r) {
+  const float footprint = texel_footprint(m, pr.axial);
+  if (sv.receiver == kReceiverSlopeBias) {  // every surface: constant + slope-scaled
+    if (!(dot(r.plane, r.plane) > 0.0f)) return 0.0f;
+    const float ndl = fabsf(dot(r.plane, normalize(L.position - r.p)));
+    const float tan_inc = sqrtf(fmaxf(0.0f, 1.0f - ndl * ndl)) / fmaxf(ndl, 0.02f);
+    return kSlopeBiasConstant + kSlopeBiasTexels * footprint * tan_inc;
+  }
+  return r.own_step ? sv.bias_constant + sv.bias_slope * footprint + kRelativeDepthOffset * pr.depth : 0.0f;
+}
+
+// The maps a lookup at p uses and how their alphas combine: every cluster
+// map by thesis eq. 3.12, the one cube face by major axis, or the first
+// parallel split holding the point. map_alpha(map_index, map, projection)
+// gives one map's alpha; the combined alpha is returned.
+template <class MapAlpha>
+CDSM_HD CDSM_INLINE float combine_maps(const ShadowView& sv, const LightData& L, Vec3 p, MapAlpha&& map_alpha) {
   float alpha = 0.0f;
   uint32_t first = L.first_map, count = L.map_count;
   if (L.map_mode == kMapsCubeFaces && count == 6) {
-    first += uint32_t(cube_face_of(r.p - L.position));
+    first += uint32_t(cube_face_of(p - L.position));
     count = 1;
   }
-  const bool has_plane = dot(r.plane, r.plane) > 0.0f;
   for (uint32_t k = 0; k < count; ++k) {
     const DsmMap& m = sv.maps[first + k];
-    ViewProjection pr = project(m.view, r.p);
+    ViewProjection pr = project(m.view, p);
     if (pr.axial <= 0.0f) continue;
     if (L.map_mode == kMapsFirstContaining) {
       // Each split map holds every caster: use the finest map whose window
@@ -147,18 +156,22 @@ CDSM_HD inline float shadow_alpha(const ShadowView& sv, const LightData& L, cons
       if (k + 1 < count && (pr.u < lo || pr.v < lo || pr.u > hi || pr.v > hi)) continue;
       count = k + 1;
     }
-    float a;
-    if (has_plane) {
-      const float footprint = texel_footprint(m, pr.axial);
-      const float offset =
-          r.own_step ? sv.bias_constant + sv.bias_slope * footprint + kRelativeDepthOffset * pr.depth : 0.0f;
-      a = lookup_receiver(sv.storage, m, pr, r, offset, kPlaneReachTexels * footprint, sv.filtering);
-    } else {
-      a = lookup_map(sv.storage, m, pr.u, pr.v, pr.depth, sv.filtering);
-    }
+    const float a = map_alpha(first + k, m, pr);
     alpha = alpha + a * (1.0f - alpha);  // thesis eq. 3.12
   }
   return alpha;
+}
+
+// Opacity between light L and receiver r from the light's DSMs.
+CDSM_HD inline float shadow_alpha(const ShadowView& sv, const LightData& L, const Receiver& r) {
+  return combine_maps(sv, L, r.p, [&](uint32_t, const DsmMap& m, const ViewProjection& pr) {
+    const float offset = receiver_offset(sv, L, m, pr, r);
+    float a = 0.0f;
+    for_each_tap(m, pr.u, pr.v, sv.filtering, [&](int tx, int ty, float w) {
+      a += w * texel_alpha(sv.storage, m, tx, ty, tap_depth(sv, m, pr, r, tx, ty) - offset);
+    });
+    return a;
+  });
 }
 
 // A point lookup at p's own depth (volume samples, probes).

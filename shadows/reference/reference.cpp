@@ -150,6 +150,10 @@ void for_each_inside_interval(const std::vector<float>& ts, float t_end, F&& f) 
 }  // namespace
 
 float ReferenceRenderer::transmittance_segment(Vec3 a, Vec3 b) const {
+  return transmittance_segment(a, b, ObjectMask{});
+}
+
+float ReferenceRenderer::transmittance_segment(Vec3 a, Vec3 b, ObjectMask members) const {
   Vec3 d = b - a;
   float dist = length(d);
   if (dist <= 0.0f) return 1.0f;
@@ -161,14 +165,15 @@ float ReferenceRenderer::transmittance_segment(Vec3 a, Vec3 b) const {
   // Surfaces crossed before the point.
   for (const Hit& h : hits) {
     if (h.t >= own) break;
-    T *= 1.0 - double(scene_.objects[h.object].opacity);
+    if (members.contains(h.object)) T *= 1.0 - double(scene_.objects[h.object].opacity);
   }
   // Interiors, object by object, by parity over the whole ray.
   double tau = 0.0;
   thread_local std::vector<float> ts;
   for (uint32_t o = 0; o < scene_.objects.size(); ++o) {
     const ObjectData& od = scene_.objects[o];
-    if (od.interior == 0u || !(od.flags & kObjClosed) || !(od.flags & kObjCastsShadows)) continue;
+    if (od.interior == 0u || !(od.flags & kObjClosed) || !(od.flags & kObjCastsShadows) || !members.contains(o))
+      continue;
     ts.clear();
     for (const Hit& h : hits)
       if (h.object == o) ts.push_back(h.t);

@@ -27,8 +27,11 @@ class ReferenceRenderer {
   // surface (hits within a relative 1e-5 of p) does not shadow it.
   float transmittance(int light, Vec3 p) const;
 
-  // Transmittance along an arbitrary segment a -> b (casters only).
+  // Transmittance along an arbitrary segment a -> b (casters only); the
+  // point b's own surface (hits within a relative 1e-5 of b) does not count.
   float transmittance_segment(Vec3 a, Vec3 b) const;
+  // The same through the casters in `members` only (a cluster's objects).
+  float transmittance_segment(Vec3 a, Vec3 b, ObjectMask members) const;
 
   // Renders the camera view into rgb (3 floats per pixel).
   void render(const CameraPassParams& params, std::vector<float>& rgb) const;

@@ -374,8 +374,14 @@ TEST(VdbBad, FuzzFindingsAreClearErrorsWithoutHugeAllocations) {
   // OpenVDB read 128 bytes, lost its place and allocated a 1.8 GB name.
   expect_error([&] { load_vdb(corpus + "grid_pos_elsewhere_huge_metadata.vdb"); },
                {"grid_pos_elsewhere_huge_metadata.vdb", "'file_bbox_min' of type mat4d has 12 bytes, not 128"});
+  // A transform whose type name claims 1.8 GB.
+  expect_error([&] { load_vdb(corpus + "transform_name_1_8GB.vdb"); },
+               {"transform_name_1_8GB.vdb", "transform of grid 'density' of 1862270976 bytes"});
+  // Tiles voxelizing to 107 and 67 million voxels (2.5 GB under ASan, 12 s).
+  for (const char* f : {"inactive_tiles_voxelized_oom.vdb", "tiles_voxelized_slow.vdb"})
+    expect_error([&] { load_vdb(corpus + f); }, {f, "more than the loader's limit of 33554432 tile voxels"});
   const long grown_mib = (peak_rss_kib() - before) / 1024;
-  std::printf("peak resident memory grew by %ld MiB over the five files\n", grown_mib);
+  std::printf("peak resident memory grew by %ld MiB over the eight files\n", grown_mib);
   EXPECT_LT(grown_mib, 256);
 
   // The same kind of tiles made here: one active root tile of 4096^3 voxels.

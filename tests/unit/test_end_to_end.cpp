@@ -173,3 +173,37 @@ TEST(EndToEnd, DsmNodesPhysicalOnDefaultScene) {
   EXPECT_GT(steps, 1000u);
   EXPECT_EQ(overflow, 0u);
 }
+
+// The error decomposition (issue "Shadows that are right where they should
+// be"): epsilon moves the map error |T - T_f| and leaves the resolution
+// error |T_f - T_exact| where it is (the lookups and T_f do not depend on
+// it); a finer map lowers the resolution error.
+TEST(EndToEnd, ErrorDecompositionSeparatesEpsilonFromResolution) {
+  Scene scene = default_scene(160, 120);
+  Renderer r;
+  RenderOptions opt;
+  opt.fragments = FragmentSource::Cpu;
+  opt.error_samples = 4000;
+  auto run = [&](float eps, int res) {
+    scene.shadows.epsilon = eps;
+    scene.shadows.resolution = res;
+    TransmittanceError e = r.transmittance_error(scene, opt);
+    std::printf("eps %.3f res %d: map p99 %.4f mean %.5f, resolution p99 %.4f mean %.5f, total p99 %.4f; "
+                "interior %.1f%% (total p99 %.4f), edge %.1f%%\n",
+                eps, res, e.map.p99, e.map.mean, e.resolution.p99, e.resolution.mean, e.total.p99,
+                100 * e.interior.share, e.interior.total.p99, 100 * e.edge.share);
+    return e;
+  };
+  const TransmittanceError fine = run(0.001f, 256), coarse = run(0.1f, 256), sharp = run(0.001f, 1024);
+  EXPECT_EQ(fine.points, coarse.points);
+  EXPECT_NEAR(fine.resolution.mean, coarse.resolution.mean, 1e-6);
+  EXPECT_NEAR(fine.resolution.p99, coarse.resolution.p99, 1e-6);
+  EXPECT_GT(coarse.map.p99, 0.03);  // epsilon 0.1 shows in the map error (0.084 measured)
+  EXPECT_LE(fine.map.p99, 0.001 + 0.005);  // map p99 <= eps + 0.005 (0.0006 measured)
+  EXPECT_LT(sharp.resolution.mean, 0.7 * fine.resolution.mean);
+  EXPECT_NEAR(fine.edge.share + fine.interior.share, 1.0, 1e-9);
+  EXPECT_GT(fine.interior.share, 0.5);
+  // The total stays the figure reported before the decomposition.
+  EXPECT_EQ(fine.mean, fine.total.mean);
+  EXPECT_EQ(fine.p99, fine.total.p99);
+}

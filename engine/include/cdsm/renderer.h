@@ -48,12 +48,40 @@ struct DsmMemory {
   float max_extra_error = 0.0f;   // error those re-compressions added (bound)
 };
 
-struct TransmittanceError {
-  uint64_t points = 0;  // shaded points x lights compared
-  double mean = 0.0;    // compositing-weighted mean |T_dsm - T_ref|
-  double p99 = 0.0;     // weighted 99th percentile
+// Compositing-weighted statistics of one kind of transmittance error.
+struct ErrorSummary {
+  double mean = 0.0;
+  double p99 = 0.0;  // weighted 99th percentile
   double max = 0.0;
-  double rmse = 0.0;    // weighted
+  double rmse = 0.0;
+};
+
+// The error of the shadow lookups the camera pass made (every shaded point x
+// lit light, sampled), decomposed at each point with the filtered exact
+// reference T_f = sum_i w_i T_exact(tap_i): the exact transmittance along
+// each lookup tap's texel-centre light ray at the depth the tap reads (the
+// receiver's plane, or a volume sample's depth), through the tap's map's
+// members only, with the lookup's own weights, combined over maps as the
+// lookup combines them (thesis eq. 3.12).
+//   map error        |T_dsm - T_f|   compression, offsets, depth sampling: what eps controls
+//   resolution error |T_f - T_exact| filtering at texel spacing: what resolution and clustering control
+//   total            |T_dsm - T_exact|
+// A point is an edge point when its taps' exact transmittances and its own
+// differ by more than 0.05 (a shadow edge within a texel, or a feature
+// finer than one), else interior.
+struct ErrorClass {
+  double share = 0.0;  // fraction of the points in this class
+  ErrorSummary map, resolution, total;
+};
+
+struct TransmittanceError {
+  uint64_t points = 0;  // lookups compared
+  double mean = 0.0;    // total error over all points (as `total`)
+  double p99 = 0.0;
+  double max = 0.0;
+  double rmse = 0.0;
+  ErrorSummary map, resolution, total;  // over all points
+  ErrorClass edge, interior;
 };
 
 // The clusters of one light in a frame (thesis Alg. 4.2).

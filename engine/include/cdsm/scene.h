@@ -127,6 +127,13 @@ struct Camera {
 
 enum class DsmLayout : uint32_t { Packed = 0, Fixed = 1, Chunked = 2 };
 
+// How a surface looks itself up (hd/lights.h Receiver).
+enum class ReceiverLookup : uint32_t {
+  Plane = 0,      // each tap at the receiver's plane along its own ray; casters offset slightly
+  SlopeBias = 1,  // the previous design, kept as the baseline: every tap at the point's depth minus
+                  // 0.5 mm + 1.5 texel footprints x tan(incidence) (tan <= 50), for every surface
+};
+
 // What each texel stores. Deep shadow maps are the product; the others are
 // the baselines the benchmark compares against, built from the same light
 // rays and read by the same lookup.
@@ -147,6 +154,7 @@ struct ShadowSettings {
   // surfaces and volume samples take no offset.
   float bias_constant = 0.0002f;
   float bias_slope = 0.05f;
+  ReceiverLookup receiver = ReceiverLookup::Plane;
   int32_t max_clusters = 1;     // m
   // Baseline arrangement: > 1 replaces a spot light's map (and any clusters)
   // by that many parallel-split maps along the camera's view (Zhang et al.

@@ -109,10 +109,11 @@ namespace cdsm {
 namespace {
 
 // Voxelizing tiles (active ones, and inactive ones whose value is not the
-// background) into more leaves than this is refused: 2^18 leaves of 8^3
-// float voxels are 512^3 voxels, about 0.55 GB once voxelized. A file of a
-// few kilobytes can hold tiles that would voxelize to terabytes.
-constexpr uint64_t kMaxTileLeaves = uint64_t(1) << 18;
+// background) into more leaves than this is refused: 2^16 leaves of 8^3
+// float voxels are 2^25 voxels (about 320^3), about 140 MB once voxelized
+// (and within the fuzzers' 2 GiB under ASan, whose heap costs 3-4x). A
+// file of a few kilobytes can hold tiles that would voxelize to terabytes.
+constexpr uint64_t kMaxTileLeaves = uint64_t(1) << 16;
 
 std::string describe(const openvdb::GridBase& g) {
   std::string type = g.valueType();
@@ -192,6 +193,7 @@ class Prologue {
       metadata("metadata of grid '" + grid.name + "'", &grid.metadata);
       grid.rest = uint64_t(in_.tellg());
       if (grid.rest > end_pos) throw Error(path_, "corrupt VDB file: the metadata of grid '" + grid.name + "' run past its end");
+      str("transform of grid '" + grid.name + "'");  // the map's type name
       seek(end_pos);  // the next descriptor follows the grid
       grid.end = end_pos;
       layout.grids.push_back(std::move(grid));
