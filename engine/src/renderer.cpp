@@ -253,11 +253,14 @@ struct Renderer::Impl {
       // each tap's texel exact through its map's members.
       const float alpha_f = combine_maps(shv, L, l.at.p, [&](uint32_t k, const DsmMap& m, const ViewProjection& pr) {
         const ObjectMask members{{member_words[k].data(), member_words[k].size()}};
+        // The receiver's own surface by identity: its hits within the
+        // lookup's offset before the tap point (what the lookup skips too).
+        const float own_window = receiver_offset(exact_taps, L, m, pr, l.at);
         float a = 0.0f;
         for_each_tap(m, pr.u, pr.v, shv.filtering, [&](int tx, int ty, float w) {
           const Vec3 d = normalize(view_direction(m.view, float(tx) + 0.5f, float(ty) + 0.5f));
           const Vec3 q = m.view.eye + d * tap_depth(exact_taps, m, pr, l.at, tx, ty);
-          const float te = ref.transmittance_segment(L.position, q, members);
+          const float te = ref.transmittance_segment(L.position, q, members, l.at.object, own_window);
           tap_lo = std::min(tap_lo, te);
           tap_hi = std::max(tap_hi, te);
           a += w * (1.0f - te);

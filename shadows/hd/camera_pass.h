@@ -88,6 +88,7 @@ struct CameraVisitor {
     in.has_normal = true;
     in.plane = geometric_normal(s, tri);
     in.own_step_in_maps = (o.flags & kObjCastsShadows) != 0u;
+    in.object = s.tri_object[tri];
     Vec3 c = shade_point(in, lights, ambient, visibility);
     float w = T * o.opacity;
     rec.shaded(in.p, in.n, true, w);
@@ -120,6 +121,7 @@ struct CameraVisitor {
             in.has_normal = false;
             in.plane = Vec3{0, 0, 0};
             in.own_step_in_maps = false;
+            in.object = kNoObject;
             in.n = Vec3{0, 0, 0};
             if (v.shading == 1u) {  // phong: normal from the density gradient
               Vec3 g = density_gradient(s, v, in.p) * v.gradient_scale;

@@ -90,10 +90,13 @@ CDSM_HD CDSM_INLINE int cube_face_of(Vec3 d) {
 // a casting slab, stacked sheets 1 mm apart and grazing light all need the
 // per-tap plane (tests/unit/test_receivers.cpp). Cost: one normalize and a
 // dot product per tap; node size unchanged (no identity tags needed).
+inline constexpr uint32_t kNoObject = 0xffffffffu;
+
 struct Receiver {
   Vec3 p;
   Vec3 plane;      // unit geometric normal of its surface (either side); 0: a volume sample
   bool own_step;   // its surface is in the maps (a caster's): stop short of its own step
+  uint32_t object = kNoObject;  // the surface's object (the error probe's own-surface identity)
 };
 
 // The depth at which texel (tx, ty)'s centre ray crosses the plane through p

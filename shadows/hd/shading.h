@@ -21,6 +21,7 @@ struct ShadeInput {
   // The surface is in the shadow maps (a caster's): the lookup stops short
   // of its own step. False for receive-only surfaces and volume samples.
   bool own_step_in_maps;
+  uint32_t object;  // the surface's object, kNoObject for volume samples
 };
 
 // Visibility callback form: float vis(int light_index, const Receiver& r)
@@ -37,7 +38,7 @@ CDSM_HD Vec3 shade_point(const ShadeInput& in, Span<const LightData> lights, Vec
     float dist = length(to_l);
     if (dist <= 0.0f) continue;
     Vec3 l = to_l * (1.0f / dist);
-    const Receiver rc{in.p, in.plane, in.own_step_in_maps};
+    const Receiver rc{in.p, in.plane, in.own_step_in_maps, in.object};
     if (!in.has_normal) {
       float vis = visibility(int(i), rc);
       c += in.color * L.radiance * (cone * vis);

@@ -153,7 +153,8 @@ float ReferenceRenderer::transmittance_segment(Vec3 a, Vec3 b) const {
   return transmittance_segment(a, b, ObjectMask{});
 }
 
-float ReferenceRenderer::transmittance_segment(Vec3 a, Vec3 b, ObjectMask members) const {
+float ReferenceRenderer::transmittance_segment(Vec3 a, Vec3 b, ObjectMask members, uint32_t own_object,
+                                              float own_window) const {
   Vec3 d = b - a;
   float dist = length(d);
   if (dist <= 0.0f) return 1.0f;
@@ -165,6 +166,7 @@ float ReferenceRenderer::transmittance_segment(Vec3 a, Vec3 b, ObjectMask member
   // Surfaces crossed before the point.
   for (const Hit& h : hits) {
     if (h.t >= own) break;
+    if (h.object == own_object && h.t >= dist - own_window) continue;
     if (members.contains(h.object)) T *= 1.0 - double(scene_.objects[h.object].opacity);
   }
   // Interiors, object by object, by parity over the whole ray.
@@ -278,6 +280,7 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
               in.has_normal = false;
               in.plane = Vec3{0, 0, 0};
               in.own_step_in_maps = false;
+              in.object = kNoObject;
               in.n = Vec3{0, 0, 0};
               if (v.shading == 1u) {
                 Vec3 g = density_gradient(scene_, v, p) * v.gradient_scale;
@@ -330,7 +333,8 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
           in.shininess = od.shininess;
           in.has_normal = true;
           in.plane = Vec3{0, 0, 0};
-          in.own_step_in_maps = false;  // exact shadow rays exclude the own surface by identity
+          in.own_step_in_maps = false;  // exact shadow rays exclude the own surface by distance
+          in.object = hh.object;
           Vec3 col = shade_point(in, lights, params.ambient, visibility);
           color += col * float(T * od.opacity);
           T *= 1.0 - od.opacity;

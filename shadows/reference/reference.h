@@ -30,8 +30,11 @@ class ReferenceRenderer {
   // Transmittance along an arbitrary segment a -> b (casters only); the
   // point b's own surface (hits within a relative 1e-5 of b) does not count.
   float transmittance_segment(Vec3 a, Vec3 b) const;
-  // The same through the casters in `members` only (a cluster's objects).
-  float transmittance_segment(Vec3 a, Vec3 b, ObjectMask members) const;
+  // The same through the casters in `members` only (a cluster's objects);
+  // hits of object `own` within `own_window` before b are b's own surface
+  // too (the error probe's taps: its own surface by identity).
+  float transmittance_segment(Vec3 a, Vec3 b, ObjectMask members, uint32_t own = kNoObject,
+                              float own_window = 0.0f) const;
 
   // Renders the camera view into rgb (3 floats per pixel).
   void render(const CameraPassParams& params, std::vector<float>& rgb) const;
