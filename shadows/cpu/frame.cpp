@@ -190,6 +190,9 @@ uint64_t map_key(const MapPlan& plan, const std::vector<uint64_t>& hashes, const
   return h.h;
 }
 
+static_assert(uint32_t(ReceiverLookup::Plane) == kReceiverPlane && uint32_t(ReceiverLookup::SlopeBias) == kReceiverSlopeBias,
+              "hd/lights.h receiver tags equal cdsm::ReceiverLookup");
+
 ShadowView ShadowFrame::view(const ShadowSettings& s) const {
   ShadowView v;
   v.lights = {setup.lights.data(), setup.lights.size()};
