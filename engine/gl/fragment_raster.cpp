@@ -65,6 +65,7 @@ struct FragmentRasterizer::Impl {
   PrefixSum scan;
   VertexArray vao{"cdsm.fragments.vao"};
   Framebuffer fbo{"cdsm.fragments.fbo"};
+  uint64_t uploaded = 0;  // bytes the last upload / update sent
   Buffer vertices{"cdsm.fragments.vertices"};  // 3 x vec3 per triangle (vertex attribute 0)
   Buffer normals{"cdsm.fragments.tri_normals"};  // cross(B-A, C-A) per triangle
   Buffer media{"cdsm.fragments.tri_media"};      // bit per triangle: bounds a medium
@@ -135,7 +136,10 @@ struct FragmentRasterizer::Impl {
                               std::to_string(kMaxPrimitives) + " fit a fragment's primitive field");
     context.make_current();
     tri_count = uint32_t(n);
-    vertices.reserve(n * 36);
+    uploaded = 0;
+    // Exactly sized when the scene shrank to under half (removed objects
+    // free their GL memory), else grown as needed.
+    fit(vertices, n * 36);
     vertices.upload(tri_vertices.data(), n * 36);
     normal_scratch.resize(3 * n);
     for (uint64_t t = 0; t < n; ++t) {
@@ -145,14 +149,15 @@ struct FragmentRasterizer::Impl {
       normal_scratch[3 * t + 1] = g.y;
       normal_scratch[3 * t + 2] = g.z;
     }
-    normals.reserve(n * 12);
+    fit(normals, n * 12);
     normals.upload(normal_scratch.data(), n * 12);
     media_scratch.assign(n / 32 + 1, 0u);
     for (uint64_t t = 0; t < n; ++t)
       if (tri_object[t] < objects.size() && bounds_medium(objects[tri_object[t]]))
         media_scratch[t >> 5] |= 1u << (t & 31u);
-    media.reserve(media_scratch.size() * 4);
+    fit(media, media_scratch.size() * 4);
     media.upload(media_scratch.data(), media_scratch.size() * 4);
+    uploaded = n * 48 + media_scratch.size() * 4;
     CDSM_GL(glVertexArrayVertexBuffer(vao.id(), 0, vertices.id(), 0, sizeof(Vec3)));
     runs.clear();
     for (uint32_t t = 0; t < tri_count; ++t) {
@@ -161,6 +166,32 @@ struct FragmentRasterizer::Impl {
       else
         runs.push_back({t, 1, tri_object[t]});
     }
+  }
+
+  // Grows `b` to `bytes`, or re-allocates it exactly when it holds more
+  // than twice that.
+  static void fit(Buffer& b, uint64_t bytes) {
+    if (b.capacity() > 2 * bytes + 4096) b.destroy();
+    b.reserve(bytes);
+  }
+
+  void update_triangles(uint64_t first, Span<const Vec3> tri_vertices) {
+    const uint64_t n = tri_vertices.size() / 3;
+    if (tri_vertices.size() != 3 * n || first + n > tri_count)
+      throw Error(kWhere, "update_triangles: triangles [" + std::to_string(first) + ", " + std::to_string(first + n) +
+                              ") are not within the " + std::to_string(tri_count) + " uploaded");
+    context.make_current();
+    vertices.upload(tri_vertices.data(), n * 36, first * 36);
+    normal_scratch.resize(3 * n);
+    for (uint64_t t = 0; t < n; ++t) {
+      Vec3 a = tri_vertices[3 * t], b = tri_vertices[3 * t + 1], c = tri_vertices[3 * t + 2];
+      Vec3 g = cross(b - a, c - a);
+      normal_scratch[3 * t] = g.x;
+      normal_scratch[3 * t + 1] = g.y;
+      normal_scratch[3 * t + 2] = g.z;
+    }
+    normals.upload(normal_scratch.data(), n * 12, first * 12);
+    uploaded = n * 48;
   }
 
   // Draw lists of the triangles of the objects in `mask`, per normal range.
@@ -396,6 +427,16 @@ FragmentRasterizer::~FragmentRasterizer() = default;
 void FragmentRasterizer::upload_scene(Span<const Vec3> tri_vertices, Span<const uint32_t> tri_object,
                                       Span<const ObjectData> objects) {
   impl_->upload(tri_vertices, tri_object, objects);
+}
+
+void FragmentRasterizer::update_triangles(uint64_t first_tri, Span<const Vec3> tri_vertices) {
+  impl_->update_triangles(first_tri, tri_vertices);
+}
+
+uint64_t FragmentRasterizer::last_upload_bytes() const { return impl_->uploaded; }
+
+uint64_t FragmentRasterizer::scene_buffer_bytes() const {
+  return impl_->vertices.capacity() + impl_->normals.capacity() + impl_->media.capacity();
 }
 
 void FragmentRasterizer::rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out) {

@@ -89,6 +89,13 @@ class FragmentRasterizer {
   // kMaxPrimitives triangles.
   void upload_scene(Span<const Vec3> tri_vertices, Span<const uint32_t> tri_object,
                     Span<const ObjectData> objects = {});
+  // Re-uploads triangles [first_tri, first_tri + n) that moved (3 vertices
+  // each; the same triangles, objects and media as uploaded). O(n).
+  void update_triangles(uint64_t first_tri, Span<const Vec3> tri_vertices);
+  // Bytes the last upload_scene / update_triangles sent to GL.
+  uint64_t last_upload_bytes() const;
+  // GL memory holding the uploaded scene (vertices, facing normals, media bits).
+  uint64_t scene_buffer_bytes() const;
 
   // Rasterizes the triangles of the objects in `mask` for `view` into `out`
   // (unsorted per pixel), exactly like cast_fragments() does by ray casting.

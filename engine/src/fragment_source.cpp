@@ -11,8 +11,7 @@ namespace cdsm {
 
 #if CDSM_HAVE_GL
 // One headless context and rasterizer per selector, made on first use and
-// kept across frames (pools are reused); the scene is re-uploaded only when
-// its triangles change.
+// kept across frames (pools are reused).
 struct FragmentSourceSelector::Gl {
   std::unique_ptr<gl::Context> context;
   std::unique_ptr<gl::FragmentRasterizer> raster;
@@ -24,46 +23,85 @@ struct FragmentSourceSelector::Gl {};
 FragmentSourceSelector::FragmentSourceSelector() = default;
 FragmentSourceSelector::~FragmentSourceSelector() = default;
 
-FragmentProducer FragmentSourceSelector::select(FragmentSource want, const SceneBuffers& sb,
-                                                std::string& name, std::string& reason) {
+void FragmentSourceSelector::choose(FragmentSource want, std::string& name, std::string& reason) {
+  if (chosen_ && want == want_) {
+    name = name_;
+    reason = reason_;
+    return;
+  }
+  want_ = want;
+  use_gl_ = false;
   if (want == FragmentSource::Cpu) {
-    name = "cpu";
-    reason = "requested (exact ray casting)";
-    return cpu_fragment_producer(sb.view());
-  }
+    name_ = "cpu";
+    reason_ = "requested (exact ray casting)";
+  } else {
 #if CDSM_HAVE_GL
-  if (!gl_tried_) {
-    gl_tried_ = true;
-    std::string why;
-    auto ctx = gl::create_headless_context({}, &why);
-    if (ctx) {
-      gl_ = std::make_unique<Gl>();
-      gl_->context = std::move(ctx);
-      gl_->raster = std::make_unique<gl::FragmentRasterizer>(*gl_->context);
-    } else {
-      gl_failure_ = why.empty() ? "no OpenGL 4.5 context" : why;
+    if (!gl_tried_) {
+      gl_tried_ = true;
+      std::string why;
+      auto ctx = gl::create_headless_context({}, &why);
+      if (ctx) {
+        gl_ = std::make_unique<Gl>();
+        gl_->context = std::move(ctx);
+        gl_->raster = std::make_unique<gl::FragmentRasterizer>(*gl_->context);
+      } else {
+        gl_failure_ = why.empty() ? "no OpenGL 4.5 context" : why;
+      }
     }
+    if (gl_) {
+      use_gl_ = true;
+      name_ = "gl";
+      reason_ = (want == FragmentSource::Gl ? "requested, " : "default when a context exists, ") +
+                gl_->context->description();
+    } else {
+      if (want == FragmentSource::Gl) throw Error("--fragments gl", "no OpenGL context: " + gl_failure_);
+      name_ = "cpu";
+      reason_ = "no OpenGL context (" + gl_failure_ + "), using the CPU ray caster";
+    }
+#else
+    if (want == FragmentSource::Gl) throw Error("--fragments gl", "this build has no OpenGL (configured with CDSM_GL=OFF)");
+    name_ = "cpu";
+    reason_ = "built without OpenGL (CDSM_GL=OFF)";
+#endif
   }
-  if (gl_) {
-    // select() is called once per compiled scene: upload its triangles.
-    gl_->raster->upload_scene({sb.tri_vertices.data(), sb.tri_vertices.size()},
-                              {sb.tri_object.data(), sb.tri_object.size()}, {sb.objects.data(), sb.objects.size()});
-    name = "gl";
-    reason = (want == FragmentSource::Gl ? "requested, " : "default when a context exists, ") +
-             gl_->context->description();
+  chosen_ = true;
+  name = name_;
+  reason = reason_;
+}
+
+uint64_t FragmentSourceSelector::scene_changed(const SceneBuffers& sb, const SceneChange& change) {
+  if (!use_gl_) return 0;
+#if CDSM_HAVE_GL
+  gl::FragmentRasterizer& r = *gl_->raster;
+  if (change.everything) {
+    r.upload_scene({sb.tri_vertices.data(), sb.tri_vertices.size()}, {sb.tri_object.data(), sb.tri_object.size()},
+                   {sb.objects.data(), sb.objects.size()});
+    return r.last_upload_bytes();
+  }
+  if (change.tri_count > 0) {
+    r.update_triangles(change.first_tri,
+                       {sb.tri_vertices.data() + size_t(change.first_tri) * 3, size_t(change.tri_count) * 3});
+    return r.last_upload_bytes();
+  }
+#endif
+  return 0;
+}
+
+FragmentProducer FragmentSourceSelector::producer(const SceneBuffers& sb) const {
+#if CDSM_HAVE_GL
+  if (use_gl_) {
     gl::FragmentRasterizer* r = gl_->raster.get();
     return [r](const PinholeView& view, ObjectMask mask, FragmentBuffers& out) { r->rasterize(view, mask, out); };
   }
-  if (want == FragmentSource::Gl) throw Error("--fragments gl", "no OpenGL context: " + gl_failure_);
-  name = "cpu";
-  reason = "no OpenGL context (" + gl_failure_ + "), using the CPU ray caster";
-  return cpu_fragment_producer(sb.view());
-#else
-  if (want == FragmentSource::Gl) throw Error("--fragments gl", "this build has no OpenGL (configured with CDSM_GL=OFF)");
-  name = "cpu";
-  reason = "built without OpenGL (CDSM_GL=OFF)";
-  return cpu_fragment_producer(sb.view());
 #endif
+  return cpu_fragment_producer(sb.view());
+}
+
+uint64_t FragmentSourceSelector::gl_scene_bytes() const {
+#if CDSM_HAVE_GL
+  if (gl_) return gl_->raster->scene_buffer_bytes();
+#endif
+  return 0;
 }
 
 }  // namespace cdsm

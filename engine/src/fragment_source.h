@@ -1,12 +1,16 @@
-// Chooses the fragment producer of a frame: the OpenGL rasterizer when a
+// The fragment producer of a shadow system: the OpenGL rasterizer when a
 // context can be created (and the build has GL), else the CPU ray caster.
+// Chosen once; the scene's triangles reach GL only when they change (a full
+// upload after objects were added or removed, the moved triangles' range
+// after a move), never per frame.
 #pragma once
 
 #include <memory>
 #include <string>
 
+#include "backend/backend.h"
 #include "cdsm/renderer.h"
-#include "cpu/frame.h"
+#include "frame.h"
 
 namespace cdsm {
 
@@ -14,14 +18,25 @@ class FragmentSourceSelector {
  public:
   FragmentSourceSelector();
   ~FragmentSourceSelector();
-  // Returns the producer for `sb` (uploading its triangles to GL when GL is
-  // used); `name` is "gl" or "cpu", `reason` says why.
-  FragmentProducer select(FragmentSource want, const SceneBuffers& sb, std::string& name,
-                          std::string& reason);
+  // Picks the producer on the first call (GL, when wanted and a context
+  // can be made); later calls keep it unless `want` changes. `name` is "gl"
+  // or "cpu", `reason` says why. Throws cdsm::Error when GL is requested
+  // and unavailable.
+  void choose(FragmentSource want, std::string& name, std::string& reason);
+  // Tells the producer what changed in `sb`; returns the bytes sent to GL.
+  uint64_t scene_changed(const SceneBuffers& sb, const SceneChange& change);
+  // The producer over the scene last given to scene_changed().
+  FragmentProducer producer(const SceneBuffers& sb) const;
+  // GL memory holding the scene (0 for the CPU producer).
+  uint64_t gl_scene_bytes() const;
 
  private:
   struct Gl;
   std::unique_ptr<Gl> gl_;
+  bool use_gl_ = false;
+  bool chosen_ = false;
+  FragmentSource want_ = FragmentSource::Auto;
+  std::string name_, reason_;
   bool gl_tried_ = false;
   std::string gl_failure_;
 };

@@ -13,11 +13,11 @@
 
 #include "cdsm/error.h"
 #include "cdsm/scene_io.h"
-#include "cpu/frame.h"
+#include "cdsm/shadow_system.h"
 #include "cpu/lookup_recorder.h"
-#include "fragment_source.h"
 #include "memory_budget.h"
 #include "reference/reference.h"
+#include "shadow_system_impl.h"
 
 namespace cdsm {
 namespace {
@@ -101,102 +101,42 @@ TransmittanceError summarize_errors(const std::vector<PointError>& pts) {
 }  // namespace
 
 struct Renderer::Impl {
-  FragmentSourceSelector fragments;
+  // The persistent state: a Scene value is synced into it by identity
+  // (sync_scene), so frames cost what changed.
+  std::unique_ptr<ShadowSystem> system = std::make_unique<ShadowSystem>();
+  FragmentSource fragments = FragmentSource::Auto;
   Image last_reference;
-  ShadowCache cache;  // DSMs and clusters kept across frames
   // Popping probe: the previous frame's maps and its sampled receivers.
   struct Previous {
     bool valid = false;
-    ShadowFrame shadows;
+    LightSetup setup;
+    std::vector<DsmMap> headers;
     ShadowSettings settings;
     std::vector<Receiver> receivers;
   } previous;
 
-  struct Frame {
-    SceneBuffers sb;
-    ShadowFrame shadows;
-    FragmentBuffers camera_frags;
-    CameraPassParams cam;
-    std::vector<uint32_t> cam_inside;
-  };
-
-  void prepare(const Scene& scene, const RenderOptions& opt, Frame& f, FrameStats& st) {
-    validate_scene(scene, &st.warnings);
+  // The system for `scene` with these options (a new fragment source
+  // starts a new system).
+  ShadowSystem::Impl& sync(const Scene& scene, const RenderOptions& opt) {
+    if (opt.fragments != fragments) {
+      system = std::make_unique<ShadowSystem>(SystemOptions{opt.fragments, scene.source});
+      fragments = opt.fragments;
+      previous = Previous{};
+    }
+    // Checked before any edit reaches the system (its update() checks the
+    // same and reports the warnings).
+    std::vector<std::string> warnings;
+    validate_scene(scene, &warnings);
     check_memory(scene, estimate_frame_memory(scene, opt));
-    auto t0 = Clock::now();
-    f.sb = compile_scene(scene);
-    st.times.compile_ms = ms_since(t0);
-    st.warnings.insert(st.warnings.end(), f.sb.warnings.begin(), f.sb.warnings.end());
-    FragmentProducer produce = fragments.select(opt.fragments, f.sb, st.fragment_source, st.fragment_source_reason);
-    if (opt.backend != Backend::Reference) {
-      build_shadow_frame(scene, f.sb, produce, cache, f.shadows);
-      st.maps_rebuilt = f.shadows.rebuilt;
-      st.maps_reused = f.shadows.reused;
-      st.cluster_ms = f.shadows.cluster_ms;
-      for (size_t li = 0; li < f.shadows.clusters.size(); ++li) {
-        const LightClusters& lc = f.shadows.clusters[li];
-        LightClusterStats cs;
-        cs.clustered = lc.clustered;
-        cs.fallback_reason = lc.fallback_reason;
-        cs.reclustered = lc.clustered && lc.clustering.reclustered;
-        if (lc.clustered)
-          for (const auto& c : lc.clustering.clusters) {
-            cs.members.push_back({c.members.begin(), c.members.end()});
-            cs.changed.push_back(c.members_changed || c.views_changed ? 1 : 0);
-          }
-        cs.maps = f.shadows.setup.lights[li].map_count;
-        cs.directions = lc.clustering.directions;
-        cs.warped_directions = lc.clustering.perspective_directions;
-        st.clusters.push_back(std::move(cs));
-      }
-      st.times.fragments_ms = f.shadows.fragments_ms;
-      st.times.dsm_build_ms = f.shadows.build_ms;
-      st.light_fragments = f.shadows.fragments;
-      fill_memory(f, st);
-    }
-    f.cam.view = camera_view(scene.camera);
+    sync_scene(*system, scene);
+    ShadowSystem::Impl& I = system->internals();
+    I.keep_previous = opt.measure_popping;
+    return I;
+  }
+
+  TransmittanceError probe_error(const RenderOptions& opt, ShadowSystem::Impl& f) {
     SceneView sv = f.sb.view();
-    f.cam_inside = objects_containing(sv, f.cam.view.eye, ObjectMask{});
-    f.cam.inside = {f.cam_inside.data(), f.cam_inside.size()};
-    f.cam.ambient = scene.shadows.ambient_light;
-    f.cam.background = scene.background;
-    st.lights = uint32_t(scene.lights.size());
-    if (opt.backend != Backend::Reference) {
-      t0 = Clock::now();
-      produce(f.cam.view, ObjectMask{}, f.camera_frags);
-      st.times.camera_fragments_ms = ms_since(t0);
-      st.camera_fragments = f.camera_frags.total();
-    }
-  }
-
-  static void add_walk(FrameStats& st, const WalkStats& w) {
-    st.unmatched_fragments += w.unmatched;
-    st.enclosing_overflow += w.enclosing_overflow;
-    st.match_overflow += w.match_overflow;
-    st.march_lengthened += w.march_lengthened;
-  }
-
-  static void fill_memory(const Frame& f, FrameStats& st) {
-    DsmMemory& m = st.memory;
-    m = DsmMemory{};
-    m.maps = f.shadows.dsm.maps.size();
-    for (const DsmBuildStats& b : f.shadows.map_stats) {  // per map, in the frame's layout
-      m.texels += b.texels;
-      m.nodes += b.nodes;
-      m.index_bytes += b.index_bytes;
-      m.node_bytes += b.node_bytes_used;
-      m.slack_bytes += b.slack_bytes;
-      m.max_nodes_per_texel = std::max(m.max_nodes_per_texel, b.max_nodes);
-      m.overflow_texels += b.overflow_texels;
-      m.max_extra_error = std::max(m.max_extra_error, b.max_extra_error);
-      add_walk(st, b.walk);
-    }
-    m.avg_nodes_per_texel = m.texels ? double(m.nodes) / double(m.texels) : 0.0;
-  }
-
-  TransmittanceError probe_error(const Scene& scene, const RenderOptions& opt, Frame& f) {
-    SceneView sv = f.sb.view();
-    ShadowView shv = f.shadows.view(scene.shadows);
+    ShadowView shv = f.shadow_view();
     DsmVisibility vis{shv};
     const int w = f.cam.view.width, h = f.cam.view.height;
     // Stratified pixels: one jittered pixel per cell of a grid with about
@@ -231,12 +171,12 @@ struct Renderer::Impl {
       for (int i = 0; i < opt.error_samples; ++i) kept.push_back(lookups[size_t(i * stride)]);
       lookups.swap(kept);
     }
-    ReferenceRenderer ref(sv, f.shadows.setup.lights, ReferenceOptions{opt.reference_step_voxels});
+    ReferenceRenderer ref(sv, f.frame.setup.lights, ReferenceOptions{opt.reference_step_voxels});
     // Each map's members, for the filtered exact reference of its taps.
-    std::vector<std::vector<uint32_t>> member_words(f.shadows.setup.maps.size());
+    std::vector<std::vector<uint32_t>> member_words(f.frame.setup.maps.size());
     for (size_t k = 0; k < member_words.size(); ++k) {
       member_words[k].assign((sv.objects.size() + 31) / 32, 0u);
-      for (uint32_t o : f.shadows.setup.maps[k].members) member_words[k][o >> 5] |= 1u << (o & 31u);
+      for (uint32_t o : f.frame.setup.maps[k].members) member_words[k][o >> 5] |= 1u << (o & 31u);
     }
     // T_f's taps read at the receiver's plane along their rays (volume
     // samples: at their depth) whatever the lookup does, so the resolution
@@ -294,7 +234,7 @@ struct Renderer::Impl {
 
   // Surface points of the camera view on a coarse grid (receivers for the
   // popping probe; their plane from the shading normal, looked up as casters).
-  std::vector<Receiver> sample_receivers(Frame& f) {
+  std::vector<Receiver> sample_receivers(ShadowSystem::Impl& f) {
     SceneView sv = f.sb.view();
     struct FirstSurface {
       Receiver r{};
@@ -326,9 +266,19 @@ struct Renderer::Impl {
   }
 
   // |T_new - T_old| at the previous frame's receivers, when maps changed.
-  void measure_popping(const Scene& scene, Frame& f, FrameStats& st) {
-    if (previous.valid && f.shadows.rebuilt > 0 && previous.shadows.setup.lights.size() == f.shadows.setup.lights.size()) {
-      ShadowView now = f.shadows.view(scene.shadows), before = previous.shadows.view(previous.settings);
+  // The previous frame's replaced maps are alive until the next update
+  // (keep_previous), so both lookups read the backend's store.
+  void measure_popping(ShadowSystem::Impl& f, FrameStats& st) {
+    const ShadowFrame& now_frame = f.frame;
+    if (previous.valid && now_frame.rebuilt > 0 && previous.setup.lights.size() == now_frame.setup.lights.size()) {
+      ShadowView now = f.shadow_view();
+      ShadowView before = now;
+      before.lights = {previous.setup.lights.data(), previous.setup.lights.size()};
+      before.maps = {previous.headers.data(), previous.headers.size()};
+      before.filtering = previous.settings.filtering;
+      before.bias_constant = previous.settings.bias_constant;
+      before.bias_slope = previous.settings.bias_slope;
+      before.receiver = uint32_t(previous.settings.receiver);
       double sum = 0.0, mx = 0.0;
       uint64_t n = 0;
       for (const Receiver& r : previous.receivers)
@@ -346,21 +296,11 @@ struct Renderer::Impl {
       st.popping.mean = n ? sum / double(n) : 0.0;
       st.popping.max = mx;
     }
-    previous.shadows = f.shadows;
-    previous.settings = scene.shadows;
+    previous.setup = now_frame.setup;
+    previous.headers = now_frame.headers;
+    previous.settings = f.scene.shadows;
     previous.receivers = sample_receivers(f);
     previous.valid = true;
-  }
-
-  Image reference_image(const Scene& scene, const RenderOptions& opt, Frame& f) {
-    SceneView sv = f.sb.view();
-    LightSetup ls = setup_lights(scene, f.sb, 4);
-    ReferenceRenderer ref(sv, ls.lights, ReferenceOptions{opt.reference_step_voxels});
-    Image img;
-    img.width = f.cam.view.width;
-    img.height = f.cam.view.height;
-    ref.render(f.cam, img.rgb);
-    return img;
   }
 };
 
@@ -373,30 +313,17 @@ Image Renderer::render(const Scene& scene, const RenderOptions& opt, FrameStats*
   if (opt.backend == Backend::Reference) return render_reference(scene, opt, stats);
   FrameStats local;
   FrameStats& st = stats ? *stats : local;
-  st = FrameStats{};
-  auto t_total = Clock::now();
-  Impl::Frame f;
-  impl_->prepare(scene, opt, f, st);
-  SceneView sv = f.sb.view();
-  ShadowView shv = f.shadows.view(scene.shadows);
-  Image img;
-  img.width = f.cam.view.width;
-  img.height = f.cam.view.height;
-  auto t0 = Clock::now();
-  WalkStats ws;
-  render_camera(sv, shv, f.cam, f.camera_frags.lists(), img.rgb, ws);
-  st.times.camera_ms = ms_since(t0);
-  impl_->measure_popping(scene, f, st);
-  Impl::add_walk(st, ws);
-  if (st.march_lengthened > 0)
-    st.warnings.push_back(scene.source + ": " + std::to_string(st.march_lengthened) +
-                          " volume segments lie so far from the eye or light that their march step is below float "
-                          "resolution there; they were marched with the finest step float allows (coarser than asked)");
-  st.times.total_ms = ms_since(t_total);
+  ShadowSystem::Impl& f = impl_->sync(scene, opt);
+  Image img = impl_->system->render(&st);
+  if (opt.measure_popping) {
+    impl_->measure_popping(f, st);
+  } else {
+    impl_->previous.valid = false;
+  }
   if (opt.compare_reference) {
-    t0 = Clock::now();
-    st.transmittance = impl_->probe_error(scene, opt, f);
-    impl_->last_reference = impl_->reference_image(scene, opt, f);
+    auto t0 = Clock::now();
+    st.transmittance = impl_->probe_error(opt, f);
+    impl_->last_reference = impl_->system->render_reference(opt.reference_step_voxels);
     st.image = compare_images(img, impl_->last_reference);
     st.has_reference = true;
     st.times.reference_ms = ms_since(t0);
@@ -409,24 +336,22 @@ Image Renderer::render_reference(const Scene& scene, const RenderOptions& opt, F
   FrameStats& st = stats ? *stats : local;
   st = FrameStats{};
   auto t0 = Clock::now();
-  RenderOptions o = opt;
-  o.backend = Backend::Reference;
-  Impl::Frame f;
-  impl_->prepare(scene, o, f, st);
+  impl_->sync(scene, opt);
   auto t1 = Clock::now();
-  Image img = impl_->reference_image(scene, o, f);
+  Image img = impl_->system->render_reference(opt.reference_step_voxels);
   st.times.reference_ms = ms_since(t1);
   st.times.total_ms = ms_since(t0);
+  st.lights = uint32_t(scene.lights.size());
   return img;
 }
 
 TransmittanceError Renderer::transmittance_error(const Scene& scene, const RenderOptions& opt) {
   FrameStats st;
-  Impl::Frame f;
   RenderOptions o = opt;
   o.backend = Backend::Cpu;
-  impl_->prepare(scene, o, f, st);
-  return impl_->probe_error(scene, o, f);
+  ShadowSystem::Impl& f = impl_->sync(scene, o);
+  impl_->system->render(&st);
+  return impl_->probe_error(o, f);
 }
 
 }  // namespace cdsm

@@ -91,7 +91,7 @@ FocusParams focus_params(const ClusterSettings& s) {
 // view: B holds every segment from the light to a visible point); members
 // outside every B stay in the map but do not widen it. Without seen
 // members, the lit ones decide, then all.
-void focus_into(Cluster& c, const Light& light, const std::vector<Caster>& casters,
+void focus_into(Cluster& c, const LightShape& light, const std::vector<Caster>& casters,
                 const std::vector<int>& idx, const ClusterSettings& s, const CasterDistances& D) {
   std::vector<int> order = idx;
   std::sort(order.begin(), order.end(), [&](int a, int b) { return casters[size_t(a)].id < casters[size_t(b)].id; });
@@ -118,7 +118,7 @@ bool same_views(const std::vector<PinholeView>& a, const std::vector<PinholeView
 
 }  // namespace
 
-std::vector<PinholeView> light_directions(const Light& light, const Box3& scene, int resolution, float min_near) {
+std::vector<PinholeView> light_directions(const LightShape& light, const Box3& scene, int resolution, float min_near) {
   float far = 2.0f * min_near;
   for (int i = 0; i < 8; ++i) far = std::max(far, length(scene.corner(i) - light.position));
   far *= 1.01f;
@@ -127,7 +127,7 @@ std::vector<PinholeView> light_directions(const Light& light, const Box3& scene,
   return std::vector<PinholeView>(faces.begin(), faces.end());
 }
 
-CasterDistances caster_distances(const Light& light, const PinholeView& camera, const Box3& scene,
+CasterDistances caster_distances(const LightShape& light, const PinholeView& camera, const Box3& scene,
                                  const std::vector<Caster>& casters, const ClusterSettings& settings) {
   CasterDistances D;
   const int n = int(casters.size());
@@ -263,7 +263,7 @@ std::vector<std::vector<int>> greedy_clusters(const CasterDistances& D, float d0
   return C;
 }
 
-Clustering cluster_casters(const Light& light, const PinholeView& camera, const Box3& scene,
+Clustering cluster_casters(const LightShape& light, const PinholeView& camera, const Box3& scene,
                            const std::vector<Caster>& casters, const ClusterSettings& settings) {
   const CasterDistances D = caster_distances(light, camera, scene, casters, settings);
   Clustering out;
@@ -278,7 +278,7 @@ Clustering cluster_casters(const Light& light, const PinholeView& camera, const 
   return out;
 }
 
-Clustering update_clusters(const Light& light, const PinholeView& camera, const Box3& scene,
+Clustering update_clusters(const LightShape& light, const PinholeView& camera, const Box3& scene,
                            const std::vector<Caster>& casters, const ClusterSettings& settings,
                            const Clustering& previous) {
   const CasterDistances D = caster_distances(light, camera, scene, casters, settings);

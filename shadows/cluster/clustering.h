@@ -9,10 +9,10 @@
 #include <vector>
 
 #include "cdsm/math.h"
-#include "cdsm/scene.h"
 #include "cluster/convex.h"
 #include "cluster/focus.h"
 #include "cluster/lispsm.h"
+#include "cluster/light_views.h"
 #include "hd/view.h"
 
 namespace cdsm::cluster {
@@ -69,11 +69,11 @@ struct CasterDistances {
 // The directions of a light: one frustum for a spot of half-angle <= 60°,
 // the six cube faces otherwise (point lights, wide spots). Far planes reach
 // the scene box.
-std::vector<PinholeView> light_directions(const Light& light, const Box3& scene, int resolution,
+std::vector<PinholeView> light_directions(const LightShape& light, const Box3& scene, int resolution,
                                           float min_near = 1e-3f);
 
 // Distances of every caster pair for this light and camera.
-CasterDistances caster_distances(const Light& light, const PinholeView& camera, const Box3& scene,
+CasterDistances caster_distances(const LightShape& light, const PinholeView& camera, const Box3& scene,
                                  const std::vector<Caster>& casters, const ClusterSettings& settings);
 
 // Thesis Alg. 4.2 on caster indices: pairs of seen casters by descending
@@ -108,7 +108,7 @@ struct Clustering {
 };
 
 // Clusters the casters of one light and focuses a frustum on each cluster.
-Clustering cluster_casters(const Light& light, const PinholeView& camera, const Box3& scene,
+Clustering cluster_casters(const LightShape& light, const PinholeView& camera, const Box3& scene,
                            const std::vector<Caster>& casters, const ClusterSettings& settings);
 
 // As cluster_casters(), but keeps `previous`'s member sets while they still
@@ -118,7 +118,7 @@ Clustering cluster_casters(const Light& light, const PinholeView& camera, const 
 // union's diameter <= d0 / (1 + h)). Otherwise re-clusters and matches the
 // new clusters to the previous ones by member set. Frusta are refocused
 // either way; views_changed tells which clusters need their DSMs rebuilt.
-Clustering update_clusters(const Light& light, const PinholeView& camera, const Box3& scene,
+Clustering update_clusters(const LightShape& light, const PinholeView& camera, const Box3& scene,
                            const std::vector<Caster>& casters, const ClusterSettings& settings,
                            const Clustering& previous);
 

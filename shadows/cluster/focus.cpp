@@ -131,7 +131,7 @@ bool focus_points(Vec3 eye, const std::vector<Vec3>& points, Vec3 up_hint, const
   return true;
 }
 
-FocusResult focus_cluster(const Light& light, const std::vector<Box3>& members, const FocusParams& params) {
+FocusResult focus_cluster(const LightShape& light, const std::vector<Box3>& members, const FocusParams& params) {
   FocusResult res;
   const Vec3 eye = light.position;
   // The spot's cone (circumscribed pyramid) and square frustum, all through

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "cdsm/math.h"
-#include "cdsm/scene.h"
+#include "cluster/light_views.h"
 #include "hd/view.h"
 
 namespace cdsm::cluster {
@@ -37,7 +37,7 @@ bool focus_points(Vec3 eye, const std::vector<Vec3>& points, Vec3 up_hint, const
 // first cut by its cone (and its square frustum), so the focused window never
 // exceeds the spot's. A cluster that fails focus_points() is cut per cube
 // face and focused face by face (split = true).
-FocusResult focus_cluster(const Light& light, const std::vector<Box3>& members, const FocusParams& params);
+FocusResult focus_cluster(const LightShape& light, const std::vector<Box3>& members, const FocusParams& params);
 
 // Whether two views are identical (bit for bit in every field).
 bool same_view(const PinholeView& a, const PinholeView& b);

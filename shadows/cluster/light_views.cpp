@@ -42,22 +42,7 @@ void make_frame(Vec3 forward, Vec3 up_hint, Vec3& right, Vec3& up) {
   up = normalize(cross(right, f));
 }
 
-PinholeView camera_view(const Camera& camera, float aspect) {
-  PinholeView v;
-  v.eye = camera.position;
-  v.forward = normalize(camera.target - camera.position);
-  make_frame(v.forward, camera.up, v.right, v.up);
-  v.width = camera.width;
-  v.height = camera.height;
-  if (!(aspect > 0.0f)) aspect = float(camera.width) / float(std::max(camera.height, 1));
-  v.tan_half_y = std::tan(radians(0.5f * camera.fov_y_deg));
-  v.tan_half_x = v.tan_half_y * aspect;
-  v.near = camera.near;
-  v.far = camera.far;
-  return v;
-}
-
-PinholeView spot_view(const Light& light, int res, float near, float far) {
+PinholeView spot_view(const LightShape& light, int res, float near, float far) {
   float half = std::tan(radians(std::clamp(light.outer_cone_deg, 0.01f, 89.0f)));
   Vec3 f = normalize(light.direction);
   Vec3 hint = std::fabs(f.y) < 0.9f ? vec3(0, 1, 0) : vec3(0, 0, 1);
@@ -73,8 +58,8 @@ std::array<PinholeView, 6> cube_face_views(Vec3 position, float near, float far,
   return faces;
 }
 
-std::vector<Plane> cone_planes(const Light& light, int sides) {
-  if (light.type != LightType::Spot || !(light.outer_cone_deg < 89.9f)) return {};
+std::vector<Plane> cone_planes(const LightShape& light, int sides) {
+  if (!light.spot || !(light.outer_cone_deg < 89.9f)) return {};
   const float theta = radians(std::max(light.outer_cone_deg, 0.01f));
   const Vec3 a = normalize(light.direction);
   Vec3 e1, e2;
@@ -90,8 +75,8 @@ std::vector<Plane> cone_planes(const Light& light, int sides) {
   return planes;
 }
 
-bool spot_fits_one_frustum(const Light& light) {
-  return light.type == LightType::Spot && light.outer_cone_deg <= kMaxSpotFrustumHalfAngleDeg;
+bool spot_fits_one_frustum(const LightShape& light) {
+  return light.spot && light.outer_cone_deg <= kMaxSpotFrustumHalfAngleDeg;
 }
 
 }  // namespace cdsm::cluster

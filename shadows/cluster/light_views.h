@@ -6,11 +6,19 @@
 #include <vector>
 
 #include "cdsm/math.h"
-#include "cdsm/scene.h"
 #include "cluster/convex.h"
 #include "hd/view.h"
 
 namespace cdsm::cluster {
+
+// A light as clustering and focusing see it (the engine makes it from its
+// scene model's light).
+struct LightShape {
+  bool spot = true;              // false: a point (omni) light
+  Vec3 position{0, 0, 0};
+  Vec3 direction{0, -1, 0};      // spot: the cone's axis (unit length)
+  float outer_cone_deg = 30.0f;  // spot: half-angle where the light ends
+};
 
 // Spot cones wider than this half-angle use cube faces with the cone mask
 // (a single frustum beyond ~120° wastes most of its texels).
@@ -24,12 +32,9 @@ float widen_for_guard(float half, int res, float guard);
 // up = right x forward. `up_hint` is replaced when nearly parallel.
 void make_frame(Vec3 forward, Vec3 up_hint, Vec3& right, Vec3& up);
 
-// The camera's view: aspect = width / height when `aspect` <= 0.
-PinholeView camera_view(const Camera& camera, float aspect = 0.0f);
-
 // A spot light's frustum: square, on the cone axis, the cone (half-angle
 // outer_cone_deg, at most 89°) inside it with one texel of guard band.
-PinholeView spot_view(const Light& light, int res, float near, float far);
+PinholeView spot_view(const LightShape& light, int res, float near, float far);
 
 // The six 90° faces of a point light at `position`, in the order +X, -X,
 // +Y, -Y, +Z, -Z, each widened by one texel of guard band at `res`.
@@ -38,9 +43,9 @@ std::array<PinholeView, 6> cube_face_views(Vec3 position, float near, float far,
 // Planes of a pyramid from the spot's position circumscribing its cone
 // (half-angle outer_cone_deg < 90°), `sides` faces. Empty for a cone of 90°
 // or more (not convex) and for a point light.
-std::vector<Plane> cone_planes(const Light& light, int sides = 32);
+std::vector<Plane> cone_planes(const LightShape& light, int sides = 32);
 
 // Whether the light's cone (spot) is narrow enough for one frustum.
-bool spot_fits_one_frustum(const Light& light);
+bool spot_fits_one_frustum(const LightShape& light);
 
 }  // namespace cdsm::cluster

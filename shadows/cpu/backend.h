@@ -6,7 +6,6 @@
 #include <cstdint>
 #include <vector>
 
-#include "cdsm/scene.h"
 #include "cpu/fragments_cpu.h"
 #include "hd/camera_pass.h"
 #include "hd/dsm_chunked.h"
@@ -21,14 +20,6 @@ struct DsmLayoutParams {
   int fixed_layers = 32;         // fixed: L, node slots per texel (>= 2)
   int chunk_nodes = 64;          // chunked: C, node slots per chunk (>= 1)
 };
-
-// The layout of the scene's shadow settings.
-inline DsmLayoutParams dsm_layout_params(const ShadowSettings& s) {
-  static_assert(uint32_t(DsmLayout::Packed) == kDsmPacked && uint32_t(DsmLayout::Fixed) == kDsmFixed &&
-                    uint32_t(DsmLayout::Chunked) == kDsmChunked,
-                "layout tags match cdsm::DsmLayout");
-  return {uint32_t(s.layout), s.fixed_layers, s.chunk_nodes};
-}
 
 // Host owner of all deep shadow maps of a frame, in one layout.
 struct DsmBuffers {

@@ -140,3 +140,50 @@ void build_bvh(SceneBuffers& sb) {
 }
 
 }  // namespace cdsm
+
+namespace cdsm {
+namespace {
+
+float half_area(const Box3& b) {
+  if (b.empty()) return 0.0f;
+  Vec3 e = b.extent();
+  return e.x * e.y + e.y * e.z + e.z * e.x;
+}
+
+}  // namespace
+
+double refit_bvh(SceneBuffers& sb) {
+  // Pre-order layout: both children of node i come after i (left = i + 1,
+  // right = first), so one backward sweep sees children before parents.
+  for (size_t i = sb.bvh.size(); i-- > 0;) {
+    BvhNode& n = sb.bvh[i];
+    Box3 b;
+    if (n.count > 0) {
+      for (uint32_t k = n.first; k < n.first + n.count; ++k) {
+        const uint32_t t = sb.bvh_prims[k];
+        for (int v = 0; v < 3; ++v) b.grow(sb.tri_vertices[3 * size_t(t) + v]);
+      }
+    } else {
+      const BvhNode& l = sb.bvh[i + 1];
+      const BvhNode& r = sb.bvh[n.first];
+      b.grow(l.lo);
+      b.grow(l.hi);
+      b.grow(r.lo);
+      b.grow(r.hi);
+    }
+    n.lo = b.lo;
+    n.hi = b.hi;
+  }
+  return bvh_cost(sb);
+}
+
+double bvh_cost(const SceneBuffers& sb) {
+  if (sb.bvh.empty()) return 0.0;
+  const double root = half_area(Box3{sb.bvh[0].lo, sb.bvh[0].hi});
+  if (!(root > 0.0)) return 0.0;
+  double c = 0.0;
+  for (const BvhNode& n : sb.bvh) c += double(half_area(Box3{n.lo, n.hi})) * (n.count > 0 ? double(n.count) : 1.0);
+  return c / root;
+}
+
+}  // namespace cdsm

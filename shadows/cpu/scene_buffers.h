@@ -1,13 +1,19 @@
-// Host owner of a compiled scene (cdsm::Scene -> flat arrays + BVH).
+// Host owner of a compiled scene: flat arrays + BVH, the algorithm's plain
+// input (the engine compiles its scene model into it, engine/src/scene_compile.h).
 #pragma once
 
 #include <string>
 #include <vector>
 
-#include "cdsm/scene.h"
 #include "hd/scene_data.h"
 
 namespace cdsm {
+
+// 32 bytes, 32-byte aligned: the unit of the NanoVDB grid pool, so every
+// grid in it starts aligned.
+struct alignas(32) GridBlock {
+  unsigned char bytes[32];
+};
 
 struct SceneBuffers {
   std::vector<Vec3> tri_vertices;
@@ -17,7 +23,7 @@ struct SceneBuffers {
   std::vector<VolumeData> volumes;
   std::vector<float> voxels;
   std::vector<float> macro_max;
-  std::vector<SparseGrid::Block> nano_pool;  // NanoVDB grids, each 32-byte aligned
+  std::vector<GridBlock> nano_pool;         // NanoVDB grids, each 32-byte aligned
   std::vector<BvhNode> bvh;
   std::vector<uint32_t> bvh_prims;
   std::vector<Box3> object_bounds;  // world-space box per object
@@ -35,12 +41,16 @@ struct SceneBuffers {
   }
 };
 
-// Flattens the scene: world-space triangles, per-object data, volumes with
-// macro-cells, and a BVH. Throws cdsm::Error on invalid content (NaN in a
-// vertex or transform, a bad volume reference, too many triangles).
-SceneBuffers compile_scene(const Scene& scene);
-
 // Builds the BVH over the triangles already in `sb` (binned SAH).
 void build_bvh(SceneBuffers& sb);
+
+// After triangles moved (the same triangles, new positions): every node's
+// box recomputed bottom-up, the tree kept. Returns bvh_cost() of the result.
+double refit_bvh(SceneBuffers& sb);
+
+// The tree's surface-area cost: the sum over nodes of their surface area
+// (times their triangle count for leaves) over the root's. A refit tree
+// whose cost grew well beyond its build's is worth rebuilding.
+double bvh_cost(const SceneBuffers& sb);
 
 }  // namespace cdsm

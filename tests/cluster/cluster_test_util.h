@@ -13,6 +13,7 @@
 #include "cluster/focus.h"
 #include "cluster/light_views.h"
 #include "cluster/lispsm.h"
+#include "cdsm/scene.h"
 #include "hd/view.h"
 
 namespace cluster_test {
@@ -58,21 +59,37 @@ inline void expect_convex(const ConvexBody& body, float tol) {
   }
 }
 
-inline Light spot_light(Vec3 pos, Vec3 dir, float outer_deg) {
-  Light l;
-  l.type = LightType::Spot;
+inline LightShape spot_light(Vec3 pos, Vec3 dir, float outer_deg) {
+  LightShape l;
+  l.spot = true;
   l.position = pos;
   l.direction = normalize(dir);
   l.outer_cone_deg = outer_deg;
-  l.inner_cone_deg = outer_deg * 0.8f;
   return l;
 }
 
-inline Light point_light(Vec3 pos) {
-  Light l;
-  l.type = LightType::Point;
+inline LightShape point_light(Vec3 pos) {
+  LightShape l;
+  l.spot = false;
   l.position = pos;
   return l;
+}
+
+// A camera's view with aspect = width / height when `aspect` <= 0 (the
+// frame of cluster::make_frame).
+inline PinholeView camera_view(const Camera& camera, float aspect = 0.0f) {
+  PinholeView v;
+  v.eye = camera.position;
+  v.forward = normalize(camera.target - camera.position);
+  make_frame(v.forward, camera.up, v.right, v.up);
+  v.width = camera.width;
+  v.height = camera.height;
+  if (!(aspect > 0.0f)) aspect = float(camera.width) / float(std::max(camera.height, 1));
+  v.tan_half_y = std::tan(0.5f * camera.fov_y_deg * (kPi / 180.0f));
+  v.tan_half_x = v.tan_half_y * aspect;
+  v.near = camera.near;
+  v.far = camera.far;
+  return v;
 }
 
 inline PinholeView camera_at(Vec3 pos, Vec3 target, float fov_y = 50.0f, float far = 100.0f) {

@@ -66,7 +66,7 @@ static std::vector<Caster> two_groups() {
 }
 
 TEST(Clustering, TwoFarGroupsMakeTwoClusters) {
-  Light spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 50.0f);
+  LightShape spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 50.0f);
   PinholeView cam = camera_at(vec3(0, 3, 14), vec3(0, 0.5f, 0));
   std::vector<Caster> casters = two_groups();
   ClusterSettings s;
@@ -115,7 +115,7 @@ TEST(Clustering, TwoFarGroupsMakeTwoClusters) {
 }
 
 TEST(Clustering, OmniDistancesUseOnlyFacesBothCastersOccupy) {
-  Light pl = point_light(vec3(0, 3, 0));
+  LightShape pl = point_light(vec3(0, 3, 0));
   PinholeView cam = camera_at(vec3(0, 5, 9.5f), vec3(0, 2, 0), 90.0f);
   std::vector<Caster> casters = {
       {0, cube(vec3(6, 3, 0), 0.3f)},              // +X only
@@ -174,7 +174,7 @@ TEST(Clustering, RandomLayoutsKeepTheInvariants) {
   int d0_checked = 0, m_reached = 0;  // the layouts must exercise both regimes
   for (int layout = 0; layout < 30; ++layout) {
     const bool omni = layout % 2 == 1;
-    Light light = omni ? point_light(vec3(ux(rng) * 0.5f, 4.0f + u01(rng), ux(rng) * 0.5f))
+    LightShape light = omni ? point_light(vec3(ux(rng) * 0.5f, 4.0f + u01(rng), ux(rng) * 0.5f))
                        : spot_light(vec3(ux(rng) * 0.3f, 11, ux(rng) * 0.3f), vec3(ux(rng) * 0.05f, -1, ux(rng) * 0.05f),
                                     30.0f + 25.0f * u01(rng));
     PinholeView cam = camera_at(vec3(ux(rng), 1.0f + 4.0f * u01(rng), 12.0f), vec3(ux(rng) * 0.3f, 0.5f, ux(rng) * 0.3f));
@@ -255,7 +255,7 @@ TEST(Clustering, RandomLayoutsKeepTheInvariants) {
 }
 
 TEST(Clustering, SpotFocusHoldsMemberCornersInsideTheCone) {
-  Light spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 35.0f);
+  LightShape spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 35.0f);
   PinholeView cam = camera_at(vec3(0, 3, 14), vec3(0, 0.5f, 0));
   std::vector<Caster> casters = two_groups();
   casters.push_back({16, box(vec3(-12, 0, -1), vec3(-4, 1, 1))});  // sticks out of the cone
@@ -282,7 +282,7 @@ TEST(Clustering, SpotFocusHoldsMemberCornersInsideTheCone) {
 // ---- hysteresis ---------------------------------------------------------------------------
 
 TEST(Hysteresis, KeepsAssignmentWithinToleranceAndReclustersBeyond) {
-  Light spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 50.0f);
+  LightShape spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 50.0f);
   PinholeView cam = camera_at(vec3(0, 3, 14), vec3(0, 0.5f, 0));
   std::vector<Caster> casters = {{1, cube(vec3(-2, 0.5f, 0), 0.4f)}, {2, cube(vec3(2, 0.5f, 0), 0.4f)}};
   ClusterSettings s;
@@ -343,7 +343,7 @@ TEST(Hysteresis, KeepsAssignmentWithinToleranceAndReclustersBeyond) {
 }
 
 TEST(Hysteresis, ReportsWhichClustersChanged) {
-  Light spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 50.0f);
+  LightShape spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 50.0f);
   PinholeView cam = camera_at(vec3(0, 3, 14), vec3(0, 0.5f, 0));
   std::vector<Caster> casters = two_groups();
   ClusterSettings s;
@@ -379,7 +379,7 @@ TEST(Hysteresis, ReportsWhichClustersChanged) {
   EXPECT_EQ(changed, 1);
 
   // The light moves: members kept, every frustum must be rebuilt.
-  Light moved = spot;
+  LightShape moved = spot;
   moved.position = vec3(0.5f, 12, 0);
   Clustering f2 = update_clusters(moved, cam, kScene, more, s, f1);
   EXPECT_FALSE(f2.reclustered);
@@ -390,7 +390,7 @@ TEST(Hysteresis, ReportsWhichClustersChanged) {
 }
 
 TEST(Hysteresis, UnlitCastersDoNotForceReclustering) {
-  Light spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 30.0f);
+  LightShape spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 30.0f);
   PinholeView cam = camera_at(vec3(0, 3, 14), vec3(0, 0.5f, 0));
   std::vector<Caster> casters = {{1, cube(vec3(-2, 0.5f, 0), 0.4f)},
                                  {2, cube(vec3(2, 0.5f, 0), 0.4f)},
@@ -409,7 +409,7 @@ TEST(Hysteresis, UnlitCastersDoNotForceReclustering) {
 }
 
 TEST(Clustering, WideSpotUsesCubeFacesAndItsCone) {
-  Light spot = spot_light(vec3(0, 5, 0), vec3(0, -1, 0), 75.0f);
+  LightShape spot = spot_light(vec3(0, 5, 0), vec3(0, -1, 0), 75.0f);
   PinholeView cam = camera_at(vec3(0, 3, 14), vec3(0, 0.5f, 0));
   std::vector<Caster> casters = {{0, cube(vec3(-8, 0.5f, 0), 0.5f)},
                                  {1, cube(vec3(8, 0.5f, 1), 0.5f)},

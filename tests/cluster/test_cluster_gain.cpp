@@ -8,7 +8,7 @@
 
 #include "cdsm/renderer.h"
 #include "cdsm/scene_io.h"
-#include "cpu/frame.h"
+#include "frame.h"
 #include "cpu/lookup_recorder.h"
 #include "reference/reference.h"
 

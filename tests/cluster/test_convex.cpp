@@ -129,11 +129,11 @@ static void check_body(const PinholeView& cam, Vec3 light_pos, const PinholeView
 }
 
 TEST(Body, SpotLightBodyIsConvexAndHoldsTheVisibleRegion) {
-  Light spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 40.0f);
+  LightShape spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 40.0f);
   PinholeView lv = spot_view(spot, 512, 0.01f, 40.0f);
   check_body(camera_at(vec3(0, 3, 14), vec3(0, 0.5f, 0)), spot.position, &lv);
   // Light inside the camera frustum, camera inside the scene box.
-  Light spot2 = spot_light(vec3(2, 5, -6), vec3(-0.3f, -1, 0.2f), 50.0f);
+  LightShape spot2 = spot_light(vec3(2, 5, -6), vec3(-0.3f, -1, 0.2f), 50.0f);
   PinholeView lv2 = spot_view(spot2, 512, 0.01f, 40.0f);
   check_body(camera_at(vec3(0, 2, 8), vec3(0, 1, -5)), spot2.position, &lv2);
 }
@@ -150,7 +150,7 @@ TEST(Body, PointLightBodyWithAndWithoutFaceFrustum) {
 }
 
 TEST(Body, LightFarOutsideTheSceneBox) {
-  Light spot = spot_light(vec3(30, 40, 30), vec3(-30, -40, -30), 20.0f);
+  LightShape spot = spot_light(vec3(30, 40, 30), vec3(-30, -40, -30), 20.0f);
   PinholeView lv = spot_view(spot, 512, 0.01f, 200.0f);
   check_body(camera_at(vec3(0, 3, 14), vec3(0, 0.5f, 0)), spot.position, &lv);
 }

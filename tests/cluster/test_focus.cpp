@@ -6,7 +6,7 @@ using namespace cluster_test;
 // ---- focusing --------------------------------------------------------------------
 
 TEST(Focus, FrustumHoldsEveryMemberCornerWithGuard) {
-  Light pl = point_light(vec3(0, 8, 0));
+  LightShape pl = point_light(vec3(0, 8, 0));
   std::vector<Box3> members = {cube(vec3(4, 1, 3), 0.5f), cube(vec3(5, 0.5f, 2), 0.5f),
                                box(vec3(3, 0, 1), vec3(4, 2, 1.5f))};
   for (float guard : {1.0f, 3.0f}) {
@@ -39,7 +39,7 @@ TEST(Focus, FrustumHoldsEveryMemberCornerWithGuard) {
 }
 
 TEST(Focus, ReducesTexelSizeAgainstTheUnfocusedSpotMap) {
-  Light spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 45.0f);
+  LightShape spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 45.0f);
   const int res = 512;
   std::vector<Box3> members = {cube(vec3(-6, 0.5f, 4), 0.5f), cube(vec3(-5, 0.5f, 5), 0.4f)};
   FocusParams fp;
@@ -59,7 +59,7 @@ TEST(Focus, ReducesTexelSizeAgainstTheUnfocusedSpotMap) {
 
 TEST(Focus, SpotWindowNeverExceedsTheCone) {
   // A member much larger than the cone: the focused window is the cone's.
-  Light spot = spot_light(vec3(0, 10, 0), vec3(0, -1, 0), 20.0f);
+  LightShape spot = spot_light(vec3(0, 10, 0), vec3(0, -1, 0), 20.0f);
   FocusParams fp;
   fp.resolution = 256;
   FocusResult f = focus_cluster(spot, {box(vec3(-30, 0, -30), vec3(30, 1, 30))}, fp);
@@ -79,7 +79,7 @@ TEST(Focus, SpotWindowNeverExceedsTheCone) {
 }
 
 TEST(Focus, WideOrEnclosingClustersSplitPerCubeFace) {
-  Light pl = point_light(vec3(0, 3, 0));
+  LightShape pl = point_light(vec3(0, 3, 0));
   FocusParams fp;
   fp.resolution = 128;
   // Boxes on both sides of the light: spans ~180°.

@@ -6,7 +6,7 @@ using namespace cluster_test;
 // ---- LiSPSM -------------------------------------------------------------------
 
 TEST(Lispsm, BodyMapsOntoTheUnitSquare) {
-  Light spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 40.0f);
+  LightShape spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 40.0f);
   PinholeView lv = spot_view(spot, 512, 0.01f, 40.0f);
   PinholeView cam = camera_at(vec3(0, 3, 14), vec3(0, 0.5f, 0));
   ConvexBody B = lispsm_body(cam, spot.position, kScene, &lv);
@@ -45,7 +45,7 @@ TEST(Lispsm, BodyMapsOntoTheUnitSquare) {
 }
 
 TEST(Lispsm, WarpEnlargesObjectsNearTheCamera) {
-  Light spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 40.0f);
+  LightShape spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 40.0f);
   PinholeView lv = spot_view(spot, 512, 0.01f, 40.0f);
   PinholeView cam = camera_at(vec3(0, 2, 9), vec3(0, 0.5f, -8));
   ConvexBody B = lispsm_body(cam, spot.position, kScene, &lv);
@@ -71,7 +71,7 @@ TEST(Lispsm, WarpEnlargesObjectsNearTheCamera) {
 }
 
 TEST(Lispsm, FallsBackToUniformWhenViewIsParallelToLight) {
-  Light spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 40.0f);
+  LightShape spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 40.0f);
   PinholeView lv = spot_view(spot, 512, 0.01f, 40.0f);
   // Camera looking straight down, below the light.
   Camera c;
@@ -105,7 +105,7 @@ TEST(Lispsm, FallsBackToUniformWhenViewIsParallelToLight) {
 
 TEST(Lispsm, WeakerWarpAsViewApproachesLight) {
   // n grows like 1 / sin(gamma): the warp n / (f - n) rises as gamma falls.
-  Light spot = spot_light(vec3(0, 30, 0), vec3(0, -1, 0), 30.0f);
+  LightShape spot = spot_light(vec3(0, 30, 0), vec3(0, -1, 0), 30.0f);
   PinholeView lv = spot_view(spot, 512, 0.01f, 60.0f);
   float last = 0.0f;
   for (float pitch : {10.0f, 30.0f, 50.0f, 70.0f}) {
@@ -145,7 +145,7 @@ TEST(LightViews, CubeFacesCoverAllDirectionsWithGuard) {
 }
 
 TEST(LightViews, SpotViewHoldsTheConeWithGuard) {
-  Light spot = spot_light(vec3(0, 5, 0), vec3(0.3f, -1, 0.1f), 35.0f);
+  LightShape spot = spot_light(vec3(0, 5, 0), vec3(0.3f, -1, 0.1f), 35.0f);
   PinholeView v = spot_view(spot, 256, 0.05f, 30.0f);
   expect_orthonormal(v);
   Vec3 e1, e2;

@@ -10,7 +10,7 @@
 #include "cdsm/scene_io.h"
 #include "hd/lights.h"
 #include "reference/reference.h"
-#include "cpu/frame.h"
+#include "frame.h"
 
 namespace cdsm {
 namespace {

@@ -13,7 +13,7 @@
 
 #include "cdsm/scene.h"
 #include "cpu/fragments_cpu.h"
-#include "cpu/scene_buffers.h"
+#include "scene_compile.h"
 #include "gl/context.h"
 #include "gl/fragment_raster.h"
 

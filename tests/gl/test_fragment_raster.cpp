@@ -7,7 +7,7 @@
 #include "cdsm/error.h"
 #include "cdsm/procedural.h"
 #include "hd/fragment.h"
-#include "cpu/frame.h"
+#include "frame.h"
 #include "hd/segments.h"
 #include "gl_test_util.h"
 

@@ -6,7 +6,7 @@
 #include "cdsm/image.h"
 #include "cdsm/renderer.h"
 #include "cdsm/scene_io.h"
-#include "cpu/frame.h"
+#include "frame.h"
 #include "gl_test_util.h"
 
 namespace cdsm {
@@ -48,7 +48,7 @@ TEST_F(GlDefaultScene, ListsMatchTheRayCasterInCameraSpotAndOmniViews) {
   gl::FragmentRasterizer r(context());
   ts.upload(r);
   expect_match(ts, r, camera_view(s.camera), "camera");
-  LightSetup ls = setup_lights(s, ts.sb, 512);
+  LightSetup ls = setup_lights(s.lights, ts.sb, 512);
   ASSERT_EQ(ls.maps.size(), 1u);
   expect_match(ts, r, ls.maps[0].view, "spot light");
   // An omni light among the objects: its six faces.

@@ -15,7 +15,7 @@
 #include "cdsm/procedural.h"
 #include "cdsm/renderer.h"
 #include "cpu/backend.h"
-#include "cpu/scene_buffers.h"
+#include "scene_compile.h"
 
 using namespace cdsm;
 

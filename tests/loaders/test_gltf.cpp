@@ -11,7 +11,7 @@
 #include "cdsm/scene_io.h"
 #include "cdsm/procedural.h"
 #include "cdsm/renderer.h"
-#include "cpu/scene_buffers.h"
+#include "scene_compile.h"
 #include "loader_test_util.h"
 
 namespace cdsm_test {

@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "cdsm/scene_io.h"
-#include "cpu/scene_buffers.h"
+#include "scene_compile.h"
 #include "hd/volume.h"
 #include "loader_test_util.h"
 

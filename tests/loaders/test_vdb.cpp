@@ -19,8 +19,8 @@
 
 #include "cdsm/procedural.h"
 #include "cdsm/scene_io.h"
-#include "cpu/frame.h"
-#include "cpu/scene_buffers.h"
+#include "frame.h"
+#include "scene_compile.h"
 #include "hd/bvh.h"
 #include "hd/lights.h"
 #include "hd/segments.h"

@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "cdsm/cdsm.h"
-#include "cpu/frame.h"
-#include "cpu/scene_buffers.h"
+#include "frame.h"
+#include "scene_compile.h"
 #include "hd/camera_pass.h"
 #include "reference/reference.h"
 

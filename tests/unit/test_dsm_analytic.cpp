@@ -454,7 +454,7 @@ TEST(Lookup, SpotConeInsideGuardBand) {
       Scene s = slab_scene(3.0f, res, true);
       s.lights[0] = spot_light({0.1f, 2.1f, -0.05f}, normalize(Vec3{0.3f, -1.0f, 0.2f}), outer, outer * 0.8f);
       SceneBuffers sb = compile_scene(s);
-      LightSetup ls = setup_lights(s, sb, res);
+      LightSetup ls = setup_lights(s.lights, sb, res);
       ASSERT_EQ(ls.maps.size(), 1u);
       const PinholeView& v = ls.maps[0].view;
       const LightData& L = ls.lights[0];
@@ -484,7 +484,7 @@ TEST(Lookup, CubeFacesInsideGuardBand) {
     Scene s = slab_scene(3.0f, res, true);
     s.lights[0] = point_light({0.1f, 0.6f, -0.05f});
     SceneBuffers sb = compile_scene(s);
-    LightSetup ls = setup_lights(s, sb, res);
+    LightSetup ls = setup_lights(s.lights, sb, res);
     ASSERT_EQ(ls.maps.size(), 6u);
     ASSERT_EQ(ls.lights[0].map_mode, kMapsCubeFaces);
     std::mt19937 rng(43u);
@@ -598,8 +598,8 @@ TEST(LightPass, SaturatedRayEndsAtOpaqueSurface) {
   s.shadows.filtering = false;
   ShadowFixture fx(s);
   ShadowView sv = fx.view();
-  const DsmMap& m = fx.frame.dsm.maps[0];
-  DsmStorage st = fx.frame.dsm.storage();
+  const DsmMap& m = fx.frame.headers[0];
+  DsmStorage st = fx.frame.view(fx.scene.shadows).storage;
   int covered = 0;
   for (int ty = 0; ty < int(m.res); ++ty)
     for (int tx = 0; tx < int(m.res); ++tx) {

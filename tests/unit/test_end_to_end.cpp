@@ -44,7 +44,7 @@ ProbeResult texel_centre_probe() {
   ShadowView sv = fx.view();
   SceneView sc = fx.scene_view();
   ReferenceRenderer ref(sc, fx.frame.setup.lights, ReferenceOptions{0.25f});
-  EXPECT_EQ(fx.frame.dsm.maps.size(), 1u) << "the default scene has one spot light, one map";
+  EXPECT_EQ(fx.frame.headers.size(), 1u) << "the default scene has one spot light, one map";
   const PinholeView& mv = fx.map_view(0);
   std::vector<uint32_t> casters = fx.sb.mask_where([&](uint32_t o) { return (sc.objects[o].flags & kObjCastsShadows) != 0u; });
   ObjectMask mask{{casters.data(), casters.size()}};
@@ -148,9 +148,9 @@ TEST(EndToEnd, DsmNodesPhysicalOnDefaultScene) {
   scene.shadows.resolution = 256;
   scene.shadows.epsilon = 0.01f;
   ShadowFixture fx(scene);
-  DsmStorage st = fx.frame.dsm.storage();
+  DsmStorage st = fx.frame.view(fx.scene.shadows).storage;
   uint64_t texels = 0, nodes = 0, steps = 0;
-  for (const DsmMap& m : fx.frame.dsm.maps)
+  for (const DsmMap& m : fx.frame.headers)
     for (int ty = 0; ty < int(m.res); ++ty)
       for (int tx = 0; tx < int(m.res); ++tx) {
         Span<const DsmNode> n = texel_nodes(st, m, tx, ty);

@@ -27,7 +27,7 @@ Convergence measure_convergence() {
   Scene scene = load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/default.json");
   SceneBuffers sb = compile_scene(scene);
   SceneView sv = sb.view();
-  std::vector<LightData> lights = setup_lights(scene, sb, 4).lights;
+  std::vector<LightData> lights = setup_lights(scene.lights, sb, 4).lights;
   EXPECT_FALSE(lights.empty());
   ReferenceRenderer quarter(sv, lights, ReferenceOptions{0.25f});
   ReferenceRenderer eighth(sv, lights, ReferenceOptions{0.125f});

@@ -12,8 +12,8 @@
 
 #include "cdsm/procedural.h"
 #include "cdsm/scene.h"
-#include "cpu/frame.h"
-#include "cpu/scene_buffers.h"
+#include "frame.h"
+#include "scene_compile.h"
 #include "hd/bvh.h"
 #include "hd/compress.h"
 
@@ -144,7 +144,7 @@ struct ShadowFixture {
   ShadowFixture(const ShadowFixture&) = delete;
   ShadowView view() const { return frame.view(scene.shadows); }
   SceneView scene_view() const { return sb.view(); }
-  const PinholeView& map_view(size_t i) const { return frame.dsm.maps[i].view; }
+  const PinholeView& map_view(size_t i) const { return frame.headers[i].view; }
 };
 
 // What the camera pass uses for a caster's surface point on a plane with

@@ -21,6 +21,8 @@ struct RenderOptions {
   Backend backend = Backend::Cpu;
   FragmentSource fragments = FragmentSource::Auto;  // Auto: GL when a context can be made
   bool compare_reference = false;   // transmittance + image error against the reference
+  bool measure_popping = false;     // |dT| at the last frame's receivers when maps changed (costs a
+                                    // 48x48 receiver walk and keeps replaced maps one frame)
   int error_samples = 20000;        // shaded points for the transmittance error
   float reference_step_voxels = 0.25f;
 };
@@ -107,12 +109,49 @@ struct PoppingStats {
   double max = 0.0;
 };
 
+// Why a map was built this frame (checked in this order against the map
+// the same light had in the same place the frame before).
+enum class RebuildReason : uint32_t {
+  New = 0,       // no map in that place before (first frame, a light added, more clusters)
+  Settings = 1,  // the map settings changed (epsilon, resolution, layout, method)
+  Light = 2,     // the light moved or changed
+  Members = 3,   // its caster set changed (clustering, objects added, removed or moved across)
+  Frustum = 4,   // the same casters, a new frustum (focusing followed them or the camera)
+  Content = 5,   // the same casters and frustum, a caster's content changed (moved, edited)
+};
+inline constexpr int kRebuildReasons = 6;
+const char* to_string(RebuildReason reason);
+
+struct MapRebuild {
+  uint32_t light = 0;  // light index of the frame
+  uint32_t map = 0;    // map index within that light
+  RebuildReason reason = RebuildReason::New;
+};
+
+// What the frame's update did to the persistent state (ShadowSystem).
+struct UpdateStats {
+  uint32_t full_compiles = 0;     // geometry arrays and BVH rebuilt from every object (objects added / removed)
+  uint32_t objects_compiled = 0;  // objects whose world-space data was recomputed (moved, added)
+  uint32_t volumes_compiled = 0;  // volumes whose grid was compiled (voxels copied, macro-cells built)
+  uint32_t bvh_refits = 0;        // BVH refitted after objects moved
+  uint32_t bvh_rebuilds = 0;      // BVH built (full compiles, or a refit that degraded the tree)
+  uint64_t gl_upload_bytes = 0;   // bytes uploaded to GL buffers (scene geometry)
+  uint32_t maps_freed = 0;        // maps whose memory was released
+  uint32_t rebuilt_by_reason[kRebuildReasons] = {};  // maps_rebuilt split by RebuildReason
+  std::vector<MapRebuild> rebuilds;                  // every rebuilt map and why
+  uint64_t map_store_bytes = 0;   // the backend's map store, allocated (holes included)
+  uint64_t map_live_bytes = 0;    // of which in maps of this frame (or kept for the popping probe)
+  uint64_t scene_bytes = 0;       // the compiled scene's arrays (triangles, BVH, voxels), allocated
+  uint64_t gl_scene_bytes = 0;    // GL buffers holding the scene geometry, allocated
+};
+
 struct FrameStats {
   StageTimes times;
   DsmMemory memory;
   uint32_t lights = 0;
   uint32_t maps_rebuilt = 0;   // DSMs built this frame
   uint32_t maps_reused = 0;    // DSMs whose inputs did not change (kept from an earlier frame)
+  UpdateStats update;
   double cluster_ms = 0.0;
   std::vector<LightClusterStats> clusters;  // per light
   PoppingStats popping;

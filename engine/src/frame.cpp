@@ -1,11 +1,14 @@
-#include "cpu/frame.h"
+#include "frame.h"
 
 #include "cluster/focus.h"
+#include "cpu/cpu_backend.h"
+#include "scene_compile.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <unordered_map>
 
 namespace cdsm {
 namespace {
@@ -35,6 +38,15 @@ struct Hasher {
   }
 };
 
+uint64_t hash_light(const LightData& l) {
+  Hasher h;
+  h.pod(l.position);
+  h.pod(l.type);
+  h.pod(l.direction);
+  h.pod(l.cos_outer);
+  return h.h;
+}
+
 std::vector<uint32_t> mask_words(const std::vector<uint32_t>& members, size_t object_count) {
   std::vector<uint32_t> w((object_count + 31) / 32, 0u);
   for (uint32_t o : members) w[o >> 5] |= 1u << (o & 31u);
@@ -60,6 +72,8 @@ void light_range(const Light& l, const SceneBuffers& sb, float& near, float& far
   near = std::max(0.5f * closest, 1e-6f);
 }
 
+}  // namespace
+
 LightData light_data(const Light& l) {
   LightData ld{};
   ld.position = l.position;
@@ -72,8 +86,6 @@ LightData light_data(const Light& l) {
   ld.radiance = l.color * l.intensity;
   return ld;
 }
-
-}  // namespace
 
 FragmentProducer cpu_fragment_producer(const SceneView& scene) {
   return [scene](const PinholeView& view, ObjectMask mask, FragmentBuffers& out) {
@@ -124,13 +136,13 @@ std::vector<PinholeView> cube_face_views(Vec3 eye, int res, float near, float fa
   return v;
 }
 
-LightSetup setup_lights(const Scene& scene, const SceneBuffers& sb, int res) {
+LightSetup setup_lights(const std::vector<Light>& lights, const SceneBuffers& sb, int res) {
   LightSetup ls;
   std::vector<uint32_t> casters;
   for (uint32_t o = 0; o < sb.objects.size(); ++o)
     if (sb.objects[o].flags & kObjCastsShadows) casters.push_back(o);
-  for (size_t li = 0; li < scene.lights.size(); ++li) {
-    const Light& l = scene.lights[li];
+  for (size_t li = 0; li < lights.size(); ++li) {
+    const Light& l = lights[li];
     LightData ld = light_data(l);
     ld.first_map = uint32_t(ls.maps.size());
     float near, far;
@@ -153,51 +165,26 @@ LightSetup setup_lights(const Scene& scene, const SceneBuffers& sb, int res) {
   return ls;
 }
 
-std::vector<uint64_t> object_hashes(const SceneBuffers& sb) {
-  Hasher vol;
-  vol.bytes(sb.voxels.data(), sb.voxels.size() * sizeof(float));
-  vol.bytes(sb.macro_max.data(), sb.macro_max.size() * sizeof(float));
-  vol.bytes(sb.nano_pool.data(), sb.nano_pool.size() * sizeof(sb.nano_pool[0]));
-  std::vector<uint64_t> out(sb.objects.size());
-  for (size_t o = 0; o < sb.objects.size(); ++o) {
-    const ObjectData& od = sb.objects[o];
-    Hasher h;
-    h.pod(od);
-    h.bytes(sb.tri_vertices.data() + size_t(od.first_tri) * 3, size_t(od.tri_count) * 3 * sizeof(Vec3));
-    if (od.volume >= 0) {
-      h.pod(sb.volumes[size_t(od.volume)]);
-      h.pod(vol.h);
-    }
-    out[o] = h.h;
-  }
-  return out;
-}
-
-uint64_t map_key(const MapPlan& plan, const std::vector<uint64_t>& hashes, const ShadowSettings& s) {
-  Hasher h;
-  h.pod(plan.view);
-  for (uint32_t o : plan.members) {
-    h.pod(o);
-    h.pod(hashes[o]);
-  }
-  h.pod(s.epsilon);
-  h.pod(s.layout);
-  h.pod(s.fixed_layers);
-  h.pod(s.chunk_nodes);
-  h.pod(s.method);
-  h.pod(s.method_param);
-  h.pod(s.parallel_splits);
-  return h.h;
+DsmLayoutParams dsm_layout_params(const ShadowSettings& s) {
+  static_assert(uint32_t(DsmLayout::Packed) == kDsmPacked && uint32_t(DsmLayout::Fixed) == kDsmFixed &&
+                    uint32_t(DsmLayout::Chunked) == kDsmChunked,
+                "layout tags match cdsm::DsmLayout");
+  return {uint32_t(s.layout), s.fixed_layers, s.chunk_nodes};
 }
 
 static_assert(uint32_t(ReceiverLookup::Plane) == kReceiverPlane && uint32_t(ReceiverLookup::SlopeBias) == kReceiverSlopeBias,
               "hd/lights.h receiver tags equal cdsm::ReceiverLookup");
 
+void ShadowFrame::refresh_headers() {
+  headers.clear();
+  for (MapId id : maps) headers.push_back(backend->map_header(id));
+}
+
 ShadowView ShadowFrame::view(const ShadowSettings& s) const {
   ShadowView v;
   v.lights = {setup.lights.data(), setup.lights.size()};
-  v.maps = {dsm.maps.data(), dsm.maps.size()};
-  v.storage = dsm.storage();
+  v.maps = {headers.data(), headers.size()};
+  v.storage = backend ? backend->storage() : DsmStorage{};
   v.filtering = s.filtering;
   v.bias_constant = s.bias_constant;
   v.bias_slope = s.bias_slope;
@@ -205,14 +192,13 @@ ShadowView ShadowFrame::view(const ShadowSettings& s) const {
   return v;
 }
 
-void append_dsm(DsmBuffers& dst, const DsmBuffers& src) { dst.append(src); }
-
 namespace {
 
 // Replaces the light's unclustered maps with one focused map per cluster.
-void cluster_light(const Scene& scene, const SceneBuffers& sb, size_t li, const ShadowCache& cache,
-                   bool keep_hysteresis, LightSetup& ls, LightClusters& lc) {
-  const ShadowSettings& s = scene.shadows;
+void cluster_light(const FrameInputs& in, size_t li, const LightClusters* previous, LightSetup& ls,
+                   LightClusters& lc) {
+  const SceneBuffers& sb = *in.scene;
+  const ShadowSettings& s = in.settings;
   std::vector<cluster::Caster> casters;
   for (uint32_t o = 0; o < sb.objects.size(); ++o)
     if (sb.objects[o].flags & kObjCastsShadows) casters.push_back({int32_t(o), sb.object_bounds[o]});
@@ -224,10 +210,10 @@ void cluster_light(const Scene& scene, const SceneBuffers& sb, size_t li, const 
   cs.d0 = s.d0;
   cs.max_clusters = s.max_clusters;
   cs.resolution = s.resolution;
-  PinholeView cam = camera_view(scene.camera);
-  const Light& light = scene.lights[li];
-  if (keep_hysteresis && li < cache.clusters.size() && cache.clusters[li].clustered)
-    lc.clustering = cluster::update_clusters(light, cam, sb.bounds, casters, cs, cache.clusters[li].clustering);
+  PinholeView cam = camera_view(in.camera);
+  const cluster::LightShape light = light_shape(in.lights[li]);
+  if (previous && previous->clustered)
+    lc.clustering = cluster::update_clusters(light, cam, sb.bounds, casters, cs, previous->clustering);
   else
     lc.clustering = cluster::cluster_casters(light, cam, sb.bounds, casters, cs);
   size_t views = lc.clustering.view_count();
@@ -271,11 +257,12 @@ void cluster_light(const Scene& scene, const SceneBuffers& sb, size_t li, const 
 // scheme (half logarithmic, half uniform), a light frustum focused on the
 // slice's box within the scene, holding every caster between the light and
 // the scene's far end.
-void split_light(const Scene& scene, const SceneBuffers& sb, size_t li, LightSetup& ls) {
-  const Light& light = scene.lights[li];
-  const int m = scene.shadows.parallel_splits;
+void split_light(const FrameInputs& in, size_t li, LightSetup& ls) {
+  const SceneBuffers& sb = *in.scene;
+  const cluster::LightShape light = light_shape(in.lights[li]);
+  const int m = in.settings.parallel_splits;
   if (ls.lights[li].map_mode != kMapsCombine || ls.lights[li].map_count != 1) return;  // spots only
-  PinholeView cam = camera_view(scene.camera);
+  PinholeView cam = camera_view(in.camera);
   // The view's depth range inside the scene box.
   float far = 0.0f;
   for (int c = 0; c < 8; ++c) far = std::max(far, dot(sb.bounds.corner(c) - cam.eye, cam.forward));
@@ -284,7 +271,7 @@ void split_light(const Scene& scene, const SceneBuffers& sb, size_t li, LightSet
   if (!(far > near)) return;
   const MapPlan base = ls.maps[ls.lights[li].first_map];
   cluster::FocusParams fp;
-  fp.resolution = scene.shadows.resolution;
+  fp.resolution = in.settings.resolution;
   std::vector<MapPlan> mine;
   for (int i = 0; i < m; ++i) {
     auto split_at = [&](int k) {
@@ -325,55 +312,151 @@ void split_light(const Scene& scene, const SceneBuffers& sb, size_t li, LightSet
   ls.maps.swap(all);
 }
 
-uint64_t lights_signature(const Scene& scene) {
+// What a light's clusters depend on besides the casters: a change drops
+// the hysteresis (clusters are recomputed from scratch).
+uint64_t light_signature(const Light& l, const ShadowSettings& s) {
   Hasher h;
-  for (const Light& l : scene.lights) {
-    h.pod(l.type);
-    h.pod(l.position);
-    h.pod(l.direction);
-    h.pod(l.outer_cone_deg);
-  }
-  h.pod(scene.shadows.max_clusters);
-  h.pod(scene.shadows.d0);
-  h.pod(scene.shadows.resolution);
+  h.pod(l.type);
+  h.pod(l.position);
+  h.pod(l.direction);
+  h.pod(l.outer_cone_deg);
+  h.pod(s.max_clusters);
+  h.pod(s.d0);
+  h.pod(s.resolution);
   return h.h;
+}
+
+uint64_t settings_hash(const ShadowSettings& s) {
+  Hasher h;
+  h.pod(s.epsilon);
+  h.pod(s.layout);
+  h.pod(s.fixed_layers);
+  h.pod(s.chunk_nodes);
+  h.pod(s.method);
+  h.pod(s.method_param);
+  h.pod(s.resolution);
+  return h.h;
+}
+
+// What a map is built from: its view, its members' identities and content
+// generations, the map settings.
+uint64_t map_key(const MapPlan& plan, const FrameInputs& in, uint64_t settings) {
+  Hasher h;
+  h.pod(plan.view);
+  for (uint32_t o : plan.members) {
+    h.pod(in.object_ids[o]);
+    h.pod(in.object_generations[o]);
+  }
+  h.pod(settings);
+  return h.h;
+}
+
+RebuildReason rebuild_reason(const MapCache::Entry* before, const MapCache::Entry& now) {
+  if (!before) return RebuildReason::New;
+  if (before->settings_hash != now.settings_hash) return RebuildReason::Settings;
+  if (before->light_hash != now.light_hash) return RebuildReason::Light;
+  if (before->member_ids != now.member_ids) return RebuildReason::Members;
+  if (std::memcmp(&before->view, &now.view, sizeof(PinholeView)) != 0) return RebuildReason::Frustum;
+  return RebuildReason::Content;
 }
 
 }  // namespace
 
-void build_shadow_frame(const Scene& scene, const SceneBuffers& sb, const FragmentProducer& produce,
-                        ShadowCache& cache, ShadowFrame& frame) {
+void MapCache::clear(ShadowBackend& backend) {
+  for (const Entry& e : entries) backend.free_map(e.id);
+  for (MapId id : retired) backend.free_map(id);
+  entries.clear();
+  retired.clear();
+  lights.clear();
+}
+
+void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, ShadowBackend& backend,
+                        MapCache& cache, ShadowFrame& frame) {
+  const SceneBuffers& sb = *in.scene;
   SceneView sv = sb.view();
   frame = ShadowFrame{};
-  const ShadowSettings& s = scene.shadows;
-  frame.setup = setup_lights(scene, sb, s.resolution);
-  frame.clusters.resize(scene.lights.size());
-  uint64_t sig = lights_signature(scene);
-  bool keep = sig == cache.light_signature;
+  frame.backend = &backend;
+  const ShadowSettings& s = in.settings;
+  frame.setup = setup_lights(in.lights, sb, s.resolution);
+  frame.clusters.resize(in.lights.size());
+  // Last frame's replaced maps (kept for the popping probe) go now.
+  for (MapId id : cache.retired) {
+    backend.free_map(id);
+    ++frame.freed;
+  }
+  cache.retired.clear();
   if (s.parallel_splits > 1) {
-    for (size_t li = 0; li < scene.lights.size(); ++li) split_light(scene, sb, li, frame.setup);
-    frame.clusters.assign(scene.lights.size(), LightClusters{});
+    for (size_t li = 0; li < in.lights.size(); ++li) split_light(in, li, frame.setup);
+    frame.clusters.assign(in.lights.size(), LightClusters{});
     for (LightClusters& lc : frame.clusters) lc.fallback_reason = "parallel-split maps (baseline)";
   } else if (s.max_clusters > 1) {
     auto t0 = std::chrono::steady_clock::now();
-    for (size_t li = 0; li < scene.lights.size(); ++li)
-      cluster_light(scene, sb, li, cache, keep, frame.setup, frame.clusters[li]);
+    for (size_t li = 0; li < in.lights.size(); ++li) {
+      auto it = cache.lights.find(in.light_ids[li]);
+      const bool keep = it != cache.lights.end() && it->second.signature == light_signature(in.lights[li], s);
+      cluster_light(in, li, keep ? &it->second.clusters : nullptr, frame.setup, frame.clusters[li]);
+    }
     frame.cluster_ms = ms_since(t0);
   }
-  std::vector<uint64_t> hashes = object_hashes(sb);
-  std::vector<ShadowCache::Entry> next;
+  std::unordered_map<uint64_t, MapCache::LightState> lights;
+  for (size_t li = 0; li < in.lights.size(); ++li)
+    lights[in.light_ids[li]] = {frame.clusters[li], light_signature(in.lights[li], s)};
+
+  // Plans -> entries: reuse by key, describe the rest.
+  const uint64_t settings = settings_hash(s);
+  const size_t n = frame.setup.maps.size();
+  std::vector<MapCache::Entry> next(n);
+  std::vector<uint8_t> found(n, 0);
+  std::vector<uint8_t> taken(cache.entries.size(), 0);
+  for (size_t k = 0; k < n; ++k) {
+    const MapPlan& plan = frame.setup.maps[k];
+    const LightData& ld = frame.setup.lights[plan.light];
+    MapCache::Entry& e = next[k];
+    e.key = map_key(plan, in, settings);
+    e.light_id = in.light_ids[plan.light];
+    e.slot = uint32_t(k - ld.first_map);
+    e.light_hash = hash_light(ld);
+    e.settings_hash = settings;
+    e.view = plan.view;
+    for (uint32_t o : plan.members) e.member_ids.push_back(in.object_ids[o]);
+    for (size_t c = 0; c < cache.entries.size(); ++c)
+      if (!taken[c] && cache.entries[c].key == e.key) {
+        taken[c] = 1;
+        found[k] = 1;
+        e.id = cache.entries[c].id;
+        e.stats = cache.entries[c].stats;
+        break;
+      }
+  }
+  // Why each new map is built: against the map its light had in that place.
+  for (size_t k = 0; k < n; ++k) {
+    if (found[k]) continue;
+    const MapCache::Entry* before = nullptr;
+    for (const MapCache::Entry& old : cache.entries)
+      if (old.light_id == next[k].light_id && old.slot == next[k].slot) before = &old;
+    const RebuildReason why = rebuild_reason(before, next[k]);
+    frame.rebuilds.push_back({frame.setup.maps[k].light, next[k].slot, why});
+  }
+  // Replaced maps are released before new ones are built (a layout change
+  // needs an empty store), or kept one frame for the popping probe.
+  const bool layout_changed = !cache.entries.empty() && cache.entries.front().settings_hash != settings;
+  for (size_t c = 0; c < cache.entries.size(); ++c) {
+    if (taken[c]) continue;
+    if (in.keep_previous && !layout_changed) {
+      cache.retired.push_back(cache.entries[c].id);
+    } else {
+      backend.free_map(cache.entries[c].id);
+      ++frame.freed;
+    }
+  }
   FragmentBuffers fb;
-  for (const MapPlan& plan : frame.setup.maps) {
-    uint64_t key = map_key(plan, hashes, s);
-    ShadowCache::Entry entry;
-    auto it = std::find_if(cache.entries.begin(), cache.entries.end(), [&](const ShadowCache::Entry& e) { return e.key == key; });
-    if (it != cache.entries.end()) {
-      entry = std::move(*it);
-      cache.entries.erase(it);
+  for (size_t k = 0; k < n; ++k) {
+    MapCache::Entry& e = next[k];
+    const MapPlan& plan = frame.setup.maps[k];
+    if (found[k]) {
       frame.map_rebuilt.push_back(0);
       ++frame.reused;
     } else {
-      entry.key = key;
       std::vector<uint32_t> words = mask_words(plan.members, sb.objects.size());
       ObjectMask mask{{words.data(), words.size()}};
       auto t0 = std::chrono::steady_clock::now();
@@ -383,18 +466,40 @@ void build_shadow_frame(const Scene& scene, const SceneBuffers& sb, const Fragme
       t0 = std::chrono::steady_clock::now();
       std::vector<uint32_t> inside = objects_containing(sv, plan.view.eye, mask);
       LightPassParams lp{plan.view, s.epsilon, {inside.data(), inside.size()}, uint32_t(s.method), s.method_param};
-      entry.stats = build_dsm(sv, lp, fb.lists(), entry.dsm, dsm_layout_params(s));
+      e.id = backend.build_map(lp, fb.lists(), dsm_layout_params(s), e.stats);
       frame.build_ms += ms_since(t0);
       frame.map_rebuilt.push_back(1);
       ++frame.rebuilt;
     }
-    append_dsm(frame.dsm, entry.dsm);
-    frame.map_stats.push_back(entry.stats);
-    next.push_back(std::move(entry));
+    frame.maps.push_back(e.id);
+    frame.map_stats.push_back(e.stats);
   }
+  frame.refresh_headers();
   cache.entries = std::move(next);
-  cache.clusters = frame.clusters;
-  cache.light_signature = sig;
+  cache.lights = std::move(lights);
+}
+
+FrameInputs frame_inputs(const Scene& scene, const SceneBuffers& sb) {
+  FrameInputs in;
+  in.scene = &sb;
+  in.lights = scene.lights;
+  for (size_t i = 0; i < scene.lights.size(); ++i) in.light_ids.push_back(i + 1);
+  for (size_t i = 0; i < sb.objects.size(); ++i) {
+    in.object_ids.push_back(i + 1);
+    in.object_generations.push_back(1);
+  }
+  in.camera = scene.camera;
+  in.settings = scene.shadows;
+  return in;
+}
+
+ShadowCache::ShadowCache() : backend(make_cpu_backend()) {}
+ShadowCache::~ShadowCache() = default;
+
+void build_shadow_frame(const Scene& scene, const SceneBuffers& sb, const FragmentProducer& produce,
+                        ShadowCache& cache, ShadowFrame& frame) {
+  cache.backend->update_scene(sb, SceneChange{true, 0, 0, true});
+  build_shadow_frame(frame_inputs(scene, sb), produce, *cache.backend, cache.maps, frame);
 }
 
 }  // namespace cdsm

@@ -1,0 +1,154 @@
+// The backend-neutral frame (DESIGN.md §5): lights -> map plans ->
+// (clusters ->) map cache -> build or reuse -> the lookup over the frame's
+// maps. It works on the compiled scene (SceneBuffers) and the scene model's
+// lights, camera and settings, and talks to a ShadowBackend
+// (shadows/backend/backend.h) for every map it builds or frees; fragment
+// lists come from a pluggable producer (the CPU ray caster or the OpenGL
+// rasterizer). Maps are cached by what they were built from — their view,
+// their members' identities and content generations, the map settings —
+// so a frame rebuilds only maps whose inputs changed.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "backend/backend.h"
+#include "cdsm/renderer.h"
+#include "cdsm/scene.h"
+#include "cluster/clustering.h"
+#include "scene_compile.h"
+
+namespace cdsm {
+
+// Produces one view's fragment lists for the objects in the mask.
+using FragmentProducer = std::function<void(const PinholeView&, ObjectMask, FragmentBuffers&)>;
+
+FragmentProducer cpu_fragment_producer(const SceneView& scene);
+
+PinholeView camera_view(const Camera& cam);
+
+// A view from `eye` along `forward` with a square window of half-angle
+// atan(tan_half); `up_hint` picks the roll. The window is widened by
+// `guard` texels per side so bilinear taps at its border stay inside.
+PinholeView light_view(Vec3 eye, Vec3 forward, Vec3 up_hint, float tan_half, int res, int guard,
+                       float near, float far);
+
+// The six 90-degree faces +X,-X,+Y,-Y,+Z,-Z of an omni light (one-texel guard band).
+std::vector<PinholeView> cube_face_views(Vec3 eye, int res, float near, float far);
+
+// The kernels' light (radiance, cone) of a scene light; its maps unset.
+LightData light_data(const Light& l);
+
+// The layout of the scene's shadow settings.
+DsmLayoutParams dsm_layout_params(const ShadowSettings& s);
+
+// One map to build: a view and the caster objects it contains.
+struct MapPlan {
+  PinholeView view;
+  uint32_t light = 0;
+  std::vector<uint32_t> members;  // object indices (casters) in this map
+};
+
+// Kernel lights and the maps each needs.
+struct LightSetup {
+  std::vector<LightData> lights;
+  std::vector<MapPlan> maps;  // in map order; lights[i] owns maps [first_map, first_map + map_count)
+};
+
+// Unclustered maps: a spot's cone (wider than 120 degrees: six cube faces
+// with the cone mask), six faces for a point light; every caster in each.
+LightSetup setup_lights(const std::vector<Light>& lights, const SceneBuffers& sb, int res);
+
+// Per light, the clusters of the current frame (for hysteresis and stats).
+struct LightClusters {
+  cluster::Clustering clustering;
+  bool clustered = false;        // false: m = 1, or fell back to unclustered maps
+  std::string fallback_reason;   // why clustering fell back
+};
+
+// What one frame's maps are built from, besides the compiled scene.
+struct FrameInputs {
+  const SceneBuffers* scene = nullptr;
+  std::vector<Light> lights;
+  std::vector<uint64_t> light_ids;     // per light: a stable identity (handles)
+  std::vector<uint64_t> object_ids;    // per compiled object: a stable identity
+  std::vector<uint64_t> object_generations;  // per compiled object: its content generation
+  Camera camera;
+  ShadowSettings settings;
+  bool keep_previous = false;  // keep the last frame's replaced maps alive one frame (popping probe)
+};
+
+// State kept across frames: the built maps by key, the clusters per light.
+struct MapCache {
+  struct Entry {
+    uint64_t key = 0;
+    MapId id = 0;
+    DsmBuildStats stats;
+    // Its slot, to tell why a replacement was built.
+    uint64_t light_id = 0;
+    uint32_t slot = 0;              // map index within its light
+    uint64_t light_hash = 0;        // the light's kernel data
+    uint64_t settings_hash = 0;
+    PinholeView view{};
+    std::vector<uint64_t> member_ids;
+  };
+  std::vector<Entry> entries;
+  std::vector<MapId> retired;  // replaced last frame, freed at the next (keep_previous)
+  struct LightState {
+    LightClusters clusters;
+    uint64_t signature = 0;  // a change drops the hysteresis
+  };
+  std::unordered_map<uint64_t, LightState> lights;  // by light identity
+  // Frees every map (the backend's memory) and forgets the clusters.
+  void clear(ShadowBackend& backend);
+};
+
+struct ShadowFrame {
+  LightSetup setup;
+  std::vector<LightClusters> clusters;  // per light
+  std::vector<MapId> maps;              // per map: the backend's map
+  std::vector<DsmMap> headers;          // per map: its header (refreshed by refresh_headers)
+  std::vector<DsmBuildStats> map_stats; // per map (reused maps: their build's stats)
+  std::vector<uint8_t> map_rebuilt;     // per map: built this frame
+  std::vector<MapRebuild> rebuilds;     // why each rebuilt map was rebuilt
+  uint32_t rebuilt = 0, reused = 0, freed = 0;
+  double fragments_ms = 0.0;
+  double build_ms = 0.0;
+  double cluster_ms = 0.0;
+  uint64_t fragments = 0;
+  const ShadowBackend* backend = nullptr;  // holds the maps
+  // The lookup over this frame's maps with the lookup settings of `s`.
+  ShadowView view(const ShadowSettings& s) const;
+  void refresh_headers();
+};
+
+// Builds every light's maps with the scene's shadow casters; with
+// settings.max_clusters > 1, one focused map per cluster (thesis Alg. 4.2).
+// Maps whose key is in `cache` are reused; the others are built by
+// `backend` and replaced ones freed; the cache is updated.
+void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, ShadowBackend& backend,
+                        MapCache& cache, ShadowFrame& frame);
+
+// The frame inputs of a whole scene compiled at once (compile_scene):
+// objects and lights identified by their index + 1, generation 1.
+FrameInputs frame_inputs(const Scene& scene, const SceneBuffers& sb);
+
+// A cpu backend with its map cache, for one-off frames (tests, tools) that
+// do not keep a ShadowSystem.
+struct ShadowCache {
+  std::unique_ptr<ShadowBackend> backend;
+  MapCache maps;
+  ShadowCache();
+  ~ShadowCache();
+  ShadowCache(const ShadowCache&) = delete;
+  ShadowCache& operator=(const ShadowCache&) = delete;
+};
+
+// build_shadow_frame() of a whole scene on `cache`'s cpu backend.
+void build_shadow_frame(const Scene& scene, const SceneBuffers& sb, const FragmentProducer& produce,
+                        ShadowCache& cache, ShadowFrame& frame);
+
+}  // namespace cdsm

@@ -1,0 +1,64 @@
+// The engine's compile of its scene model (cdsm/scene.h) into the
+// algorithm's plain input (SceneBuffers, shadows/cpu/scene_buffers.h),
+// volume by volume and object by object, so the shadow system recompiles
+// only what an edit touched (engine/src/shadow_system.cpp).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "cdsm/scene.h"
+#include "cluster/light_views.h"
+#include "cpu/scene_buffers.h"
+
+namespace cdsm {
+
+// One volume's content on its own arrays: the voxels (dense) or the NanoVDB
+// grid's blocks (sparse) and the macro-cell maxima, the offsets in `data`
+// relative to these arrays. Placement (index_to_world, step) comes from the
+// object whose interior it is: place_volume(). O(voxels).
+struct CompiledVolume {
+  VolumeData data{};
+  std::vector<float> voxels;
+  std::vector<float> macro_max;
+  std::vector<GridBlock> nano_pool;
+};
+CompiledVolume compile_volume(const Volume& v, const std::string& where);
+
+// Places a volume inside its object (object -> world `transform`): its
+// index <-> world matrices, voxel size and march step. Throws cdsm::Error
+// when the placement is singular or the step is below float resolution
+// where the volume lies.
+void place_volume(VolumeData& vd, const Volume& v, const Mat4& transform, const std::string& where);
+
+// One object: its kernel data (first_tri and volume left for the caller)
+// and world-space triangles, 3 vertices and 3 shading normals each, with
+// their box. `closed` is is_closed(*o.mesh), computed once per mesh by the
+// caller. Throws cdsm::Error on invalid content (NaN, bad indices, a
+// singular transform). O(triangles).
+struct CompiledObject {
+  ObjectData data{};
+  std::vector<Vec3> vertices;
+  std::vector<Vec3> normals;
+  Box3 bounds;
+  std::vector<std::string> warnings;
+};
+void compile_object(const Object& o, bool closed, const std::string& where, CompiledObject& out);
+
+// Appends a compiled volume's arrays to the scene's, its offsets re-based;
+// returns its index in sb.volumes.
+uint32_t append_volume(SceneBuffers& sb, const CompiledVolume& cv);
+
+// Flattens a whole scene at once: volumes, objects, BVH. Throws cdsm::Error
+// on invalid content (NaN in a vertex or transform, a bad volume reference,
+// too many triangles). The shadow system compiles incrementally instead;
+// tests and one-off tools use this.
+SceneBuffers compile_scene(const Scene& scene);
+
+// The light as clustering sees it.
+cluster::LightShape light_shape(const Light& light);
+
+// "scene.json: object 3 'name'" for messages.
+std::string object_location(const std::string& source, size_t index, const std::string& name);
+
+}  // namespace cdsm

@@ -1,0 +1,745 @@
+// The persistent shadow system (cdsm/shadow_system.h): edits mark what they
+// invalidate; update() compiles only that and runs the frame.
+#include "cdsm/shadow_system.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+
+#include "cdsm/error.h"
+#include "cdsm/scene_io.h"
+#include "cpu/cpu_backend.h"
+#include "memory_budget.h"
+#include "reference/reference.h"
+#include "scene_compile.h"
+#include "shadow_system_impl.h"
+
+namespace cdsm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+// A refit tree whose surface-area cost grew beyond this factor of its
+// build's is rebuilt (tests/bench/bench_frames.cpp measured refit against
+// rebuild; see docs/persistent-frames.md).
+constexpr double kRefitCostLimit = 1.5;
+
+bool finite_matrix(const Mat4& m) {
+  for (auto& row : m.m)
+    for (float v : row)
+      if (!is_finite(v)) return false;
+  return true;
+}
+
+template <class T>
+uint64_t capacity_bytes(const std::vector<T>& v) {
+  return uint64_t(v.capacity()) * sizeof(T);
+}
+
+uint64_t scene_bytes(const SceneBuffers& sb) {
+  return capacity_bytes(sb.tri_vertices) + capacity_bytes(sb.tri_normals) + capacity_bytes(sb.tri_object) +
+         capacity_bytes(sb.objects) + capacity_bytes(sb.volumes) + capacity_bytes(sb.voxels) +
+         capacity_bytes(sb.macro_max) + capacity_bytes(sb.nano_pool) + capacity_bytes(sb.bvh) +
+         capacity_bytes(sb.bvh_prims) + capacity_bytes(sb.object_bounds);
+}
+
+// Erases [begin, begin + count) and gives the memory back.
+template <class T>
+void erase_range(std::vector<T>& v, uint64_t begin, uint64_t count) {
+  if (count == 0) return;
+  v.erase(v.begin() + ptrdiff_t(begin), v.begin() + ptrdiff_t(begin + count));
+  v.shrink_to_fit();
+}
+
+void add_walk(FrameStats& st, const WalkStats& w) {
+  st.unmatched_fragments += w.unmatched;
+  st.enclosing_overflow += w.enclosing_overflow;
+  st.match_overflow += w.match_overflow;
+  st.march_lengthened += w.march_lengthened;
+}
+
+}  // namespace
+
+const char* to_string(RebuildReason r) {
+  switch (r) {
+    case RebuildReason::New: return "new";
+    case RebuildReason::Settings: return "settings";
+    case RebuildReason::Light: return "light";
+    case RebuildReason::Members: return "members";
+    case RebuildReason::Frustum: return "frustum";
+    case RebuildReason::Content: return "content";
+  }
+  return "?";
+}
+
+// ---- Impl -------------------------------------------------------------------
+
+ShadowSystem::Impl::Impl(const SystemOptions& o) : options(o), backend(make_cpu_backend()) { scene.source = o.source; }
+
+ShadowSystem::Impl::~Impl() = default;
+
+size_t ShadowSystem::Impl::object_index(ObjectHandle h) const {
+  for (size_t i = 0; i < objects.size(); ++i)
+    if (objects[i].id == h.id) return i;
+  throw Error(scene.source, "object handle " + std::to_string(h.id) + " does not name an object of this system");
+}
+
+size_t ShadowSystem::Impl::volume_index(uint64_t id) const {
+  for (size_t i = 0; i < volumes.size(); ++i)
+    if (volumes[i].id == id) return i;
+  throw Error(scene.source, "volume handle " + std::to_string(id) + " does not name a volume of this system");
+}
+
+size_t ShadowSystem::Impl::light_index(LightHandle h) const {
+  for (size_t i = 0; i < lights.size(); ++i)
+    if (lights[i] == h.id) return i;
+  throw Error(scene.source, "light handle " + std::to_string(h.id) + " does not name a light of this system");
+}
+
+std::string ShadowSystem::Impl::object_where(size_t i) const {
+  return object_location(scene.source, i, scene.objects[i].name);
+}
+
+bool ShadowSystem::Impl::is_closed_mesh(const std::shared_ptr<const TriangleMesh>& mesh) {
+  if (!mesh) return false;
+  auto it = closed_meshes.find(mesh.get());
+  if (it != closed_meshes.end() && it->second.first == mesh) return it->second.second;
+  const bool closed = is_closed(*mesh);
+  closed_meshes[mesh.get()] = {mesh, closed};
+  return closed;
+}
+
+void ShadowSystem::Impl::touch_object(size_t i) {
+  ++objects[i].generation;
+  changed = compile_pending = true;
+}
+
+// Dirty volumes: compiled on their own, their old data erased from the
+// scene arrays (later volumes' offsets shift down), the new data appended.
+void ShadowSystem::Impl::compile_volumes(FrameStats& st) {
+  for (size_t vi = 0; vi < volumes.size(); ++vi) {
+    VolumeRec& rec = volumes[vi];
+    if (!rec.dirty) continue;
+    const Volume& v = scene.volumes[vi];
+    const std::string where = scene.source + ": volume " + std::to_string(vi) + (v.name.empty() ? "" : " '" + v.name + "'");
+    CompiledVolume cv = compile_volume(v, where);
+    if (rec.compiled) {
+      erase_range(sb.voxels, rec.voxel_begin, rec.voxel_count);
+      erase_range(sb.nano_pool, rec.block_begin, rec.block_count);
+      erase_range(sb.macro_max, rec.macro_begin, rec.macro_count);
+      for (size_t k = 0; k < volumes.size(); ++k) {
+        VolumeRec& o = volumes[k];
+        if (k == vi || !o.compiled) continue;
+        if (o.voxel_begin > rec.voxel_begin) o.voxel_begin -= rec.voxel_count;
+        if (o.block_begin > rec.block_begin) o.block_begin -= rec.block_count;
+        if (o.macro_begin > rec.macro_begin) o.macro_begin -= rec.macro_count;
+        VolumeData& d = sb.volumes[k];
+        d.voxel_offset = d.grid_kind == kGridDense ? o.voxel_begin : o.block_begin * sizeof(GridBlock);
+        d.macro_offset = o.macro_begin;
+      }
+    }
+    const VolumeData placed = vi < sb.volumes.size() ? sb.volumes[vi] : VolumeData{};
+    rec.voxel_begin = sb.voxels.size();
+    rec.block_begin = sb.nano_pool.size();
+    rec.macro_begin = sb.macro_max.size();
+    const uint32_t at = append_volume(sb, cv);
+    rec.voxel_count = cv.voxels.size();
+    rec.block_count = cv.nano_pool.size();
+    rec.macro_count = cv.macro_max.size();
+    VolumeData d = sb.volumes[at];
+    sb.volumes.pop_back();
+    // Keep the placement of its object (place_volume below redoes it).
+    d.index_to_world = placed.index_to_world;
+    d.world_to_index = placed.world_to_index;
+    if (vi < sb.volumes.size())
+      sb.volumes[vi] = d;
+    else
+      sb.volumes.push_back(d);
+    for (size_t oi = 0; oi < objects.size(); ++oi)
+      if (objects[oi].volume == rec.id) place_volume(sb.volumes[vi], v, scene.objects[oi].transform, object_where(oi));
+    rec.compiled = true;
+    rec.dirty = false;
+    ++st.update.volumes_compiled;
+  }
+}
+
+// Geometry arrays and BVH from every object (the volumes' data is kept).
+void ShadowSystem::Impl::compile_structure(FrameStats& st) {
+  SceneBuffers nb;
+  nb.voxels = std::move(sb.voxels);
+  nb.macro_max = std::move(sb.macro_max);
+  nb.nano_pool = std::move(sb.nano_pool);
+  nb.volumes = sb.volumes;
+  try {
+    std::vector<int> used(volumes.size(), -1);
+    CompiledObject co;
+    for (size_t oi = 0; oi < scene.objects.size(); ++oi) {
+      const Object& o = scene.objects[oi];
+      const std::string where = object_where(oi);
+      compile_object(o, is_closed_mesh(o.mesh), where, co);
+      if (o.interior == InteriorKind::Volume) {
+        if (!objects[oi].volume) throw Error(where, "has a volume interior but names no volume");
+        const size_t vi = volume_index(objects[oi].volume);
+        if (used[vi] >= 0) throw Error(where, "volume " + std::to_string(vi) + " is used by two objects");
+        used[vi] = int(oi);
+        co.data.volume = int32_t(vi);
+        place_volume(nb.volumes[vi], scene.volumes[vi], o.transform, where);
+      }
+      co.data.first_tri = uint32_t(nb.tri_object.size());
+      co.data.tri_count = uint32_t(co.vertices.size() / 3);
+      if (uint64_t(nb.tri_object.size()) + co.data.tri_count >= kMaxPrimitives)
+        throw Error(scene.source, "more than " + std::to_string(kMaxPrimitives) + " triangles");
+      nb.tri_vertices.insert(nb.tri_vertices.end(), co.vertices.begin(), co.vertices.end());
+      nb.tri_normals.insert(nb.tri_normals.end(), co.normals.begin(), co.normals.end());
+      nb.tri_object.insert(nb.tri_object.end(), co.data.tri_count, uint32_t(oi));
+      nb.warnings.insert(nb.warnings.end(), co.warnings.begin(), co.warnings.end());
+      nb.objects.push_back(co.data);
+      nb.object_bounds.push_back(co.bounds);
+      nb.bounds.grow(co.bounds);
+    }
+    for (size_t vi = 0; vi < volumes.size(); ++vi)
+      if (used[vi] < 0) throw Error(scene.source + ": volume " + std::to_string(vi), "is not used by any object");
+    build_bvh(nb);
+  } catch (...) {
+    sb.voxels = std::move(nb.voxels);
+    sb.macro_max = std::move(nb.macro_max);
+    sb.nano_pool = std::move(nb.nano_pool);
+    throw;
+  }
+  sb = std::move(nb);
+  bvh_built_cost = bvh_cost(sb);
+  for (ObjectRec& r : objects) r.moved = r.surface = false;
+  structure_dirty = false;
+  ++st.update.full_compiles;
+  ++st.update.bvh_rebuilds;
+  st.update.objects_compiled += uint32_t(objects.size());
+}
+
+// Moved objects: their world data recomputed into their own range, the BVH
+// refitted (rebuilt when the tree degraded).
+void ShadowSystem::Impl::compile_moves(FrameStats& st, std::vector<SceneChange>& uploads) {
+  bool any = false;
+  CompiledObject co;
+  for (size_t oi = 0; oi < objects.size(); ++oi) {
+    ObjectRec& rec = objects[oi];
+    if (!rec.moved) continue;
+    const Object& o = scene.objects[oi];
+    compile_object(o, rec.closed = is_closed_mesh(o.mesh), object_where(oi), co);
+    ObjectData& od = sb.objects[oi];
+    if (co.vertices.size() != size_t(od.tri_count) * 3) throw std::logic_error("compile_moves: triangle count changed");
+    if (od.volume >= 0) place_volume(sb.volumes[size_t(od.volume)], scene.volumes[size_t(od.volume)], o.transform, object_where(oi));
+    std::copy(co.vertices.begin(), co.vertices.end(), sb.tri_vertices.begin() + ptrdiff_t(od.first_tri) * 3);
+    std::copy(co.normals.begin(), co.normals.end(), sb.tri_normals.begin() + ptrdiff_t(od.first_tri) * 3);
+    sb.object_bounds[oi] = co.bounds;
+    uploads.push_back({false, od.first_tri, od.tri_count, true});
+    rec.moved = false;
+    any = true;
+    ++st.update.objects_compiled;
+  }
+  if (!any) return;
+  sb.bounds = Box3{};
+  for (const Box3& b : sb.object_bounds) sb.bounds.grow(b);
+  const double cost = refit_bvh(sb);
+  if (cost > kRefitCostLimit * bvh_built_cost) {
+    build_bvh(sb);
+    bvh_built_cost = bvh_cost(sb);
+    ++st.update.bvh_rebuilds;
+  } else {
+    ++st.update.bvh_refits;
+  }
+}
+
+// Material and shadow-flag edits: kernel data only.
+void ShadowSystem::Impl::refresh_surfaces() {
+  for (size_t oi = 0; oi < objects.size(); ++oi) {
+    if (!objects[oi].surface) continue;
+    const Object& o = scene.objects[oi];
+    if (!(o.surface.opacity >= 0.0f && o.surface.opacity <= 1.0f))
+      throw Error(object_where(oi), "surface opacity must be in [0, 1]");
+    ObjectData& od = sb.objects[oi];
+    od.color = o.surface.color;
+    od.opacity = o.surface.opacity;
+    od.ka = o.surface.ambient;
+    od.kd = o.surface.diffuse;
+    od.ks = o.surface.specular;
+    od.shininess = o.surface.shininess;
+    od.flags = (od.flags & ~kObjCastsShadows) | (o.casts_shadows ? kObjCastsShadows : 0u);
+    objects[oi].surface = false;
+  }
+}
+
+void ShadowSystem::Impl::compile(FrameStats& st) {
+  fragments.choose(options.fragments, fragment_name, fragment_reason);
+  if (!compile_pending) return;
+  auto t0 = Clock::now();
+  std::vector<SceneChange> uploads;
+  compile_volumes(st);
+  if (structure_dirty) {
+    compile_structure(st);
+    uploads.push_back({true, 0, 0, true});
+  } else {
+    compile_moves(st, uploads);
+    refresh_surfaces();
+    uploads.push_back({false, 0, 0, true});  // kernel data (materials, volume placement)
+  }
+  st.times.compile_ms = ms_since(t0);
+  SceneChange all;
+  for (const SceneChange& u : uploads) {
+    all.everything |= u.everything;
+    all.objects |= u.objects;
+    st.update.gl_upload_bytes += fragments.scene_changed(sb, u);
+  }
+  backend->update_scene(sb, all);
+  compile_pending = false;
+}
+
+void ShadowSystem::Impl::update(FrameStats& st) {
+  if (changed) {
+    validate_scene(scene, &st.warnings);
+    check_memory(scene, estimate_frame_memory(scene, RenderOptions{}));
+    compile(st);
+    FrameInputs in;
+    in.scene = &sb;
+    in.lights = scene.lights;
+    in.light_ids = lights;
+    for (const ObjectRec& r : objects) {
+      in.object_ids.push_back(r.id);
+      in.object_generations.push_back(r.generation);
+    }
+    in.camera = scene.camera;
+    in.settings = scene.shadows;
+    in.keep_previous = keep_previous;
+    build_shadow_frame(in, fragments.producer(sb), *backend, cache, frame);
+    changed = false;
+  } else {
+    for (uint8_t& r : frame.map_rebuilt) r = 0;
+    frame.rebuilt = frame.freed = 0;
+    frame.rebuilds.clear();
+    frame.reused = uint32_t(frame.maps.size());
+    frame.fragments_ms = frame.build_ms = frame.cluster_ms = 0.0;
+    frame.fragments = 0;
+  }
+  st.fragment_source = fragment_name;
+  st.fragment_source_reason = fragment_reason;
+  st.warnings.insert(st.warnings.end(), sb.warnings.begin(), sb.warnings.end());
+  st.maps_rebuilt = frame.rebuilt;
+  st.maps_reused = frame.reused;
+  st.update.maps_freed = frame.freed;
+  st.update.rebuilds = frame.rebuilds;
+  for (const MapRebuild& r : frame.rebuilds) ++st.update.rebuilt_by_reason[int(r.reason)];
+  st.cluster_ms = frame.cluster_ms;
+  st.clusters.clear();
+  for (size_t li = 0; li < frame.clusters.size(); ++li) {
+    const LightClusters& lc = frame.clusters[li];
+    LightClusterStats cs;
+    cs.clustered = lc.clustered;
+    cs.fallback_reason = lc.fallback_reason;
+    cs.reclustered = lc.clustered && lc.clustering.reclustered;
+    if (lc.clustered)
+      for (const auto& c : lc.clustering.clusters) {
+        cs.members.push_back({c.members.begin(), c.members.end()});
+        cs.changed.push_back(c.members_changed || c.views_changed ? 1 : 0);
+      }
+    cs.maps = frame.setup.lights[li].map_count;
+    cs.directions = lc.clustering.directions;
+    cs.warped_directions = lc.clustering.perspective_directions;
+    st.clusters.push_back(std::move(cs));
+  }
+  st.times.fragments_ms = frame.fragments_ms;
+  st.times.dsm_build_ms = frame.build_ms;
+  st.light_fragments = frame.fragments;
+  DsmMemory& m = st.memory;
+  m = DsmMemory{};
+  m.maps = frame.maps.size();
+  for (const DsmBuildStats& b : frame.map_stats) {
+    m.texels += b.texels;
+    m.nodes += b.nodes;
+    m.index_bytes += b.index_bytes;
+    m.node_bytes += b.node_bytes_used;
+    m.slack_bytes += b.slack_bytes;
+    m.max_nodes_per_texel = std::max(m.max_nodes_per_texel, b.max_nodes);
+    m.overflow_texels += b.overflow_texels;
+    m.max_extra_error = std::max(m.max_extra_error, b.max_extra_error);
+    add_walk(st, b.walk);
+  }
+  m.avg_nodes_per_texel = m.texels ? double(m.nodes) / double(m.texels) : 0.0;
+  const MapStoreStats store = backend->map_store();
+  st.update.map_store_bytes = store.allocated_bytes;
+  st.update.map_live_bytes = store.live_bytes;
+  st.update.scene_bytes = scene_bytes(sb);
+  st.update.gl_scene_bytes = fragments.gl_scene_bytes();
+  st.lights = uint32_t(scene.lights.size());
+  update_stats = st;
+}
+
+// ---- ShadowSystem -----------------------------------------------------------
+
+ShadowSystem::ShadowSystem(const SystemOptions& options) : impl_(std::make_unique<Impl>(options)) {}
+ShadowSystem::~ShadowSystem() = default;
+
+ShadowSystem::Impl& ShadowSystem::internals() { return *impl_; }
+const Scene& ShadowSystem::scene() const { return impl_->scene; }
+
+std::vector<ObjectHandle> ShadowSystem::objects() const {
+  std::vector<ObjectHandle> out;
+  for (const auto& r : impl_->objects) out.push_back({r.id});
+  return out;
+}
+
+std::vector<LightHandle> ShadowSystem::lights() const {
+  std::vector<LightHandle> out;
+  for (uint64_t id : impl_->lights) out.push_back({id});
+  return out;
+}
+
+VolumeHandle ShadowSystem::add_volume(Volume volume) {
+  Impl& I = *impl_;
+  I.scene.volumes.push_back(std::move(volume));
+  Impl::VolumeRec rec;
+  rec.id = I.next_id++;
+  I.volumes.push_back(rec);
+  I.changed = I.compile_pending = true;
+  return {rec.id};
+}
+
+void ShadowSystem::set_volume(VolumeHandle h, Volume volume) {
+  Impl& I = *impl_;
+  const size_t vi = I.volume_index(h.id);
+  I.scene.volumes[vi] = std::move(volume);
+  I.volumes[vi].dirty = true;
+  for (size_t oi = 0; oi < I.objects.size(); ++oi)
+    if (I.objects[oi].volume == h.id) I.touch_object(oi);
+  I.changed = I.compile_pending = true;
+}
+
+void ShadowSystem::remove_volume(VolumeHandle h) {
+  Impl& I = *impl_;
+  const size_t vi = I.volume_index(h.id);
+  for (size_t oi = 0; oi < I.objects.size(); ++oi)
+    if (I.objects[oi].volume == h.id)
+      throw Error(I.object_where(oi), "uses the volume being removed: remove the object or change its interior first");
+  Impl::VolumeRec rec = I.volumes[vi];
+  if (rec.compiled) {
+    erase_range(I.sb.voxels, rec.voxel_begin, rec.voxel_count);
+    erase_range(I.sb.nano_pool, rec.block_begin, rec.block_count);
+    erase_range(I.sb.macro_max, rec.macro_begin, rec.macro_count);
+    for (size_t k = 0; k < I.volumes.size(); ++k) {
+      Impl::VolumeRec& o = I.volumes[k];
+      if (k == vi || !o.compiled) continue;
+      if (o.voxel_begin > rec.voxel_begin) o.voxel_begin -= rec.voxel_count;
+      if (o.block_begin > rec.block_begin) o.block_begin -= rec.block_count;
+      if (o.macro_begin > rec.macro_begin) o.macro_begin -= rec.macro_count;
+      VolumeData& d = I.sb.volumes[k];
+      d.voxel_offset = d.grid_kind == kGridDense ? o.voxel_begin : o.block_begin * sizeof(GridBlock);
+      d.macro_offset = o.macro_begin;
+    }
+    I.sb.volumes.erase(I.sb.volumes.begin() + ptrdiff_t(vi));
+  }
+  I.volumes.erase(I.volumes.begin() + ptrdiff_t(vi));
+  I.scene.volumes.erase(I.scene.volumes.begin() + ptrdiff_t(vi));
+  for (Object& o : I.scene.objects)
+    if (o.volume > int32_t(vi)) --o.volume;
+  I.structure_dirty = true;  // objects' volume indices shift
+  I.changed = I.compile_pending = true;
+}
+
+ObjectHandle ShadowSystem::add_object(const Object& o, VolumeHandle volume) {
+  Impl& I = *impl_;
+  const std::string where = object_location(I.scene.source, I.objects.size(), o.name);
+  if (!o.mesh) throw Error(where, "has no mesh");
+  if (!finite_matrix(o.transform)) throw Error(where, "transform has NaN or infinite entries");
+  Object copy = o;
+  copy.volume = -1;
+  Impl::ObjectRec rec;
+  rec.id = I.next_id++;
+  if (o.interior == InteriorKind::Volume) {
+    if (!volume) throw Error(where, "has a volume interior but names no volume");
+    const size_t vi = I.volume_index(volume.id);
+    for (const auto& r : I.objects)
+      if (r.volume == volume.id) throw Error(where, "volume " + std::to_string(vi) + " is used by two objects");
+    copy.volume = int32_t(vi);
+    rec.volume = volume.id;
+  }
+  I.scene.objects.push_back(std::move(copy));
+  I.objects.push_back(rec);
+  I.structure_dirty = true;
+  I.changed = I.compile_pending = true;
+  return {rec.id};
+}
+
+void ShadowSystem::set_transform(ObjectHandle h, const Mat4& transform) {
+  Impl& I = *impl_;
+  const size_t i = I.object_index(h);
+  if (!finite_matrix(transform)) throw Error(I.object_where(i), "transform has NaN or infinite entries");
+  I.scene.objects[i].transform = transform;
+  I.objects[i].moved = true;
+  I.touch_object(i);
+}
+
+void ShadowSystem::set_surface(ObjectHandle h, const SurfaceMaterial& surface) {
+  Impl& I = *impl_;
+  const size_t i = I.object_index(h);
+  I.scene.objects[i].surface = surface;
+  I.objects[i].surface = true;
+  I.touch_object(i);
+}
+
+void ShadowSystem::set_casts_shadows(ObjectHandle h, bool casts) {
+  Impl& I = *impl_;
+  const size_t i = I.object_index(h);
+  I.scene.objects[i].casts_shadows = casts;
+  I.objects[i].surface = true;
+  I.touch_object(i);
+}
+
+void ShadowSystem::set_interior(ObjectHandle h, InteriorKind interior, float sigma, VolumeHandle volume) {
+  Impl& I = *impl_;
+  const size_t i = I.object_index(h);
+  Object& o = I.scene.objects[i];
+  uint64_t vol = 0;
+  int32_t index = -1;
+  if (interior == InteriorKind::Volume) {
+    if (!volume) throw Error(I.object_where(i), "has a volume interior but names no volume");
+    index = int32_t(I.volume_index(volume.id));
+    for (size_t k = 0; k < I.objects.size(); ++k)
+      if (k != i && I.objects[k].volume == volume.id)
+        throw Error(I.object_where(i), "volume " + std::to_string(index) + " is used by two objects");
+    vol = volume.id;
+  }
+  o.interior = interior;
+  o.sigma = sigma;
+  o.volume = index;
+  I.objects[i].volume = vol;
+  I.structure_dirty = true;  // media bounds change the fragment producers' clipping
+  I.touch_object(i);
+}
+
+void ShadowSystem::set_mesh(ObjectHandle h, std::shared_ptr<const TriangleMesh> mesh) {
+  Impl& I = *impl_;
+  const size_t i = I.object_index(h);
+  if (!mesh) throw Error(I.object_where(i), "has no mesh");
+  I.scene.objects[i].mesh = std::move(mesh);
+  I.structure_dirty = true;
+  I.touch_object(i);
+}
+
+void ShadowSystem::remove_object(ObjectHandle h) {
+  Impl& I = *impl_;
+  const size_t i = I.object_index(h);
+  I.scene.objects.erase(I.scene.objects.begin() + ptrdiff_t(i));
+  I.objects.erase(I.objects.begin() + ptrdiff_t(i));
+  // Meshes no object uses any more are released.
+  for (auto it = I.closed_meshes.begin(); it != I.closed_meshes.end();) {
+    bool used = false;
+    for (const Object& o : I.scene.objects) used |= o.mesh.get() == it->first;
+    it = used ? std::next(it) : I.closed_meshes.erase(it);
+  }
+  I.structure_dirty = true;
+  I.changed = I.compile_pending = true;
+}
+
+LightHandle ShadowSystem::add_light(const Light& light) {
+  Impl& I = *impl_;
+  I.scene.lights.push_back(light);
+  I.lights.push_back(I.next_id++);
+  I.changed = true;
+  return {I.lights.back()};
+}
+
+void ShadowSystem::set_light(LightHandle h, const Light& light) {
+  Impl& I = *impl_;
+  I.scene.lights[I.light_index(h)] = light;
+  I.changed = true;
+}
+
+void ShadowSystem::remove_light(LightHandle h) {
+  Impl& I = *impl_;
+  const size_t i = I.light_index(h);
+  I.scene.lights.erase(I.scene.lights.begin() + ptrdiff_t(i));
+  I.lights.erase(I.lights.begin() + ptrdiff_t(i));
+  I.changed = true;
+}
+
+void ShadowSystem::set_camera(const Camera& camera) {
+  impl_->scene.camera = camera;
+  impl_->changed = true;
+}
+
+void ShadowSystem::set_settings(const ShadowSettings& settings) {
+  impl_->scene.shadows = settings;
+  impl_->changed = true;
+}
+
+void ShadowSystem::set_background(Vec3 background) { impl_->scene.background = background; }
+
+void ShadowSystem::update(FrameStats* stats) {
+  FrameStats local;
+  FrameStats& st = stats ? *stats : local;
+  st = FrameStats{};
+  impl_->update(st);
+}
+
+void ShadowSystem::reset_maps() {
+  impl_->cache.clear(*impl_->backend);
+  impl_->frame = ShadowFrame{};
+  impl_->changed = true;
+}
+
+Image ShadowSystem::render(FrameStats* stats) {
+  Impl& I = *impl_;
+  FrameStats local;
+  FrameStats& st = stats ? *stats : local;
+  st = FrameStats{};
+  const auto t_total = Clock::now();
+  I.update(st);
+  CameraPassParams& cam = I.cam;
+  cam.view = camera_view(I.scene.camera);
+  SceneView sv = I.sb.view();
+  I.cam_inside = objects_containing(sv, cam.view.eye, ObjectMask{});
+  cam.inside = {I.cam_inside.data(), I.cam_inside.size()};
+  cam.ambient = I.scene.shadows.ambient_light;
+  cam.background = I.scene.background;
+  auto t0 = Clock::now();
+  I.fragments.producer(I.sb)(cam.view, ObjectMask{}, I.camera_frags);
+  st.times.camera_fragments_ms = ms_since(t0);
+  st.camera_fragments = I.camera_frags.total();
+  Image img;
+  img.width = cam.view.width;
+  img.height = cam.view.height;
+  t0 = Clock::now();
+  WalkStats ws;
+  I.backend->camera_pass(I.shadow_view(), cam, I.camera_frags.lists(), img.rgb, ws);
+  st.times.camera_ms = ms_since(t0);
+  add_walk(st, ws);
+  if (st.march_lengthened > 0)
+    st.warnings.push_back(I.scene.source + ": " + std::to_string(st.march_lengthened) +
+                          " volume segments lie so far from the eye or light that their march step is below float "
+                          "resolution there; they were marched with the finest step float allows (coarser than asked)");
+  st.times.total_ms = ms_since(t_total);
+  return img;
+}
+
+Image ShadowSystem::render_reference(float step_voxels) {
+  Impl& I = *impl_;
+  FrameStats st;
+  validate_scene(I.scene, &st.warnings);
+  I.compile(st);
+  SceneView sv = I.sb.view();
+  LightSetup ls = setup_lights(I.scene.lights, I.sb, 4);
+  ReferenceRenderer ref(sv, ls.lights, ReferenceOptions{step_voxels});
+  CameraPassParams cam;
+  cam.view = camera_view(I.scene.camera);
+  std::vector<uint32_t> inside = objects_containing(sv, cam.view.eye, ObjectMask{});
+  cam.inside = {inside.data(), inside.size()};
+  cam.ambient = I.scene.shadows.ambient_light;
+  cam.background = I.scene.background;
+  Image img;
+  img.width = cam.view.width;
+  img.height = cam.view.height;
+  ref.render(cam, img.rgb);
+  return img;
+}
+
+// ---- a whole Scene value against the system's state -------------------------
+
+namespace {
+
+template <class T>
+bool same_bytes(const T& a, const T& b) {
+  return std::memcmp(&a, &b, sizeof(T)) == 0;
+}
+
+bool same_surface(const SurfaceMaterial& a, const SurfaceMaterial& b) {
+  return same_bytes(a.color, b.color) && same_bytes(a.opacity, b.opacity) && same_bytes(a.ambient, b.ambient) &&
+         same_bytes(a.diffuse, b.diffuse) && same_bytes(a.specular, b.specular) && same_bytes(a.shininess, b.shininess);
+}
+
+bool same_transfer(const std::vector<TransferPoint>& a, const std::vector<TransferPoint>& b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i)
+    if (!same_bytes(a[i].density, b[i].density) || !same_bytes(a[i].extinction, b[i].extinction) ||
+        !same_bytes(a[i].color, b[i].color))
+      return false;
+  return true;
+}
+
+bool same_volume(const Volume& a, const Volume& b) {
+  return a.grid == b.grid && a.sparse == b.sparse && same_bytes(a.index_to_object, b.index_to_object) &&
+         same_transfer(a.transfer, b.transfer) && a.shading == b.shading && same_bytes(a.step_voxels, b.step_voxels) &&
+         same_bytes(a.gradient_scale, b.gradient_scale);
+}
+
+bool same_light(const Light& a, const Light& b) {
+  return a.type == b.type && same_bytes(a.position, b.position) && same_bytes(a.direction, b.direction) &&
+         same_bytes(a.outer_cone_deg, b.outer_cone_deg) && same_bytes(a.inner_cone_deg, b.inner_cone_deg) &&
+         same_bytes(a.color, b.color) && same_bytes(a.intensity, b.intensity);
+}
+
+bool same_camera(const Camera& a, const Camera& b) {
+  return same_bytes(a.position, b.position) && same_bytes(a.target, b.target) && same_bytes(a.up, b.up) &&
+         same_bytes(a.fov_y_deg, b.fov_y_deg) && same_bytes(a.near, b.near) && same_bytes(a.far, b.far) &&
+         a.width == b.width && a.height == b.height;
+}
+
+bool same_settings(const ShadowSettings& a, const ShadowSettings& b) {
+  return same_bytes(a.epsilon, b.epsilon) && a.resolution == b.resolution && a.filtering == b.filtering &&
+         same_bytes(a.bias_constant, b.bias_constant) && same_bytes(a.bias_slope, b.bias_slope) &&
+         a.receiver == b.receiver && a.max_clusters == b.max_clusters && a.parallel_splits == b.parallel_splits &&
+         same_bytes(a.d0, b.d0) && a.layout == b.layout && a.fixed_layers == b.fixed_layers &&
+         a.chunk_nodes == b.chunk_nodes && a.method == b.method && same_bytes(a.method_param, b.method_param) &&
+         same_bytes(a.ambient_light, b.ambient_light) && a.max_memory_mib == b.max_memory_mib;
+}
+
+int32_t volume_of(const Object& o) { return o.interior == InteriorKind::Volume ? o.volume : -1; }
+
+}  // namespace
+
+void sync_scene(ShadowSystem& system, const Scene& scene) {
+  ShadowSystem::Impl& I = system.internals();
+  I.scene.source = scene.source;
+  if (!same_camera(I.scene.camera, scene.camera)) system.set_camera(scene.camera);
+  if (!same_settings(I.scene.shadows, scene.shadows)) system.set_settings(scene.shadows);
+  system.set_background(scene.background);
+  // Volumes keep their place: a different count, or objects whose volume
+  // changed, re-add every object and volume (rare: scene files do not do it
+  // between frames).
+  bool regroup = scene.volumes.size() != I.scene.volumes.size();
+  for (size_t i = 0; i < std::min(scene.objects.size(), I.scene.objects.size()) && !regroup; ++i)
+    regroup = volume_of(scene.objects[i]) != volume_of(I.scene.objects[i]);
+  if (regroup) {
+    for (ObjectHandle h : system.objects()) system.remove_object(h);
+    while (!I.volumes.empty()) system.remove_volume({I.volumes.back().id});
+    for (const Volume& v : scene.volumes) system.add_volume(v);
+  } else {
+    for (size_t i = 0; i < scene.volumes.size(); ++i)
+      if (!same_volume(scene.volumes[i], I.scene.volumes[i])) system.set_volume({I.volumes[i].id}, scene.volumes[i]);
+  }
+  while (I.scene.objects.size() > scene.objects.size()) system.remove_object({I.objects.back().id});
+  for (size_t i = 0; i < scene.objects.size(); ++i) {
+    const Object& o = scene.objects[i];
+    const int32_t vi = volume_of(o);
+    const VolumeHandle vh{vi >= 0 && size_t(vi) < I.volumes.size() ? I.volumes[size_t(vi)].id : 0};
+    if (i >= I.scene.objects.size()) {
+      system.add_object(o, vh);
+      continue;
+    }
+    const Object& now = I.scene.objects[i];
+    const ObjectHandle h{I.objects[i].id};
+    I.scene.objects[i].name = o.name;
+    if (o.mesh != now.mesh) system.set_mesh(h, o.mesh);
+    if (!same_bytes(o.transform, now.transform)) system.set_transform(h, o.transform);
+    if (!same_surface(o.surface, now.surface)) system.set_surface(h, o.surface);
+    if (o.casts_shadows != now.casts_shadows) system.set_casts_shadows(h, o.casts_shadows);
+    if (o.interior != now.interior || !same_bytes(o.sigma, now.sigma)) system.set_interior(h, o.interior, o.sigma, vh);
+  }
+  while (I.scene.lights.size() > scene.lights.size()) system.remove_light({I.lights.back()});
+  for (size_t i = 0; i < scene.lights.size(); ++i) {
+    if (i >= I.scene.lights.size())
+      system.add_light(scene.lights[i]);
+    else if (!same_light(scene.lights[i], I.scene.lights[i]) || scene.lights[i].name != I.scene.lights[i].name)
+      system.set_light({I.lights[i]}, scene.lights[i]);
+  }
+}
+
+}  // namespace cdsm

@@ -1,0 +1,89 @@
+// The state behind cdsm::ShadowSystem (engine/include/cdsm/shadow_system.h),
+// shared with the renderer (error probe, popping probe) and tests.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "cdsm/shadow_system.h"
+#include "fragment_source.h"
+#include "frame.h"
+
+namespace cdsm {
+
+struct ShadowSystem::Impl {
+  SystemOptions options;
+  // The state as public scene values, in handle order (objects' `volume`
+  // is the index of their volume here).
+  Scene scene;
+
+  struct ObjectRec {
+    uint64_t id = 0;
+    uint64_t generation = 1;  // bumped by every edit of its content
+    uint64_t volume = 0;      // its interior's volume handle, 0 for none
+    bool closed = false;      // is_closed(mesh), taken when the mesh was given
+    bool moved = false;       // transform changed: world data to recompute in place
+    bool surface = false;     // material / shadow flag changed: kernel data only
+  };
+  struct VolumeRec {
+    uint64_t id = 0;
+    bool dirty = true;        // grid or transfer function to compile
+    bool compiled = false;    // its data lies in sb's arrays
+    uint64_t voxel_begin = 0, voxel_count = 0;  // dense: floats of sb.voxels
+    uint64_t block_begin = 0, block_count = 0;  // sparse: blocks of sb.nano_pool
+    uint64_t macro_begin = 0, macro_count = 0;
+  };
+  std::vector<ObjectRec> objects;   // parallel to scene.objects
+  std::vector<VolumeRec> volumes;   // parallel to scene.volumes
+  std::vector<uint64_t> lights;     // ids, parallel to scene.lights
+  uint64_t next_id = 1;
+  // is_closed per mesh, the mesh kept alive so its address cannot be reused.
+  std::unordered_map<const TriangleMesh*, std::pair<std::shared_ptr<const TriangleMesh>, bool>> closed_meshes;
+
+  bool structure_dirty = true;  // geometry arrays and BVH to rebuild from every object
+  bool compile_pending = true;  // content edited since the last compile
+  bool changed = true;          // anything since the last update()
+
+  SceneBuffers sb;
+  double bvh_built_cost = 0.0;  // bvh_cost() when the BVH was last built
+  FragmentSourceSelector fragments;
+  std::string fragment_name, fragment_reason;
+  std::unique_ptr<ShadowBackend> backend;
+  MapCache cache;
+  ShadowFrame frame;
+  bool keep_previous = false;   // popping probe: replaced maps live one more frame
+  FrameStats update_stats;      // of the last update()
+  // The last render()'s camera pass inputs (the error and popping probes use them).
+  CameraPassParams cam{};
+  std::vector<uint32_t> cam_inside;
+  FragmentBuffers camera_frags;
+
+  explicit Impl(const SystemOptions& o);
+  ~Impl();
+
+  size_t object_index(ObjectHandle h) const;
+  size_t volume_index(uint64_t id) const;
+  size_t light_index(LightHandle h) const;
+  bool is_closed_mesh(const std::shared_ptr<const TriangleMesh>& mesh);
+  void touch_object(size_t i);
+
+  void compile(FrameStats& st);  // the scene part of update()
+  void update(FrameStats& st);
+  void compile_volumes(FrameStats& st);
+  void compile_structure(FrameStats& st);
+  void compile_moves(FrameStats& st, std::vector<SceneChange>& uploads);
+  void refresh_surfaces();
+  std::string object_where(size_t i) const;
+  // The lookup over the last update's maps with the current settings.
+  ShadowView shadow_view() const { return frame.view(scene.shadows); }
+};
+
+// Brings `system` to the content of `scene` by edits (by index: objects,
+// volumes and lights of the same place are compared by identity — mesh and
+// grid pointers, transforms, materials — never by their bytes). Volumes
+// added, removed or re-assigned between objects re-add every object.
+void sync_scene(ShadowSystem& system, const Scene& scene);
+
+}  // namespace cdsm

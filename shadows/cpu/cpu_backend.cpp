@@ -1,0 +1,177 @@
+#include "cpu/cpu_backend.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+namespace cdsm {
+namespace {
+
+// Where one map lies in the store's arrays.
+struct StoredMap {
+  bool live = false;
+  DsmMap map{};                  // texel_offset into the store
+  uint64_t texel_begin = 0;      // packed, chunked: its TexelRanges [begin, end)
+  uint64_t texel_end = 0;
+  uint64_t node_begin = 0;       // packed, fixed: its nodes [begin, end)
+  uint64_t node_end = 0;
+  uint64_t chunk_begin = 0;      // chunked: its chunk slots [begin, end)
+  uint64_t chunk_end = 0;
+  uint64_t bytes() const {
+    return (texel_end - texel_begin) * sizeof(TexelRange) + (node_end - node_begin) * sizeof(DsmNode) +
+           (chunk_end - chunk_begin) * sizeof(ChunkNode);
+  }
+};
+
+class CpuBackend final : public ShadowBackend {
+ public:
+  const char* name() const override { return "cpu"; }
+
+  void update_scene(const SceneBuffers& sb, const SceneChange&) override { scene_ = sb.view(); }
+
+  MapId build_map(const LightPassParams& params, FragmentLists frags, const DsmLayoutParams& layout,
+                  DsmBuildStats& stats) override {
+    if (live_maps() == 0) reset_store();
+    StoredMap m;
+    m.texel_begin = store_.texels.size();
+    m.node_begin = store_.nodes.size();
+    m.chunk_begin = store_.chunks.size();
+    stats = build_dsm(scene_, params, frags, store_, layout);
+    m.live = true;
+    m.map = store_.maps.back();
+    // The store's own map list is unused (maps_ holds the maps); one entry
+    // stays so the store keeps its layout (build_dsm adopts a layout only
+    // when the list is empty).
+    store_.maps.assign(1, DsmMap{});
+    m.texel_end = store_.texels.size();
+    m.node_end = store_.nodes.size();
+    m.chunk_end = store_.chunks.size();
+    live_bytes_ += m.bytes();
+    MapId id;
+    if (!free_ids_.empty()) {
+      id = free_ids_.back();
+      free_ids_.pop_back();
+      maps_[id] = m;
+    } else {
+      id = MapId(maps_.size());
+      maps_.push_back(m);
+    }
+    return id;
+  }
+
+  void free_map(MapId id) override {
+    if (id >= maps_.size() || !maps_[id].live) throw std::logic_error("free_map: map " + std::to_string(id) + " is not stored");
+    StoredMap& m = maps_[id];
+    live_bytes_ -= m.bytes();
+    m.live = false;
+    free_ids_.push_back(id);
+    if (live_maps() == 0) {
+      reset_store();
+    } else if (allocated_bytes() - live_bytes_ > allocated_bytes() / 4) {
+      compact();
+    }
+  }
+
+  DsmMap map_header(MapId id) const override {
+    if (id >= maps_.size() || !maps_[id].live) throw std::logic_error("map_header: map " + std::to_string(id) + " is not stored");
+    return maps_[id].map;
+  }
+
+  DsmStorage storage() const override { return store_.storage(); }
+
+  void camera_pass(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags,
+                   std::vector<float>& rgb, WalkStats& walk) override {
+    render_camera(scene_, shadows, params, frags, rgb, walk);
+  }
+
+  MapStoreStats map_store() const override {
+    MapStoreStats s;
+    s.live_bytes = live_bytes_;
+    s.allocated_bytes = allocated_bytes();
+    s.compactions = compactions_;
+    s.compacted_bytes = compacted_bytes_;
+    s.maps = live_maps();
+    return s;
+  }
+
+ private:
+  uint32_t live_maps() const { return uint32_t(maps_.size() - free_ids_.size()); }
+
+  uint64_t allocated_bytes() const {
+    return store_.texels.capacity() * sizeof(TexelRange) + store_.nodes.capacity() * sizeof(DsmNode) +
+           store_.chunks.capacity() * sizeof(ChunkNode);
+  }
+
+  void reset_store() {
+    store_ = DsmBuffers{};  // frees the arrays (clear() would keep their capacity)
+    maps_.clear();
+    free_ids_.clear();
+    live_bytes_ = 0;
+  }
+
+  // Copies the live maps into fresh arrays, exactly sized, re-basing their
+  // headers' node / chunk offsets and the chunks' links.
+  void compact() {
+    DsmBuffers next;
+    next.layout = store_.layout;
+    next.maps.push_back(DsmMap{});
+    size_t texels = 0, nodes = 0, chunks = 0;
+    for (const StoredMap& m : maps_)
+      if (m.live) {
+        texels += m.texel_end - m.texel_begin;
+        nodes += m.node_end - m.node_begin;
+        chunks += m.chunk_end - m.chunk_begin;
+      }
+    next.texels.reserve(texels);
+    next.nodes.reserve(nodes);
+    next.chunks.reserve(chunks);
+    for (StoredMap& m : maps_) {
+      if (!m.live) continue;
+      const uint64_t texel_count = uint64_t(m.map.res) * m.map.view.height;
+      StoredMap n = m;
+      n.texel_begin = next.texels.size();
+      n.node_begin = next.nodes.size();
+      n.chunk_begin = next.chunks.size();
+      n.map.texel_offset = next.texel_count;
+      next.texel_count += texel_count;
+      const int64_t node_shift = int64_t(n.node_begin) - int64_t(m.node_begin);
+      const int64_t chunk_shift = int64_t(n.chunk_begin) - int64_t(m.chunk_begin);
+      for (uint64_t t = m.texel_begin; t < m.texel_end; ++t) {
+        TexelRange r = store_.texels[t];
+        if (store_.layout.layout == kDsmChunked) {
+          if (r.offset != kChunkEnd) r.offset = uint32_t(int64_t(r.offset) + chunk_shift);
+        } else {
+          r.offset = uint32_t(int64_t(r.offset) + node_shift);
+        }
+        next.texels.push_back(r);
+      }
+      next.nodes.insert(next.nodes.end(), store_.nodes.begin() + ptrdiff_t(m.node_begin),
+                        store_.nodes.begin() + ptrdiff_t(m.node_end));
+      for (uint64_t c = m.chunk_begin; c < m.chunk_end; ++c) {
+        ChunkNode cn = store_.chunks[c];
+        if (cn.next != kChunkEnd) cn.next = uint32_t(int64_t(cn.next) + chunk_shift);
+        next.chunks.push_back(cn);
+      }
+      n.texel_end = next.texels.size();
+      n.node_end = next.nodes.size();
+      n.chunk_end = next.chunks.size();
+      compacted_bytes_ += n.bytes();
+      m = n;
+    }
+    store_ = std::move(next);
+    ++compactions_;
+  }
+
+  SceneView scene_{};
+  DsmBuffers store_;                // every stored map's texels and nodes, in one layout
+  std::vector<StoredMap> maps_;     // by MapId
+  std::vector<MapId> free_ids_;
+  uint64_t live_bytes_ = 0;
+  uint64_t compactions_ = 0, compacted_bytes_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<ShadowBackend> make_cpu_backend() { return std::make_unique<CpuBackend>(); }
+
+}  // namespace cdsm

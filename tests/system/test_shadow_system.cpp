@@ -1,0 +1,332 @@
+// The persistent shadow system (cdsm/shadow_system.h): every kind of edit
+// costs what it touches — asserted through the update counters — and an
+// edited system renders exactly what a fresh one renders for the same
+// final state.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <set>
+
+#include "cdsm/renderer.h"
+#include "cdsm/scene_io.h"
+#include "cdsm/shadow_system.h"
+#include "shadow_system_impl.h"
+
+using namespace cdsm;
+
+namespace {
+
+Scene shipped(const std::string& name, int width = 160, int height = 120, int res = 128) {
+  Scene s = load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/" + name + ".json");
+  s.camera.width = width;
+  s.camera.height = height;
+  s.shadows.resolution = res;
+  return s;
+}
+
+// Every object, volume and light of `scene` added to `sys`.
+void add_scene(ShadowSystem& sys, const Scene& scene) {
+  std::vector<VolumeHandle> vols;
+  for (const Volume& v : scene.volumes) vols.push_back(sys.add_volume(v));
+  for (const Object& o : scene.objects)
+    sys.add_object(o, o.interior == InteriorKind::Volume ? vols[size_t(o.volume)] : VolumeHandle{});
+  for (const Light& l : scene.lights) sys.add_light(l);
+  sys.set_camera(scene.camera);
+  sys.set_settings(scene.shadows);
+  sys.set_background(scene.background);
+}
+
+size_t index_of(const Scene& s, const std::string& name) {
+  for (size_t i = 0; i < s.objects.size(); ++i)
+    if (s.objects[i].name == name) return i;
+  ADD_FAILURE() << "no object " << name;
+  return 0;
+}
+
+// The maps of light `li` whose members include object `oi` (by index).
+std::set<uint32_t> maps_with(ShadowSystem& sys, uint32_t li, uint32_t oi) {
+  const ShadowFrame& f = sys.internals().frame;
+  std::set<uint32_t> out;
+  const LightData& ld = f.setup.lights[li];
+  for (uint32_t k = 0; k < ld.map_count; ++k) {
+    const MapPlan& p = f.setup.maps[ld.first_map + k];
+    for (uint32_t m : p.members)
+      if (m == oi) out.insert(k);
+  }
+  return out;
+}
+
+bool same_pixels(const Image& a, const Image& b) {
+  return a.width == b.width && a.height == b.height && a.rgb.size() == b.rgb.size() &&
+         std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float)) == 0;
+}
+
+TEST(ShadowSystem, NothingChangedCompilesUploadsAndRebuildsNothing) {
+  ShadowSystem sys;
+  add_scene(sys, shipped("default"));
+  FrameStats st;
+  sys.render(&st);
+  EXPECT_EQ(st.update.full_compiles, 1u);
+  EXPECT_EQ(st.update.volumes_compiled, 2u);  // smoke and steam
+  EXPECT_GT(st.maps_rebuilt, 0u);
+  EXPECT_EQ(st.update.rebuilt_by_reason[int(RebuildReason::New)], st.maps_rebuilt);
+  if (st.fragment_source == "gl") {
+    EXPECT_GT(st.update.gl_upload_bytes, 0u);
+  }
+  const uint32_t maps = st.maps_rebuilt;
+  sys.render(&st);
+  EXPECT_EQ(st.update.full_compiles, 0u);
+  EXPECT_EQ(st.update.objects_compiled, 0u);
+  EXPECT_EQ(st.update.volumes_compiled, 0u);
+  EXPECT_EQ(st.update.gl_upload_bytes, 0u);
+  EXPECT_EQ(st.maps_rebuilt, 0u);
+  EXPECT_EQ(st.maps_reused, maps);
+  EXPECT_EQ(st.update.maps_freed, 0u);
+}
+
+TEST(ShadowSystem, CameraMoveRebuildsNoMapAndCompilesNothing) {
+  ShadowSystem sys;
+  Scene s = shipped("default");
+  add_scene(sys, s);
+  FrameStats st;
+  Image first = sys.render(&st);
+  for (int step = 1; step <= 3; ++step) {
+    Camera c = s.camera;
+    const float a = 0.0174533f * float(step);  // 1 degree per frame around the target
+    Vec3 d = c.position - c.target;
+    c.position = c.target + Vec3{d.x * std::cos(a) - d.z * std::sin(a), d.y, d.x * std::sin(a) + d.z * std::cos(a)};
+    sys.set_camera(c);
+    Image img = sys.render(&st);
+    EXPECT_EQ(st.update.full_compiles + st.update.objects_compiled + st.update.volumes_compiled, 0u);
+    EXPECT_EQ(st.update.gl_upload_bytes, 0u);
+    EXPECT_EQ(st.maps_rebuilt, 0u) << "an unclustered spot's map does not depend on the camera";
+    EXPECT_FALSE(same_pixels(img, first)) << "the view moved";
+  }
+}
+
+TEST(ShadowSystem, MovedObjectRebuildsOnlyItsMapsAndUploadsOnlyItsTriangles) {
+  ShadowSystem sys;
+  Scene s = shipped("sparse");
+  ASSERT_EQ(s.shadows.max_clusters, 4);
+  add_scene(sys, s);
+  FrameStats st;
+  sys.render(&st);
+  const uint32_t maps = st.maps_rebuilt;
+  ASSERT_GE(maps, 2u) << "sparse.json clusters into several maps";
+  const size_t oi = index_of(s, "teapot3");
+  const std::set<uint32_t> before = maps_with(sys, 0, uint32_t(oi));
+  Mat4 t = s.objects[oi].transform;
+  t.m[0][3] += 0.05f;  // a small nudge: the object stays in its cluster
+  const ObjectHandle h = sys.objects()[oi];
+  sys.set_transform(h, t);
+  sys.render(&st);
+  EXPECT_EQ(st.update.full_compiles, 0u);
+  EXPECT_EQ(st.update.objects_compiled, 1u);
+  EXPECT_EQ(st.update.bvh_refits + st.update.bvh_rebuilds, 1u);
+  const std::set<uint32_t> after = maps_with(sys, 0, uint32_t(oi));
+  std::set<uint32_t> affected = before;
+  affected.insert(after.begin(), after.end());
+  EXPECT_GE(st.maps_rebuilt, 1u);
+  EXPECT_LE(st.maps_rebuilt, affected.size()) << "only the maps it was in or is in now";
+  for (const MapRebuild& r : st.update.rebuilds) {
+    EXPECT_TRUE(affected.count(r.map)) << "map " << r.map << " rebuilt without the moved object";
+    EXPECT_NE(r.reason, RebuildReason::Settings);
+    EXPECT_NE(r.reason, RebuildReason::Light);
+  }
+  EXPECT_EQ(st.maps_rebuilt + st.maps_reused, uint32_t(sys.internals().frame.maps.size()));
+  if (st.fragment_source == "gl") {
+    const uint64_t tris = s.objects[oi].mesh->triangle_count();
+    EXPECT_EQ(st.update.gl_upload_bytes, tris * 48) << "its triangles' vertices and facing normals only";
+  }
+}
+
+TEST(ShadowSystem, MaterialEditRebuildsOnlyMapsContainingTheObjectAndTouchesNoGeometry) {
+  ShadowSystem sys;
+  Scene s = shipped("sparse");
+  add_scene(sys, s);
+  FrameStats st;
+  sys.render(&st);
+  const size_t oi = index_of(s, "glass5");
+  const std::set<uint32_t> with = maps_with(sys, 0, uint32_t(oi));
+  ASSERT_FALSE(with.empty());
+  SurfaceMaterial m = s.objects[oi].surface;
+  m.opacity = 0.9f;
+  sys.set_surface(sys.objects()[oi], m);
+  sys.render(&st);
+  EXPECT_EQ(st.update.full_compiles + st.update.objects_compiled + st.update.volumes_compiled, 0u);
+  EXPECT_EQ(st.update.bvh_refits + st.update.bvh_rebuilds, 0u);
+  EXPECT_EQ(st.update.gl_upload_bytes, 0u);
+  EXPECT_EQ(st.maps_rebuilt, with.size());
+  EXPECT_EQ(st.update.rebuilt_by_reason[int(RebuildReason::Content)], st.maps_rebuilt);
+  for (const MapRebuild& r : st.update.rebuilds) EXPECT_TRUE(with.count(r.map));
+}
+
+TEST(ShadowSystem, EpsilonChangeRebuildsEveryMapButCompilesNoGeometry) {
+  ShadowSystem sys;
+  Scene s = shipped("default");
+  add_scene(sys, s);
+  FrameStats st;
+  sys.render(&st);
+  const uint32_t maps = st.maps_rebuilt;
+  s.shadows.epsilon = 0.05f;
+  sys.set_settings(s.shadows);
+  sys.render(&st);
+  EXPECT_EQ(st.update.full_compiles + st.update.objects_compiled + st.update.volumes_compiled, 0u);
+  EXPECT_EQ(st.update.gl_upload_bytes, 0u);
+  EXPECT_EQ(st.maps_rebuilt, maps);
+  EXPECT_EQ(st.update.rebuilt_by_reason[int(RebuildReason::Settings)], maps);
+  EXPECT_EQ(st.update.maps_freed, maps);
+  // A lookup setting (filtering) rebuilds nothing.
+  s.shadows.filtering = false;
+  sys.set_settings(s.shadows);
+  sys.render(&st);
+  EXPECT_EQ(st.maps_rebuilt, 0u);
+}
+
+TEST(ShadowSystem, MovedLightRebuildsOnlyItsMaps) {
+  ShadowSystem sys;
+  Scene s = shipped("teapot_omni");
+  ASSERT_EQ(s.lights.size(), 2u);
+  add_scene(sys, s);
+  FrameStats st;
+  sys.render(&st);
+  const uint32_t light1_maps = sys.internals().frame.setup.lights[1].map_count;
+  Light l = s.lights[1];
+  l.position = l.position + Vec3{0.1f, 0.0f, 0.0f};
+  sys.set_light(sys.lights()[1], l);
+  sys.render(&st);
+  EXPECT_EQ(st.update.full_compiles + st.update.objects_compiled, 0u);
+  EXPECT_EQ(st.maps_rebuilt, light1_maps);
+  for (const MapRebuild& r : st.update.rebuilds) {
+    EXPECT_EQ(r.light, 1u);
+    EXPECT_EQ(r.reason, RebuildReason::Light);
+  }
+  // Colour and intensity change the shading, not the maps.
+  l.intensity *= 2.0f;
+  sys.set_light(sys.lights()[1], l);
+  sys.render(&st);
+  EXPECT_EQ(st.maps_rebuilt, 0u);
+}
+
+TEST(ShadowSystem, EditedStepByStepRendersBitIdenticallyToAFreshBuild) {
+  Scene s = shipped("default");
+  ShadowSystem edited;
+  // Start from a different state: one object missing, another moved, a
+  // material and a light changed, epsilon different; then edit towards `s`.
+  Scene start = s;
+  const size_t ball = index_of(s, "ball"), pane = index_of(s, "amber pane");
+  start.objects.erase(start.objects.begin() + ptrdiff_t(ball));
+  add_scene(edited, start);
+  edited.set_settings([&] { ShadowSettings x = s.shadows; x.epsilon = 0.1f; return x; }());
+  edited.render();
+  // The ball back, at the end (where it is in `s` after the same reorder).
+  Scene want = start;
+  want.objects.push_back(s.objects[ball]);
+  const ObjectHandle ball_h = edited.add_object(s.objects[ball]);
+  edited.render();
+  const ObjectHandle pane_h = edited.objects()[index_of(want, "amber pane")];
+  Mat4 shifted = s.objects[pane].transform;
+  shifted.m[1][3] += 0.3f;
+  edited.set_transform(pane_h, shifted);
+  edited.render();
+  SurfaceMaterial red = s.objects[pane].surface;
+  red.color = {1, 0, 0};
+  edited.set_surface(pane_h, red);
+  edited.render();
+  edited.set_transform(pane_h, s.objects[pane].transform);
+  edited.set_surface(pane_h, s.objects[pane].surface);
+  edited.set_transform(ball_h, s.objects[ball].transform);
+  edited.set_settings(s.shadows);
+  FrameStats st;
+  Image a = edited.render(&st);
+  EXPECT_GT(st.maps_rebuilt, 0u);
+
+  ShadowSystem fresh;
+  add_scene(fresh, want);
+  Image b = fresh.render();
+  EXPECT_TRUE(same_pixels(a, b)) << "an edited system renders what a fresh one does";
+}
+
+TEST(ShadowSystem, RendererDiffsSceneValuesByIdentity) {
+  Renderer r;
+  Scene s = shipped("default");
+  RenderOptions opt;
+  FrameStats st;
+  Image a = r.render(s, opt, &st);
+  EXPECT_EQ(st.update.full_compiles, 1u);
+  Image b = r.render(s, opt, &st);
+  EXPECT_EQ(st.update.full_compiles + st.update.objects_compiled + st.update.volumes_compiled, 0u);
+  EXPECT_EQ(st.maps_rebuilt, 0u);
+  EXPECT_TRUE(same_pixels(a, b));
+  // A copy of the scene value shares meshes and grids: still nothing to do.
+  Scene copy = s;
+  r.render(copy, opt, &st);
+  EXPECT_EQ(st.update.volumes_compiled, 0u);
+  EXPECT_EQ(st.maps_rebuilt, 0u);
+  // One moved object: compiled alone.
+  copy.objects[index_of(copy, "ball")].transform.m[0][3] += 0.1f;
+  r.render(copy, opt, &st);
+  EXPECT_EQ(st.update.full_compiles, 0u);
+  EXPECT_EQ(st.update.objects_compiled, 1u);
+  EXPECT_GE(st.maps_rebuilt, 1u);
+  // The same scene, rendered by a fresh renderer: identical pixels.
+  Renderer fresh;
+  EXPECT_TRUE(same_pixels(r.render(copy, opt), fresh.render(copy, opt)));
+}
+
+TEST(ShadowSystem, RemovedVolumeFreesItsVoxelsAndKeepsTheOthersRight) {
+  Scene s = shipped("default");
+  ShadowSystem sys;
+  add_scene(sys, s);
+  FrameStats st;
+  sys.render(&st);
+  const uint64_t with = st.update.scene_bytes;
+  const size_t smoke = index_of(s, "smoke");
+  const ShadowSystem::Impl& I = sys.internals();
+  const uint64_t vol = I.objects[smoke].volume;
+  ASSERT_NE(vol, 0u);
+  sys.remove_object(sys.objects()[smoke]);
+  sys.remove_volume({vol});
+  Image a = sys.render(&st);
+  EXPECT_LT(st.update.scene_bytes, with) << "the removed volume's voxels are freed";
+  Scene without = s;
+  without.objects.erase(without.objects.begin() + ptrdiff_t(smoke));
+  without.volumes.erase(without.volumes.begin() + s.objects[smoke].volume);
+  for (Object& o : without.objects)
+    if (o.interior == InteriorKind::Volume && o.volume > s.objects[smoke].volume) --o.volume;
+  ShadowSystem fresh;
+  add_scene(fresh, without);
+  EXPECT_TRUE(same_pixels(a, fresh.render())) << "the remaining volume reads its own voxels";
+}
+
+TEST(ShadowSystem, AddingAndRemovingAThousandTimesLeavesMemoryWhereItStarted) {
+  Scene s = shipped("default", 64, 48, 32);
+  ShadowSystem sys;
+  const size_t ball = index_of(s, "ball");
+  Scene base = s;
+  base.objects.erase(base.objects.begin() + ptrdiff_t(ball));
+  add_scene(sys, base);
+  FrameStats st;
+  sys.update(&st);
+  // One cycle first: pools and GL buffers reach their working size.
+  ObjectHandle h = sys.add_object(s.objects[ball]);
+  sys.update(&st);
+  sys.remove_object(h);
+  sys.update(&st);
+  const UpdateStats start = st.update;
+  for (int i = 0; i < 1000; ++i) {
+    h = sys.add_object(s.objects[ball]);
+    sys.update(&st);
+    ASSERT_EQ(st.update.full_compiles, 1u);
+    sys.remove_object(h);
+    sys.update(&st);
+  }
+  EXPECT_EQ(st.update.scene_bytes, start.scene_bytes);
+  EXPECT_EQ(st.update.map_live_bytes, start.map_live_bytes);
+  EXPECT_LE(st.update.map_store_bytes, start.map_store_bytes + start.map_store_bytes / 3)
+      << "holes of freed maps stay below a quarter of the store (compaction)";
+  EXPECT_EQ(st.update.gl_scene_bytes, start.gl_scene_bytes);
+  EXPECT_FALSE(sys.internals().closed_meshes.count(s.objects[ball].mesh.get())) << "the removed mesh is released";
+}
+
+}  // namespace
