@@ -81,6 +81,27 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
   }
   j["popping"] = {{"measured", s.popping.measured}, {"points", s.popping.points},
                   {"mean_abs_dT", s.popping.mean}, {"max_abs_dT", s.popping.max}};
+  {
+    const UpdateStats& u = s.update;
+    auto& up = j["update"];
+    up["full_compiles"] = u.full_compiles;
+    up["objects_compiled"] = u.objects_compiled;
+    up["volumes_compiled"] = u.volumes_compiled;
+    up["bvh_refits"] = u.bvh_refits;
+    up["bvh_rebuilds"] = u.bvh_rebuilds;
+    up["gl_upload_bytes"] = u.gl_upload_bytes;
+    up["maps_freed"] = u.maps_freed;
+    auto& why = up["maps_rebuilt_by_reason"];
+    for (int r = 0; r < kRebuildReasons; ++r) why[to_string(RebuildReason(r))] = u.rebuilt_by_reason[r];
+    auto& list = up["rebuilt_maps"];
+    list = nlohmann::json::array();
+    for (const MapRebuild& m : u.rebuilds)
+      list.push_back({{"light", m.light}, {"map", m.map}, {"reason", to_string(m.reason)}});
+    up["map_store_bytes"] = u.map_store_bytes;
+    up["map_live_bytes"] = u.map_live_bytes;
+    up["scene_bytes"] = u.scene_bytes;
+    up["gl_scene_bytes"] = u.gl_scene_bytes;
+  }
   auto& t = j["times_ms"];
   t["compile_scene"] = s.times.compile_ms;
   t["clustering"] = s.cluster_ms;

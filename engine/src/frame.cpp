@@ -439,10 +439,13 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
   }
   // Replaced maps are released before new ones are built (a layout change
   // needs an empty store), or kept one frame for the popping probe.
-  const bool layout_changed = !cache.entries.empty() && cache.entries.front().settings_hash != settings;
+  const DsmLayoutParams layout = dsm_layout_params(s);
+  const bool layout_changed = layout.layout != cache.layout.layout || layout.fixed_layers != cache.layout.fixed_layers ||
+                              layout.chunk_nodes != cache.layout.chunk_nodes;
+  frame.previous_kept = in.keep_previous && !layout_changed;
   for (size_t c = 0; c < cache.entries.size(); ++c) {
     if (taken[c]) continue;
-    if (in.keep_previous && !layout_changed) {
+    if (frame.previous_kept) {
       cache.retired.push_back(cache.entries[c].id);
     } else {
       backend.free_map(cache.entries[c].id);
@@ -477,6 +480,7 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
   frame.refresh_headers();
   cache.entries = std::move(next);
   cache.lights = std::move(lights);
+  cache.layout = layout;
 }
 
 FrameInputs frame_inputs(const Scene& scene, const SceneBuffers& sb) {

@@ -102,6 +102,7 @@ struct MapCache {
     uint64_t signature = 0;  // a change drops the hysteresis
   };
   std::unordered_map<uint64_t, LightState> lights;  // by light identity
+  DsmLayoutParams layout;  // of the stored maps
   // Frees every map (the backend's memory) and forgets the clusters.
   void clear(ShadowBackend& backend);
 };
@@ -115,6 +116,7 @@ struct ShadowFrame {
   std::vector<uint8_t> map_rebuilt;     // per map: built this frame
   std::vector<MapRebuild> rebuilds;     // why each rebuilt map was rebuilt
   uint32_t rebuilt = 0, reused = 0, freed = 0;
+  bool previous_kept = false;           // the last frame's maps are all still stored (popping probe)
   double fragments_ms = 0.0;
   double build_ms = 0.0;
   double cluster_ms = 0.0;

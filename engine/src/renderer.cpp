@@ -110,7 +110,8 @@ struct Renderer::Impl {
   struct Previous {
     bool valid = false;
     LightSetup setup;
-    std::vector<DsmMap> headers;
+    std::vector<MapId> maps;       // alive in the backend until the next update (keep_previous)
+    std::vector<DsmMap> headers;   // fetched again at each measurement (compaction moves maps)
     ShadowSettings settings;
     std::vector<Receiver> receivers;
   } previous;
@@ -270,8 +271,11 @@ struct Renderer::Impl {
   // (keep_previous), so both lookups read the backend's store.
   void measure_popping(ShadowSystem::Impl& f, FrameStats& st) {
     const ShadowFrame& now_frame = f.frame;
-    if (previous.valid && now_frame.rebuilt > 0 && previous.setup.lights.size() == now_frame.setup.lights.size()) {
+    if (previous.valid && now_frame.rebuilt > 0 && now_frame.previous_kept &&
+        previous.setup.lights.size() == now_frame.setup.lights.size()) {
       ShadowView now = f.shadow_view();
+      previous.headers.clear();
+      for (MapId id : previous.maps) previous.headers.push_back(f.backend->map_header(id));
       ShadowView before = now;
       before.lights = {previous.setup.lights.data(), previous.setup.lights.size()};
       before.maps = {previous.headers.data(), previous.headers.size()};
@@ -297,7 +301,7 @@ struct Renderer::Impl {
       st.popping.max = mx;
     }
     previous.setup = now_frame.setup;
-    previous.headers = now_frame.headers;
+    previous.maps = now_frame.maps;
     previous.settings = f.scene.shadows;
     previous.receivers = sample_receivers(f);
     previous.valid = true;

@@ -315,6 +315,14 @@ void ShadowSystem::Impl::update(FrameStats& st) {
   } else {
     for (uint8_t& r : frame.map_rebuilt) r = 0;
     frame.rebuilt = frame.freed = 0;
+    // Maps kept for the popping probe are not needed by a frame whose maps
+    // did not change.
+    for (MapId id : cache.retired) {
+      backend->free_map(id);
+      ++frame.freed;
+    }
+    cache.retired.clear();
+    if (frame.freed) frame.refresh_headers();
     frame.rebuilds.clear();
     frame.reused = uint32_t(frame.maps.size());
     frame.fragments_ms = frame.build_ms = frame.cluster_ms = 0.0;

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <set>
 
+#include "cdsm/procedural.h"
 #include "cdsm/renderer.h"
 #include "cdsm/scene_io.h"
 #include "cdsm/shadow_system.h"
@@ -138,6 +139,26 @@ TEST(ShadowSystem, MovedObjectRebuildsOnlyItsMapsAndUploadsOnlyItsTriangles) {
     const uint64_t tris = s.objects[oi].mesh->triangle_count();
     EXPECT_EQ(st.update.gl_upload_bytes, tris * 48) << "its triangles' vertices and facing normals only";
   }
+}
+
+TEST(ShadowSystem, ContentMoveRebuildsTheMapThoughItsFrustumStays) {
+  // One unclustered spot: moving the ball inside the scene box keeps the
+  // map's frustum, so only the ball's content generation tells the map is stale.
+  ShadowSystem sys;
+  Scene s = shipped("default");
+  add_scene(sys, s);
+  sys.render();
+  const size_t ball = index_of(s, "ball");
+  s.objects[ball].transform.m[0][3] += 0.05f;
+  sys.set_transform(sys.objects()[ball], s.objects[ball].transform);
+  FrameStats st;
+  Image moved = sys.render(&st);
+  ASSERT_EQ(st.maps_rebuilt, 1u);
+  EXPECT_EQ(st.update.rebuilds[0].reason, RebuildReason::Content);
+  EXPECT_EQ(st.update.objects_compiled, 1u);
+  ShadowSystem fresh;
+  add_scene(fresh, s);
+  EXPECT_TRUE(same_pixels(moved, fresh.render()));
 }
 
 TEST(ShadowSystem, MaterialEditRebuildsOnlyMapsContainingTheObjectAndTouchesNoGeometry) {
@@ -300,24 +321,48 @@ TEST(ShadowSystem, RemovedVolumeFreesItsVoxelsAndKeepsTheOthersRight) {
 }
 
 TEST(ShadowSystem, AddingAndRemovingAThousandTimesLeavesMemoryWhereItStarted) {
-  Scene s = shipped("default", 64, 48, 32);
+  // A small scene, so a thousand cycles (two updates each) stay quick.
+  Scene base;
+  base.source = "add_remove";
+  base.camera.width = 64;
+  base.camera.height = 48;
+  base.shadows.resolution = 32;
+  Object ground;
+  ground.name = "ground";
+  ground.mesh = std::make_shared<TriangleMesh>(make_ground(6, 6));
+  base.objects.push_back(ground);
+  Object box;
+  box.name = "box";
+  box.mesh = std::make_shared<TriangleMesh>(make_box({0.5f, 0.5f, 0.5f}));
+  box.transform = make_transform({-0.8f, 0.25f, 0}, {0, 0, 0}, {1, 1, 1});
+  box.surface.opacity = 0.5f;
+  base.objects.push_back(box);
+  Light spot;
+  spot.position = {0, 4, 0};
+  base.lights.push_back(spot);
+  Object ball;
+  ball.name = "ball";
+  ball.mesh = std::make_shared<TriangleMesh>(make_sphere(0.4f, 16, 8));
+  ball.transform = make_transform({0.8f, 0.4f, 0}, {0, 0, 0}, {1, 1, 1});
+  ball.interior = InteriorKind::Constant;
+  ball.sigma = 2.0f;
+  ball.surface.opacity = 0.0f;
+
   ShadowSystem sys;
-  const size_t ball = index_of(s, "ball");
-  Scene base = s;
-  base.objects.erase(base.objects.begin() + ptrdiff_t(ball));
   add_scene(sys, base);
   FrameStats st;
   sys.update(&st);
   // One cycle first: pools and GL buffers reach their working size.
-  ObjectHandle h = sys.add_object(s.objects[ball]);
+  ObjectHandle h = sys.add_object(ball);
   sys.update(&st);
   sys.remove_object(h);
   sys.update(&st);
   const UpdateStats start = st.update;
   for (int i = 0; i < 1000; ++i) {
-    h = sys.add_object(s.objects[ball]);
+    h = sys.add_object(ball);
     sys.update(&st);
     ASSERT_EQ(st.update.full_compiles, 1u);
+    ASSERT_EQ(st.maps_rebuilt, 1u);
     sys.remove_object(h);
     sys.update(&st);
   }
@@ -326,7 +371,34 @@ TEST(ShadowSystem, AddingAndRemovingAThousandTimesLeavesMemoryWhereItStarted) {
   EXPECT_LE(st.update.map_store_bytes, start.map_store_bytes + start.map_store_bytes / 3)
       << "holes of freed maps stay below a quarter of the store (compaction)";
   EXPECT_EQ(st.update.gl_scene_bytes, start.gl_scene_bytes);
-  EXPECT_FALSE(sys.internals().closed_meshes.count(s.objects[ball].mesh.get())) << "the removed mesh is released";
+  EXPECT_FALSE(sys.internals().closed_meshes.count(ball.mesh.get())) << "the removed mesh is released";
+}
+
+TEST(ShadowSystem, PoppingIsMeasuredOnlyWhenAskedAndKeepsReplacedMapsOneFrame) {
+  Scene s = shipped("sparse");
+  Renderer r;
+  RenderOptions opt;
+  FrameStats st;
+  r.render(s, opt, &st);
+  s.shadows.epsilon = 0.05f;  // every map replaced
+  r.render(s, opt, &st);
+  EXPECT_FALSE(st.popping.measured) << "off unless asked";
+  opt.measure_popping = true;
+  r.render(s, opt, &st);
+  const uint64_t live = st.update.map_live_bytes;
+  s.shadows.epsilon = 0.2f;
+  r.render(s, opt, &st);
+  ASSERT_TRUE(st.popping.measured);
+  EXPECT_GT(st.popping.points, 0u);
+  EXPECT_GT(st.popping.max, 0.0) << "a coarser epsilon changes transmittance somewhere";
+  EXPECT_GT(st.update.map_live_bytes, live / 4) << "the replaced maps are alive for the probe";
+  const uint32_t maps = st.maps_rebuilt;
+  const uint64_t with_kept = st.update.map_live_bytes;
+  r.render(s, opt, &st);  // nothing changed: the kept maps are freed now
+  EXPECT_EQ(st.maps_rebuilt, 0u);
+  EXPECT_EQ(st.update.maps_freed, maps);
+  EXPECT_LT(st.update.map_live_bytes, with_kept);
+  EXPECT_FALSE(st.popping.measured) << "no map changed";
 }
 
 }  // namespace

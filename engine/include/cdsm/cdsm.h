@@ -8,3 +8,4 @@
 #include "cdsm/renderer.h"
 #include "cdsm/scene.h"
 #include "cdsm/scene_io.h"
+#include "cdsm/shadow_system.h"
