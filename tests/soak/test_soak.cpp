@@ -2,7 +2,8 @@
 // 160x120 with 128^2 maps and clusters on, the camera orbiting every frame,
 // the light moving every 50 frames, epsilon changing every 200, an object
 // added and removed every 100. Asserts: resident memory after warm-up grows
-// less than 1%, frame time does not drift (the last 200 frames' median
+// less than 1% (and so do the GL scene buffers, the compiled scene and the
+// map store the library counts), frame time does not drift (the last 200 frames' median
 // within 1.2x of frames 100..300), and every frame rebuilds exactly the maps
 // its changes imply. CDSM_SOAK_FRAMES sets the length (2,000; 300 under the
 // sanitizers, where timing is not asserted).
@@ -134,6 +135,7 @@ TEST(Soak, ThousandsOfChangingFrames) {
   RenderOptions opt;
   std::vector<double> ms;
   std::vector<long> rss;
+  std::vector<uint64_t> gl_bytes, held_bytes;  // GL scene buffers; compiled scene + map store
   uint64_t rebuilds = 0, wrong = 0;
   std::string first_wrong;
   auto render = [&](int f, FrameStats& st) {
@@ -148,6 +150,8 @@ TEST(Soak, ThousandsOfChangingFrames) {
     FrameStats st;
     ms.push_back(render(f, st));
     rss.push_back(resident_kib());
+    gl_bytes.push_back(st.update.gl_scene_bytes);
+    held_bytes.push_back(st.update.scene_bytes + st.update.map_store_bytes);
     // Rebuilds: everything when the light, epsilon or the objects changed
     // (a new object set changes every cluster's members); else exactly the
     // clusters whose members or focused frustum changed (the camera moved).
@@ -189,5 +193,15 @@ TEST(Soak, ThousandsOfChangingFrames) {
               "(frames 100-300), %.1f ms (the same frames replayed at the end), %.1f ms (the last 200)\n",
               warm, late, early, again, last);
   EXPECT_LT(double(late), 1.01 * double(warm)) << "resident memory grew after warm-up";
+  // The library's own counters (FrameStats::update), the same windows.
+  const uint64_t gl_warm = *std::max_element(gl_bytes.begin() + 300, gl_bytes.begin() + 800);
+  const uint64_t gl_late = *std::max_element(gl_bytes.end() - 500, gl_bytes.end());
+  EXPECT_LE(gl_late, gl_warm) << "GL scene buffers grew after warm-up";
+  const uint64_t held_warm = *std::max_element(held_bytes.begin() + 300, held_bytes.begin() + 800);
+  const uint64_t held_late = *std::max_element(held_bytes.end() - 500, held_bytes.end());
+  EXPECT_LE(double(held_late), 1.01 * double(held_warm)) << "compiled scene and map store grew after warm-up";
+  std::printf("[ soak ] GL scene buffers peak %llu -> %llu bytes; compiled scene + map store peak %llu -> %llu bytes\n",
+              (unsigned long long)gl_warm, (unsigned long long)gl_late, (unsigned long long)held_warm,
+              (unsigned long long)held_late);
   if (!kSanitized) EXPECT_LE(again, 1.2 * early) << "frame time drifted";
 }
