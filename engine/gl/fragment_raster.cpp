@@ -141,14 +141,7 @@ struct FragmentRasterizer::Impl {
     // free their GL memory), else grown as needed.
     fit(vertices, n * 36);
     vertices.upload(tri_vertices.data(), n * 36);
-    normal_scratch.resize(3 * n);
-    for (uint64_t t = 0; t < n; ++t) {
-      Vec3 a = tri_vertices[3 * t], b = tri_vertices[3 * t + 1], c = tri_vertices[3 * t + 2];
-      Vec3 g = cross(b - a, c - a);  // as the CPU ray caster's facing test
-      normal_scratch[3 * t] = g.x;
-      normal_scratch[3 * t + 1] = g.y;
-      normal_scratch[3 * t + 2] = g.z;
-    }
+    facing_normals(tri_vertices);
     fit(normals, n * 12);
     normals.upload(normal_scratch.data(), n * 12);
     media_scratch.assign(n / 32 + 1, 0u);
@@ -168,6 +161,20 @@ struct FragmentRasterizer::Impl {
     }
   }
 
+  // cross(B - A, C - A) per triangle into normal_scratch (the CPU ray
+  // caster's facing test uses the same vector).
+  void facing_normals(Span<const Vec3> tri_vertices) {
+    const uint64_t n = tri_vertices.size() / 3;
+    normal_scratch.resize(3 * n);
+    for (uint64_t t = 0; t < n; ++t) {
+      Vec3 a = tri_vertices[3 * t], b = tri_vertices[3 * t + 1], c = tri_vertices[3 * t + 2];
+      Vec3 g = cross(b - a, c - a);
+      normal_scratch[3 * t] = g.x;
+      normal_scratch[3 * t + 1] = g.y;
+      normal_scratch[3 * t + 2] = g.z;
+    }
+  }
+
   // Grows `b` to `bytes`, or re-allocates it exactly when it holds more
   // than twice that.
   static void fit(Buffer& b, uint64_t bytes) {
@@ -182,14 +189,7 @@ struct FragmentRasterizer::Impl {
                               ") are not within the " + std::to_string(tri_count) + " uploaded");
     context.make_current();
     vertices.upload(tri_vertices.data(), n * 36, first * 36);
-    normal_scratch.resize(3 * n);
-    for (uint64_t t = 0; t < n; ++t) {
-      Vec3 a = tri_vertices[3 * t], b = tri_vertices[3 * t + 1], c = tri_vertices[3 * t + 2];
-      Vec3 g = cross(b - a, c - a);
-      normal_scratch[3 * t] = g.x;
-      normal_scratch[3 * t + 1] = g.y;
-      normal_scratch[3 * t + 2] = g.z;
-    }
+    facing_normals(tri_vertices);
     normals.upload(normal_scratch.data(), n * 12, first * 12);
     uploaded = n * 48;
   }

@@ -115,6 +115,26 @@ void ShadowSystem::Impl::touch_object(size_t i) {
   changed = compile_pending = true;
 }
 
+// Erases volume vi's data from the scene arrays (freeing it); later
+// volumes' data moves down and their offsets follow.
+void ShadowSystem::Impl::erase_volume_data(size_t vi) {
+  const VolumeRec rec = volumes[vi];
+  erase_range(sb.voxels, rec.voxel_begin, rec.voxel_count);
+  erase_range(sb.nano_pool, rec.block_begin, rec.block_count);
+  erase_range(sb.macro_max, rec.macro_begin, rec.macro_count);
+  for (size_t k = 0; k < volumes.size(); ++k) {
+    VolumeRec& o = volumes[k];
+    if (k == vi || !o.compiled) continue;
+    if (o.voxel_begin > rec.voxel_begin) o.voxel_begin -= rec.voxel_count;
+    if (o.block_begin > rec.block_begin) o.block_begin -= rec.block_count;
+    if (o.macro_begin > rec.macro_begin) o.macro_begin -= rec.macro_count;
+    VolumeData& d = sb.volumes[k];
+    d.voxel_offset = d.grid_kind == kGridDense ? o.voxel_begin : o.block_begin * sizeof(GridBlock);
+    d.macro_offset = o.macro_begin;
+  }
+  volumes[vi].compiled = false;
+}
+
 // Dirty volumes: compiled on their own, their old data erased from the
 // scene arrays (later volumes' offsets shift down), the new data appended.
 void ShadowSystem::Impl::compile_volumes(FrameStats& st) {
@@ -124,21 +144,7 @@ void ShadowSystem::Impl::compile_volumes(FrameStats& st) {
     const Volume& v = scene.volumes[vi];
     const std::string where = scene.source + ": volume " + std::to_string(vi) + (v.name.empty() ? "" : " '" + v.name + "'");
     CompiledVolume cv = compile_volume(v, where);
-    if (rec.compiled) {
-      erase_range(sb.voxels, rec.voxel_begin, rec.voxel_count);
-      erase_range(sb.nano_pool, rec.block_begin, rec.block_count);
-      erase_range(sb.macro_max, rec.macro_begin, rec.macro_count);
-      for (size_t k = 0; k < volumes.size(); ++k) {
-        VolumeRec& o = volumes[k];
-        if (k == vi || !o.compiled) continue;
-        if (o.voxel_begin > rec.voxel_begin) o.voxel_begin -= rec.voxel_count;
-        if (o.block_begin > rec.block_begin) o.block_begin -= rec.block_count;
-        if (o.macro_begin > rec.macro_begin) o.macro_begin -= rec.macro_count;
-        VolumeData& d = sb.volumes[k];
-        d.voxel_offset = d.grid_kind == kGridDense ? o.voxel_begin : o.block_begin * sizeof(GridBlock);
-        d.macro_offset = o.macro_begin;
-      }
-    }
+    if (rec.compiled) erase_volume_data(vi);
     const VolumeData placed = vi < sb.volumes.size() ? sb.volumes[vi] : VolumeData{};
     rec.voxel_begin = sb.voxels.size();
     rec.block_begin = sb.nano_pool.size();
@@ -427,21 +433,8 @@ void ShadowSystem::remove_volume(VolumeHandle h) {
   for (size_t oi = 0; oi < I.objects.size(); ++oi)
     if (I.objects[oi].volume == h.id)
       throw Error(I.object_where(oi), "uses the volume being removed: remove the object or change its interior first");
-  Impl::VolumeRec rec = I.volumes[vi];
-  if (rec.compiled) {
-    erase_range(I.sb.voxels, rec.voxel_begin, rec.voxel_count);
-    erase_range(I.sb.nano_pool, rec.block_begin, rec.block_count);
-    erase_range(I.sb.macro_max, rec.macro_begin, rec.macro_count);
-    for (size_t k = 0; k < I.volumes.size(); ++k) {
-      Impl::VolumeRec& o = I.volumes[k];
-      if (k == vi || !o.compiled) continue;
-      if (o.voxel_begin > rec.voxel_begin) o.voxel_begin -= rec.voxel_count;
-      if (o.block_begin > rec.block_begin) o.block_begin -= rec.block_count;
-      if (o.macro_begin > rec.macro_begin) o.macro_begin -= rec.macro_count;
-      VolumeData& d = I.sb.volumes[k];
-      d.voxel_offset = d.grid_kind == kGridDense ? o.voxel_begin : o.block_begin * sizeof(GridBlock);
-      d.macro_offset = o.macro_begin;
-    }
+  if (I.volumes[vi].compiled) {
+    I.erase_volume_data(vi);
     I.sb.volumes.erase(I.sb.volumes.begin() + ptrdiff_t(vi));
   }
   I.volumes.erase(I.volumes.begin() + ptrdiff_t(vi));

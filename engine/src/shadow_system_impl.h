@@ -72,6 +72,7 @@ struct ShadowSystem::Impl {
   void compile(FrameStats& st);  // the scene part of update()
   void update(FrameStats& st);
   void compile_volumes(FrameStats& st);
+  void erase_volume_data(size_t vi);
   void compile_structure(FrameStats& st);
   void compile_moves(FrameStats& st, std::vector<SceneChange>& uploads);
   void refresh_surfaces();
