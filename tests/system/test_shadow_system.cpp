@@ -295,6 +295,30 @@ TEST(ShadowSystem, RendererDiffsSceneValuesByIdentity) {
   EXPECT_TRUE(same_pixels(r.render(copy, opt), fresh.render(copy, opt)));
 }
 
+TEST(ShadowSystem, VolumeEditCompilesThatVolumeOnlyAndMatchesAFreshBuild) {
+  Scene s = shipped("default");
+  ShadowSystem sys;
+  add_scene(sys, s);
+  FrameStats st;
+  sys.render(&st);
+  // The first volume (smoke) gets a denser transfer function: its voxels
+  // are compiled again, the other volume's data moves down behind it.
+  const size_t smoke = index_of(s, "smoke");
+  const int32_t vi = s.objects[smoke].volume;
+  ASSERT_EQ(vi, 0) << "the edited volume lies before the other one";
+  for (TransferPoint& p : s.volumes[size_t(vi)].transfer) p.extinction *= 3.0f;
+  sys.set_volume({sys.internals().objects[smoke].volume}, s.volumes[size_t(vi)]);
+  Image a = sys.render(&st);
+  EXPECT_EQ(st.update.volumes_compiled, 1u);
+  EXPECT_EQ(st.update.full_compiles + st.update.objects_compiled, 0u);
+  EXPECT_EQ(st.update.gl_upload_bytes, 0u);
+  EXPECT_EQ(st.maps_rebuilt, 1u);
+  EXPECT_EQ(st.update.rebuilt_by_reason[int(RebuildReason::Content)], 1u);
+  ShadowSystem fresh;
+  add_scene(fresh, s);
+  EXPECT_TRUE(same_pixels(a, fresh.render())) << "both volumes read their own data after the edit";
+}
+
 TEST(ShadowSystem, RemovedVolumeFreesItsVoxelsAndKeepsTheOthersRight) {
   Scene s = shipped("default");
   ShadowSystem sys;
