@@ -102,7 +102,7 @@ struct Wedge {
   // the thesis takes the wedge's midpoint, equally admissible).
   CDSM_HD float line_end() const {
     float dz = zl - z0;
-    return clampf(al, a0 + lo * dz, a0 + hi * dz);
+    return fminf(clampf(al, a0 + lo * dz, a0 + hi * dz), 1.0f);  // the bounds can round past 1
   }
 
   // Starts a new wedge from the origin through sample (z, a), z > z0.

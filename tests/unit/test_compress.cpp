@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "hd/compress.h"
+#include "hd/compress_rgb.h"
 #include "hd/dsm.h"
 #include "common/minimax_fit.h"
 #include "unit_util.h"
@@ -235,6 +236,125 @@ TEST(Compression, ErrorBoundMonotoneAndNodeCounts) {
   EXPECT_LE(worst[0], 1e-6) << "eps = 0 must reproduce every sample";
   for (int e = 1; e < 4; ++e) EXPECT_LE(count_sum[e], count_sum[e - 1]) << "mean node count rose with eps";
   EXPECT_LT(count_sum[3], 0.5 * count_sum[0]) << "eps = 0.1 should compress";
+}
+
+// ---- three channels (hd/compress_rgb.h) ---------------------------------------
+
+namespace {
+
+// A coloured version of a grey sequence: per channel T_k = T^p_k (a medium
+// of per-channel extinction, a surface tinted per channel), so depths and
+// surfaces are shared and every channel stays monotone within [0, 1].
+struct RgbSample {
+  float z;
+  Vec3 a;
+  bool step;
+};
+
+std::vector<RgbSample> tint(const std::vector<Sample>& grey, std::mt19937& rng) {
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  float p[3];
+  for (float& x : p) x = std::pow(10.0f, -0.7f + 1.4f * u(rng));  // 0.2 .. 5
+  if (u(rng) < 0.2f) p[1] = p[0];  // sometimes two equal channels
+  std::vector<RgbSample> out;
+  for (const Sample& s : grey) {
+    const float t = 1.0f - s.a;
+    out.push_back({s.z, {1.0f - std::pow(t, p[0]), 1.0f - std::pow(t, p[1]), 1.0f - std::pow(t, p[2])}, s.step});
+  }
+  return out;
+}
+
+std::vector<DsmNodeRgb> compress_rgb(const std::vector<RgbSample>& seq, float eps) {
+  std::vector<DsmNodeRgb> storage(2 * seq.size() + 2);
+  RgbNodeBuffer buf{storage.data(), int(storage.size())};
+  WedgeRgb<RgbNodeBuffer> c(eps);
+  for (const RgbSample& s : seq) {
+    if (s.step) c.step(buf, s.z, s.a);
+    else c.push(buf, s.z, s.a);
+  }
+  c.finish(buf);
+  EXPECT_EQ(buf.overflow, 0);
+  storage.resize(size_t(buf.count));
+  return storage;
+}
+
+// Channel k of an RGB sequence / node list as a scalar one.
+std::vector<Sample> channel_of(const std::vector<RgbSample>& seq, int k) {
+  std::vector<Sample> out;
+  for (const RgbSample& s : seq) out.push_back({s.z, channel(s.a, k), s.step});
+  return out;
+}
+std::vector<DsmNode> channel_of(const std::vector<DsmNodeRgb>& nodes, int k) {
+  std::vector<DsmNode> out;
+  for (const DsmNodeRgb& n : nodes) out.push_back({n.z, k == 0 ? n.r : (k == 1 ? n.g : n.b)});
+  return out;
+}
+
+}  // namespace
+
+// >= 10^5 random coloured sequences, four tolerances: the bound holds per
+// channel, every channel is physical, and one channel's tolerance never
+// costs more nodes than all three compressed apart would need together.
+TEST(CompressionRgb, PerChannelBoundOnRandomSequences) {
+#if defined(__SANITIZE_ADDRESS__)
+  constexpr int kSequences = 10000;
+#else
+  constexpr int kSequences = 100000;
+#endif
+  std::mt19937 rng(20261202u);
+  double worst[4] = {0, 0, 0, 0}, rgb_nodes[4] = {0, 0, 0, 0}, scalar_nodes[4] = {0, 0, 0, 0};
+  int failures = 0;
+  for (int q = 0; q < kSequences; ++q) {
+    const Kind kind = Kind(q % int(Kind::Count));
+    const std::vector<RgbSample> seq = tint(make_sequence(rng, kind), rng);
+    for (int e = 0; e < 4; ++e) {
+      const std::vector<DsmNodeRgb> nodes = compress_rgb(seq, kEps[e]);
+      rgb_nodes[e] += double(nodes.size());
+      size_t apart = 0;
+      for (int k = 0; k < 3; ++k) {
+        const std::vector<Sample> ch = channel_of(seq, k);
+        const std::vector<DsmNode> n = channel_of(nodes, k);
+        const double dev = max_deviation(ch, n);
+        worst[e] = std::max(worst[e], dev);
+        const ::testing::AssertionResult phys = physical(n);
+        apart = std::max(apart, compress(ch, kEps[e], 4096).nodes.size());
+        if ((dev > double(kEps[e]) + 1e-6 || !phys || n.back().z != seq.back().z) && failures < 10) {
+          ++failures;
+          ADD_FAILURE() << "sequence " << q << " kind " << int(kind) << " eps " << kEps[e] << " channel " << k
+                        << ": deviation " << dev << ", " << phys.message();
+        }
+      }
+      scalar_nodes[e] += double(apart);
+    }
+  }
+  for (int e = 0; e < 4; ++e)
+    std::cout << "rgb eps " << kEps[e] << ": mean nodes " << rgb_nodes[e] / kSequences << " (the densest channel alone "
+              << scalar_nodes[e] / kSequences << "), worst channel deviation " << worst[e] << "\n";
+  EXPECT_LE(worst[0], 1e-6) << "eps = 0 must reproduce every sample of every channel";
+  for (int e = 1; e < 4; ++e) EXPECT_LE(rgb_nodes[e], rgb_nodes[e - 1]) << "mean node count rose with eps";
+  EXPECT_LT(rgb_nodes[3], 0.5 * rgb_nodes[0]) << "eps = 0.1 should compress";
+}
+
+// Equal channels (a grey caster) give the scalar wedge's nodes bit for bit:
+// a map holding only grey casters can keep scalar nodes.
+TEST(CompressionRgb, GreyInputIsTheScalarWedgeBitForBit) {
+  std::mt19937 rng(7u);
+  for (int q = 0; q < 5000; ++q) {
+    const std::vector<Sample> grey = make_sequence(rng, Kind(q % int(Kind::Count)));
+    std::vector<RgbSample> rgb;
+    for (const Sample& s : grey) rgb.push_back({s.z, vec3(s.a), s.step});
+    for (float eps : kEps) {
+      const std::vector<DsmNode> scalar = compress(grey, eps, 4096).nodes;
+      const std::vector<DsmNodeRgb> coloured = compress_rgb(rgb, eps);
+      ASSERT_EQ(scalar.size(), coloured.size()) << "sequence " << q << " eps " << eps;
+      for (size_t i = 0; i < scalar.size(); ++i) {
+        ASSERT_EQ(scalar[i].z, coloured[i].z);
+        ASSERT_EQ(scalar[i].alpha, coloured[i].r);
+        ASSERT_EQ(coloured[i].r, coloured[i].g);
+        ASSERT_EQ(coloured[i].r, coloured[i].b);
+      }
+    }
+  }
 }
 
 // A hand-made case: a linear ramp collapses to its end points; a step keeps

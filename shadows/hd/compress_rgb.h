@@ -1,0 +1,192 @@
+// The clamped wedge over three channels (issue "Coloured shadows"): one
+// piecewise-linear visibility function per colour channel, compressed with
+// shared node depths. Each channel keeps its own admissible-slope interval
+// (lo_k, hi_k), exactly as the scalar wedge (hd/compress.h) keeps one; a
+// sample is accepted when every channel's interval stays non-empty, and the
+// line of all three is closed (a node emitted) as soon as any channel's
+// would empty. Guarantee, per channel k, at every pushed sample:
+// |alpha'_k(z) - alpha_k(z)| <= eps (+ float rounding); every alpha'_k is
+// monotone and within [0, 1]. With equal channels (a grey caster) every
+// decision and value is the scalar wedge's, bit for bit.
+#pragma once
+
+#include "cdsm/math.h"
+#include "hd/span.h"
+
+namespace cdsm {
+
+// One node of an RGB visibility function: accumulated opacity per channel
+// at depth z. std430: 16 bytes (a vec4: z, then r, g, b).
+struct DsmNodeRgb {
+  float z;
+  float r, g, b;  // 1 - V_k(z), each in [0, 1]
+};
+static_assert(sizeof(DsmNodeRgb) == 16, "DsmNodeRgb is 16 bytes (std430 vec4)");
+
+CDSM_HD CDSM_INLINE float channel(const Vec3& v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.z); }
+
+// Sink: emit(z, Vec3 a), size(), last_alpha(), last_z(), before_last_z(),
+// raise_last(Vec3 a), compact().
+template <class Sink>
+struct WedgeRgb {
+  float eps = 0.0f;
+  bool has_origin = false;
+  float z0 = 0.0f;
+  Vec3 a0{0, 0, 0};                          // origin: the last emitted node
+  float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};  // admissible slopes per channel
+  bool pending = false;                      // samples accepted since the origin
+  float zl = 0.0f;
+  Vec3 al{0, 0, 0};                          // last accepted sample
+
+  CDSM_HD explicit WedgeRgb(float e) : eps(e) {}
+
+  CDSM_HD void set_origin(Sink& buf, float z, Vec3 a) {
+    buf.emit(z, a);
+    z0 = z;
+    a0 = buf.last_alpha();
+    pending = false;
+  }
+
+  // Each channel's line value at the last accepted sample, inside its
+  // wedge, as close as possible to that sample, and never above 1 (the
+  // wedge's bounds can round past it).
+  CDSM_HD Vec3 line_end() const {
+    const float dz = zl - z0;
+    return {fminf(clampf(al.x, a0.x + lo[0] * dz, a0.x + hi[0] * dz), 1.0f),
+            fminf(clampf(al.y, a0.y + lo[1] * dz, a0.y + hi[1] * dz), 1.0f),
+            fminf(clampf(al.z, a0.z + lo[2] * dz, a0.z + hi[2] * dz), 1.0f)};
+  }
+
+  CDSM_HD void restart(float z, Vec3 a) {
+    const float dz = z - z0;
+    for (int k = 0; k < 3; ++k) {
+      const float ak = channel(a, k), a0k = channel(a0, k);
+      lo[k] = fmaxf(0.0f, (ak - eps - a0k) / dz);
+      hi[k] = fminf((ak + eps - a0k) / dz, (1.0f - a0k) / dz);
+      if (hi[k] < lo[k]) hi[k] = lo[k];  // only by rounding
+    }
+    zl = z;
+    al = a;
+    pending = true;
+  }
+
+  static CDSM_HD Vec3 clamp01(Vec3 a) { return {clampf(a.x, 0.0f, 1.0f), clampf(a.y, 0.0f, 1.0f), clampf(a.z, 0.0f, 1.0f)}; }
+  static CDSM_HD bool same(Vec3 a, Vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
+  static CDSM_HD bool above(Vec3 a, Vec3 b) { return a.x > b.x || a.y > b.y || a.z > b.z; }
+
+  CDSM_HD void push(Sink& buf, float z, Vec3 a) {
+    a = clamp01(a);
+    if (!has_origin) {
+      has_origin = true;
+      set_origin(buf, z, a);
+      return;
+    }
+    if (!pending) {
+      if (z <= z0) {  // same depth as the origin: a jump is a step
+        if (above(a, a0)) step(buf, z, a);
+        return;
+      }
+      restart(z, a);
+      return;
+    }
+    if (z <= zl) {  // same depth as the last sample
+      if (!same(a, al)) {
+        set_origin(buf, zl, line_end());
+        step(buf, z, a);
+      }
+      return;
+    }
+    const float dz = z - z0;
+    float nlo[3], nhi[3];
+    bool fits = true;
+    for (int k = 0; k < 3; ++k) {
+      const float ak = channel(a, k), a0k = channel(a0, k);
+      nlo[k] = fmaxf(lo[k], (ak - eps - a0k) / dz);
+      nhi[k] = fminf(hi[k], fminf((ak + eps - a0k) / dz, (1.0f - a0k) / dz));
+      fits = fits && nlo[k] <= nhi[k];
+    }
+    if (fits) {
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = nlo[k];
+        hi[k] = nhi[k];
+      }
+      zl = z;
+      al = a;
+      return;
+    }
+    set_origin(buf, zl, line_end());  // some channel's wedge emptied: close every line
+    restart(z, a);
+  }
+
+  // A surface at depth z raises alpha to `after` (push(z, before) came first).
+  CDSM_HD void step(Sink& buf, float z, Vec3 after) {
+    after = clamp01(after);
+    if (!has_origin) {
+      has_origin = true;
+      set_origin(buf, z, Vec3{0, 0, 0});
+    }
+    if (pending) set_origin(buf, zl, line_end());
+    after = vmax(after, a0);  // monotone per channel
+    // Coincident surfaces: raise the step's upper node instead of adding one.
+    if (buf.size() >= 2 && buf.last_z() == z && buf.before_last_z() == z) {
+      buf.raise_last(after);
+      a0 = after;
+      return;
+    }
+    set_origin(buf, z, after);
+  }
+
+  CDSM_HD void finish(Sink& buf) {
+    if (pending) set_origin(buf, zl, line_end());
+    buf.compact();
+  }
+};
+
+// A plain bounded sink: nodes as emitted into caller memory; `overflow`
+// counts nodes that did not fit (the caller sizes it from the samples, at
+// most two nodes per sample).
+struct RgbNodeBuffer {
+  DsmNodeRgb* nodes;
+  int capacity;
+  int count = 0;
+  int overflow = 0;
+  CDSM_HD void emit(float z, Vec3 a) {
+    if (count < capacity) {
+      nodes[count++] = DsmNodeRgb{z, a.x, a.y, a.z};
+    } else {
+      ++overflow;
+      nodes[count - 1] = DsmNodeRgb{z, a.x, a.y, a.z};  // keep the function's end
+    }
+  }
+  CDSM_HD int size() const { return count; }
+  CDSM_HD Vec3 last_alpha() const { return {nodes[count - 1].r, nodes[count - 1].g, nodes[count - 1].b}; }
+  CDSM_HD float last_z() const { return nodes[count - 1].z; }
+  CDSM_HD float before_last_z() const { return nodes[count - 2].z; }
+  CDSM_HD void raise_last(Vec3 a) {
+    nodes[count - 1].r = a.x;
+    nodes[count - 1].g = a.y;
+    nodes[count - 1].b = a.z;
+  }
+  CDSM_HD void compact() {}
+};
+
+// alpha'(z) of an RGB node list, channel by channel (linear between nodes,
+// the first node's value before it, the last's after it; at a step's depth
+// the upper value).
+CDSM_HD CDSM_INLINE Vec3 eval_rgb(Span<const DsmNodeRgb> n, float z) {
+  if (n.size() == 0) return {0, 0, 0};
+  uint32_t lo = 0, hi = uint32_t(n.size());
+  while (lo < hi) {  // first node with depth > z
+    const uint32_t mid = (lo + hi) >> 1;
+    if (n[mid].z <= z) lo = mid + 1;
+    else hi = mid;
+  }
+  if (lo == 0) return {n[0].r, n[0].g, n[0].b};
+  const DsmNodeRgb& a = n[lo - 1];
+  if (lo == n.size() || a.z == z) return {a.r, a.g, a.b};
+  const DsmNodeRgb& b = n[lo];
+  const float w = (z - a.z) / (b.z - a.z);
+  return {a.r + (b.r - a.r) * w, a.g + (b.g - a.g) * w, a.b + (b.b - a.b) * w};
+}
+
+}  // namespace cdsm
