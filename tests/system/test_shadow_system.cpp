@@ -4,9 +4,11 @@
 // final state.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <set>
 
+#include "cdsm/error.h"
 #include "cdsm/procedural.h"
 #include "cdsm/renderer.h"
 #include "cdsm/scene_io.h"
@@ -423,6 +425,45 @@ TEST(ShadowSystem, PoppingIsMeasuredOnlyWhenAskedAndKeepsReplacedMapsOneFrame) {
   EXPECT_EQ(st.update.maps_freed, maps);
   EXPECT_LT(st.update.map_live_bytes, with_kept);
   EXPECT_FALSE(st.popping.measured) << "no map changed";
+}
+
+TEST(ShadowSystem, BadEditsAreRefusedByNameAndTheStateSurvives) {
+  Scene s = shipped("default");
+  ShadowSystem sys;
+  add_scene(sys, s);
+  const Image before = sys.render();
+  const size_t ball = index_of(s, "ball");
+  const ObjectHandle h = sys.objects()[ball];
+  // A NaN transform is refused at the call, naming the object.
+  Mat4 bad = s.objects[ball].transform;
+  bad.m[0][3] = std::nanf("");
+  try {
+    sys.set_transform(h, bad);
+    ADD_FAILURE() << "a NaN transform was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("'ball'"), std::string::npos) << e.what();
+  }
+  // Handles of removed or foreign things, a volume still in use.
+  EXPECT_THROW(sys.set_surface(ObjectHandle{987654}, s.objects[ball].surface), Error);
+  const uint64_t smoke_volume = sys.internals().objects[index_of(s, "smoke")].volume;
+  EXPECT_THROW(sys.remove_volume({smoke_volume}), Error);
+  // Content that fails to compile: update() throws naming it, the previous
+  // compiled state stays, and removing the object heals the system.
+  auto broken = std::make_shared<TriangleMesh>(*s.objects[ball].mesh);
+  broken->positions[3].y = std::nanf("");
+  Object o = s.objects[ball];
+  o.name = "broken";
+  o.mesh = broken;
+  const ObjectHandle b = sys.add_object(o);
+  try {
+    sys.render();
+    ADD_FAILURE() << "a NaN vertex compiled";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("'broken'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("vertex 3"), std::string::npos) << e.what();
+  }
+  sys.remove_object(b);
+  EXPECT_TRUE(same_pixels(sys.render(), before)) << "the system renders its last good state";
 }
 
 }  // namespace
