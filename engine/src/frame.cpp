@@ -194,6 +194,24 @@ ShadowView ShadowFrame::view(const ShadowSettings& s) const {
 
 namespace {
 
+// Light li's maps become `mine` (read with `mode`); the other lights' maps
+// keep their order, every light's first_map follows.
+void replace_light_maps(LightSetup& ls, size_t li, const std::vector<MapPlan>& mine, uint32_t mode) {
+  std::vector<MapPlan> all;
+  for (size_t l = 0; l < ls.lights.size(); ++l) {
+    uint32_t first = uint32_t(all.size());
+    if (l == li) {
+      for (const MapPlan& p : mine) all.push_back(p);
+      ls.lights[l].map_count = uint32_t(mine.size());
+      ls.lights[l].map_mode = mode;
+    } else {
+      for (uint32_t k = 0; k < ls.lights[l].map_count; ++k) all.push_back(ls.maps[ls.lights[l].first_map + k]);
+    }
+    ls.lights[l].first_map = first;
+  }
+  ls.maps.swap(all);
+}
+
 // Replaces the light's unclustered maps with one focused map per cluster.
 void cluster_light(const FrameInputs& in, size_t li, const LightClusters* previous, LightSetup& ls,
                    LightClusters& lc) {
@@ -224,11 +242,6 @@ void cluster_light(const FrameInputs& in, size_t li, const LightClusters* previo
     return;
   }
   // Swap this light's maps for the clusters' focused maps.
-  LightData& ld = ls.lights[li];
-  std::vector<MapPlan> maps;
-  for (size_t k = 0; k < ls.maps.size(); ++k)
-    if (k < ld.first_map || k >= ld.first_map + ld.map_count) maps.push_back(ls.maps[k]);
-  // Maps of later lights shift: rebuild the index from scratch below.
   std::vector<MapPlan> mine;
   for (const cluster::Cluster& c : lc.clustering.clusters)
     for (const PinholeView& v : c.views) {
@@ -236,19 +249,7 @@ void cluster_light(const FrameInputs& in, size_t li, const LightClusters* previo
       for (int32_t id : c.members) p.members.push_back(uint32_t(id));
       mine.push_back(std::move(p));
     }
-  std::vector<MapPlan> all;
-  for (size_t l = 0; l < ls.lights.size(); ++l) {
-    uint32_t first = uint32_t(all.size());
-    if (l == li) {
-      for (auto& m : mine) all.push_back(m);
-      ls.lights[l].map_count = uint32_t(mine.size());
-      ls.lights[l].map_mode = kMapsCombine;
-    } else {
-      for (uint32_t k = 0; k < ls.lights[l].map_count; ++k) all.push_back(ls.maps[ls.lights[l].first_map + k]);
-    }
-    ls.lights[l].first_map = first;
-  }
-  ls.maps.swap(all);
+  replace_light_maps(ls, li, mine, kMapsCombine);
   lc.clustered = true;
 }
 
@@ -297,19 +298,7 @@ void split_light(const FrameInputs& in, size_t li, LightSetup& ls) {
   }
   if (mine.empty()) return;
   mine.push_back(base);  // the whole cone last: points outside every split
-  std::vector<MapPlan> all;
-  for (size_t l = 0; l < ls.lights.size(); ++l) {
-    uint32_t first = uint32_t(all.size());
-    if (l == li) {
-      for (auto& p : mine) all.push_back(p);
-      ls.lights[l].map_count = uint32_t(mine.size());
-      ls.lights[l].map_mode = kMapsFirstContaining;
-    } else {
-      for (uint32_t k = 0; k < ls.lights[l].map_count; ++k) all.push_back(ls.maps[ls.lights[l].first_map + k]);
-    }
-    ls.lights[l].first_map = first;
-  }
-  ls.maps.swap(all);
+  replace_light_maps(ls, li, mine, kMapsFirstContaining);
 }
 
 // What a light's clusters depend on besides the casters: a change drops

@@ -387,6 +387,21 @@ uint32_t append_volume(SceneBuffers& sb, const CompiledVolume& cv) {
   return uint32_t(sb.volumes.size() - 1);
 }
 
+void append_object(SceneBuffers& sb, CompiledObject& co, const std::string& source) {
+  const uint32_t index = uint32_t(sb.objects.size());
+  co.data.first_tri = uint32_t(sb.tri_object.size());
+  co.data.tri_count = uint32_t(co.vertices.size() / 3);
+  if (uint64_t(sb.tri_object.size()) + co.data.tri_count >= kMaxPrimitives)
+    throw Error(source, "more than " + std::to_string(kMaxPrimitives) + " triangles");
+  sb.tri_vertices.insert(sb.tri_vertices.end(), co.vertices.begin(), co.vertices.end());
+  sb.tri_normals.insert(sb.tri_normals.end(), co.normals.begin(), co.normals.end());
+  sb.tri_object.insert(sb.tri_object.end(), co.data.tri_count, index);
+  sb.warnings.insert(sb.warnings.end(), co.warnings.begin(), co.warnings.end());
+  sb.objects.push_back(co.data);
+  sb.object_bounds.push_back(co.bounds);
+  sb.bounds.grow(co.bounds);
+}
+
 SceneBuffers compile_scene(const Scene& scene) {
   SceneBuffers sb;
   // Volumes first: objects refer to them.
@@ -411,17 +426,7 @@ SceneBuffers compile_scene(const Scene& scene) {
       VolumeData& vd = sb.volumes[size_t(o.volume)];
       place_volume(vd, scene.volumes[size_t(o.volume)], o.transform, where);
     }
-    co.data.first_tri = uint32_t(sb.tri_object.size());
-    co.data.tri_count = uint32_t(co.vertices.size() / 3);
-    if (uint64_t(sb.tri_object.size()) + co.data.tri_count >= kMaxPrimitives)
-      throw Error(scene.source, "more than " + std::to_string(kMaxPrimitives) + " triangles");
-    sb.tri_vertices.insert(sb.tri_vertices.end(), co.vertices.begin(), co.vertices.end());
-    sb.tri_normals.insert(sb.tri_normals.end(), co.normals.begin(), co.normals.end());
-    sb.tri_object.insert(sb.tri_object.end(), co.data.tri_count, uint32_t(oi));
-    sb.warnings.insert(sb.warnings.end(), co.warnings.begin(), co.warnings.end());
-    sb.objects.push_back(co.data);
-    sb.object_bounds.push_back(co.bounds);
-    sb.bounds.grow(co.bounds);
+    append_object(sb, co, scene.source);
   }
   for (size_t vi = 0; vi < scene.volumes.size(); ++vi)
     if (!volume_placed[vi]) throw Error(scene.source + ": volume " + std::to_string(vi), "is not used by any object");

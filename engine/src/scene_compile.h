@@ -49,6 +49,10 @@ void compile_object(const Object& o, bool closed, const std::string& where, Comp
 // returns its index in sb.volumes.
 uint32_t append_volume(SceneBuffers& sb, const CompiledVolume& cv);
 
+// Appends a compiled object as the next object of `sb` (its triangle range
+// and index set here). Throws when the scene would exceed kMaxPrimitives.
+void append_object(SceneBuffers& sb, CompiledObject& co, const std::string& source);
+
 // Flattens a whole scene at once: volumes, objects, BVH. Throws cdsm::Error
 // on invalid content (NaN in a vertex or transform, a bad volume reference,
 // too many triangles). The shadow system compiles incrementally instead;

@@ -192,17 +192,7 @@ void ShadowSystem::Impl::compile_structure(FrameStats& st) {
         co.data.volume = int32_t(vi);
         place_volume(nb.volumes[vi], scene.volumes[vi], o.transform, where);
       }
-      co.data.first_tri = uint32_t(nb.tri_object.size());
-      co.data.tri_count = uint32_t(co.vertices.size() / 3);
-      if (uint64_t(nb.tri_object.size()) + co.data.tri_count >= kMaxPrimitives)
-        throw Error(scene.source, "more than " + std::to_string(kMaxPrimitives) + " triangles");
-      nb.tri_vertices.insert(nb.tri_vertices.end(), co.vertices.begin(), co.vertices.end());
-      nb.tri_normals.insert(nb.tri_normals.end(), co.normals.begin(), co.normals.end());
-      nb.tri_object.insert(nb.tri_object.end(), co.data.tri_count, uint32_t(oi));
-      nb.warnings.insert(nb.warnings.end(), co.warnings.begin(), co.warnings.end());
-      nb.objects.push_back(co.data);
-      nb.object_bounds.push_back(co.bounds);
-      nb.bounds.grow(co.bounds);
+      append_object(nb, co, scene.source);
     }
     for (size_t vi = 0; vi < volumes.size(); ++vi)
       if (used[vi] < 0) throw Error(scene.source + ": volume " + std::to_string(vi), "is not used by any object");
