@@ -14,7 +14,8 @@
 //                              | upload of its triangles; the maps it is in,
 //                              | enters or leaves
 //   set_surface / set_interior | the maps containing the object; no geometry
-//   set_light                  | that light's maps
+//   set_light                  | that light's maps (position, direction,
+//                              | cone); colour and intensity: nothing
 //   set_settings               | map settings (epsilon, resolution, layout):
 //                              | every map, no geometry; lookup settings
 //                              | (filtering, bias): nothing
