@@ -202,12 +202,13 @@ std::string reference_key(const Scene& s, float step_voxels) {
     const SurfaceMaterial& m = o.surface;
     h.v3(m.color);
     h.f(m.opacity);
+    h.v3(m.transmission_color);
     h.f(m.ambient);
     h.f(m.diffuse);
     h.f(m.specular);
     h.f(m.shininess);
     h.i(int64_t(o.interior));
-    h.f(o.sigma);
+    h.v3(o.sigma);
     h.i(o.volume);
   }
   h.i(int64_t(s.volumes.size()));

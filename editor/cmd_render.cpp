@@ -124,6 +124,10 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
   m["max_nodes_per_texel"] = s.memory.max_nodes_per_texel;
   m["overflow_texels"] = s.memory.overflow_texels;
   m["overflow_extra_error"] = s.memory.max_extra_error;
+  m["rgb_maps"] = s.memory.rgb_maps;
+  m["grey_map_bytes"] = s.memory.grey_bytes;
+  m["rgb_map_bytes"] = s.memory.rgb_bytes;
+  m["rgb_nodes"] = s.memory.rgb_nodes;
   j["light_fragments"] = s.light_fragments;
   j["camera_fragments"] = s.camera_fragments;
   j["unmatched_fragments"] = s.unmatched_fragments;
@@ -137,6 +141,8 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
     e["p99"] = s.transmittance.p99;
     e["max"] = s.transmittance.max;
     e["rmse"] = s.transmittance.rmse;
+    e["channel_mean"] = {s.transmittance.channel_mean[0], s.transmittance.channel_mean[1],
+                         s.transmittance.channel_mean[2]};
     auto summary = [](const ErrorSummary& x) {
       return nlohmann::json{{"mean", x.mean}, {"p99", x.p99}, {"max", x.max}, {"rmse", x.rmse}};
     };
@@ -192,6 +198,10 @@ void print_summary(const FrameStats& s, const Scene& scene, bool reference_backe
               s.memory.slack_bytes / 1048576.0);
   std::printf("nodes/texel  avg %.2f, max %u (overflowed texels %llu)\n", s.memory.avg_nodes_per_texel,
               s.memory.max_nodes_per_texel, (unsigned long long)s.memory.overflow_texels);
+  if (s.memory.rgb_maps > 0)
+    std::printf("map kinds    %llu RGB maps %.2f MiB, %llu grey maps %.2f MiB\n", (unsigned long long)s.memory.rgb_maps,
+                s.memory.rgb_bytes / 1048576.0, (unsigned long long)(s.memory.maps - s.memory.rgb_maps),
+                s.memory.grey_bytes / 1048576.0);
   std::printf("segments     unmatched fragments %llu, enclosing overflow %llu, rays with > %d objects %llu, "
               "march steps lengthened %llu\n",
               (unsigned long long)s.unmatched_fragments, (unsigned long long)s.enclosing_overflow, kMaxRayObjects,

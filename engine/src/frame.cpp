@@ -324,6 +324,7 @@ uint64_t settings_hash(const ShadowSettings& s) {
   h.pod(s.method);
   h.pod(s.method_param);
   h.pod(s.resolution);
+  h.pod(s.rgb_maps);
   return h.h;
 }
 
@@ -458,6 +459,11 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
       t0 = std::chrono::steady_clock::now();
       std::vector<uint32_t> inside = objects_containing(sv, plan.view.eye, mask);
       LightPassParams lp{plan.view, s.epsilon, {inside.data(), inside.size()}, uint32_t(s.method), s.method_param};
+      // RGB nodes only where a member is coloured (deep shadow maps; the
+      // baselines are grey).
+      lp.rgb = s.rgb_maps && s.method == ShadowMethod::Dsm &&
+               std::any_of(plan.members.begin(), plan.members.end(),
+                           [&](uint32_t o) { return is_coloured(sv, sv.objects[o]); });
       e.id = backend.build_map(lp, fb.lists(), dsm_layout_params(s), e.stats);
       frame.build_ms += ms_since(t0);
       frame.map_rebuilt.push_back(1);

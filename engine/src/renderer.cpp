@@ -41,6 +41,10 @@ struct PointError {
   float map, resolution, total, weight;
   bool edge;
 };
+// Per colour channel.
+struct PointErrorRgb {
+  PointError channel[3];
+};
 
 // Weighted mean, RMSE, max and 99th percentile of one kind of error.
 ErrorSummary summarize(std::vector<std::pair<float, float>> e) {  // (error, weight)
@@ -95,6 +99,32 @@ TransmittanceError summarize_errors(const std::vector<PointError>& pts) {
     c.resolution = pick(cls, &PointError::resolution);
     c.total = pick(cls, &PointError::total);
   }
+  return e;
+}
+
+// Figure by figure, the larger of two channels' errors.
+ErrorSummary max_of(const ErrorSummary& a, const ErrorSummary& b) {
+  return {std::max(a.mean, b.mean), std::max(a.p99, b.p99), std::max(a.max, b.max), std::max(a.rmse, b.rmse)};
+}
+ErrorClass max_of(const ErrorClass& a, const ErrorClass& b) {
+  ErrorClass c = a;
+  c.share = std::max(a.share, b.share);
+  c.map = max_of(a.map, b.map);
+  c.resolution = max_of(a.resolution, b.resolution);
+  c.total = max_of(a.total, b.total);
+  return c;
+}
+TransmittanceError max_of(const TransmittanceError& a, const TransmittanceError& b) {
+  TransmittanceError e = a;
+  e.mean = std::max(a.mean, b.mean);
+  e.p99 = std::max(a.p99, b.p99);
+  e.max = std::max(a.max, b.max);
+  e.rmse = std::max(a.rmse, b.rmse);
+  e.map = max_of(a.map, b.map);
+  e.resolution = max_of(a.resolution, b.resolution);
+  e.total = max_of(a.total, b.total);
+  e.edge = max_of(a.edge, b.edge);
+  e.interior = max_of(a.interior, b.interior);
   return e;
 }
 
@@ -185,37 +215,39 @@ struct Renderer::Impl {
     // the lookup's offsets.
     ShadowView exact_taps = shv;
     exact_taps.receiver = kReceiverPlane;
-    std::vector<PointError> errors(lookups.size());
+    std::vector<PointErrorRgb> errors(lookups.size());
     tbb::parallel_for(size_t(0), lookups.size(), [&](size_t i) {
       const RecordedLookup& l = lookups[i];
       const LightData& L = shv.lights[uint32_t(l.light)];
-      float tap_lo = 1.0f, tap_hi = 0.0f;
+      Vec3 tap_lo{1, 1, 1}, tap_hi{0, 0, 0};
       // T_f: the lookup's own maps, taps, weights and depths (hd/lights.h),
-      // each tap's texel exact through its map's members.
-      const float alpha_f = combine_maps(shv, L, l.at.p, [&](uint32_t k, const DsmMap& m, const ViewProjection& pr) {
+      // each tap's texel exact through its map's members, per channel.
+      const Vec3 alpha_f = combine_maps(shv, L, l.at.p, [&](uint32_t k, const DsmMap& m, const ViewProjection& pr) {
         const ObjectMask members{{member_words[k].data(), member_words[k].size()}};
         // The receiver's own surface by identity: its hits within the
         // lookup's offset before the tap point (what the lookup skips too).
         const float own_window = receiver_offset(exact_taps, L, m, pr, l.at);
-        float a = 0.0f;
+        Vec3 a{0, 0, 0};
         for_each_tap(m, pr.u, pr.v, shv.filtering, [&](int tx, int ty, float w) {
           const Vec3 d = normalize(view_direction(m.view, float(tx) + 0.5f, float(ty) + 0.5f));
           const Vec3 q = m.view.eye + d * tap_depth(exact_taps, m, pr, l.at, tx, ty);
-          const float te = ref.transmittance_segment(L.position, q, members, l.at.object, own_window);
-          tap_lo = std::min(tap_lo, te);
-          tap_hi = std::max(tap_hi, te);
-          a += w * (1.0f - te);
+          const Vec3 te = ref.transmittance_segment_rgb(L.position, q, members, l.at.object, own_window);
+          tap_lo = vmin(tap_lo, te);
+          tap_hi = vmax(tap_hi, te);
+          a = a + one_minus(te) * w;
         });
         return a;
       });
-      const float t_f = 1.0f - alpha_f, t_exact = ref.transmittance(l.light, l.at.p);
+      const Vec3 t_f = one_minus(alpha_f), t_exact = ref.transmittance_rgb(l.light, l.at.p);
       // Edge: the taps' exact transmittances, and the point's own, differ by
-      // more than 0.05 (the point's own: a feature finer than a texel,
-      // which all taps miss or all taps see).
-      tap_lo = std::min(tap_lo, t_exact);
-      tap_hi = std::max(tap_hi, t_exact);
-      errors[i] = {std::fabs(l.transmittance - t_f), std::fabs(t_f - t_exact), std::fabs(l.transmittance - t_exact),
-                   l.weight, tap_hi - tap_lo > 0.05f};
+      // more than 0.05 in some channel (the point's own: a feature finer
+      // than a texel, which all taps miss or all taps see).
+      tap_lo = vmin(tap_lo, t_exact);
+      tap_hi = vmax(tap_hi, t_exact);
+      const bool edge = max_channel(tap_hi - tap_lo) > 0.05f;
+      for (int k = 0; k < 3; ++k)
+        errors[i].channel[k] = {std::fabs(l.transmittance[k] - t_f[k]), std::fabs(t_f[k] - t_exact[k]),
+                                std::fabs(l.transmittance[k] - t_exact[k]), l.weight, edge};
     });
     // CDSM_PROBE_DUMP=FILE: every compared lookup, one line each (README).
     if (const char* dump = std::getenv("CDSM_PROBE_DUMP")) {
@@ -225,12 +257,22 @@ struct Renderer::Impl {
       for (size_t i = 0; i < lookups.size(); ++i) {
         const RecordedLookup& l = lookups[i];
         std::fprintf(fo, "%g %g %g  %g %g %g %d  %g %g %g %g %d\n", l.at.p.x, l.at.p.y, l.at.p.z, l.at.plane.x,
-                     l.at.plane.y, l.at.plane.z, int(l.at.own_step), l.transmittance, errors[i].map, errors[i].resolution,
-                     errors[i].total, int(errors[i].edge));
+                     l.at.plane.y, l.at.plane.z, int(l.at.own_step), grey_of(l.transmittance),
+                     errors[i].channel[0].map, errors[i].channel[0].resolution, errors[i].channel[0].total,
+                     int(errors[i].channel[0].edge));
       }
       std::fclose(fo);
     }
-    return summarize_errors(errors);
+    // Each figure per channel; reported: the largest over the channels.
+    TransmittanceError worst;
+    for (int k = 0; k < 3; ++k) {
+      std::vector<PointError> one(errors.size());
+      for (size_t i = 0; i < errors.size(); ++i) one[i] = errors[i].channel[k];
+      const TransmittanceError e = summarize_errors(one);
+      worst = k == 0 ? e : max_of(worst, e);
+      worst.channel_mean[k] = e.mean;
+    }
+    return worst;
   }
 
   // Surface points of the camera view on a coarse grid (receivers for the
@@ -248,7 +290,7 @@ struct Renderer::Impl {
       }
     };
     struct NoShadow {
-      float operator()(int, const Receiver&) const { return 1.0f; }
+      Vec3 operator()(int, const Receiver&) const { return vec3(1.0f); }
     } vis;
     std::vector<LightData> none;
     std::vector<Receiver> out;
@@ -288,9 +330,10 @@ struct Renderer::Impl {
       for (const Receiver& r : previous.receivers)
         for (uint32_t li = 0; li < now.lights.size(); ++li) {
           if (cone_factor(now.lights[li], r.p) <= 0.0f) continue;
-          float a = shadow_alpha(now, now.lights[li], r);
-          float b = shadow_alpha(before, before.lights[li], r);
-          double d = std::fabs(double(a) - double(b));
+          const Vec3 a = shadow_alpha_rgb(now, now.lights[li], r);
+          const Vec3 b = shadow_alpha_rgb(before, before.lights[li], r);
+          const Vec3 diff = a - b;
+          double d = double(max_channel(vmax(diff, -diff)));  // the largest channel's change
           sum += d;
           mx = std::max(mx, d);
           ++n;

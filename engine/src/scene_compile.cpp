@@ -50,26 +50,27 @@ TransferData compile_transfer(const Volume& v, const std::string& where) {
   tf.max_extinction = 0.0f;
   for (size_t i = 0; i < v.transfer.size(); ++i) {
     const TransferPoint& p = v.transfer[i];
-    if (!is_finite(p.density) || !is_finite(p.extinction) || !is_finite(p.color) || p.extinction < 0)
+    if (!is_finite(p.density) || !is_finite(p.extinction) || !is_finite(p.color) || min_channel(p.extinction) < 0)
       throw Error(where, "transfer point " + std::to_string(i) + " is not finite or has negative extinction");
     if (i > 0 && p.density < v.transfer[i - 1].density)
       throw Error(where, "transfer points must be sorted by density");
     tf.density[i] = p.density;
-    tf.extinction[i] = p.extinction;
+    for (int k = 0; k < 3; ++k) tf.extinction[k][i] = p.extinction[k];
+    if (!is_grey(p.extinction)) tf.coloured = 1u;
     tf.r[i] = p.color.x;
     tf.g[i] = p.color.y;
     tf.b[i] = p.color.z;
-    tf.max_extinction = std::max(tf.max_extinction, p.extinction);
+    tf.max_extinction = std::max(tf.max_extinction, max_channel(p.extinction));
   }
   return tf;
 }
 
-// The transfer function is piecewise linear: its maximum over the density
-// range [lo, hi] is at an end or at a control point inside.
+// The transfer function is piecewise linear: its maximum (over channels)
+// over the density range [lo, hi] is at an end or at a control point inside.
 float max_extinction(const TransferData& tf, float lo, float hi) {
-  float m = std::max(apply_transfer(tf, lo).extinction, apply_transfer(tf, hi).extinction);
+  float m = std::max(max_channel(apply_transfer(tf, lo).extinction), max_channel(apply_transfer(tf, hi).extinction));
   for (int p = 0; p < tf.count; ++p)
-    if (tf.density[p] > lo && tf.density[p] < hi) m = std::max(m, tf.extinction[p]);
+    if (tf.density[p] > lo && tf.density[p] < hi) m = std::max(m, max_channel(transfer_extinction(tf, p)));
   return m;
 }
 
@@ -306,6 +307,26 @@ void place_volume(VolumeData& vd, const Volume& v, const Mat4& transform, const 
                            "): it cannot be marched; use larger voxels or move it nearer the origin");
 }
 
+void apply_surface(const Object& o, const std::string& where, ObjectData& od) {
+  const SurfaceMaterial& m = o.surface;
+  if (!(m.opacity >= 0.0f && m.opacity <= 1.0f)) throw Error(where, "surface opacity must be in [0, 1]");
+  const Vec3 f = m.transmission_color;
+  if (!(min_channel(f) >= 0.0f && max_channel(f) <= 1.0f))
+    throw Error(where, "surface transmission_color must be in [0, 1] in every channel (a filter passes at most "
+                       "all light)");
+  od.color = m.color;
+  od.opacity = m.opacity;
+  // A white filter keeps the coverage itself (bit for bit the grey result).
+  const bool white = f.x == 1.0f && f.y == 1.0f && f.z == 1.0f;
+  od.absorb = white ? vec3(m.opacity) : one_minus(f * (1.0f - m.opacity));
+  od.ka = m.ambient;
+  od.kd = m.diffuse;
+  od.ks = m.specular;
+  od.shininess = m.shininess;
+  od.flags = (od.flags & ~(kObjCastsShadows | kObjColoured)) | (o.casts_shadows ? kObjCastsShadows : 0u) |
+             (is_grey(od.absorb) ? 0u : kObjColoured);
+}
+
 void compile_object(const Object& o, bool closed, const std::string& where, CompiledObject& out) {
   out = CompiledObject{};
   if (!o.mesh) throw Error(where, "has no mesh");
@@ -314,20 +335,14 @@ void compile_object(const Object& o, bool closed, const std::string& where, Comp
   if (mesh.indices.size() % 3 != 0) throw Error(where, "mesh index count is not a multiple of 3");
   for (size_t i = 0; i < mesh.positions.size(); ++i)
     if (!is_finite(mesh.positions[i])) throw Error(where, "vertex " + std::to_string(i) + " is NaN or infinite");
-  if (!(o.surface.opacity >= 0.0f && o.surface.opacity <= 1.0f)) throw Error(where, "surface opacity must be in [0, 1]");
   ObjectData& od = out.data;
-  od.color = o.surface.color;
-  od.opacity = o.surface.opacity;
-  od.ka = o.surface.ambient;
-  od.kd = o.surface.diffuse;
-  od.ks = o.surface.specular;
-  od.shininess = o.surface.shininess;
   od.interior = uint32_t(o.interior);
-  od.sigma = o.sigma;
   od.volume = -1;
-  od.flags = (closed ? kObjClosed : 0u) | (o.casts_shadows ? kObjCastsShadows : 0u);
-  if (o.interior == InteriorKind::Constant && !(o.sigma >= 0.0f && is_finite(o.sigma)))
-    throw Error(where, "sigma must be finite and >= 0");
+  od.flags = closed ? kObjClosed : 0u;
+  apply_surface(o, where, od);
+  if (o.interior == InteriorKind::Constant && !(min_channel(o.sigma) >= 0.0f && is_finite(o.sigma)))
+    throw Error(where, "sigma must be finite and >= 0 in every channel");
+  od.sigma = o.interior == InteriorKind::Constant ? o.sigma : Vec3{0, 0, 0};
   if (o.interior != InteriorKind::None && !closed) {  // no interior without a closed boundary
     od.interior = 0;
     out.warnings.push_back(where + ": mesh is not closed, its interior (medium or volume) is ignored");

@@ -45,6 +45,11 @@ struct CompiledObject {
 };
 void compile_object(const Object& o, bool closed, const std::string& where, CompiledObject& out);
 
+// The surface part of an object's kernel data (colour, coverage, per-channel
+// crossing opacity, Phong constants, the cast and coloured flags), checked:
+// material edits apply it alone. Throws cdsm::Error naming `where`.
+void apply_surface(const Object& o, const std::string& where, ObjectData& od);
+
 // Appends a compiled volume's arrays to the scene's, its offsets re-based;
 // returns its index in sb.volumes.
 uint32_t append_volume(SceneBuffers& sb, const CompiledVolume& cv);

@@ -272,7 +272,7 @@ struct Parser {
       p.expect_object({"density", "extinction", "color"});
       TransferPoint tp;
       tp.density = p.at("density").as_float();
-      tp.extinction = p.at("extinction").as_float();
+      tp.extinction = p.at("extinction").as_vec3();  // a number, or [r, g, b] per channel
       tp.color = p.get("color", tp.color);
       v.transfer.push_back(tp);  // ranges and order: validate_scene
     }
@@ -359,10 +359,11 @@ struct Parser {
     o.casts_shadows = n.get("casts_shadows", true);
     if (n.has("material")) {
       JsonNode m = n.at("material");
-      m.expect_object({"color", "opacity", "ambient", "diffuse", "specular", "shininess"});
+      m.expect_object({"color", "opacity", "transmission_color", "ambient", "diffuse", "specular", "shininess"});
       SurfaceMaterial& s = o.surface;
       s.color = m.get("color", s.color);
       s.opacity = m.get("opacity", s.opacity);
+      s.transmission_color = m.get("transmission_color", s.transmission_color);
       s.ambient = m.get("ambient", s.ambient);
       s.diffuse = m.get("diffuse", s.diffuse);
       s.specular = m.get("specular", s.specular);
@@ -376,7 +377,7 @@ struct Parser {
       } else if (type == "constant") {
         in.expect_object({"type", "sigma"});
         o.interior = InteriorKind::Constant;
-        o.sigma = in.at("sigma").as_float();
+        o.sigma = in.at("sigma").as_vec3();  // a number, or [r, g, b] per channel
       } else if (type == "volume") {
         in.expect_object({"type", "volume"});
         o.interior = InteriorKind::Volume;

@@ -44,6 +44,11 @@ struct Checker {
     for (int a = 0; a < 3; ++a) number(path + "/" + std::to_string(a), c[a], 0.0, 100.0);
   }
 
+  // Three channels, each within [lo, hi].
+  void channels(const std::string& path, Vec3 c, double lo, double hi) const {
+    for (int a = 0; a < 3; ++a) number(path + "/" + std::to_string(a), c[a], lo, hi);
+  }
+
   void camera() const {
     const Camera& c = s.camera;
     finite("/camera/position", c.position);
@@ -113,7 +118,7 @@ struct Checker {
         const std::string pt = at + "/transfer/" + std::to_string(k);
         if (!std::isfinite(tp.density)) fail(pt + "/density", "has a NaN or infinite value");
         if (k > 0 && tp.density < v.transfer[k - 1].density) fail(pt + "/density", "control points must be sorted by density");
-        number(pt + "/extinction", tp.extinction, 0.0, 1e38);
+        channels(pt + "/extinction", tp.extinction, 0.0, 1e38);
         color(pt + "/color", tp.color);
       }
     }
@@ -126,11 +131,12 @@ struct Checker {
       const SurfaceMaterial& m = o.surface;
       color(at + "/material/color", m.color);
       number(at + "/material/opacity", m.opacity, 0.0, 1.0);
+      channels(at + "/material/transmission_color", m.transmission_color, 0.0, 1.0);
       number(at + "/material/ambient", m.ambient, 0.0, 100.0);
       number(at + "/material/diffuse", m.diffuse, 0.0, 100.0);
       number(at + "/material/specular", m.specular, 0.0, 100.0);
       number(at + "/material/shininess", m.shininess, 0.0, 1e4);
-      if (o.interior == InteriorKind::Constant) number(at + "/interior/sigma", o.sigma, 0.0, 1e38);
+      if (o.interior == InteriorKind::Constant) channels(at + "/interior/sigma", o.sigma, 0.0, 1e38);
       if (o.interior == InteriorKind::Volume && (o.volume < 0 || size_t(o.volume) >= s.volumes.size()))
         fail(at + "/interior/volume", "volume " + std::to_string(o.volume) + " does not exist");
     }

@@ -250,17 +250,7 @@ void ShadowSystem::Impl::compile_moves(FrameStats& st, std::vector<SceneChange>&
 void ShadowSystem::Impl::refresh_surfaces() {
   for (size_t oi = 0; oi < objects.size(); ++oi) {
     if (!objects[oi].surface) continue;
-    const Object& o = scene.objects[oi];
-    if (!(o.surface.opacity >= 0.0f && o.surface.opacity <= 1.0f))
-      throw Error(object_where(oi), "surface opacity must be in [0, 1]");
-    ObjectData& od = sb.objects[oi];
-    od.color = o.surface.color;
-    od.opacity = o.surface.opacity;
-    od.ka = o.surface.ambient;
-    od.kd = o.surface.diffuse;
-    od.ks = o.surface.specular;
-    od.shininess = o.surface.shininess;
-    od.flags = (od.flags & ~kObjCastsShadows) | (o.casts_shadows ? kObjCastsShadows : 0u);
+    apply_surface(scene.objects[oi], object_where(oi), sb.objects[oi]);
     objects[oi].surface = false;
   }
 }
@@ -365,6 +355,14 @@ void ShadowSystem::Impl::update(FrameStats& st) {
     m.max_nodes_per_texel = std::max(m.max_nodes_per_texel, b.max_nodes);
     m.overflow_texels += b.overflow_texels;
     m.max_extra_error = std::max(m.max_extra_error, b.max_extra_error);
+    const uint64_t bytes = b.index_bytes + b.node_bytes_allocated;
+    if (b.rgb) {
+      ++m.rgb_maps;
+      m.rgb_bytes += bytes;
+      m.rgb_nodes += b.nodes;
+    } else {
+      m.grey_bytes += bytes;
+    }
     add_walk(st, b.walk);
   }
   m.avg_nodes_per_texel = m.texels ? double(m.nodes) / double(m.texels) : 0.0;
@@ -484,7 +482,7 @@ void ShadowSystem::set_casts_shadows(ObjectHandle h, bool casts) {
   I.touch_object(i);
 }
 
-void ShadowSystem::set_interior(ObjectHandle h, InteriorKind interior, float sigma, VolumeHandle volume) {
+void ShadowSystem::set_interior(ObjectHandle h, InteriorKind interior, Vec3 sigma, VolumeHandle volume) {
   Impl& I = *impl_;
   const size_t i = I.object_index(h);
   Object& o = I.scene.objects[i];
@@ -643,7 +641,8 @@ bool same_bytes(const T& a, const T& b) {
 
 bool same_surface(const SurfaceMaterial& a, const SurfaceMaterial& b) {
   return same_bytes(a.color, b.color) && same_bytes(a.opacity, b.opacity) && same_bytes(a.ambient, b.ambient) &&
-         same_bytes(a.diffuse, b.diffuse) && same_bytes(a.specular, b.specular) && same_bytes(a.shininess, b.shininess);
+         same_bytes(a.diffuse, b.diffuse) && same_bytes(a.specular, b.specular) && same_bytes(a.shininess, b.shininess) &&
+         same_bytes(a.transmission_color, b.transmission_color);
 }
 
 bool same_transfer(const std::vector<TransferPoint>& a, const std::vector<TransferPoint>& b) {

@@ -21,20 +21,41 @@ struct DsmLayoutParams {
   int chunk_nodes = 64;          // chunked: C, node slots per chunk (>= 1)
 };
 
-// Host owner of all deep shadow maps of a frame, in one layout.
+// One node kind's arrays of a DsmBuffers (scalar or RGB maps).
+template <class Node, class Chunk>
+struct DsmArrays {
+  std::vector<TexelRange> texels;  // packed, chunked: headers of this kind's maps, map by map
+  std::vector<Node> nodes;         // packed: exactly the nodes used; fixed: L slots per texel
+  std::vector<Chunk> chunks;       // chunked: the chunk pool, C slots per chunk
+  uint64_t texel_count = 0;        // this kind's texels (fixed keeps no headers)
+  void clear() {
+    texels.clear();
+    nodes.clear();
+    chunks.clear();
+    texel_count = 0;
+  }
+};
+
+// Host owner of all deep shadow maps of a frame, in one layout: grey maps'
+// scalar nodes (the fields below) and RGB maps' nodes (`rgb`), each map's
+// texel_offset counting its own kind's texels.
 struct DsmBuffers {
   DsmLayoutParams layout;          // set by the first build_dsm after clear()
   std::vector<DsmMap> maps;
-  std::vector<TexelRange> texels;  // packed, chunked: all maps' headers, map by map
+  std::vector<TexelRange> texels;  // packed, chunked: grey maps' headers, map by map
   std::vector<DsmNode> nodes;      // packed: exactly the nodes used; fixed: L slots per texel
   std::vector<ChunkNode> chunks;   // chunked: the chunk pool, C slots per chunk
-  uint64_t texel_count = 0;        // all maps' texels (fixed keeps no headers)
+  uint64_t texel_count = 0;        // grey maps' texels (fixed keeps no headers)
+  DsmArrays<DsmNodeRgb, ChunkNodeRgb> rgb;
 
   DsmStorage storage() const {
     DsmStorage s;
     s.texels = {texels.data(), texels.size()};
     s.nodes = {nodes.data(), nodes.size()};
     s.chunks = {chunks.data(), chunks.size()};
+    s.rgb_texels = {rgb.texels.data(), rgb.texels.size()};
+    s.rgb_nodes = {rgb.nodes.data(), rgb.nodes.size()};
+    s.rgb_chunks = {rgb.chunks.data(), rgb.chunks.size()};
     s.layout = layout.layout;
     s.layers = layout.layout == kDsmFixed ? uint32_t(layout.fixed_layers) : 0u;
     return s;
@@ -47,14 +68,30 @@ struct DsmBuffers {
     nodes.clear();
     chunks.clear();
     texel_count = 0;
+    rgb.clear();
   }
 };
+
+// One kind's arrays of a DsmBuffers by reference (the grey fields or `rgb`),
+// for code written once for both kinds.
+template <class Node, class Chunk>
+struct DsmArraysRef {
+  std::vector<TexelRange>& texels;
+  std::vector<Node>& nodes;
+  std::vector<Chunk>& chunks;
+  uint64_t& texel_count;
+};
+inline DsmArraysRef<DsmNode, ChunkNode> grey_arrays(DsmBuffers& b) { return {b.texels, b.nodes, b.chunks, b.texel_count}; }
+inline DsmArraysRef<DsmNodeRgb, ChunkNodeRgb> rgb_arrays(DsmBuffers& b) {
+  return {b.rgb.texels, b.rgb.nodes, b.rgb.chunks, b.rgb.texel_count};
+}
 
 // What building one map cost, in its layout. Bytes: index = per-texel
 // headers; node bytes allocated = what the layout reserves for nodes, used =
 // the nodes stored (chunked: with their links); slack = allocated - used.
 struct DsmBuildStats {
   uint32_t layout = kDsmPacked;
+  bool rgb = false;                   // RGB nodes (16 bytes; chunked slots 20) instead of scalar (8; 12)
   uint64_t texels = 0;
   uint64_t nodes = 0;                 // nodes stored
   uint32_t max_nodes = 0;             // stored, per texel
@@ -83,7 +120,8 @@ inline constexpr int kTexelNodeCapacity = 1024;  // K: per-texel node buffer (cp
 //   fixed:   each texel writes its L slots, re-compressed when it has more;
 //   chunked: one atomic reservation of the tile's chunks (hd/dsm_chunked.h).
 // If a pool (packed, chunked) is too small it grows to the exact total and
-// the pass is redone.
+// the pass is redone. params.rgb builds RGB nodes into out.rgb (same
+// layout, same driver; the per-texel buffer removes by scan on overflow).
 DsmBuildStats build_dsm(const SceneView& scene, const LightPassParams& params, FragmentLists frags,
                         DsmBuffers& out, const DsmLayoutParams& layout = {},
                         int node_capacity = kTexelNodeCapacity);

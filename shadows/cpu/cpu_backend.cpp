@@ -7,7 +7,7 @@
 namespace cdsm {
 namespace {
 
-// Where one map lies in the store's arrays.
+// Where one map lies in its kind's arrays of the store (grey or RGB).
 struct StoredMap {
   bool live = false;
   DsmMap map{};                  // texel_offset into the store
@@ -18,10 +18,46 @@ struct StoredMap {
   uint64_t chunk_begin = 0;      // chunked: its chunk slots [begin, end)
   uint64_t chunk_end = 0;
   uint64_t bytes() const {
-    return (texel_end - texel_begin) * sizeof(TexelRange) + (node_end - node_begin) * sizeof(DsmNode) +
-           (chunk_end - chunk_begin) * sizeof(ChunkNode);
+    const bool rgb = map.rgb != 0u;
+    return (texel_end - texel_begin) * sizeof(TexelRange) +
+           (node_end - node_begin) * (rgb ? sizeof(DsmNodeRgb) : sizeof(DsmNode)) +
+           (chunk_end - chunk_begin) * (rgb ? sizeof(ChunkNodeRgb) : sizeof(ChunkNode));
   }
 };
+
+// Copies map m from `from` to the end of `to`, re-basing its headers' node /
+// chunk offsets and the chunks' links; returns its new place.
+template <class Node, class Chunk>
+StoredMap move_map(const StoredMap& m, uint32_t layout, DsmArraysRef<Node, Chunk> from, DsmArraysRef<Node, Chunk> to) {
+  const uint64_t texel_count = uint64_t(m.map.res) * m.map.view.height;
+  StoredMap n = m;
+  n.texel_begin = to.texels.size();
+  n.node_begin = to.nodes.size();
+  n.chunk_begin = to.chunks.size();
+  n.map.texel_offset = to.texel_count;
+  to.texel_count += texel_count;
+  const int64_t node_shift = int64_t(n.node_begin) - int64_t(m.node_begin);
+  const int64_t chunk_shift = int64_t(n.chunk_begin) - int64_t(m.chunk_begin);
+  for (uint64_t t = m.texel_begin; t < m.texel_end; ++t) {
+    TexelRange r = from.texels[t];
+    if (layout == kDsmChunked) {
+      if (r.offset != kChunkEnd) r.offset = uint32_t(int64_t(r.offset) + chunk_shift);
+    } else {
+      r.offset = uint32_t(int64_t(r.offset) + node_shift);
+    }
+    to.texels.push_back(r);
+  }
+  to.nodes.insert(to.nodes.end(), from.nodes.begin() + ptrdiff_t(m.node_begin), from.nodes.begin() + ptrdiff_t(m.node_end));
+  for (uint64_t c = m.chunk_begin; c < m.chunk_end; ++c) {
+    Chunk cn = from.chunks[c];
+    if (cn.next != kChunkEnd) cn.next = uint32_t(int64_t(cn.next) + chunk_shift);
+    to.chunks.push_back(cn);
+  }
+  n.texel_end = to.texels.size();
+  n.node_end = to.nodes.size();
+  n.chunk_end = to.chunks.size();
+  return n;
+}
 
 class CpuBackend final : public ShadowBackend {
  public:
@@ -33,9 +69,13 @@ class CpuBackend final : public ShadowBackend {
                   DsmBuildStats& stats) override {
     if (live_maps() == 0) reset_store();
     StoredMap m;
-    m.texel_begin = store_.texels.size();
-    m.node_begin = store_.nodes.size();
-    m.chunk_begin = store_.chunks.size();
+    const auto place = [&](auto kind, bool end) {
+      (end ? m.texel_end : m.texel_begin) = kind.texels.size();
+      (end ? m.node_end : m.node_begin) = kind.nodes.size();
+      (end ? m.chunk_end : m.chunk_begin) = kind.chunks.size();
+    };
+    if (params.rgb) place(rgb_arrays(store_), false);
+    else place(grey_arrays(store_), false);
     stats = build_dsm(scene_, params, frags, store_, layout);
     m.live = true;
     m.map = store_.maps.back();
@@ -43,9 +83,8 @@ class CpuBackend final : public ShadowBackend {
     // stays so the store keeps its layout (build_dsm adopts a layout only
     // when the list is empty).
     store_.maps.assign(1, DsmMap{});
-    m.texel_end = store_.texels.size();
-    m.node_end = store_.nodes.size();
-    m.chunk_end = store_.chunks.size();
+    if (params.rgb) place(rgb_arrays(store_), true);
+    else place(grey_arrays(store_), true);
     live_bytes_ += m.bytes();
     MapId id;
     if (!free_ids_.empty()) {
@@ -99,7 +138,8 @@ class CpuBackend final : public ShadowBackend {
 
   uint64_t allocated_bytes() const {
     return store_.texels.capacity() * sizeof(TexelRange) + store_.nodes.capacity() * sizeof(DsmNode) +
-           store_.chunks.capacity() * sizeof(ChunkNode);
+           store_.chunks.capacity() * sizeof(ChunkNode) + store_.rgb.texels.capacity() * sizeof(TexelRange) +
+           store_.rgb.nodes.capacity() * sizeof(DsmNodeRgb) + store_.rgb.chunks.capacity() * sizeof(ChunkNodeRgb);
   }
 
   void reset_store() {
@@ -115,48 +155,25 @@ class CpuBackend final : public ShadowBackend {
     DsmBuffers next;
     next.layout = store_.layout;
     next.maps.push_back(DsmMap{});
-    size_t texels = 0, nodes = 0, chunks = 0;
+    size_t texels[2] = {0, 0}, nodes[2] = {0, 0}, chunks[2] = {0, 0};
     for (const StoredMap& m : maps_)
       if (m.live) {
-        texels += m.texel_end - m.texel_begin;
-        nodes += m.node_end - m.node_begin;
-        chunks += m.chunk_end - m.chunk_begin;
+        const int k = m.map.rgb ? 1 : 0;
+        texels[k] += m.texel_end - m.texel_begin;
+        nodes[k] += m.node_end - m.node_begin;
+        chunks[k] += m.chunk_end - m.chunk_begin;
       }
-    next.texels.reserve(texels);
-    next.nodes.reserve(nodes);
-    next.chunks.reserve(chunks);
+    next.texels.reserve(texels[0]);
+    next.nodes.reserve(nodes[0]);
+    next.chunks.reserve(chunks[0]);
+    next.rgb.texels.reserve(texels[1]);
+    next.rgb.nodes.reserve(nodes[1]);
+    next.rgb.chunks.reserve(chunks[1]);
     for (StoredMap& m : maps_) {
       if (!m.live) continue;
-      const uint64_t texel_count = uint64_t(m.map.res) * m.map.view.height;
-      StoredMap n = m;
-      n.texel_begin = next.texels.size();
-      n.node_begin = next.nodes.size();
-      n.chunk_begin = next.chunks.size();
-      n.map.texel_offset = next.texel_count;
-      next.texel_count += texel_count;
-      const int64_t node_shift = int64_t(n.node_begin) - int64_t(m.node_begin);
-      const int64_t chunk_shift = int64_t(n.chunk_begin) - int64_t(m.chunk_begin);
-      for (uint64_t t = m.texel_begin; t < m.texel_end; ++t) {
-        TexelRange r = store_.texels[t];
-        if (store_.layout.layout == kDsmChunked) {
-          if (r.offset != kChunkEnd) r.offset = uint32_t(int64_t(r.offset) + chunk_shift);
-        } else {
-          r.offset = uint32_t(int64_t(r.offset) + node_shift);
-        }
-        next.texels.push_back(r);
-      }
-      next.nodes.insert(next.nodes.end(), store_.nodes.begin() + ptrdiff_t(m.node_begin),
-                        store_.nodes.begin() + ptrdiff_t(m.node_end));
-      for (uint64_t c = m.chunk_begin; c < m.chunk_end; ++c) {
-        ChunkNode cn = store_.chunks[c];
-        if (cn.next != kChunkEnd) cn.next = uint32_t(int64_t(cn.next) + chunk_shift);
-        next.chunks.push_back(cn);
-      }
-      n.texel_end = next.texels.size();
-      n.node_end = next.nodes.size();
-      n.chunk_end = next.chunks.size();
-      compacted_bytes_ += n.bytes();
-      m = n;
+      m = m.map.rgb ? move_map(m, store_.layout.layout, rgb_arrays(store_), rgb_arrays(next))
+                    : move_map(m, store_.layout.layout, grey_arrays(store_), grey_arrays(next));
+      compacted_bytes_ += m.bytes();
     }
     store_ = std::move(next);
     ++compactions_;

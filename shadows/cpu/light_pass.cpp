@@ -48,16 +48,67 @@ void check_u32(uint64_t v, const char* what) {
 // Per-thread scratch: the node buffers of one tile's texels, and the
 // working memory of node removal when a texel overflows (one at a time).
 struct Scratch {
-  std::vector<DsmNode> nodes;     // kDsmTile^2 buffers of K nodes
-  std::vector<uint32_t> counts;   // nodes per texel, tile order
-  std::vector<TexelRange> heads;  // chunked: headers, tile order
-  std::vector<uint32_t> rm_words; // 4 K: prev, next, heap, heap position
-  std::vector<float> rm_floats;   // 2 K: cost, span error
+  std::vector<DsmNode> nodes;       // kDsmTile^2 buffers of K nodes
+  std::vector<DsmNodeRgb> rgb;      // the same for RGB maps (allocated when one is built)
+  std::vector<uint32_t> counts;     // nodes per texel, tile order
+  std::vector<TexelRange> heads;    // chunked: headers, tile order
+  std::vector<uint32_t> rm_words;   // 4 K: prev, next, heap, heap position
+  std::vector<float> rm_floats;     // 2 K: cost, span error
   RemovalScratch removal(int k) {
     return {rm_words.data(), rm_words.data() + k, rm_words.data() + 2 * k, rm_words.data() + 3 * k,
             rm_floats.data(), rm_floats.data() + k};
   }
+  // Texel k's buffer in the tile (scalar: with the removal heap; RGB: scan).
+  NodeBuffer buffer(int k, int cap, DsmNode*) {
+    NodeBuffer b{nodes.data() + size_t(k) * cap, cap};
+    b.scratch = removal(cap);
+    return b;
+  }
+  RgbNodeBuffer buffer(int k, int cap, DsmNodeRgb*) {
+    if (rgb.empty()) rgb.resize(size_t(kDsmTile) * kDsmTile * size_t(cap));
+    return RgbNodeBuffer{rgb.data() + size_t(k) * cap, cap};
+  }
+  DsmNode* nodes_of(int k, int cap, DsmNode*) { return nodes.data() + size_t(k) * cap; }
+  DsmNodeRgb* nodes_of(int k, int cap, DsmNodeRgb*) { return rgb.data() + size_t(k) * cap; }
 };
+
+
+// Appends one kind's arrays of src to dst (headers, links re-based).
+template <class Node, class Chunk>
+void append_arrays(const DsmLayoutParams& layout, const std::vector<TexelRange>& src_texels,
+                   const std::vector<Node>& src_nodes, const std::vector<Chunk>& src_chunks, uint64_t src_texel_count,
+                   DsmArraysRef<Node, Chunk> dst) {
+  dst.texel_count += src_texel_count;
+  switch (layout.layout) {
+    case kDsmFixed:
+      dst.nodes.insert(dst.nodes.end(), src_nodes.begin(), src_nodes.end());
+      break;
+    case kDsmChunked: {
+      const uint32_t base = uint32_t(dst.chunks.size());
+      check_u32(uint64_t(dst.chunks.size()) + src_chunks.size(), "chunk slots");
+      for (TexelRange r : src_texels) {
+        if (r.offset != kChunkEnd) r.offset += base;
+        dst.texels.push_back(r);
+      }
+      dst.chunks.reserve(dst.chunks.size() + src_chunks.size());
+      for (Chunk c : src_chunks) {
+        if (c.next != kChunkEnd) c.next += base;
+        dst.chunks.push_back(c);
+      }
+      break;
+    }
+    default: {
+      const uint32_t base = uint32_t(dst.nodes.size());
+      check_u32(uint64_t(dst.nodes.size()) + src_nodes.size(), "nodes");
+      for (TexelRange r : src_texels) {
+        r.offset += base;
+        dst.texels.push_back(r);
+      }
+      dst.nodes.insert(dst.nodes.end(), src_nodes.begin(), src_nodes.end());
+    }
+  }
+}
+
 
 }  // namespace
 
@@ -65,44 +116,19 @@ void DsmBuffers::append(const DsmBuffers& src) {
   if (src.maps.empty()) return;
   adopt_layout(*this, src.layout);
   for (DsmMap m : src.maps) {
-    m.texel_offset += texel_count;
+    m.texel_offset += m.rgb ? rgb.texel_count : texel_count;
     maps.push_back(m);
   }
-  texel_count += src.texel_count;
-  switch (layout.layout) {
-    case kDsmFixed:
-      nodes.insert(nodes.end(), src.nodes.begin(), src.nodes.end());
-      break;
-    case kDsmChunked: {
-      const uint32_t base = uint32_t(chunks.size());
-      check_u32(uint64_t(chunks.size()) + src.chunks.size(), "chunk slots");
-      for (TexelRange r : src.texels) {
-        if (r.offset != kChunkEnd) r.offset += base;
-        texels.push_back(r);
-      }
-      chunks.reserve(chunks.size() + src.chunks.size());
-      for (ChunkNode c : src.chunks) {
-        if (c.next != kChunkEnd) c.next += base;
-        chunks.push_back(c);
-      }
-      break;
-    }
-    default: {
-      const uint32_t base = uint32_t(nodes.size());
-      check_u32(uint64_t(nodes.size()) + src.nodes.size(), "nodes");
-      for (TexelRange r : src.texels) {
-        r.offset += base;
-        texels.push_back(r);
-      }
-      nodes.insert(nodes.end(), src.nodes.begin(), src.nodes.end());
-    }
-  }
+  append_arrays(layout, src.texels, src.nodes, src.chunks, src.texel_count, grey_arrays(*this));
+  append_arrays(layout, src.rgb.texels, src.rgb.nodes, src.rgb.chunks, src.rgb.texel_count, rgb_arrays(*this));
 }
 
-DsmBuildStats build_dsm(const SceneView& scene, const LightPassParams& params, FragmentLists frags,
-                        DsmBuffers& out, const DsmLayoutParams& layout, int node_capacity) {
-  check_layout(layout);
-  adopt_layout(out, layout);
+namespace {
+
+// One map of either node kind into its kind's arrays `out`.
+template <class Node, class Chunk>
+DsmBuildStats build_kind(const SceneView& scene, const LightPassParams& params, FragmentLists frags,
+                         DsmArraysRef<Node, Chunk> out, DsmMap& map, const DsmLayoutParams& layout, int node_capacity) {
   const uint32_t kind = layout.layout;
   const int res = params.view.width;
   const int height = params.view.height;
@@ -112,9 +138,9 @@ DsmBuildStats build_dsm(const SceneView& scene, const LightPassParams& params, F
   const uint32_t L = uint32_t(layout.fixed_layers);
   const uint32_t C = uint32_t(layout.chunk_nodes);
 
-  DsmMap map{};
   map.view = params.view;
   map.res = uint32_t(res);
+  map.rgb = params.rgb ? 1u : 0u;
   map.texel_offset = out.texel_count;
   out.texel_count += n_texels;
   TexelRange* headers = nullptr;
@@ -122,7 +148,7 @@ DsmBuildStats build_dsm(const SceneView& scene, const LightPassParams& params, F
     out.texels.resize(out.texels.size() + n_texels, TexelRange{kind == kDsmChunked ? kChunkEnd : 0u, 0u});
     headers = out.texels.data() + map.texel_offset;
   }
-  DsmNode* fixed_slots = nullptr;
+  Node* fixed_slots = nullptr;
   if (kind == kDsmFixed) {
     out.nodes.resize(out.nodes.size() + n_texels * L);
     fixed_slots = out.nodes.data() + map.texel_offset * L;
@@ -142,7 +168,7 @@ DsmBuildStats build_dsm(const SceneView& scene, const LightPassParams& params, F
 
   tbb::enumerable_thread_specific<Scratch> scratch([&] {
     Scratch s;
-    s.nodes.resize(size_t(kDsmTile) * kDsmTile * size_t(node_capacity));
+    if (!params.rgb) s.nodes.resize(size_t(kDsmTile) * kDsmTile * size_t(node_capacity));
     s.counts.resize(size_t(kDsmTile) * kDsmTile);
     s.heads.resize(size_t(kDsmTile) * kDsmTile);
     s.rm_words.resize(4 * size_t(node_capacity));
@@ -154,7 +180,7 @@ DsmBuildStats build_dsm(const SceneView& scene, const LightPassParams& params, F
     if (kind == kDsmPacked) out.nodes.resize(pool_base + capacity);
     if (kind == kDsmChunked) {
       check_u32(uint64_t(pool_base + capacity) * C, "chunk slots");
-      out.chunks.resize((pool_base + capacity) * C, empty_chunk_node());
+      out.chunks.resize((pool_base + capacity) * C, empty_chunk<Chunk>());
     }
     std::atomic<uint64_t> used{0};  // packed: nodes; chunked: chunks (the thesis's g_c)
     tbb::combinable<DsmBuildStats> partial;
@@ -168,15 +194,14 @@ DsmBuildStats build_dsm(const SceneView& scene, const LightPassParams& params, F
           const int tx = x0 + k % kDsmTile, ty = y0 + k / kDsmTile;
           s.counts[k] = 0;
           if (tx >= res || ty >= height) continue;
-          NodeBuffer buf{s.nodes.data() + size_t(k) * node_capacity, node_capacity};
-          buf.scratch = s.removal(node_capacity);
+          auto buf = s.buffer(k, node_capacity, static_cast<Node*>(nullptr));
           build_texel(scene, params, frags.pixel(tx, ty), tx, ty, buf, st.walk);
           st.max_built_nodes = std::max(st.max_built_nodes, uint32_t(buf.count));
           float extra = buf.extra_error;
           bool recompressed = buf.removed > 0;
           uint32_t count = uint32_t(buf.count);
           if (kind == kDsmFixed) {
-            FixedFit fit = write_fixed_texel({buf.nodes, uint64_t(buf.count)}, params.epsilon,
+            FixedFit fit = write_fixed_texel(Span<const Node>{buf.nodes, uint64_t(buf.count)}, params.epsilon,
                                              fixed_slots + (size_t(ty) * res + tx) * L, int(L));
             count = uint32_t(fit.count);
             if (fit.recompressed) {
@@ -194,7 +219,7 @@ DsmBuildStats build_dsm(const SceneView& scene, const LightPassParams& params, F
           st.max_nodes = std::max(st.max_nodes, count);
           st.nodes += count;
         }
-        const auto nodes_of = [&](int k) { return s.nodes.data() + size_t(k) * node_capacity; };
+        const auto nodes_of = [&](int k) { return s.nodes_of(k, node_capacity, static_cast<Node*>(nullptr)); };
         if (kind == kDsmPacked) {
           // One reservation per tile, then a tile-local prefix sum.
           uint64_t at = used.fetch_add(tile_total);
@@ -247,20 +272,35 @@ DsmBuildStats build_dsm(const SceneView& scene, const LightPassParams& params, F
   switch (kind) {
     case kDsmFixed:
       stats.index_bytes = 0;
-      stats.node_bytes_allocated = uint64_t(n_texels) * L * sizeof(DsmNode);
-      stats.node_bytes_used = stats.nodes * sizeof(DsmNode);
+      stats.node_bytes_allocated = uint64_t(n_texels) * L * sizeof(Node);
+      stats.node_bytes_used = stats.nodes * sizeof(Node);
       break;
     case kDsmChunked:
       stats.index_bytes = uint64_t(n_texels) * sizeof(TexelRange);
-      stats.node_bytes_allocated = stats.chunks * C * sizeof(ChunkNode);
-      stats.node_bytes_used = stats.nodes * sizeof(ChunkNode);
+      stats.node_bytes_allocated = stats.chunks * C * sizeof(Chunk);
+      stats.node_bytes_used = stats.nodes * sizeof(Chunk);
       break;
     default:
       stats.index_bytes = uint64_t(n_texels) * sizeof(TexelRange);
-      stats.node_bytes_allocated = stats.nodes * sizeof(DsmNode);
-      stats.node_bytes_used = stats.nodes * sizeof(DsmNode);
+      stats.node_bytes_allocated = stats.nodes * sizeof(Node);
+      stats.node_bytes_used = stats.nodes * sizeof(Node);
   }
   stats.slack_bytes = stats.node_bytes_allocated - stats.node_bytes_used;
+  stats.rgb = params.rgb;
+  return stats;
+}
+
+}  // namespace
+
+DsmBuildStats build_dsm(const SceneView& scene, const LightPassParams& params, FragmentLists frags,
+                        DsmBuffers& out, const DsmLayoutParams& layout, int node_capacity) {
+  check_layout(layout);
+  adopt_layout(out, layout);
+  if (params.rgb && params.method != kMethodDsm)
+    throw std::invalid_argument("build_dsm: the baselines are grey (no RGB maps)");
+  DsmMap map{};
+  DsmBuildStats stats = params.rgb ? build_kind(scene, params, frags, rgb_arrays(out), map, layout, node_capacity)
+                                   : build_kind(scene, params, frags, grey_arrays(out), map, layout, node_capacity);
   out.maps.push_back(map);
   return stats;
 }

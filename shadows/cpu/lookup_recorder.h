@@ -17,7 +17,7 @@ namespace cdsm {
 struct RecordedLookup {
   int light;
   Receiver at;          // point, plane, own step
-  float transmittance;  // what the camera pass used
+  Vec3 transmittance;   // what the camera pass used, per colour channel
   float weight;         // the shaded point's compositing weight
 };
 
@@ -27,8 +27,8 @@ template <class Visibility>
 struct RecordingVisibility {
   const Visibility& inner;
   std::vector<RecordedLookup>* pending;
-  float operator()(int light, const Receiver& r) const {
-    const float t = inner(light, r);
+  Vec3 operator()(int light, const Receiver& r) const {
+    const Vec3 t = inner(light, r);
     pending->push_back({light, r, t, 0.0f});
     return t;
   }

@@ -13,6 +13,10 @@
 //                  built by streaming the exact samples and, when over N,
 //                  dropping the interior node whose removal changes the area
 //                  under alpha(z) least.
+//
+// The baselines are grey: they store one alpha per node, a coloured
+// caster entering by its channel mean (grey casters: their value exactly).
+// The benchmark reports them as grey-only (docs/bench/).
 #pragma once
 
 #include "hd/compress.h"
@@ -57,7 +61,7 @@ struct ExactAlphaVisitor {
   CDSM_HD bool saturated() const { return alpha >= kSaturatedAlpha; }
 
   CDSM_HD bool surface(float t, uint32_t tri, bool /*front*/) {
-    float op = s.objects[s.tri_object[tri]].opacity;
+    float op = grey_of(s.objects[s.tri_object[tri]].absorb);  // baselines are grey: channel mean
     if (op <= 0.0f) return true;
     float before = alpha;
     alpha = alpha + op * (1.0f - alpha);
@@ -74,8 +78,9 @@ struct ExactAlphaVisitor {
     if (m.volume_count == 0) {
       bool go_on = true;
       float za = t0;
-      sample_constant_medium(t0, t1, 1.0f - alpha, m.sigma, kBaselineChordError, [&](float zb, float) {
-        if (go_on) go_on = piece(za, zb, m.sigma);
+      const float sigma = grey_of(m.sigma);
+      sample_constant_medium(t0, t1, 1.0f - alpha, sigma, kBaselineChordError, [&](float zb, float) {
+        if (go_on) go_on = piece(za, zb, sigma);
         za = zb;
       });
       return go_on;
@@ -83,7 +88,7 @@ struct ExactAlphaVisitor {
     bool go_on = true;
     march_segment(
         s, m, org, dir, t0, t1,
-        [&](const MarchSample& ms) { return go_on = piece(ms.t0, ms.t1, ms.extinction); },
+        [&](const MarchSample& ms) { return go_on = piece(ms.t0, ms.t1, grey_of(ms.extinction)); },
         [&](float ta, float tb) {
           if (go_on) go_on = piece(ta, tb, 0.0f);
         });

@@ -17,7 +17,7 @@ struct CameraPassParams {
 
 struct PixelResult {
   Vec3 color;
-  float alpha;  // accumulated opacity of the pixel
+  float alpha;  // accumulated opacity of the pixel (grey: its one value; coloured: the channel mean)
 };
 
 // Interpolated shading normal of triangle `tri` at p, facing the viewer.
@@ -46,7 +46,8 @@ CDSM_HD CDSM_INLINE Vec3 surface_normal(const SceneView& s, uint32_t tri, Vec3 p
   return dot(n, dir) > 0.0f ? -n : n;
 }
 
-// A recorder sees every shaded point with its compositing weight:
+// A recorder sees every shaded point with its compositing weight (the
+// largest channel's):
 //   void shaded(Vec3 p, Vec3 normal, bool is_surface, float weight)
 struct NoRecorder {
   CDSM_HD void shaded(Vec3, Vec3, bool, float) {}
@@ -56,8 +57,8 @@ struct NoRecorder {
 // plane (casters stop short of their own step), volume samples at their depth.
 struct DsmVisibility {
   const ShadowView& sv;
-  CDSM_HD float operator()(int light, const Receiver& r) const {
-    return 1.0f - shadow_alpha(sv, sv.lights[uint32_t(light)], r);
+  CDSM_HD Vec3 operator()(int light, const Receiver& r) const {
+    return one_minus(shadow_alpha_rgb(sv, sv.lights[uint32_t(light)], r));
   }
 };
 
@@ -69,13 +70,18 @@ struct CameraVisitor {
   Recorder& rec;
   Vec3 org, dir, ambient;
   Vec3 color{0, 0, 0};
-  float T = 1.0f;  // transmittance to the eye
+  Vec3 T{1.0f, 1.0f, 1.0f};  // transmittance to the eye, per channel
 
-  CDSM_HD bool done() const { return 1.0f - T >= kCompositeStop; }
+  // Every channel past the stop (a ray behind red glass goes on in green and blue).
+  CDSM_HD bool done() const { return 1.0f - max_channel(T) >= kCompositeStop; }
 
   CDSM_HD bool surface(float t, uint32_t tri, bool /*front*/) {
     const ObjectData& o = s.objects[s.tri_object[tri]];
-    if (o.opacity <= 0.0f) return true;
+    if (passes_all(o)) return true;
+    if (o.opacity <= 0.0f) {  // a pure filter: reflects nothing, tints what lies behind
+      T = T * one_minus(o.absorb);
+      return !done();
+    }
     ShadeInput in;
     in.p = org + dir * t;
     in.n = surface_normal(s, tri, in.p, dir);
@@ -90,25 +96,31 @@ struct CameraVisitor {
     in.own_step_in_maps = (o.flags & kObjCastsShadows) != 0u;
     in.object = s.tri_object[tri];
     Vec3 c = shade_point(in, lights, ambient, visibility);
-    float w = T * o.opacity;
-    rec.shaded(in.p, in.n, true, w);
+    const Vec3 w = T * o.opacity;
+    rec.shaded(in.p, in.n, true, max_channel(w));
     color += c * w;
-    T *= 1.0f - o.opacity;
+    T = T * one_minus(o.absorb);
     return !done();
   }
 
   CDSM_HD bool segment(float t0, float t1, const SegmentMedia& m) {
-    if (m.volume_count == 0) {  // a pure absorber: exact Beer-Lambert
-      T *= expf(-m.sigma * (t1 - t0));
+    if (m.volume_count == 0) {  // a pure absorber: exact Beer-Lambert per channel
+      const float d = t1 - t0;
+      T = T * Vec3{expf(-m.sigma.x * d), expf(-m.sigma.y * d), expf(-m.sigma.z * d)};
       return !done();
     }
     return march_segment(
         s, m, org, dir, t0, t1,
         [&](const MarchSample& ms) {
-          float a = 1.0f - expf(-ms.extinction * (ms.t1 - ms.t0));
-          if (a <= 0.0f) return true;
-          float vol_a = ms.extinction > 0.0f ? a * (ms.extinction - m.sigma) / ms.extinction : 0.0f;
-          if (vol_a > 0.0f && ms.dominant >= 0) {
+          const float dt = ms.t1 - ms.t0;
+          const Vec3 a{1.0f - expf(-ms.extinction.x * dt), 1.0f - expf(-ms.extinction.y * dt),
+                       1.0f - expf(-ms.extinction.z * dt)};
+          if (max_channel(a) <= 0.0f) return true;
+          // The volumes' share of each channel's absorption (constant media add none).
+          Vec3 vol_a{0, 0, 0};
+          for (int k = 0; k < 3; ++k)
+            vol_a[k] = ms.extinction[k] > 0.0f ? a[k] * (ms.extinction[k] - m.sigma[k]) / ms.extinction[k] : 0.0f;
+          if (max_channel(vol_a) > 0.0f && ms.dominant >= 0) {
             const VolumeData& v = s.volumes[m.volume[ms.dominant]];
             ShadeInput in;
             in.p = org + dir * (0.5f * (ms.t0 + ms.t1));
@@ -137,11 +149,11 @@ struct CameraVisitor {
               }
             }
             Vec3 c = shade_point(in, lights, ambient, visibility);
-            float w = T * vol_a;
-            rec.shaded(in.p, in.n, false, w);
+            const Vec3 w = T * vol_a;
+            rec.shaded(in.p, in.n, false, max_channel(w));
             color += c * w;
           }
-          T *= 1.0f - a;
+          T = T * one_minus(a);
           return !done();
         },
         [](float, float) {});
@@ -158,7 +170,7 @@ CDSM_HD PixelResult shade_pixel(const SceneView& s, Span<const LightData> lights
   walk_ray(s, frags, p.inside, 0.0f, t_end, vis, st);
   PixelResult r;
   r.color = vis.color + p.background * vis.T;
-  r.alpha = 1.0f - vis.T;
+  r.alpha = 1.0f - grey_of(vis.T);
   return r;
 }
 

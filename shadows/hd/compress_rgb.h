@@ -10,8 +10,7 @@
 // decision and value is the scalar wedge's, bit for bit.
 #pragma once
 
-#include "cdsm/math.h"
-#include "hd/span.h"
+#include "hd/compress.h"
 
 namespace cdsm {
 
@@ -24,9 +23,10 @@ struct DsmNodeRgb {
 static_assert(sizeof(DsmNodeRgb) == 16, "DsmNodeRgb is 16 bytes (std430 vec4)");
 
 CDSM_HD CDSM_INLINE float channel(const Vec3& v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.z); }
+CDSM_HD CDSM_INLINE Vec3 rgb_of(const DsmNodeRgb& n) { return {n.r, n.g, n.b}; }
 
-// Sink: emit(z, Vec3 a), size(), last_alpha(), last_z(), before_last_z(),
-// raise_last(Vec3 a), compact().
+// Sink: emit(z, Vec3 a), size(), last(), before_last() (DsmNodeRgb&),
+// raise_last(Vec3 a), compact() — the scalar wedge's interface with RGB nodes.
 template <class Sink>
 struct WedgeRgb {
   float eps = 0.0f;
@@ -43,7 +43,7 @@ struct WedgeRgb {
   CDSM_HD void set_origin(Sink& buf, float z, Vec3 a) {
     buf.emit(z, a);
     z0 = z;
-    a0 = buf.last_alpha();
+    a0 = rgb_of(buf.last());
     pending = false;
   }
 
@@ -128,7 +128,7 @@ struct WedgeRgb {
     if (pending) set_origin(buf, zl, line_end());
     after = vmax(after, a0);  // monotone per channel
     // Coincident surfaces: raise the step's upper node instead of adding one.
-    if (buf.size() >= 2 && buf.last_z() == z && buf.before_last_z() == z) {
+    if (buf.size() >= 2 && buf.last().z == z && buf.before_last().z == z) {
       buf.raise_last(after);
       a0 = after;
       return;
@@ -142,26 +142,55 @@ struct WedgeRgb {
   }
 };
 
-// A plain bounded sink: nodes as emitted into caller memory; `overflow`
-// counts nodes that did not fit (the caller sizes it from the samples, at
-// most two nodes per sample).
+// Cost of removing RGB node m between a and b: the largest over channels
+// of the scalar cost (hd/compress.h removal_cost_of).
+CDSM_HD CDSM_INLINE RemovalCost removal_cost_of(const DsmNodeRgb& a, const DsmNodeRgb& m, const DsmNodeRgb& b) {
+  RemovalCost worst{0.0f, 0.0f};
+  for (int k = 0; k < 3; ++k) {
+    const RemovalCost c = removal_cost_of(DsmNode{a.z, channel(rgb_of(a), k)}, DsmNode{m.z, channel(rgb_of(m), k)},
+                                          DsmNode{b.z, channel(rgb_of(b), k)});
+    worst.area = fmaxf(worst.area, c.area);
+    worst.change = fmaxf(worst.change, c.change);
+  }
+  return worst;
+}
+
+// A bounded node buffer of an RGB visibility function: nodes as emitted
+// while they fit; beyond node_limit(capacity), each new node streams in and
+// the interior node whose removal changes the function least goes (the
+// largest channel's triangle area, as the scalar NodeBuffer without
+// scratch: a scan, O(K) per node, only on overflow). `extra_error` bounds
+// the change of every channel over all z (the sum of the removed nodes'
+// changes); nothing is dropped silently. Capacity >= 4.
 struct RgbNodeBuffer {
   DsmNodeRgb* nodes;
   int capacity;
   int count = 0;
-  int overflow = 0;
+  float extra_error = 0.0f;
+  int removed = 0;
+  float eps = 0.0f;  // tolerance of the compressor feeding it
   CDSM_HD void emit(float z, Vec3 a) {
-    if (count < capacity) {
-      nodes[count++] = DsmNodeRgb{z, a.x, a.y, a.z};
-    } else {
-      ++overflow;
-      nodes[count - 1] = DsmNodeRgb{z, a.x, a.y, a.z};  // keep the function's end
+    const DsmNodeRgb incoming{z, a.x, a.y, a.z};
+    if (count >= node_limit(capacity) && count >= 2) {
+      int best = 1;
+      RemovalCost best_cost{3.0e38f, 3.0e38f};
+      for (int i = 1; i < count; ++i) {
+        const RemovalCost c = removal_cost_of(nodes[i - 1], nodes[i], i + 1 < count ? nodes[i + 1] : incoming);
+        if (cheaper(c, best_cost)) {
+          best_cost = c;
+          best = i;
+        }
+      }
+      for (int i = best; i + 1 < count; ++i) nodes[i] = nodes[i + 1];
+      --count;
+      extra_error += best_cost.change;
+      ++removed;
     }
+    nodes[count++] = incoming;
   }
   CDSM_HD int size() const { return count; }
-  CDSM_HD Vec3 last_alpha() const { return {nodes[count - 1].r, nodes[count - 1].g, nodes[count - 1].b}; }
-  CDSM_HD float last_z() const { return nodes[count - 1].z; }
-  CDSM_HD float before_last_z() const { return nodes[count - 2].z; }
+  CDSM_HD DsmNodeRgb& last() { return nodes[count - 1]; }
+  CDSM_HD DsmNodeRgb& before_last() { return nodes[count - 2]; }
   CDSM_HD void raise_last(Vec3 a) {
     nodes[count - 1].r = a.x;
     nodes[count - 1].g = a.y;
@@ -169,6 +198,8 @@ struct RgbNodeBuffer {
   }
   CDSM_HD void compact() {}
 };
+
+using WedgeCompressorRgb = WedgeRgb<RgbNodeBuffer>;
 
 // alpha'(z) of an RGB node list, channel by channel (linear between nodes,
 // the first node's value before it, the last's after it; at a step's depth

@@ -17,6 +17,7 @@
 #pragma once
 
 #include "hd/compress.h"
+#include "hd/compress_rgb.h"
 #include "hd/view.h"
 
 namespace cdsm {
@@ -49,6 +50,21 @@ static_assert(sizeof(ChunkNode) == 12, "ChunkNode is 12 bytes");
 static_assert(alignof(ChunkNode) == 4, "ChunkNode is three scalars");
 inline constexpr uint32_t kChunkEnd = 0xffffffffu;
 
+// The chunked slot of an RGB map. std430: five scalars, stride 20.
+struct ChunkNodeRgb {
+  float z;
+  float r, g, b;
+  uint32_t next;
+};
+static_assert(sizeof(ChunkNodeRgb) == 20, "ChunkNodeRgb is 20 bytes");
+static_assert(alignof(ChunkNodeRgb) == 4, "ChunkNodeRgb is five scalars");
+
+// A node's slot in the chunked pool, and back (both kinds).
+CDSM_HD CDSM_INLINE ChunkNode chunk_of(const DsmNode& n, uint32_t next) { return {n.z, n.alpha, next}; }
+CDSM_HD CDSM_INLINE ChunkNodeRgb chunk_of(const DsmNodeRgb& n, uint32_t next) { return {n.z, n.r, n.g, n.b, next}; }
+CDSM_HD CDSM_INLINE DsmNode node_of(const ChunkNode& c) { return {c.z, c.alpha}; }
+CDSM_HD CDSM_INLINE DsmNodeRgb node_of(const ChunkNodeRgb& c) { return {c.z, c.r, c.g, c.b}; }
+
 // Depth of the pads that fill a fixed-layout texel's unused slots (FLT_MAX);
 // a pad's alpha repeats the texel's last alpha (0 for an empty texel), so a
 // search over all L slots stops at the first pad and interpolating from the
@@ -57,12 +73,15 @@ inline constexpr float kFixedPadZ = 3.402823466e+38f;
 
 // One deep shadow map: a view from the light (a spot cone, a cube face or a
 // focused cluster frustum) and where its texels live in the shared pools.
+// Grey maps (scalar nodes) and RGB maps (a coloured caster among their
+// members) live in separate pools of the same layout; texel_offset counts
+// the texels of the map's own kind.
 struct DsmMap {
   PinholeView view;       // res x res texels
-  uint64_t texel_offset;  // index of the map's first texel among all maps' texels (packed,
+  uint64_t texel_offset;  // index of the map's first texel among its kind's texels (packed,
                           // chunked: its first TexelRange; fixed: slots from texel_offset * L)
   uint32_t res;
-  uint32_t pad;
+  uint32_t rgb;           // 1: RGB nodes (DsmStorage::rgb_*), 0: scalar nodes
 };
 static_assert(sizeof(DsmMap) == 96, "DsmMap is 96 bytes");
 
@@ -71,14 +90,19 @@ struct DsmStorage {
   Span<const TexelRange> texels;  // packed, chunked: per-texel headers, map by map; fixed: empty
   Span<const DsmNode> nodes;      // packed: the exact pool; fixed: `layers` slots per texel
   Span<const ChunkNode> chunks;   // chunked: the slot pool, chunk after chunk
+  // The same three for RGB maps.
+  Span<const TexelRange> rgb_texels;
+  Span<const DsmNodeRgb> rgb_nodes;
+  Span<const ChunkNodeRgb> rgb_chunks;
   uint32_t layout = kDsmPacked;   // kDsmPacked / kDsmFixed / kDsmChunked
   uint32_t layers = 0;            // fixed: L, node slots per texel
 };
 
 // ---- one texel's node list -------------------------------------------------
 
-// First index i with nodes[i].z >= z (binary search).
-CDSM_HD CDSM_INLINE uint32_t lower_bound_z(Span<const DsmNode> n, float z) {
+// First index i with nodes[i].z >= z (binary search; scalar or RGB nodes).
+template <class Node>
+CDSM_HD CDSM_INLINE uint32_t lower_bound_z(Span<const Node> n, float z) {
   uint32_t lo = 0, hi = uint32_t(n.size());
   while (lo < hi) {
     uint32_t mid = (lo + hi) >> 1;
@@ -260,6 +284,123 @@ CDSM_HD CDSM_INLINE float lookup_map(const DsmStorage& st, const DsmMap& m, floa
                                      bool filtering) {
   float acc = 0.0f;
   for_each_tap(m, u, v, filtering, [&](int tx, int ty, float w) { acc += w * texel_alpha(st, m, tx, ty, z); });
+  return acc;
+}
+
+// ---- RGB maps: the same functions per channel --------------------------------
+// Every channel reads exactly as a scalar map would (alpha_at_index's
+// rules: 0 before the first node, at a step's depth its lower value), so a
+// grey RGB map reads what its scalar map reads.
+
+CDSM_HD CDSM_INLINE Vec3 alpha_between(const DsmNodeRgb& a, const DsmNodeRgb& b, float z) {
+  const float w = (z - a.z) / (b.z - a.z);
+  return {lerpf(a.r, b.r, w), lerpf(a.g, b.g, w), lerpf(a.b, b.b, w)};
+}
+
+CDSM_HD CDSM_INLINE Vec3 alpha_at_index(Span<const DsmNodeRgb> n, float z, uint32_t j) {
+  if (j >= n.size()) return n.size() ? rgb_of(n[n.size() - 1]) : Vec3{0, 0, 0};
+  if (n[j].z == z) return rgb_of(n[j]);
+  if (j == 0) return Vec3{0, 0, 0};
+  return alpha_between(n[j - 1], n[j], z);
+}
+
+CDSM_HD CDSM_INLINE Vec3 lookup_alpha(Span<const DsmNodeRgb> n, float z) {
+  return alpha_at_index(n, z, lower_bound_z(n, z));
+}
+
+// alpha just after z, per channel (hd/dsm.h alpha_after).
+CDSM_HD inline Vec3 alpha_after(Span<const DsmNodeRgb> n, float z) {
+  uint32_t lo = 0, hi = uint32_t(n.size());
+  while (lo < hi) {
+    uint32_t mid = (lo + hi) >> 1;
+    if (n[mid].z <= z) lo = mid + 1;
+    else hi = mid;
+  }
+  if (lo == 0) return Vec3{0, 0, 0};
+  if (lo == n.size() || n[lo - 1].z == z) return rgb_of(n[lo - 1]);
+  return alpha_between(n[lo - 1], n[lo], z);
+}
+
+// sup over z and channels of |f_k(z) - g_k(z)|.
+CDSM_HD inline float max_change(Span<const DsmNodeRgb> f, Span<const DsmNodeRgb> g) {
+  float worst = 0.0f;
+  for (int list = 0; list < 2; ++list) {
+    Span<const DsmNodeRgb> n = list == 0 ? f : g;
+    for (uint64_t i = 0; i < n.size(); ++i) {
+      const float z = n[i].z;
+      const Vec3 d0 = lookup_alpha(f, z) - lookup_alpha(g, z), d1 = alpha_after(f, z) - alpha_after(g, z);
+      worst = fmaxf(worst, fmaxf(max_channel(vmax(d0, -d0)), max_channel(vmax(d1, -d1))));
+    }
+  }
+  return worst;
+}
+
+CDSM_HD CDSM_INLINE Vec3 lookup_alpha_chunked(Span<const ChunkNodeRgb> pool, TexelRange head, float z) {
+  DsmNodeRgb prev{0.0f, 0.0f, 0.0f, 0.0f};
+  uint32_t slot = head.offset;
+  for (uint32_t i = 0; i < head.count; ++i) {
+    const ChunkNodeRgb c = pool[slot];
+    if (c.z >= z) {
+      if (c.z == z) return Vec3{c.r, c.g, c.b};
+      if (i == 0) return Vec3{0, 0, 0};
+      return alpha_between(prev, node_of(c), z);
+    }
+    prev = node_of(c);
+    slot = c.next;
+  }
+  return rgb_of(prev);
+}
+
+// alpha(z) of texel (tx, ty) of map m per channel: RGB maps channel by
+// channel, grey maps their one value in every channel.
+CDSM_HD CDSM_INLINE Vec3 texel_alpha_rgb(const DsmStorage& st, const DsmMap& m, int tx, int ty, float z) {
+  if (m.rgb == 0u) return vec3(texel_alpha(st, m, tx, ty, z));
+  const uint64_t t = texel_index(m, tx, ty);
+  switch (st.layout) {
+    case kDsmFixed:
+      return lookup_alpha(st.rgb_nodes.subspan(t * st.layers, st.layers), z);
+    case kDsmChunked:
+      return lookup_alpha_chunked(st.rgb_chunks, st.rgb_texels[t], z);
+    default: {
+      const TexelRange r = st.rgb_texels[t];
+      return lookup_alpha(st.rgb_nodes.subspan(r.offset, r.count), z);
+    }
+  }
+}
+
+// Copies texel (tx, ty)'s nodes of an RGB map (pads excluded) like read_texel.
+CDSM_HD inline uint32_t read_texel_rgb(const DsmStorage& st, const DsmMap& m, int tx, int ty, DsmNodeRgb* out,
+                                       uint32_t cap) {
+  const uint64_t t = texel_index(m, tx, ty);
+  if (st.layout == kDsmChunked) {
+    const TexelRange h = st.rgb_texels[t];
+    uint32_t slot = h.offset;
+    for (uint32_t i = 0; i < h.count; ++i) {
+      const ChunkNodeRgb c = st.rgb_chunks[slot];
+      if (i < cap) out[i] = node_of(c);
+      slot = c.next;
+    }
+    return h.count;
+  }
+  Span<const DsmNodeRgb> n;
+  uint32_t count;
+  if (st.layout == kDsmFixed) {
+    n = st.rgb_nodes.subspan(t * st.layers, st.layers);
+    count = lower_bound_z(n, kFixedPadZ);
+  } else {
+    const TexelRange r = st.rgb_texels[t];
+    n = st.rgb_nodes.subspan(r.offset, r.count);
+    count = r.count;
+  }
+  for (uint32_t i = 0; i < count && i < cap; ++i) out[i] = n[i];
+  return count;
+}
+
+// alpha per channel at light-space position (u, v), radial depth z.
+CDSM_HD CDSM_INLINE Vec3 lookup_map_rgb(const DsmStorage& st, const DsmMap& m, float u, float v, float z,
+                                        bool filtering) {
+  Vec3 acc{0, 0, 0};
+  for_each_tap(m, u, v, filtering, [&](int tx, int ty, float w) { acc = acc + texel_alpha_rgb(st, m, tx, ty, z) * w; });
   return acc;
 }
 

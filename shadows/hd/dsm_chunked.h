@@ -32,6 +32,13 @@ CDSM_HD CDSM_INLINE uint32_t tile_chunks(uint32_t nodes, uint32_t chunk_nodes) {
 
 // An unused slot (a tile's last chunk past its nodes).
 CDSM_HD CDSM_INLINE ChunkNode empty_chunk_node() { return ChunkNode{0.0f, 0.0f, kChunkEnd}; }
+// An unused slot of either pool (zero node, no link).
+template <class Chunk>
+CDSM_HD CDSM_INLINE Chunk empty_chunk() {
+  Chunk c{};
+  c.next = kChunkEnd;
+  return c;
+}
 
 // Writes one tile's nodes into its chunks, which start at pool slot
 // `first_slot` (= first chunk * C) and were reserved for the tile's total;
@@ -39,9 +46,10 @@ CDSM_HD CDSM_INLINE ChunkNode empty_chunk_node() { return ChunkNode{0.0f, 0.0f, 
 // texel k (k < texels <= 64; 0 for texels outside the map); nodes_of(k): a
 // pointer to them. heads[k] receives texel k's header. Returns the slots
 // used (the tile's node total).
-template <class NodesOf>
+// Scalar (ChunkNode) or RGB (ChunkNodeRgb) pools alike.
+template <class NodesOf, class Chunk>
 CDSM_HD uint32_t write_chunked_tile(const uint32_t* counts, int texels, NodesOf nodes_of, uint32_t first_slot,
-                                    uint32_t chunk_nodes, ChunkNode* pool, TexelRange* heads) {
+                                    uint32_t chunk_nodes, Chunk* pool, TexelRange* heads) {
   CDSM_HD_ASSERT(texels <= kChunkTileTexels);
   uint32_t prev[kChunkTileTexels];  // slot of each texel's last written node
   uint32_t layers = 0;
@@ -54,15 +62,14 @@ CDSM_HD uint32_t write_chunked_tile(const uint32_t* counts, int texels, NodesOf 
     for (int k = 0; k < texels; ++k) {
       if (counts[k] <= layer) continue;
       uint32_t slot = first_slot + bl++;
-      DsmNode nd = nodes_of(k)[layer];
-      pool[slot] = ChunkNode{nd.z, nd.alpha, kChunkEnd};
+      pool[slot] = chunk_of(nodes_of(k)[layer], kChunkEnd);
       if (layer == 0) heads[k].offset = slot;
       else pool[prev[k]].next = slot;
       prev[k] = slot;
     }
   }
   uint32_t end = first_slot + tile_chunks(bl, chunk_nodes) * chunk_nodes;
-  for (uint32_t slot = first_slot + bl; slot < end; ++slot) pool[slot] = empty_chunk_node();
+  for (uint32_t slot = first_slot + bl; slot < end; ++slot) pool[slot] = empty_chunk<Chunk>();
   return bl;
 }
 

@@ -17,41 +17,54 @@
 
 namespace cdsm {
 
+// Both node kinds through one set of names (scalar: float alpha; RGB: Vec3).
+CDSM_HD CDSM_INLINE float node_alpha(const DsmNode& n) { return n.alpha; }
+CDSM_HD CDSM_INLINE Vec3 node_alpha(const DsmNodeRgb& n) { return rgb_of(n); }
+CDSM_HD CDSM_INLINE DsmNode make_node(float z, float a) { return {z, a}; }
+CDSM_HD CDSM_INLINE DsmNodeRgb make_node(float z, Vec3 a) { return {z, a.x, a.y, a.z}; }
+CDSM_HD CDSM_INLINE bool rises(float a, float b) { return a > b; }                      // a above b
+CDSM_HD CDSM_INLINE bool rises(Vec3 a, Vec3 b) { return a.x > b.x || a.y > b.y || a.z > b.z; }  // in any channel
+template <class Node, class Sink> struct WedgeOf;
+template <class Sink> struct WedgeOf<DsmNode, Sink> { using type = Wedge<Sink>; };
+template <class Sink> struct WedgeOf<DsmNodeRgb, Sink> { using type = WedgeRgb<Sink>; };
+
 // A wedge sink over the L slots: the first L nodes land in the slots, later
 // ones are only counted (a two-node ring keeps what the wedge reads back).
+template <class Node>
 struct FixedSlotSink {
+  using Alpha = decltype(node_alpha(Node{}));
   struct Nodes {
     FixedSlotSink* s;
-    CDSM_HD DsmNode& operator[](int i) const { return i < s->cap ? s->slots[i] : s->spill[i & 1]; }
+    CDSM_HD Node& operator[](int i) const { return i < s->cap ? s->slots[i] : s->spill[i & 1]; }
   };
-  DsmNode* slots;
+  Node* slots;
   int cap;
   int count = 0;
-  DsmNode spill[2];
+  Node spill[2];
   Nodes nodes;
 
-  CDSM_HD FixedSlotSink(DsmNode* sl, int c) : slots(sl), cap(c), spill{}, nodes{this} {}
+  CDSM_HD FixedSlotSink(Node* sl, int c) : slots(sl), cap(c), spill{}, nodes{this} {}
   FixedSlotSink(const FixedSlotSink&) = delete;
   FixedSlotSink& operator=(const FixedSlotSink&) = delete;
-  CDSM_HD void emit(float z, float a) { nodes[count++] = DsmNode{z, a}; }
+  CDSM_HD void emit(float z, Alpha a) { nodes[count++] = make_node(z, a); }
   CDSM_HD int size() const { return count; }
-  CDSM_HD DsmNode& last() { return nodes[count - 1]; }
-  CDSM_HD DsmNode& before_last() { return nodes[count - 2]; }
-  CDSM_HD void raise_last(float a) { nodes[count - 1].alpha = a; }
+  CDSM_HD Node& last() { return nodes[count - 1]; }
+  CDSM_HD Node& before_last() { return nodes[count - 2]; }
+  CDSM_HD void raise_last(Alpha a) { last() = make_node(last().z, a); }
   CDSM_HD void compact() {}
 };
 
 // Re-compresses a node list with tolerance e into `out` (steps stay steps);
 // every input node stays within e (+ float rounding) of the output.
-template <class Sink>
-CDSM_HD void rewedge_nodes(Span<const DsmNode> in, float e, Sink& out) {
-  Wedge<Sink> c(e);
+template <class Node, class Sink>
+CDSM_HD void rewedge_nodes(Span<const Node> in, float e, Sink& out) {
+  typename WedgeOf<Node, Sink>::type c(e);
   for (uint64_t i = 0; i < in.size(); ++i) {
-    DsmNode nd = in[i];
-    if (i > 0 && nd.z == in[i - 1].z && nd.alpha > in[i - 1].alpha)
-      c.step(out, nd.z, nd.alpha);
+    const Node nd = in[i];
+    if (i > 0 && nd.z == in[i - 1].z && rises(node_alpha(nd), node_alpha(in[i - 1])))
+      c.step(out, nd.z, node_alpha(nd));
     else
-      c.push(out, nd.z, nd.alpha);
+      c.push(out, nd.z, node_alpha(nd));
   }
   c.finish(out);
 }
@@ -63,16 +76,25 @@ CDSM_HD CDSM_INLINE float removal_cost(DsmNode a, DsmNode m, DsmNode b) {
   float line = m.z <= a.z ? a.alpha : (m.z >= b.z ? b.alpha : alpha_between(a, b, m.z));
   return fabsf(m.alpha - line);
 }
+// The same for RGB nodes: the largest channel's change.
+CDSM_HD CDSM_INLINE float removal_cost(const DsmNodeRgb& a, const DsmNodeRgb& m, const DsmNodeRgb& b) {
+  float worst = 0.0f;
+  for (int k = 0; k < 3; ++k)
+    worst = fmaxf(worst, removal_cost(DsmNode{a.z, channel(rgb_of(a), k)}, DsmNode{m.z, channel(rgb_of(m), k)},
+                                      DsmNode{b.z, channel(rgb_of(b), k)}));
+  return worst;
+}
 
 // Stage 2: keeps at most L >= 2 nodes of `in` in `slots`, streaming; the
 // first and the last node are always kept. Returns the sum of the removal
 // costs (each removal changes alpha by at most its cost, so the sum bounds
 // the total change); `count` receives the nodes kept.
-CDSM_HD inline float greedy_fit_nodes(Span<const DsmNode> in, DsmNode* slots, int L, int& count) {
+template <class Node>
+CDSM_HD inline float greedy_fit_nodes(Span<const Node> in, Node* slots, int L, int& count) {
   int n = 0;
   float err = 0.0f;
   for (uint64_t i = 0; i < in.size(); ++i) {
-    DsmNode x = in[i];
+    const Node x = in[i];
     if (n < L) {
       slots[n++] = x;
       continue;
@@ -103,16 +125,18 @@ struct FixedFit {
 
 // Stage 1 for tolerance e: writes into the slots, returns the node count
 // (the slots hold a valid result only when it is <= L).
-CDSM_HD CDSM_INLINE int fixed_rewedge(Span<const DsmNode> in, float e, DsmNode* slots, int L) {
-  FixedSlotSink sink(slots, L);
+template <class Node>
+CDSM_HD CDSM_INLINE int fixed_rewedge(Span<const Node> in, float e, Node* slots, int L) {
+  FixedSlotSink<Node> sink(slots, L);
   rewedge_nodes(in, e, sink);
   return sink.count;
 }
 
 // Writes a texel's nodes `in` (eps: the tolerance they were built with) into
 // its L slots, re-compressing them when there are more than L, and pads the
-// rest. L >= 2.
-CDSM_HD inline FixedFit write_fixed_texel(Span<const DsmNode> in, float eps, DsmNode* slots, int L) {
+// rest. L >= 2. Scalar or RGB nodes.
+template <class Node>
+CDSM_HD inline FixedFit write_fixed_texel(Span<const Node> in, float eps, Node* slots, int L) {
   CDSM_HD_ASSERT(L >= 2);
   FixedFit r;
   if (in.size() <= uint64_t(L)) {
@@ -140,9 +164,12 @@ CDSM_HD inline FixedFit write_fixed_texel(Span<const DsmNode> in, float eps, Dsm
     }
     if (hi <= 0.0f || r.count > L) greedy_fit_nodes(in, slots, L, r.count);
   }
-  if (r.recompressed) r.extra_error = max_change(in, {slots, uint64_t(r.count)});  // the true change
-  float last = r.count > 0 ? slots[r.count - 1].alpha : 0.0f;
-  for (int k = r.count; k < L; ++k) slots[k] = DsmNode{kFixedPadZ, last};
+  if (r.recompressed) r.extra_error = max_change(in, Span<const Node>{slots, uint64_t(r.count)});  // the true change
+  const Node last = r.count > 0 ? slots[r.count - 1] : Node{};
+  for (int k = r.count; k < L; ++k) {
+    slots[k] = last;
+    slots[k].z = kFixedPadZ;
+  }
   return r;
 }
 

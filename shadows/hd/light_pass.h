@@ -4,6 +4,7 @@
 
 #include "hd/baselines.h"
 #include "hd/compress.h"
+#include "hd/compress_rgb.h"
 #include "hd/segments.h"
 #include "hd/view.h"
 
@@ -15,6 +16,7 @@ struct LightPassParams {
   Span<const uint32_t> inside;   // caster objects containing the light
   uint32_t method = kMethodDsm;  // ShadowMethod: DSM, or a baseline (hd/baselines.h)
   float method_param = 0.0f;     // the baseline's parameter (0: its default)
+  bool rgb = false;              // RGB nodes (a coloured caster among the map's members; DSM only)
 };
 
 struct DsmVisitor {
@@ -31,7 +33,9 @@ struct DsmVisitor {
   CDSM_HD bool saturated() const { return alpha >= kSaturatedAlpha; }
 
   CDSM_HD bool surface(float t, uint32_t tri, bool /*front*/) {
-    float op = s.objects[s.tri_object[tri]].opacity;
+    // Grey casters: every channel equal, the value itself (a coloured one in
+    // a scalar map: its channel mean, ShadowSettings::rgb_maps).
+    float op = grey_of(s.objects[s.tri_object[tri]].absorb);
     if (op <= 0.0f) return true;
     c.push(buf, t, alpha);
     alpha = alpha + op * (1.0f - alpha);
@@ -42,7 +46,7 @@ struct DsmVisitor {
   CDSM_HD bool segment(float t0, float t1, const SegmentMedia& m) {
     c.push(buf, t0, alpha);
     if (m.volume_count == 0) {
-      sample_constant_medium(t0, t1, 1.0f - alpha, m.sigma, kConstantChordError, [&](float z, float a) {
+      sample_constant_medium(t0, t1, 1.0f - alpha, grey_of(m.sigma), kConstantChordError, [&](float z, float a) {
         alpha = a;
         c.push(buf, z, alpha);
       });
@@ -51,8 +55,60 @@ struct DsmVisitor {
     return march_segment(
         s, m, org, dir, t0, t1,
         [&](const MarchSample& ms) {
-          float a = 1.0f - expf(-ms.extinction * (ms.t1 - ms.t0));
+          float a = 1.0f - expf(-grey_of(ms.extinction) * (ms.t1 - ms.t0));
           alpha = alpha + a * (1.0f - alpha);
+          c.push(buf, ms.t1, alpha);
+          return !saturated();
+        },
+        [&](float ta, float tb) {
+          c.push(buf, ta, alpha);
+          c.push(buf, tb, alpha);
+        });
+  }
+};
+
+// The same walk with alpha per colour channel: one RGB wedge (shared node
+// depths, hd/compress_rgb.h), each channel within eps. A ray ends early
+// only when every channel is saturated.
+struct DsmVisitorRgb {
+  const SceneView& s;
+  Vec3 org, dir;
+  float eps;
+  WedgeCompressorRgb c;
+  RgbNodeBuffer& buf;
+  Vec3 alpha{0, 0, 0};
+
+  CDSM_HD DsmVisitorRgb(const SceneView& sv, Vec3 o, Vec3 d, float e, RgbNodeBuffer& b)
+      : s(sv), org(o), dir(d), eps(e), c(e), buf(b) {}
+
+  CDSM_HD bool saturated() const { return min_channel(alpha) >= kSaturatedAlpha; }
+  // alpha_k + a_k (1 - alpha_k): one more layer, per channel.
+  CDSM_HD void add_layer(Vec3 a) { alpha = alpha + a * one_minus(alpha); }
+
+  CDSM_HD bool surface(float t, uint32_t tri, bool /*front*/) {
+    const ObjectData& o = s.objects[s.tri_object[tri]];
+    if (passes_all(o)) return true;
+    c.push(buf, t, alpha);
+    add_layer(o.absorb);
+    c.step(buf, t, alpha);
+    return !saturated();
+  }
+
+  CDSM_HD bool segment(float t0, float t1, const SegmentMedia& m) {
+    c.push(buf, t0, alpha);
+    if (m.volume_count == 0) {
+      sample_constant_medium_rgb(t0, t1, one_minus(alpha), m.sigma, kConstantChordError, [&](float z, Vec3 a) {
+        alpha = a;
+        c.push(buf, z, alpha);
+      });
+      return !saturated();
+    }
+    return march_segment(
+        s, m, org, dir, t0, t1,
+        [&](const MarchSample& ms) {
+          const float dt = ms.t1 - ms.t0;
+          add_layer(Vec3{1.0f - expf(-ms.extinction.x * dt), 1.0f - expf(-ms.extinction.y * dt),
+                         1.0f - expf(-ms.extinction.z * dt)});
           c.push(buf, ms.t1, alpha);
           return !saturated();
         },
@@ -76,6 +132,17 @@ CDSM_HD inline void build_texel(const SceneView& s, const LightPassParams& p, Sp
   Vec3 dir = pixel_ray(p.view, tx, ty);
   buf.eps = p.epsilon;
   DsmVisitor vis(s, p.view.eye, dir, p.epsilon, buf);
+  float t_end = p.view.far / fmaxf(dot(dir, p.view.forward), 1e-6f);
+  walk_ray(s, frags, p.inside, 0.0f, t_end, vis, st);
+  vis.c.finish(buf);
+}
+
+// An RGB texel (p.rgb; deep shadow maps only).
+CDSM_HD inline void build_texel(const SceneView& s, const LightPassParams& p, Span<Fragment> frags,
+                                int tx, int ty, RgbNodeBuffer& buf, WalkStats& st) {
+  Vec3 dir = pixel_ray(p.view, tx, ty);
+  buf.eps = p.epsilon;
+  DsmVisitorRgb vis(s, p.view.eye, dir, p.epsilon, buf);
   float t_end = p.view.far / fmaxf(dot(dir, p.view.forward), 1e-6f);
   walk_ray(s, frags, p.inside, 0.0f, t_end, vis, st);
   vis.c.finish(buf);

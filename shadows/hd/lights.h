@@ -136,13 +136,19 @@ CDSM_HD CDSM_INLINE float receiver_offset(const ShadowView& sv, const LightData&
   return r.own_step ? sv.bias_constant + sv.bias_slope * footprint + kRelativeDepthOffset * pr.depth : 0.0f;
 }
 
+// One more layer of opacity, thesis eq. 3.12: alpha + a (1 - alpha), per channel.
+CDSM_HD CDSM_INLINE float over(float alpha, float a) { return alpha + a * (1.0f - alpha); }
+CDSM_HD CDSM_INLINE Vec3 over(Vec3 alpha, Vec3 a) { return alpha + a * one_minus(alpha); }
+
 // The maps a lookup at p uses and how their alphas combine: every cluster
 // map by thesis eq. 3.12, the one cube face by major axis, or the first
 // parallel split holding the point. map_alpha(map_index, map, projection)
-// gives one map's alpha; the combined alpha is returned.
+// gives one map's alpha (float, or Vec3 per channel); the combined alpha is
+// returned in the same type.
 template <class MapAlpha>
-CDSM_HD CDSM_INLINE float combine_maps(const ShadowView& sv, const LightData& L, Vec3 p, MapAlpha&& map_alpha) {
-  float alpha = 0.0f;
+CDSM_HD CDSM_INLINE auto combine_maps(const ShadowView& sv, const LightData& L, Vec3 p, MapAlpha&& map_alpha) {
+  using Alpha = decltype(map_alpha(0u, sv.maps[0], ViewProjection{}));
+  Alpha alpha{};
   uint32_t first = L.first_map, count = L.map_count;
   if (L.map_mode == kMapsCubeFaces && count == 6) {
     first += uint32_t(cube_face_of(p - L.position));
@@ -159,27 +165,50 @@ CDSM_HD CDSM_INLINE float combine_maps(const ShadowView& sv, const LightData& L,
       if (k + 1 < count && (pr.u < lo || pr.v < lo || pr.u > hi || pr.v > hi)) continue;
       count = k + 1;
     }
-    const float a = map_alpha(first + k, m, pr);
-    alpha = alpha + a * (1.0f - alpha);  // thesis eq. 3.12
+    alpha = over(alpha, map_alpha(first + k, m, pr));  // thesis eq. 3.12
   }
   return alpha;
 }
 
-// Opacity between light L and receiver r from the light's DSMs.
-CDSM_HD inline float shadow_alpha(const ShadowView& sv, const LightData& L, const Receiver& r) {
-  return combine_maps(sv, L, r.p, [&](uint32_t, const DsmMap& m, const ViewProjection& pr) {
-    const float offset = receiver_offset(sv, L, m, pr, r);
+// Opacity between light L and receiver r from one map (its taps, each at
+// its receiver-plane depth less the receiver's offset), per channel. A grey
+// map's value is computed as scalar and given to every channel.
+CDSM_HD inline Vec3 map_alpha_rgb(const ShadowView& sv, const LightData& L, const DsmMap& m, const ViewProjection& pr,
+                                  const Receiver& r) {
+  const float offset = receiver_offset(sv, L, m, pr, r);
+  if (m.rgb == 0u) {
     float a = 0.0f;
     for_each_tap(m, pr.u, pr.v, sv.filtering, [&](int tx, int ty, float w) {
       a += w * texel_alpha(sv.storage, m, tx, ty, tap_depth(sv, m, pr, r, tx, ty) - offset);
     });
-    return a;
+    return vec3(a);
+  }
+  Vec3 a{0, 0, 0};
+  for_each_tap(m, pr.u, pr.v, sv.filtering, [&](int tx, int ty, float w) {
+    a = a + texel_alpha_rgb(sv.storage, m, tx, ty, tap_depth(sv, m, pr, r, tx, ty) - offset) * w;
   });
+  return a;
+}
+
+// Opacity per channel between light L and receiver r from the light's DSMs.
+CDSM_HD inline Vec3 shadow_alpha_rgb(const ShadowView& sv, const LightData& L, const Receiver& r) {
+  return combine_maps(sv, L, r.p, [&](uint32_t, const DsmMap& m, const ViewProjection& pr) {
+    return map_alpha_rgb(sv, L, m, pr, r);
+  });
+}
+
+// The grey opacity: exactly the one value where every channel agrees (grey
+// casters), else the channel mean. Per-channel callers use shadow_alpha_rgb.
+CDSM_HD inline float shadow_alpha(const ShadowView& sv, const LightData& L, const Receiver& r) {
+  return grey_of(shadow_alpha_rgb(sv, L, r));
 }
 
 // A point lookup at p's own depth (volume samples, probes).
 CDSM_HD CDSM_INLINE float shadow_alpha(const ShadowView& sv, const LightData& L, Vec3 p) {
   return shadow_alpha(sv, L, Receiver{p, Vec3{0, 0, 0}, false});
+}
+CDSM_HD CDSM_INLINE Vec3 shadow_alpha_rgb(const ShadowView& sv, const LightData& L, Vec3 p) {
+  return shadow_alpha_rgb(sv, L, Receiver{p, Vec3{0, 0, 0}, false});
 }
 
 }  // namespace cdsm

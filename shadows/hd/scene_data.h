@@ -10,22 +10,32 @@ namespace cdsm {
 
 inline constexpr uint32_t kObjClosed = 1u;        // mesh is closed: its interior is defined
 inline constexpr uint32_t kObjCastsShadows = 2u;  // enters DSMs
+inline constexpr uint32_t kObjColoured = 4u;      // its surface's crossing differs between colour
+                                                  // channels (media: is_coloured)
 
-// Per object: surface, interior and its triangle range. 64 bytes.
+// Per object: surface, interior and its triangle range. 80 bytes (std430:
+// five vec4-sized rows).
 struct ObjectData {
   Vec3 color;           // surface colour (linear RGB)
-  float opacity;        // surface opacity per crossing, [0, 1]
-  float ka, kd, ks;     // Phong constants (thesis eq. 3.8)
-  float shininess;      // Phong exponent n_s
+  float opacity;        // coverage a: the reflecting part, composited with this weight, [0, 1]
+  Vec3 absorb;          // per channel, the opacity of one crossing: 1 - (1 - a) f_k
+                        // (cdsm::SurfaceMaterial); exactly (a, a, a) for a white filter
+  float ka;             // Phong constants (thesis eq. 3.8)
+  Vec3 sigma;           // constant medium: extinction per channel, per world unit
+  float kd;
+  float ks, shininess;  // Phong k_s, exponent n_s
   uint32_t interior;    // InteriorKind: 0 none, 1 constant, 2 volume
-  float sigma;          // constant medium: extinction per world unit
   int32_t volume;       // volume index, or -1
-  uint32_t flags;       // kObjClosed | kObjCastsShadows
+  uint32_t flags;       // kObjClosed | kObjCastsShadows | kObjColoured
   uint32_t first_tri;   // triangle range in the scene's triangle arrays
   uint32_t tri_count;
-  uint32_t pad0, pad1;
+  uint32_t pad0;
 };
-static_assert(sizeof(ObjectData) == 64, "ObjectData is 64 bytes");
+static_assert(sizeof(ObjectData) == 80, "ObjectData is 80 bytes");
+
+// Whether a surface passes all light (opacity 0 behind a white filter: a
+// volume's proxy): the camera pass, the maps and the reference skip it.
+CDSM_HD CDSM_INLINE bool passes_all(const ObjectData& o) { return max_channel(o.absorb) <= 0.0f; }
 
 // Whether the object bounds a medium (a closed mesh with a constant or
 // volume interior). Producers keep such an object's fragments outside a
@@ -40,12 +50,13 @@ CDSM_HD CDSM_INLINE bool bounds_medium(const ObjectData& o) {
 struct TransferData {
   int32_t count;                        // control points used (1..kMaxTransferPoints)
   float density[kMaxTransferPoints];    // ascending
-  float extinction[kMaxTransferPoints]; // per world unit
+  float extinction[3][kMaxTransferPoints]; // per colour channel, per world unit
   float r[kMaxTransferPoints];
   float g[kMaxTransferPoints];
   float b[kMaxTransferPoints];
-  float max_extinction;                 // over all control points
-  float pad[2];
+  float max_extinction;                 // over all control points and channels
+  uint32_t coloured;                    // 1: some point's extinction differs between channels
+  float pad;
 };
 
 // A grid volume placed in the world. Macro-cells of kMacroCell^3 voxels
@@ -100,6 +111,9 @@ struct BvhNode {
 };
 static_assert(sizeof(BvhNode) == 32, "BvhNode is 32 bytes");
 
+struct SceneView;
+CDSM_HD CDSM_INLINE bool is_coloured(const SceneView& s, const ObjectData& o);
+
 struct SceneView {
   Span<const Vec3> tri_vertices;   // 3 world-space positions per triangle
   Span<const Vec3> tri_normals;    // 3 world-space shading normals per triangle
@@ -112,6 +126,16 @@ struct SceneView {
   Span<const BvhNode> bvh;         // node 0 is the root (absent if empty)
   Span<const uint32_t> bvh_prims;  // triangle indices referenced by leaves
 };
+
+// Whether object o passes light differently per colour channel: a tinted
+// surface, a constant medium or a volume whose extinction differs between
+// channels. Maps with such a caster store RGB nodes.
+CDSM_HD CDSM_INLINE bool is_coloured(const SceneView& s, const ObjectData& o) {
+  if ((o.flags & kObjColoured) != 0u) return true;
+  if (o.interior == 1u) return !is_grey(o.sigma);
+  if (o.interior == 2u && o.volume >= 0) return s.volumes[uint32_t(o.volume)].tf.coloured != 0u;
+  return false;
+}
 
 // Which objects a view rasterizes (a light's casters, a cluster's members).
 // Bit i of words[i / 32] set = object i included. Empty span = all objects.

@@ -48,7 +48,7 @@ struct EnclosingSet {
 
 // The media of one homogeneous segment.
 struct SegmentMedia {
-  float sigma = 0.0f;       // summed extinction of enclosing constant media
+  Vec3 sigma{0, 0, 0};      // summed extinction of enclosing constant media, per channel
   float step = 3.0e38f;     // smallest march step of the enclosing volumes
   uint32_t* lengthened = nullptr;  // counts segments whose march step had to grow to float resolution
   int volume_count = 0;
@@ -234,7 +234,7 @@ CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint3
     if (set.count > 0 && t > t_prev) {
       SegmentMedia m = media_of(s, set);
       m.lengthened = &st.march_lengthened;
-      if ((m.sigma > 0.0f || m.volume_count > 0) && !vis.segment(t_prev, t, m)) return;
+      if ((max_channel(m.sigma) > 0.0f || m.volume_count > 0) && !vis.segment(t_prev, t, m)) return;
     }
     t_prev = fmaxf(t_prev, t);
     if (frag_clipped(f) && f.depth > t_end) continue;  // beyond far: bounds nothing left to report
@@ -259,16 +259,16 @@ CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint3
   if (set.count > 0 && t_end > t_prev) {
     SegmentMedia m = media_of(s, set);
     m.lengthened = &st.march_lengthened;
-    if (m.sigma > 0.0f || m.volume_count > 0) vis.segment(t_prev, t_end, m);
+    if (max_channel(m.sigma) > 0.0f || m.volume_count > 0) vis.segment(t_prev, t_end, m);
   }
 }
 
 // One march sample of the volumes in a segment.
 struct MarchSample {
   float t0, t1;      // the sample's interval along the ray
-  float extinction;  // summed sigma_t at the interval's midpoint (constant media included)
-  Vec3 color;        // extinction-weighted colour of the volumes there
-  int dominant;      // index into media.volume of the largest extinction, -1 if none
+  Vec3 extinction;   // summed sigma_t per channel at the interval's midpoint (constant media included)
+  Vec3 color;        // extinction-weighted colour of the volumes there, per channel
+  int dominant;      // index into media.volume of the largest extinction (any channel), -1 if none
 };
 
 // The parameter interval [enter, leave] of the index-space ray qo + t qd
@@ -318,7 +318,7 @@ CDSM_HD bool march_segment(const SceneView& s, const SegmentMedia& m, Vec3 org, 
     // This stretch: the finest step of the volumes whose box holds t, and
     // the next box boundary of any volume.
     float h = 3.0e38f, next = t1;
-    bool empty = m.sigma <= 0.0f;
+    bool empty = max_channel(m.sigma) <= 0.0f;
     float empty_until = t1;
     for (int i = 0; i < m.volume_count; ++i) {
       const VolumeData& v = s.volumes[m.volume[i]];
@@ -335,7 +335,7 @@ CDSM_HD bool march_segment(const SceneView& s, const SegmentMedia& m, Vec3 org, 
       }
       if (!empty) continue;
       float mx = inside ? macro_max_at(s, v, qo[i] + qd[i] * t) : -1.0f;
-      if (mx < 0.0f) mx = apply_transfer(v.tf, v.background).extinction;
+      if (mx < 0.0f) mx = max_channel(apply_transfer(v.tf, v.background).extinction);
       if (mx > 0.0f) {
         empty = false;
       } else {
@@ -364,13 +364,16 @@ CDSM_HD bool march_segment(const SceneView& s, const SegmentMedia& m, Vec3 org, 
       TransferSample ts = apply_transfer(v.tf, density_at(s, v, p));
       ms.extinction += ts.extinction;
       ms.color += ts.color * ts.extinction;
-      if (ts.extinction > best) {
-        best = ts.extinction;
+      const float strongest = max_channel(ts.extinction);
+      if (strongest > best) {
+        best = strongest;
         ms.dominant = i;
       }
     }
-    float vol_ext = ms.extinction - m.sigma;
-    ms.color = vol_ext > 0.0f ? ms.color * (1.0f / vol_ext) : Vec3{0, 0, 0};
+    const Vec3 vol_ext = ms.extinction - m.sigma;
+    ms.color = {vol_ext.x > 0.0f ? ms.color.x * (1.0f / vol_ext.x) : 0.0f,
+                vol_ext.y > 0.0f ? ms.color.y * (1.0f / vol_ext.y) : 0.0f,
+                vol_ext.z > 0.0f ? ms.color.z * (1.0f / vol_ext.z) : 0.0f};
     if (!on_sample(ms)) return false;
     t = te;
   }
@@ -401,6 +404,28 @@ CDSM_HD void sample_constant_medium(float t0, float t1, float T0, float sigma, f
     if (i + 1 == kMaxConstantSamples) zn = t1;
     T = T0 * expf(-sigma * (zn - t0));
     emit(zn, 1.0f - T);
+    z = zn;
+  }
+}
+
+// The same for a medium whose extinction differs between channels: the
+// spacing is the smallest any channel still above the tail needs
+// (sqrt(8 e / T_k) / sigma_k), so every channel's chord stays within e;
+// sampling ends when every channel reaches kConstantTail. emit(z, alpha).
+template <class Emit>
+CDSM_HD void sample_constant_medium_rgb(float t0, float t1, Vec3 T0, Vec3 sigma, float e, Emit&& emit) {
+  float z = t0;
+  Vec3 T = T0;
+  for (int i = 0; i < kMaxConstantSamples && z < t1 && max_channel(T) > kConstantTail; ++i) {
+    float h = 3.0e38f;
+    for (int k = 0; k < 3; ++k)
+      if (sigma[k] > 0.0f && T[k] > kConstantTail) h = fminf(h, sqrtf(8.0f * e / T[k]) / sigma[k]);
+    float zn = fminf(z + h, t1);
+    if (!(zn > z)) zn = fminf(nextafterf(z, 3.0e38f), t1);  // sigma beyond float resolution: a jump
+    if (i + 1 == kMaxConstantSamples) zn = t1;
+    const float d = zn - t0;
+    T = {T0.x * expf(-sigma.x * d), T0.y * expf(-sigma.y * d), T0.z * expf(-sigma.z * d)};
+    emit(zn, one_minus(T));
     z = zn;
   }
 }

@@ -24,8 +24,9 @@ struct ShadeInput {
   uint32_t object;  // the surface's object, kNoObject for volume samples
 };
 
-// Visibility callback form: float vis(int light_index, const Receiver& r)
-// returns 1 - alpha (the transmittance) at r — from DSMs or the reference.
+// Visibility callback form: Vec3 vis(int light_index, const Receiver& r)
+// returns 1 - alpha (the transmittance) per colour channel at r — from DSMs
+// or the reference.
 template <class Visibility>
 CDSM_HD Vec3 shade_point(const ShadeInput& in, Span<const LightData> lights, Vec3 ambient,
                          Visibility&& visibility) {
@@ -40,18 +41,18 @@ CDSM_HD Vec3 shade_point(const ShadeInput& in, Span<const LightData> lights, Vec
     Vec3 l = to_l * (1.0f / dist);
     const Receiver rc{in.p, in.plane, in.own_step_in_maps, in.object};
     if (!in.has_normal) {
-      float vis = visibility(int(i), rc);
-      c += in.color * L.radiance * (cone * vis);
+      const Vec3 vis = visibility(int(i), rc);
+      c += in.color * L.radiance * (vis * cone);
       continue;
     }
     float ndl = dot(in.n, l);
     if (ndl <= 0.0f) continue;
-    float vis = visibility(int(i), rc);
-    if (vis <= 0.0f) continue;
+    const Vec3 vis = visibility(int(i), rc);
+    if (max_channel(vis) <= 0.0f) continue;
     Vec3 r = in.n * (2.0f * ndl) - l;
     float rv = fmaxf(0.0f, dot(r, in.v));
     float spec = in.ks * (rv > 0.0f ? powf(rv, in.shininess) : 0.0f);
-    c += (in.color * (in.kd * ndl) + vec3(spec)) * L.radiance * (cone * vis);
+    c += (in.color * (in.kd * ndl) + vec3(spec)) * L.radiance * (vis * cone);
   }
   return c;
 }

@@ -17,25 +17,28 @@
 
 namespace cdsm {
 
-// Extinction and colour of a density value (piecewise linear, clamped ends).
+// Extinction (per colour channel) and colour of a density value
+// (piecewise linear, clamped ends).
 struct TransferSample {
-  float extinction;
+  Vec3 extinction;
   Vec3 color;
 };
 
+CDSM_HD CDSM_INLINE Vec3 transfer_extinction(const TransferData& tf, int i) {
+  return {tf.extinction[0][i], tf.extinction[1][i], tf.extinction[2][i]};
+}
+
 CDSM_HD CDSM_INLINE TransferSample apply_transfer(const TransferData& tf, float d) {
   int n = tf.count;
-  if (n <= 1 || d <= tf.density[0])
-    return {tf.extinction[0], {tf.r[0], tf.g[0], tf.b[0]}};
-  if (d >= tf.density[n - 1])
-    return {tf.extinction[n - 1], {tf.r[n - 1], tf.g[n - 1], tf.b[n - 1]}};
+  if (n <= 1 || d <= tf.density[0]) return {transfer_extinction(tf, 0), {tf.r[0], tf.g[0], tf.b[0]}};
+  if (d >= tf.density[n - 1]) return {transfer_extinction(tf, n - 1), {tf.r[n - 1], tf.g[n - 1], tf.b[n - 1]}};
   int i = 1;
   while (i < n - 1 && d > tf.density[i]) ++i;
   float span = tf.density[i] - tf.density[i - 1];
   float w = span > 0.0f ? (d - tf.density[i - 1]) / span : 1.0f;
-  return {lerpf(tf.extinction[i - 1], tf.extinction[i], w),
-          {lerpf(tf.r[i - 1], tf.r[i], w), lerpf(tf.g[i - 1], tf.g[i], w),
-           lerpf(tf.b[i - 1], tf.b[i], w)}};
+  return {{lerpf(tf.extinction[0][i - 1], tf.extinction[0][i], w), lerpf(tf.extinction[1][i - 1], tf.extinction[1][i], w),
+           lerpf(tf.extinction[2][i - 1], tf.extinction[2][i], w)},
+          {lerpf(tf.r[i - 1], tf.r[i], w), lerpf(tf.g[i - 1], tf.g[i], w), lerpf(tf.b[i - 1], tf.b[i], w)}};
 }
 
 CDSM_HD CDSM_INLINE float voxel_at(const SceneView& s, const VolumeData& v, int i, int j, int k) {
@@ -138,7 +141,7 @@ CDSM_HD CDSM_INLINE float macro_max_at(const SceneView& s, const VolumeData& v, 
           nanovdb::Coord o((ci + dx) * kMacroCell, (cj + dy) * kMacroCell, (ck + dz) * kMacroCell);
           const auto* n = tree.root().probeLeaf(o);
           m = fmaxf(m, n ? s.macro_max[v.macro_offset + uint64_t(n - first)]
-                         : apply_transfer(v.tf, tree.root().getValue(o)).extinction);
+                         : max_channel(apply_transfer(v.tf, tree.root().getValue(o)).extinction));
         }
     return m;
   }

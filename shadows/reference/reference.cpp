@@ -93,12 +93,13 @@ void ReferenceRenderer::hits_along(Vec3 org, Vec3 dir, float tmax, ObjectMask ma
 // Simpson at <= step_voxels inside the volume's value box (every sample
 // read from the grid: no skipping), the background's extinction exactly
 // outside it.
-float ReferenceRenderer::optical_depth_volume(uint32_t vi, Vec3 org, Vec3 dir, float t0, float t1) const {
+ReferenceRenderer::Depth ReferenceRenderer::optical_depth_volume(uint32_t vi, Vec3 org, Vec3 dir, float t0,
+                                                                 float t1) const {
   const VolumeData& v = scene_.volumes[vi];
   const ValueBox& box = value_boxes_[vi];
   const float h = opt_.step_voxels * v.voxel_world;
   const Vec3 qo = v.world_to_index.point(org), qd = v.world_to_index.vector(dir);
-  const double bg_ext = apply_transfer(v.tf, v.background).extinction;
+  const Vec3 bg_ext = apply_transfer(v.tf, v.background).extinction;
   // The ray's interval inside the value box (slabs in index space).
   float ta = t0, tb = t1;
   for (int a = 0; a < 3; ++a) {
@@ -110,23 +111,30 @@ float ReferenceRenderer::optical_depth_volume(uint32_t vi, Vec3 org, Vec3 dir, f
     ta = std::max(ta, std::min(u, w));
     tb = std::min(tb, std::max(u, w));
   }
-  if (!(tb > ta)) return float(bg_ext * double(t1 - t0));
-  double tau = bg_ext * double((ta - t0) + (t1 - tb));
+  Depth tau;
+  if (!(tb > ta)) {
+    tau = {double(bg_ext.x) * double(t1 - t0), double(bg_ext.y) * double(t1 - t0), double(bg_ext.z) * double(t1 - t0)};
+    return tau;
+  }
+  const double outside = double((ta - t0) + (t1 - tb));
+  tau = {double(bg_ext.x) * outside, double(bg_ext.y) * outside, double(bg_ext.z) * outside};
   // Simpson's rule, two panels per step of at most h (fourth order where the
   // integrand is smooth; second order at the transfer function's kinks).
   const int n = 2 * std::max(1, int(std::ceil((tb - ta) / h)));
   const double dt = (double(tb) - ta) / double(n);
   auto sigma_at = [&](double t) {
-    return double(apply_transfer(v.tf, density_at_index(scene_, v, qo + qd * float(t))).extinction);
+    return apply_transfer(v.tf, density_at_index(scene_, v, qo + qd * float(t))).extinction;
   };
-  double f0 = sigma_at(ta);
+  Vec3 f0 = sigma_at(ta);
   for (int i = 0; i < n; ++i) {
     double a = ta + double(i) * dt;
-    double fm = sigma_at(a + 0.5 * dt), f1 = sigma_at(a + dt);
-    tau += (f0 + 4.0 * fm + f1) * (dt / 6.0);
+    const Vec3 fm = sigma_at(a + 0.5 * dt), f1 = sigma_at(a + dt);
+    tau.r += (double(f0.x) + 4.0 * fm.x + f1.x) * (dt / 6.0);
+    tau.g += (double(f0.y) + 4.0 * fm.y + f1.y) * (dt / 6.0);
+    tau.b += (double(f0.z) + 4.0 * fm.z + f1.z) * (dt / 6.0);
     f0 = f1;
   }
-  return float(tau);
+  return tau;
 }
 
 namespace {
@@ -149,28 +157,30 @@ void for_each_inside_interval(const std::vector<float>& ts, float t_end, F&& f) 
 
 }  // namespace
 
-float ReferenceRenderer::transmittance_segment(Vec3 a, Vec3 b) const {
-  return transmittance_segment(a, b, ObjectMask{});
+Vec3 ReferenceRenderer::transmittance_segment_rgb(Vec3 a, Vec3 b) const {
+  return transmittance_segment_rgb(a, b, ObjectMask{});
 }
 
-float ReferenceRenderer::transmittance_segment(Vec3 a, Vec3 b, ObjectMask members, uint32_t own_object,
-                                              float own_window) const {
+Vec3 ReferenceRenderer::transmittance_segment_rgb(Vec3 a, Vec3 b, ObjectMask members, uint32_t own_object,
+                                                  float own_window) const {
   Vec3 d = b - a;
   float dist = length(d);
-  if (dist <= 0.0f) return 1.0f;
+  if (dist <= 0.0f) return vec3(1.0f);
   Vec3 dir = d * (1.0f / dist);
   thread_local std::vector<Hit> hits;
   hits_along(a, dir, 3.0e38f, ObjectMask{{caster_words_.data(), caster_words_.size()}}, hits);
   float own = dist * (1.0f - 1e-5f) - 1e-6f;  // the point's own surface does not count
-  double T = 1.0;
-  // Surfaces crossed before the point.
+  double T[3] = {1.0, 1.0, 1.0};
+  // Surfaces crossed before the point, each passing 1 - absorb_k per channel.
   for (const Hit& h : hits) {
     if (h.t >= own) break;
     if (h.object == own_object && h.t >= dist - own_window) continue;
-    if (members.contains(h.object)) T *= 1.0 - double(scene_.objects[h.object].opacity);
+    if (!members.contains(h.object)) continue;
+    const Vec3 ab = scene_.objects[h.object].absorb;
+    for (int k = 0; k < 3; ++k) T[k] *= 1.0 - double(ab[k]);
   }
   // Interiors, object by object, by parity over the whole ray.
-  double tau = 0.0;
+  Depth tau;
   thread_local std::vector<float> ts;
   for (uint32_t o = 0; o < scene_.objects.size(); ++o) {
     const ObjectData& od = scene_.objects[o];
@@ -182,15 +192,23 @@ float ReferenceRenderer::transmittance_segment(Vec3 a, Vec3 b, ObjectMask member
     if (ts.empty()) continue;
     for_each_inside_interval(ts, dist, [&](float t0, float t1) {
       if (t1 <= t0) return;
-      if (od.interior == 1u) tau += double(od.sigma) * (t1 - t0);
-      else if (od.volume >= 0) tau += optical_depth_volume(uint32_t(od.volume), a, dir, t0, t1);
+      if (od.interior == 1u) {
+        tau.r += double(od.sigma.x) * (t1 - t0);
+        tau.g += double(od.sigma.y) * (t1 - t0);
+        tau.b += double(od.sigma.z) * (t1 - t0);
+      } else if (od.volume >= 0) {
+        const Depth v = optical_depth_volume(uint32_t(od.volume), a, dir, t0, t1);
+        tau.r += v.r;
+        tau.g += v.g;
+        tau.b += v.b;
+      }
     });
   }
-  return float(T * std::exp(-tau));
+  return {float(T[0] * std::exp(-tau.r)), float(T[1] * std::exp(-tau.g)), float(T[2] * std::exp(-tau.b))};
 }
 
-float ReferenceRenderer::transmittance(int light, Vec3 p) const {
-  return transmittance_segment(lights_[size_t(light)].position, p);
+Vec3 ReferenceRenderer::transmittance_rgb(int light, Vec3 p) const {
+  return transmittance_segment_rgb(lights_[size_t(light)].position, p);
 }
 
 void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float>& rgb) const {
@@ -198,7 +216,7 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
   const int w = view.width, h = view.height;
   rgb.assign(size_t(w) * h * 3, 0.0f);
   Span<const LightData> lights{lights_.data(), lights_.size()};
-  auto visibility = [&](int light, const Receiver& r) { return transmittance(light, r.p); };
+  auto visibility = [&](int light, const Receiver& r) { return transmittance_rgb(light, r.p); };
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     std::vector<Hit> hits;
     std::vector<float> ts;
@@ -209,7 +227,9 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
         float t_far = view.far / c;
         hits_along(view.eye, dir, 3.0e38f, ObjectMask{}, hits);
         Vec3 color{0, 0, 0};
-        double T = 1.0;
+        double T[3] = {1.0, 1.0, 1.0};  // per channel
+        // Every channel past the camera pass's stop.
+        auto done = [&] { return std::max({T[0], T[1], T[2]}) < 1.0 - kCompositeStop; };
         // Media absorb from the eye to far; only surfaces are clipped to
         // [near, far] (view axis). Every hit up to far splits the ray, so
         // each interval's media follow from parity at its midpoint.
@@ -230,28 +250,29 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
           }
         };
         auto shade_interval = [&](float ta, float tb) {
-          if (tb <= ta || T < 1.0 - kCompositeStop) return;
-          float sigma = 0.0f;
+          if (tb <= ta || done()) return;
+          Vec3 sigma{0, 0, 0};
           uint32_t vols[kMaxEnclosing];
           int nv = 0;
           float step = 3e38f;
           interval_media(ta, tb, [&](uint32_t o) {
             const ObjectData& od = scene_.objects[o];
-            if (od.interior == 1u) sigma += od.sigma;
+            if (od.interior == 1u) sigma = sigma + od.sigma;
             else if (od.volume >= 0 && nv < kMaxEnclosing) {
               vols[nv++] = uint32_t(od.volume);
               step = std::min(step, opt_.step_voxels * scene_.volumes[uint32_t(od.volume)].voxel_world);
             }
           });
           if (nv == 0) {
-            T *= std::exp(-double(sigma) * (tb - ta));
+            for (int k = 0; k < 3; ++k) T[k] *= std::exp(-double(sigma[k]) * (tb - ta));
             return;
           }
           int n = std::max(1, int(std::ceil((tb - ta) / step)));
           float dt = (tb - ta) / float(n);
-          for (int i = 0; i < n && T >= 1.0 - kCompositeStop; ++i) {
+          for (int i = 0; i < n && !done(); ++i) {
             Vec3 p = view.eye + dir * (ta + (float(i) + 0.5f) * dt);
-            float ext = sigma, vol_ext = 0.0f, best = 0.0f;
+            Vec3 ext = sigma, vol_ext{0, 0, 0};
+            float best = 0.0f;
             Vec3 col{0, 0, 0};
             int dom = -1;
             for (int k = 0; k < nv; ++k) {
@@ -260,19 +281,20 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
               ext += ts2.extinction;
               vol_ext += ts2.extinction;
               col += ts2.color * ts2.extinction;
-              if (ts2.extinction > best) {
-                best = ts2.extinction;
+              if (max_channel(ts2.extinction) > best) {
+                best = max_channel(ts2.extinction);
                 dom = k;
               }
             }
-            double a = 1.0 - std::exp(-double(ext) * dt);
-            if (a <= 0.0) continue;
-            if (vol_ext > 0.0f && dom >= 0) {
+            double a[3];
+            for (int k = 0; k < 3; ++k) a[k] = 1.0 - std::exp(-double(ext[k]) * dt);
+            if (std::max({a[0], a[1], a[2]}) <= 0.0) continue;
+            if (max_channel(vol_ext) > 0.0f && dom >= 0) {
               const VolumeData& v = scene_.volumes[vols[dom]];
               ShadeInput in;
               in.p = p;
               in.v = -dir;
-              in.color = col * (1.0f / vol_ext);
+              for (int k = 0; k < 3; ++k) in.color[k] = vol_ext[k] > 0.0f ? col[k] / vol_ext[k] : 0.0f;
               in.ka = 1.0f;
               in.kd = 1.0f;
               in.ks = 0.0f;
@@ -296,21 +318,25 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
                 }
               }
               Vec3 c = shade_point(in, lights, params.ambient, visibility);
-              double wv = T * a * (vol_ext / ext);
-              color += c * float(wv);
+              for (int k = 0; k < 3; ++k)
+                if (ext[k] > 0.0f) color[k] += c[k] * float(T[k] * a[k] * (vol_ext[k] / ext[k]));
             }
-            T *= 1.0 - a;
+            for (int k = 0; k < 3; ++k) T[k] *= 1.0 - a[k];
           }
         };
         for (const Hit& hh : hits) {
           if (hh.t > t_far) break;
           shade_interval(t_prev, hh.t);
           t_prev = std::max(t_prev, hh.t);
-          if (T < 1.0 - kCompositeStop) break;
+          if (done()) break;
           float ax = hh.t * c;
           if (ax < view.near || ax > view.far) continue;  // a clipped surface
           const ObjectData& od = scene_.objects[hh.object];
-          if (od.opacity <= 0.0f) continue;
+          if (passes_all(od)) continue;
+          if (od.opacity <= 0.0f) {  // a pure filter
+            for (int k = 0; k < 3; ++k) T[k] *= 1.0 - double(od.absorb[k]);
+            continue;
+          }
           // Find the triangle again for the normal: nearest hit of this object at hh.t.
           Vec3 p = view.eye + dir * hh.t;
           uint32_t tri_found = od.first_tri;
@@ -336,11 +362,13 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
           in.own_step_in_maps = false;  // exact shadow rays exclude the own surface by distance
           in.object = hh.object;
           Vec3 col = shade_point(in, lights, params.ambient, visibility);
-          color += col * float(T * od.opacity);
-          T *= 1.0 - od.opacity;
+          for (int k = 0; k < 3; ++k) {
+            color[k] += col[k] * float(T[k] * od.opacity);
+            T[k] *= 1.0 - double(od.absorb[k]);
+          }
         }
-        if (T >= 1.0 - kCompositeStop) shade_interval(t_prev, t_far);
-        color += params.background * float(T);
+        if (!done()) shade_interval(t_prev, t_far);
+        color += params.background * Vec3{float(T[0]), float(T[1]), float(T[2])};
         float* o = rgb.data() + (size_t(py) * w + px) * 3;
         o[0] = color.x;
         o[1] = color.y;

@@ -23,18 +23,22 @@ class ReferenceRenderer {
  public:
   ReferenceRenderer(const SceneView& scene, std::vector<LightData> lights, ReferenceOptions opt = {});
 
-  // Transmittance from light `light` to p through shadow casters; p's own
-  // surface (hits within a relative 1e-5 of p) does not shadow it.
-  float transmittance(int light, Vec3 p) const;
+  // Transmittance per colour channel from light `light` to p through shadow
+  // casters; p's own surface (hits within a relative 1e-5 of p) does not
+  // shadow it. The float forms give the grey value (grey_of: exact for grey
+  // casters, the channel mean otherwise).
+  Vec3 transmittance_rgb(int light, Vec3 p) const;
+  float transmittance(int light, Vec3 p) const { return grey_of(transmittance_rgb(light, p)); }
 
   // Transmittance along an arbitrary segment a -> b (casters only); the
   // point b's own surface (hits within a relative 1e-5 of b) does not count.
-  float transmittance_segment(Vec3 a, Vec3 b) const;
+  Vec3 transmittance_segment_rgb(Vec3 a, Vec3 b) const;
+  float transmittance_segment(Vec3 a, Vec3 b) const { return grey_of(transmittance_segment_rgb(a, b)); }
   // The same through the casters in `members` only (a cluster's objects);
   // hits of object `own` within `own_window` before b are b's own surface
   // too (the error probe's taps: its own surface by identity).
-  float transmittance_segment(Vec3 a, Vec3 b, ObjectMask members, uint32_t own = kNoObject,
-                              float own_window = 0.0f) const;
+  Vec3 transmittance_segment_rgb(Vec3 a, Vec3 b, ObjectMask members, uint32_t own = kNoObject,
+                                 float own_window = 0.0f) const;
 
   // Renders the camera view into rgb (3 floats per pixel).
   void render(const CameraPassParams& params, std::vector<float>& rgb) const;
@@ -47,7 +51,11 @@ class ReferenceRenderer {
     uint32_t object;
   };
   void hits_along(Vec3 org, Vec3 dir, float tmax, ObjectMask mask, std::vector<Hit>& out) const;
-  float optical_depth_volume(uint32_t volume, Vec3 org, Vec3 dir, float t0, float t1) const;
+  // Optical depth per channel (double: the sum of many Simpson panels).
+  struct Depth {
+    double r = 0, g = 0, b = 0;
+  };
+  Depth optical_depth_volume(uint32_t volume, Vec3 org, Vec3 dir, float t0, float t1) const;
 
   SceneView scene_;
   std::vector<LightData> lights_;

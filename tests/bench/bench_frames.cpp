@@ -49,7 +49,7 @@ Scene dense_ct(int n) {
   v.name = "ct";
   v.grid = g;
   v.index_to_object = make_transform({-0.5f, -0.5f, -0.5f}, {0, 0, 0}, vec3(1.0f / float(n - 1)));
-  v.transfer = {{0.0f, 0.0f, {1, 1, 1}}, {1.0f, 6.0f, {1, 1, 1}}};
+  v.transfer = {{0.0f, vec3(0.0f), {1, 1, 1}}, {1.0f, vec3(6.0f), {1, 1, 1}}};
   v.step_voxels = 0.5f;
   s.volumes.push_back(v);
   Object box;

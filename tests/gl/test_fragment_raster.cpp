@@ -428,7 +428,7 @@ TEST_F(FragmentRaster, ClosedBoxesLeaveNoUnmatchedFragments) {
   for (ObjectData& o : s.sb.objects) {
     o.opacity = 0.0f;
     o.interior = 1;  // a medium: the walker's matching decides its segments
-    o.sigma = 1.0f;
+    o.sigma = vec3(1.0f);
   }
   s.finish();
   gl::FragmentRasterizer r(context());

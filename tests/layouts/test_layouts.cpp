@@ -43,7 +43,7 @@ Scene make_scene() {
   gel.transform = make_transform({0.7f, 0.5f, -0.6f}, {0, 0, 0}, {1, 1, 1});
   gel.surface.opacity = 0.2f;
   gel.interior = InteriorKind::Constant;
-  gel.sigma = 2.0f;
+  gel.sigma = vec3(2.0f);
   s.objects.push_back(gel);
 
   NoiseVolumeParams np;
@@ -56,7 +56,7 @@ Scene make_scene() {
   const float vs = 0.04f;
   v.index_to_object.m[0][0] = v.index_to_object.m[1][1] = v.index_to_object.m[2][2] = vs;
   for (int a = 0; a < 3; ++a) v.index_to_object.m[a][3] = -0.48f + 0.5f * vs;  // box [-0.48, 0.48]^3
-  v.transfer = {{0.0f, 0.0f, {1, 1, 1}}, {1.0f, 12.0f, {1, 1, 1}}};
+  v.transfer = {{0.0f, vec3(0.0f), {1, 1, 1}}, {1.0f, vec3(12.0f), {1, 1, 1}}};
   s.volumes.push_back(v);
   Object smoke;
   smoke.name = "smoke";

@@ -34,7 +34,7 @@ void expect_same_scene(const Scene& a, const Scene& b) {
     EXPECT_EQ(0, std::memcmp(&x.transform, &y.transform, sizeof(Mat4)));
     EXPECT_EQ(x.surface.opacity, y.surface.opacity);
     EXPECT_EQ(x.interior, y.interior);
-    EXPECT_EQ(x.sigma, y.sigma);
+    EXPECT_EQ(std::memcmp(&x.sigma, &y.sigma, sizeof x.sigma), 0);
   }
   ASSERT_EQ(a.lights.size(), b.lights.size());
   for (size_t i = 0; i < a.lights.size(); ++i) {

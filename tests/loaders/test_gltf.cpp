@@ -230,13 +230,16 @@ TEST(Gltf, GlbSceneWithLightsCameraAndMaterials) {
   // The mirrored glass cube keeps glTF's winding in mesh space (outward
   // there); compile_scene flips it under the mirroring transform, once (the
   // compiled world triangles below face outwards). Its attenuation is a
-  // constant interior: mean of -ln(c)/d.
+  // constant interior, -ln(c)/d per channel.
   EXPECT_TRUE(is_closed(*mir.mesh));
   EXPECT_LT(det3(mir.transform), 0.0f);
   EXPECT_GT(signed_volume(*mir.mesh), 0.0);
   EXPECT_NEAR(mir.surface.opacity, 0.5f, 1e-6f);
   ASSERT_EQ(mir.interior, InteriorKind::Constant);
-  EXPECT_NEAR(mir.sigma, float((std::log(2.0) + std::log(4.0) + 0.0) / 2.0 / 3.0), 1e-5f);
+  // Per channel, no averaging: sigma_k = -ln(attenuationColor_k) / attenuationDistance.
+  EXPECT_NEAR(mir.sigma.x, float(std::log(2.0) / 2.0), 1e-5f);
+  EXPECT_NEAR(mir.sigma.y, float(std::log(4.0) / 2.0), 1e-5f);
+  EXPECT_NEAR(mir.sigma.z, 0.0f, 1e-6f);
   // Lights: intensities relative to the brightest; the spot points down.
   ASSERT_EQ(s.lights.size(), 2u);
   const Light& key = s.lights[0];

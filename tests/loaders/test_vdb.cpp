@@ -47,10 +47,10 @@ Scene volume_scene(const VdbVolume& vdb, float sigma, VolumeProxy proxy, Vec3 li
   v.name = "v";
   v.sparse = vdb.grid;
   v.index_to_object = vdb.index_to_object;
-  v.transfer = {{0.0f, 0.0f, {1, 1, 1}}};
-  if (threshold > 0.0f) v.transfer.push_back({threshold, 0.0f, {1, 1, 1}});
-  v.transfer.push_back({1.0f, sigma, {1, 1, 1}});
-  v.transfer.push_back({1000.0f, sigma * 1000.0f, {1, 1, 1}});
+  v.transfer = {{0.0f, vec3(0.0f), {1, 1, 1}}};
+  if (threshold > 0.0f) v.transfer.push_back({threshold, vec3(0.0f), {1, 1, 1}});
+  v.transfer.push_back({1.0f, vec3(sigma), {1, 1, 1}});
+  v.transfer.push_back({1000.0f, vec3(sigma * 1000.0f), {1, 1, 1}});
   s.volumes.push_back(v);
   Object o;
   o.name = "v";
@@ -410,10 +410,10 @@ TEST(VdbBad, FuzzFindingsAreClearErrorsWithoutHugeAllocations) {
 // macro-cell's stored maximum (which must bound it: > 0 would skip data).
 double brute_tau(const SceneView& s, const VolumeData& v, Vec3 a, Vec3 b, int n, double& excess) {
   double tau = 0.0, len = length(b - a);
-  const float bg = apply_transfer(v.tf, v.background).extinction;
+  const float bg = apply_transfer(v.tf, v.background).extinction.x;
   for (int i = 0; i < n; ++i) {
     Vec3 p = a + (b - a) * ((float(i) + 0.5f) / float(n));
-    float ext = apply_transfer(v.tf, density_at(s, v, p)).extinction;
+    float ext = apply_transfer(v.tf, density_at(s, v, p)).extinction.x;
     float mx = macro_max_at(s, v, v.world_to_index.point(p));
     excess = std::max(excess, double(ext - (mx < 0.0f ? bg : mx)));
     tau += ext * len / n;

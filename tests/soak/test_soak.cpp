@@ -65,7 +65,7 @@ Object make(const std::string& name, TriangleMesh mesh, Vec3 at, float opacity, 
   o.surface.opacity = opacity;
   if (sigma > 0.0f) {
     o.interior = InteriorKind::Constant;
-    o.sigma = sigma;
+    o.sigma = vec3(sigma);
   }
   return o;
 }
@@ -92,7 +92,7 @@ Scene soak_scene() {
   v.name = "puff";
   v.grid = make_noise_volume(np);
   v.index_to_object = make_transform({0.02f, 0.02f, 0.02f}, {0, 0, 0}, {0.04f, 0.04f, 0.04f});
-  v.transfer = {TransferPoint{0.0f, 0.0f, {0.9f, 0.9f, 0.9f}}, TransferPoint{1.0f, 6.0f, {0.9f, 0.9f, 0.9f}}};
+  v.transfer = {TransferPoint{0.0f, vec3(0.0f), {0.9f, 0.9f, 0.9f}}, TransferPoint{1.0f, vec3(6.0f), {0.9f, 0.9f, 0.9f}}};
   s.volumes.push_back(v);
   Object puff;
   puff.name = "puff";

@@ -45,7 +45,7 @@ inline Object medium_object(const std::string& name, TriangleMesh mesh, Mat4 tra
                             float opacity = 0.0f) {
   Object o = surface_object(name, std::move(mesh), transform, opacity);
   o.interior = InteriorKind::Constant;
-  o.sigma = sigma;
+  o.sigma = vec3(sigma);
   return o;
 }
 
@@ -70,7 +70,7 @@ inline void add_uniform_volume(Scene& s, const std::string& name, Vec3 lo, Vec3 
   m.m[1][3] = lo.y + 0.5f * vs.y;
   m.m[2][3] = lo.z + 0.5f * vs.z;
   v.index_to_object = m;
-  v.transfer = {TransferPoint{0.0f, 0.0f, albedo}, TransferPoint{1.0f, sigma, albedo}};
+  v.transfer = {TransferPoint{0.0f, vec3(0.0f), albedo}, TransferPoint{1.0f, vec3(sigma), albedo}};
   v.step_voxels = step_voxels;
   s.volumes.push_back(v);
   Object o;

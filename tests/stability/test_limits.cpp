@@ -28,7 +28,7 @@ Scene fog_slab(int voxels_y, float sigma) {
   m.m[0][3] = m.m[2][3] = -1.0f;
   m.m[1][3] = 1.0f + 1.0f / float(voxels_y);
   v.index_to_object = m;
-  v.transfer = {TransferPoint{0, 0, {0, 0, 0}}, TransferPoint{1, sigma, {0, 0, 0}}};
+  v.transfer = {TransferPoint{0, vec3(0), {0, 0, 0}}, TransferPoint{1, vec3(sigma), {0, 0, 0}}};
   s.volumes.push_back(v);
   Object o;
   o.name = "fog";
@@ -354,9 +354,9 @@ TEST(BadNumbers, NaNOrInfInLightsCameraAndMaterialsIsRejected) {
       {"surface opacity", [](Scene& s) { s.objects[0].surface.opacity = std::nanf(""); }},
       {"medium sigma", [](Scene& s) {
          s.objects[0].interior = InteriorKind::Constant;
-         s.objects[0].sigma = INFINITY;
+         s.objects[0].sigma = vec3(INFINITY);
        }},
-      {"transfer extinction", [](Scene& s) { s.volumes[0].transfer[1].extinction = std::nanf(""); }},
+      {"transfer extinction", [](Scene& s) { s.volumes[0].transfer[1].extinction = vec3(std::nanf("")); }},
   };
   std::string bugs;
   for (const Case& c : cases) {

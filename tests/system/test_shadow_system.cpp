@@ -371,7 +371,7 @@ TEST(ShadowSystem, AddingAndRemovingAThousandTimesLeavesMemoryWhereItStarted) {
   ball.mesh = std::make_shared<TriangleMesh>(make_sphere(0.4f, 16, 8));
   ball.transform = make_transform({0.8f, 0.4f, 0}, {0, 0, 0}, {1, 1, 1});
   ball.interior = InteriorKind::Constant;
-  ball.sigma = 2.0f;
+  ball.sigma = vec3(2.0f);
   ball.surface.opacity = 0.0f;
 
   ShadowSystem sys;

@@ -62,7 +62,7 @@ TEST(CompileErrors, SingularTransform) {
   Volume v;
   v.name = "fog";
   v.grid = g;
-  v.transfer = {TransferPoint{0, 1, {1, 1, 1}}};
+  v.transfer = {TransferPoint{0, vec3(1), {1, 1, 1}}};
   s.volumes.push_back(v);
   Object o = make_object("fog", make_box({1, 1, 1}));
   o.interior = InteriorKind::Volume;

@@ -58,7 +58,7 @@ Fit dsm_segment(float t0, float t1, float sigma, float eps, float alpha0) {
     vis.c.step(buf, t0, alpha0);
   }
   SegmentMedia m;
-  m.sigma = sigma;
+  m.sigma = vec3(sigma);
   vis.segment(t0, t1, m);
   vis.c.finish(buf);
   Fit f;
@@ -94,7 +94,7 @@ TEST(DenseMedia, BaselinePiecesFollowTheExponential) {
     SceneView sv{};
     ExactAlphaVisitor<FixedNodeBuilder> vis(sv, Vec3{0, 0, 0}, Vec3{0, 0, 1}, b);
     SegmentMedia m;
-    m.sigma = sigma;
+    m.sigma = vec3(sigma);
     vis.segment(t0, t0 + len, m);
     Fit f;
     f.nodes.assign(buf.nodes, buf.nodes + buf.count);

@@ -194,7 +194,7 @@ Scene sphere_scene(int res, bool filtering) {
   Scene s = empty_scene("sphere");
   Object o = make_object("sphere", make_sphere(1.0f, 48, 24), Mat4{}, 0.0f);
   o.interior = InteriorKind::Constant;
-  o.sigma = 1.5f;
+  o.sigma = vec3(1.5f);
   s.objects.push_back(o);
   s.lights.push_back(spot_light({0.3f, 4.0f, 0.2f}, normalize(Vec3{-0.3f, -4.0f, -0.2f}), 25.0f, 20.0f));
   s.shadows.epsilon = 0.01f;
@@ -312,7 +312,7 @@ Scene slab_scene(float sigma, int res, bool filtering) {
   v.index_to_object.m[0][3] = origin.x + 0.5f * vs;
   v.index_to_object.m[1][3] = origin.y + 0.5f * vs;
   v.index_to_object.m[2][3] = origin.z + 0.5f * vs;
-  v.transfer = {TransferPoint{0.0f, 0.0f, {1, 1, 1}}, TransferPoint{1.0f, sigma, {1, 1, 1}}};
+  v.transfer = {TransferPoint{0.0f, vec3(0.0f), {1, 1, 1}}, TransferPoint{1.0f, vec3(sigma), {1, 1, 1}}};
   v.step_voxels = 0.5f;
   s.volumes.push_back(v);
   Object o = make_object("slab", make_box({6.0f, 0.2f, 6.0f}), Mat4{}, 0.0f);
@@ -544,7 +544,7 @@ TEST(BeerLambert, LightInsideConstantMedium) {
   Scene s = empty_scene("inside");
   Object o = make_object("sphere", make_sphere(1.0f, 32, 16), translation({0.05f, 0.02f, -0.03f}), 0.0f);
   o.interior = InteriorKind::Constant;
-  o.sigma = sigma;
+  o.sigma = vec3(sigma);
   s.objects.push_back(o);
   s.lights.push_back(point_light({0.0f, 0.0f, 0.0f}));
   s.shadows.epsilon = eps;
@@ -591,7 +591,7 @@ TEST(LightPass, SaturatedRayEndsAtOpaqueSurface) {
   s.objects.push_back(make_object("wall", make_quad(3.0f, 3.0f), translation({0, 2, 0}), 1.0f));
   Object o = make_object("sphere", make_sphere(0.8f, 24, 12), Mat4{}, 0.3f);
   o.interior = InteriorKind::Constant;
-  o.sigma = 2.0f;
+  o.sigma = vec3(2.0f);
   s.objects.push_back(o);
   s.lights.push_back(spot_light({0.01f, 5.0f, 0.02f}, {0, -1, 0}, 20.0f, 15.0f));
   s.shadows.resolution = 64;

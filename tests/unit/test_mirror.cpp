@@ -65,7 +65,7 @@ Scene mirror_scene(Kind kind, float sx, bool eye_inside = false) {
     v.name = "vol";
     v.grid = symmetric_grid();
     v.index_to_object = make_transform({-0.75f, -0.75f, -0.75f}, {0, 0, 0}, {0.1f, 0.1f, 0.1f});  // [-0.8, 0.8]^3
-    v.transfer = {TransferPoint{0.0f, 0.0f, {1, 1, 1}}, TransferPoint{1.0f, 3.0f, {0.9f, 0.8f, 0.7f}}};
+    v.transfer = {TransferPoint{0.0f, vec3(0.0f), {1, 1, 1}}, TransferPoint{1.0f, vec3(3.0f), {0.9f, 0.8f, 0.7f}}};
     s.volumes.push_back(v);
     Object o;
     o.name = "vol";
@@ -80,7 +80,7 @@ Scene mirror_scene(Kind kind, float sx, bool eye_inside = false) {
     Object o = make_object(name_of(kind), sphere ? make_sphere(0.8f, 48, 24) : make_box({1.4f, 1.2f, 1.0f}), xf,
                            sphere ? 0.0f : 0.4f);
     o.interior = InteriorKind::Constant;
-    o.sigma = sphere ? 1.5f : 0.8f;
+    o.sigma = vec3(sphere ? 1.5f : 0.8f);
     s.objects.push_back(o);
   }
   s.lights.push_back(spot_light({0.5f, 5.0f, 1.0f}, normalize(Vec3{-0.5f, -4.0f, -1.0f}), 35.0f, 30.0f));

@@ -5,6 +5,8 @@
 // translucent caster 1 mm above a receive-only ground shadows it.
 #include <gtest/gtest.h>
 
+#include <cstring>
+
 #include <cstdio>
 #include <vector>
 
@@ -56,7 +58,7 @@ std::vector<RecordedLookup> camera_lookups(const Scene& scene, Built& b, const V
 double mean_error(const std::vector<RecordedLookup>& ls, const ReferenceRenderer& ref) {
   double se = 0, sw = 0;
   for (const RecordedLookup& l : ls) {
-    se += l.weight * std::fabs(double(l.transmittance) - ref.transmittance(l.light, l.at.p));
+    se += l.weight * std::fabs(double(grey_of(l.transmittance)) - ref.transmittance(l.light, l.at.p));
     sw += l.weight;
   }
   return sw > 0 ? se / sw : 0.0;
@@ -83,7 +85,7 @@ Scene phong_volume_scene() {
   v.index_to_object.m[0][0] = v.index_to_object.m[1][1] = v.index_to_object.m[2][2] = voxel;
   v.index_to_object.m[0][3] = v.index_to_object.m[2][3] = -12.0f * voxel;
   v.index_to_object.m[1][3] = 0.0f;
-  v.transfer = {TransferPoint{0.0f, 0.0f, {1, 1, 1}}, TransferPoint{1.0f, 6.0f, {1, 1, 1}}};
+  v.transfer = {TransferPoint{0.0f, vec3(0.0f), {1, 1, 1}}, TransferPoint{1.0f, vec3(6.0f), {1, 1, 1}}};
   v.shading = VolumeShading::Phong;
   s.volumes.push_back(v);
   Object cube;
@@ -107,10 +109,10 @@ Scene phong_volume_scene() {
 // 5 cm short of their depth.
 struct VolumeBiasedVisibility {
   const ShadowView& sv;
-  float operator()(int light, const Receiver& r) const {
+  Vec3 operator()(int light, const Receiver& r) const {
     if (dot(r.plane, r.plane) > 0.0f) return DsmVisibility{sv}(light, r);
     const Vec3 to_light = normalize(sv.lights[uint32_t(light)].position - r.p);
-    return 1.0f - shadow_alpha(sv, sv.lights[uint32_t(light)], r.p + to_light * 0.05f);
+    return one_minus(shadow_alpha_rgb(sv, sv.lights[uint32_t(light)], r.p + to_light * 0.05f));
   }
 };
 
@@ -142,7 +144,10 @@ TEST(Receivers, ProbeRecordsTheCameraPassLookupsAndVolumesAreUnbiased) {
   EXPECT_GT(ground, 200u);
   EXPECT_EQ(wrong, 0u) << "of " << ls.size() << " lookups";
   // Each recorded value is the functor's answer at the recorded arguments.
-  for (size_t i = 0; i < ls.size(); i += 97) EXPECT_EQ(ls[i].transmittance, vis(ls[i].light, ls[i].at));
+  for (size_t i = 0; i < ls.size(); i += 97) {
+    const Vec3 again = vis(ls[i].light, ls[i].at);
+    EXPECT_EQ(std::memcmp(&ls[i].transmittance, &again, sizeof again), 0);
+  }
 
   ReferenceRenderer ref(b.sb.view(), b.frame.setup.lights);
   const double good = mean_error(ls, ref);
@@ -176,7 +181,7 @@ TEST(Receivers, NoAcneOnALitCasterPlaneFromHeadOnTo85Degrees) {
         for (float z = -1.9f; z <= 1.9f; z += 0.05f) {
           const Vec3 p{x, 0.0f, z};
           if (cone_factor(L, p) <= 0.0f) continue;
-          worst = std::max(worst, std::fabs(1.0f - vis(0, Receiver{p, {0, 1, 0}, true})));
+          worst = std::max(worst, std::fabs(1.0f - grey_of(vis(0, Receiver{p, {0, 1, 0}, true}))));
           ++n;
         }
       EXPECT_GT(n, 100) << res << " " << deg;
@@ -199,7 +204,7 @@ TEST(Receivers, LoneTranslucentQuadIsLitOnItself) {
   for (float x = -0.95f; x <= 0.95f; x += 0.05f)
     for (float z = -0.95f; z <= 0.95f; z += 0.05f) {
       const Vec3 p{x, 0.5f, z};
-      worst = std::max(worst, std::fabs(1.0f - vis(0, Receiver{p, {0, 1, 0}, true})));
+      worst = std::max(worst, std::fabs(1.0f - grey_of(vis(0, Receiver{p, {0, 1, 0}, true}))));
     }
   EXPECT_LE(worst, 1e-3f);
 }
@@ -249,7 +254,7 @@ TEST(Receivers, TranslucentBoxOneMillimetreAboveTheGround) {
     int n = 0, lit = 0;
     for (const RecordedLookup& l : camera_lookups(s, b, vis, 1)) {
       if (std::fabs(l.at.p.y) > 1e-3f) continue;  // the ground's top face
-      const double e = std::fabs(double(l.transmittance) - ref.transmittance(l.light, l.at.p));
+      const double e = std::fabs(double(grey_of(l.transmittance)) - ref.transmittance(l.light, l.at.p));
       if (under_the_box(L, l.at.p)) {
         sum += e;
         worst = std::max(worst, e);
@@ -298,7 +303,7 @@ TEST(Receivers, StackedTranslucentSheetsOneMillimetreApart) {
       for (float x = -0.6f; x <= 0.6f; x += 0.05f)
         for (float z = -0.6f; z <= 0.6f; z += 0.05f) {
           const Vec3 p{x, 0.5f - 0.001f * float(k), z};
-          worst = std::max(worst, float(std::fabs(vis(0, Receiver{p, {0, 1, 0}, true}) - expected)));
+          worst = std::max(worst, float(std::fabs(grey_of(vis(0, Receiver{p, {0, 1, 0}, true})) - expected)));
         }
     }
     EXPECT_LE(worst, 1e-3f) << "light at " << tilt << " degrees";
@@ -353,10 +358,10 @@ TEST(Receivers, NoLeakOrAcneAtTerminators) {
       ++band;
       continue;
     }
-    const double e = std::fabs(double(l.transmittance) - t_ref);
+    const double e = std::fabs(double(grey_of(l.transmittance)) - t_ref);
     if (e > 0.02 && std::getenv("CDSM_TEST_VERBOSE"))
       std::printf("  at %.3f %.3f %.3f n.l %.3f: dsm %.4f ref %.4f\n", l.at.p.x, l.at.p.y, l.at.p.z,
-                  dot(normalize(L.position - l.at.p), n0), l.transmittance, t_ref);
+                  dot(normalize(L.position - l.at.p), n0), grey_of(l.transmittance), t_ref);
     worst = std::max(worst, e);
     ++n;
   }

@@ -96,7 +96,8 @@ TEST(SceneJson, BaseSceneParses) {
   ASSERT_EQ(s.objects.size(), 4u);
   EXPECT_FLOAT_EQ(s.objects[2].surface.opacity, 0.5f);
   EXPECT_EQ(s.objects[2].interior, InteriorKind::Constant);
-  EXPECT_FLOAT_EQ(s.objects[2].sigma, 1.5f);
+  EXPECT_FLOAT_EQ(s.objects[2].sigma.x, 1.5f);
+  EXPECT_TRUE(is_grey(s.objects[2].sigma)) << "a scalar sigma is every channel's";
   EXPECT_EQ(s.objects[3].interior, InteriorKind::Volume);
   EXPECT_EQ(s.objects[3].volume, 0);
   EXPECT_FALSE(s.objects[0].casts_shadows);

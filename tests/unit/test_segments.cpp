@@ -38,7 +38,7 @@ struct Recorder {
     return true;
   }
   bool segment(float t0, float t1, const SegmentMedia& m) {
-    segments.push_back({t0, t1, m.sigma, m.volume_count});
+    segments.push_back({t0, t1, m.sigma.x, m.volume_count});  // grey media here
     return true;
   }
 };
@@ -46,7 +46,7 @@ struct Recorder {
 Object box_with_sigma(const std::string& name, float size, float sigma, Vec3 at = {0, 0, 0}) {
   Object o = make_object(name, make_box({size, size, size}), translation(at));
   o.interior = InteriorKind::Constant;
-  o.sigma = sigma;
+  o.sigma = vec3(sigma);
   return o;
 }
 
@@ -67,7 +67,7 @@ SceneBuffers walker_scene() {
   open.indices = kept;
   Object o = make_object("open", open, translation({10, 0, 0}));
   o.interior = InteriorKind::Constant;
-  o.sigma = 1000.0f;
+  o.sigma = vec3(1000.0f);
   s.objects.push_back(o);
   return compile_scene(s);
 }

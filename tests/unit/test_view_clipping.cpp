@@ -51,7 +51,7 @@ void add_medium(Scene& s, Medium kind, Vec3 lo, Vec3 hi, float sigma) {
     v.grid = g;
     // Index box [-0.5, 15.5]^3 -> [lo, hi].
     v.index_to_object = make_transform(lo + e * (0.5f / 16), {0, 0, 0}, e * (1.0f / 16));
-    v.transfer = {TransferPoint{0.0f, sigma, {0.9f, 0.9f, 0.9f}}};
+    v.transfer = {TransferPoint{0.0f, vec3(sigma), {0.9f, 0.9f, 0.9f}}};
     v.step_voxels = 0.25f;
     s.volumes.push_back(v);
     Object o;
@@ -64,7 +64,7 @@ void add_medium(Scene& s, Medium kind, Vec3 lo, Vec3 hi, float sigma) {
   } else {
     Object o = make_object("sphere", make_sphere(0.5f * e.x, 64, 32), translation(c), 0.0f);
     o.interior = InteriorKind::Constant;
-    o.sigma = sigma;
+    o.sigma = vec3(sigma);
     s.objects.push_back(o);
   }
 }

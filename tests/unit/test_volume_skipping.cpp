@@ -79,7 +79,7 @@ Medium make_medium(const std::string& name, std::shared_ptr<DenseGrid> dense, st
   v.grid = dense;
   v.sparse = sparse;
   v.index_to_object = make_transform({0, 0, 0}, {0, 0, 0}, {0.05f, 0.05f, 0.05f});
-  v.transfer = {TransferPoint{0.0f, 0.0f, {1, 1, 1}}, TransferPoint{1.0f, 4.0f, {1, 1, 1}}};
+  v.transfer = {TransferPoint{0.0f, vec3(0.0f), {1, 1, 1}}, TransferPoint{1.0f, vec3(4.0f), {1, 1, 1}}};
   v.step_voxels = 0.25f;
   s.volumes.push_back(v);
   TriangleMesh box = make_box((proxy_hi - proxy_lo) * 0.05f);
@@ -107,7 +107,7 @@ double brute_alpha(const SceneView& sv, Vec3 org, Vec3 dir, double z, Vec3 lo, V
   const VolumeData& v = sv.volumes[0];
   auto sigma = [&](double t) {
     Vec3 p = org + dir * float(t);
-    return double(apply_transfer(v.tf, density_at(sv, v, p)).extinction);
+    return double(apply_transfer(v.tf, density_at(sv, v, p)).extinction.x);
   };
   const int n = 4000;
   double h = (t1 - t0) / n, tau = 0.0;

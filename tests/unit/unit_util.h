@@ -151,7 +151,7 @@ struct ShadowFixture {
 // normal n: 1 - alpha with each tap at the plane's depth along its own ray,
 // stopped short of the own step (hd/lights.h Receiver, hd/camera_pass.h).
 inline float surface_visibility(const ShadowView& sv, int light, Vec3 p, Vec3 n) {
-  return DsmVisibility{sv}(light, Receiver{p, n, true});
+  return grey_of(DsmVisibility{sv}(light, Receiver{p, n, true}));
 }
 
 // A volume sample's visibility: looked up at its own depth.

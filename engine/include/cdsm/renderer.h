@@ -48,6 +48,12 @@ struct DsmMemory {
   uint32_t max_nodes_per_texel = 0;
   uint64_t overflow_texels = 0;   // re-compressed to fit the per-texel buffer
   float max_extra_error = 0.0f;   // error those re-compressions added (bound)
+  // Per map kind: grey maps store scalar nodes (8 bytes; chunked slots 12),
+  // RGB maps (a coloured caster among their members) 16 bytes (chunked 20).
+  uint64_t rgb_maps = 0;
+  uint64_t grey_bytes = 0;        // index + node + slack bytes of the grey maps
+  uint64_t rgb_bytes = 0;         // the same of the RGB maps
+  uint64_t rgb_nodes = 0;         // nodes in RGB maps (of `nodes`)
 };
 
 // Compositing-weighted statistics of one kind of transmittance error.
@@ -84,6 +90,10 @@ struct TransmittanceError {
   double rmse = 0.0;
   ErrorSummary map, resolution, total;  // over all points
   ErrorClass edge, interior;
+  // Every figure above is the largest over the colour channels of that
+  // figure per channel (grey scenes: the one value); the mean total error
+  // per channel:
+  double channel_mean[3] = {0, 0, 0};
 };
 
 // The clusters of one light in a frame (thesis Alg. 4.2).

@@ -22,10 +22,28 @@ struct TriangleMesh {
   size_t triangle_count() const { return indices.size() / 3; }
 };
 
-// Surface appearance (thesis eq. 3.8 constants) and opacity of the boundary.
+// Surface appearance (thesis eq. 3.8 constants) and how much light the
+// boundary passes, per colour channel k:
+//
+//   T_k = (1 - opacity) * transmission_color_k
+//
+// Physical reading: `opacity` is the coverage a of the surface, the part
+// that reflects (shaded with `color`, composited with weight a); the rest,
+// 1 - a, is a filter that passes transmission_color f (linear RGB, in
+// [0, 1]). So opacity 1 is opaque whatever f; a white surface (f = 1) of
+// opacity a passes 1 - a in every channel (grey: exactly the result before
+// colours existed); a clear tinted glass is opacity 0 with f its tint, and
+// passes f. A surface that passes everything (opacity 0, f white: a volume's
+// proxy) is invisible to the camera, the maps and the reference; a tinted
+// one of opacity 0 is not. glTF (engine/src/loaders/gltf_loader.cpp):
+// alphaMode BLEND gives the coverage a = baseColorFactor alpha (OPAQUE: 1);
+// KHR_materials_transmission t makes a fraction t of the covered part pass,
+// tinted by the base colour c: opacity = a (1 - t) and
+// f = ((1 - a) + a t c) / (1 - a (1 - t)), which is the same light passed.
 struct SurfaceMaterial {
   Vec3 color{0.8f, 0.8f, 0.8f};
-  float opacity = 1.0f;    // 1 = opaque, 0 = invisible boundary (volume proxies)
+  float opacity = 1.0f;    // coverage a: 1 = opaque, 0 = a pure filter (or, white, an invisible proxy)
+  Vec3 transmission_color{1.0f, 1.0f, 1.0f};  // filter f of the uncovered part, linear RGB in [0, 1]
   float ambient = 0.15f;   // k_a
   float diffuse = 0.85f;   // k_d
   float specular = 0.25f;  // k_s
@@ -47,8 +65,8 @@ struct DenseGrid {
 // One control point of a piecewise-linear transfer function.
 struct TransferPoint {
   float density = 0.0f;     // input value of the grid
-  float extinction = 0.0f;  // sigma_t, per world unit
-  Vec3 color{1, 1, 1};      // albedo (scatter) or base colour (phong)
+  Vec3 extinction{0, 0, 0};  // sigma_t per colour channel, per world unit (equal channels: grey)
+  Vec3 color{1, 1, 1};       // albedo (scatter) or base colour (phong)
 };
 
 enum class VolumeShading : uint32_t { Scatter = 0, Phong = 1 };
@@ -97,7 +115,8 @@ struct Object {
   bool casts_shadows = true;
   SurfaceMaterial surface;
   InteriorKind interior = InteriorKind::None;
-  float sigma = 0.0f;   // Constant: extinction per world unit (Beer-Lambert)
+  Vec3 sigma{0, 0, 0};  // Constant: extinction per colour channel, per world unit (Beer-Lambert;
+                        // glTF KHR_materials_volume: -ln(attenuationColor_k) / attenuationDistance)
   int32_t volume = -1;  // Volume: index into Scene::volumes
 };
 
@@ -167,6 +186,11 @@ struct ShadowSettings {
   ShadowMethod method = ShadowMethod::Dsm;
   float method_param = 0.0f;    // ShadowMap: opacity threshold; slices / nodes count
   Vec3 ambient_light{1, 1, 1};  // i_a
+  // Maps whose casters include a coloured one (a tinted surface, a medium or
+  // volume whose extinction differs between channels) store RGB nodes;
+  // false keeps every map scalar, coloured casters entering by their channel
+  // mean (the benchmark's cost comparison). Grey maps are scalar either way.
+  bool rgb_maps = true;
   // Memory a frame may use, MiB: scenes and settings estimated to need more
   // are refused before anything is allocated. 0: half the physical memory.
   int64_t max_memory_mib = 0;

@@ -90,7 +90,7 @@ class ShadowSystem {
   ObjectHandle add_object(const Object& o, VolumeHandle volume = {});
   void set_transform(ObjectHandle h, const Mat4& transform);
   void set_surface(ObjectHandle h, const SurfaceMaterial& surface);
-  void set_interior(ObjectHandle h, InteriorKind interior, float sigma, VolumeHandle volume = {});
+  void set_interior(ObjectHandle h, InteriorKind interior, Vec3 sigma, VolumeHandle volume = {});
   void set_mesh(ObjectHandle h, std::shared_ptr<const TriangleMesh> mesh);
   void set_casts_shadows(ObjectHandle h, bool casts);
   void remove_object(ObjectHandle h);

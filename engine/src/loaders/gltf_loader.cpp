@@ -47,7 +47,7 @@ std::string material_label(const tinygltf::Model& m, int i) {
 // like dielectrics of their base colour.
 struct MaterialResult {
   SurfaceMaterial surface;
-  float sigma = 0.0f;  // KHR_materials_volume: constant interior extinction
+  Vec3 sigma{0, 0, 0};  // KHR_materials_volume: constant interior extinction per channel
 };
 
 MaterialResult convert_material(const File& f, int index, const std::string& node, Unsupported& un) {
@@ -84,7 +84,16 @@ MaterialResult convert_material(const File& f, int index, const std::string& nod
     if (name == "KHR_materials_transmission") {
       const double t = number(ext, "transmissionFactor", 0.0);
       if (!std::isfinite(t)) throw Error(f.path, label + ": transmissionFactor is NaN or infinite");
-      r.surface.opacity *= 1.0f - std::min(std::max(float(t), 0.0f), 1.0f);
+      // A fraction t of the covered part passes, tinted by the base colour
+      // (cdsm/scene.h SurfaceMaterial): the light passed per channel is
+      // (1 - a) + a t c_k = (1 - opacity) f_k with opacity = a (1 - t).
+      const float tt = std::min(std::max(float(t), 0.0f), 1.0f), cover = r.surface.opacity;
+      r.surface.opacity = cover * (1.0f - tt);
+      if (tt > 0.0f && r.surface.opacity < 1.0f) {
+        const float pass = 1.0f - r.surface.opacity;  // > 0
+        for (int i = 0; i < 3; ++i)
+          r.surface.transmission_color[i] = std::min(((1.0f - cover) + cover * tt * c[i]) / pass, 1.0f);
+      }
       if (has_texture(ext, "transmissionTexture")) un.add("textures", label);
     } else if (name == "KHR_materials_volume") {
       const double d = number(ext, "attenuationDistance", INFINITY);
@@ -92,11 +101,9 @@ MaterialResult convert_material(const File& f, int index, const std::string& nod
       if (std::isnan(d) || !is_finite(col) || !(d > 0))
         throw Error(f.path, label + ": KHR_materials_volume attenuation is NaN or not positive");
       if (std::isfinite(d)) {
-        // Beer-Lambert per channel: T = c^(x/d), sigma = -ln(c)/d; shadows
-        // are scalar, so the mean of the three.
-        float s = 0.0f;
-        for (int i = 0; i < 3; ++i) s += -std::log(std::min(std::max(col[i], 1e-4f), 1.0f)) / float(d);
-        r.sigma = s / 3.0f;
+        // Beer-Lambert per channel: T_k = c_k^(x/d), sigma_k = -ln(c_k)/d
+        // (a channel of 0 absorbs as if 1e-4: finite).
+        for (int i = 0; i < 3; ++i) r.sigma[i] = -std::log(std::min(std::max(col[i], 1e-4f), 1.0f)) / float(d);
       }
       if (has_texture(ext, "thicknessTexture")) un.add("textures", label);
     } else {
@@ -224,7 +231,7 @@ Scene load_gltf_scene(const std::string& path) {
       o.transform = g;
       MaterialResult mr = convert_material(f, me.primitives[p].material, label, un);
       o.surface = mr.surface;
-      if (mr.sigma > 0.0f) {
+      if (max_channel(mr.sigma) > 0.0f) {
         if (closed) {
           o.interior = InteriorKind::Constant;
           o.sigma = mr.sigma;

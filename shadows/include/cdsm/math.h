@@ -50,6 +50,14 @@ CDSM_HD CDSM_INLINE Vec3 vmax(Vec3 a, Vec3 b) {
   return {fmaxf(a.x, b.x), fmaxf(a.y, b.y), fmaxf(a.z, b.z)};
 }
 CDSM_HD CDSM_INLINE float clampf(float v, float lo, float hi) { return fminf(fmaxf(v, lo), hi); }
+
+// Colour channels (RGB transmittance, issue "Coloured shadows").
+CDSM_HD CDSM_INLINE float max_channel(Vec3 a) { return fmaxf(a.x, fmaxf(a.y, a.z)); }
+CDSM_HD CDSM_INLINE float min_channel(Vec3 a) { return fminf(a.x, fminf(a.y, a.z)); }
+CDSM_HD CDSM_INLINE bool is_grey(Vec3 a) { return a.x == a.y && a.y == a.z; }
+// The one value of a grey triple (exactly), else the channel mean.
+CDSM_HD CDSM_INLINE float grey_of(Vec3 a) { return is_grey(a) ? a.x : (a.x + a.y + a.z) * (1.0f / 3.0f); }
+CDSM_HD CDSM_INLINE Vec3 one_minus(Vec3 a) { return {1.0f - a.x, 1.0f - a.y, 1.0f - a.z}; }
 CDSM_HD CDSM_INLINE float lerpf(float a, float b, float t) { return a + (b - a) * t; }
 // True unless NaN or +-Inf (x - x is NaN exactly then); works on both sides.
 CDSM_HD CDSM_INLINE bool is_finite(float x) { return (x - x) == 0.0f; }
