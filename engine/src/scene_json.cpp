@@ -91,7 +91,7 @@ struct Parser {
 
   ShadowSettings shadows(const JsonNode& n) {
     n.expect_object({"epsilon", "resolution", "filtering", "bias_constant", "bias_slope", "clusters", "d0",
-                     "layout", "method", "method_param", "ambient",
+                     "layout", "method", "method_param", "ambient", "rgb_maps",
                      "fixed_layers", "chunk_nodes", "parallel_splits", "max_memory", "receiver"});
     ShadowSettings s;  // ranges: validate_scene
     s.epsilon = n.get("epsilon", s.epsilon);
@@ -123,6 +123,7 @@ struct Parser {
     else n.at("method").fail("unknown method '" + method + "' (dsm, shadow_map, opacity_slices or fixed_nodes)");
     s.method_param = n.get("method_param", s.method_param);
     s.ambient_light = n.get("ambient", s.ambient_light);
+    s.rgb_maps = n.get("rgb_maps", s.rgb_maps);
     return s;
   }
 

@@ -678,7 +678,8 @@ bool same_settings(const ShadowSettings& a, const ShadowSettings& b) {
          a.receiver == b.receiver && a.max_clusters == b.max_clusters && a.parallel_splits == b.parallel_splits &&
          same_bytes(a.d0, b.d0) && a.layout == b.layout && a.fixed_layers == b.fixed_layers &&
          a.chunk_nodes == b.chunk_nodes && a.method == b.method && same_bytes(a.method_param, b.method_param) &&
-         same_bytes(a.ambient_light, b.ambient_light) && a.max_memory_mib == b.max_memory_mib;
+         same_bytes(a.ambient_light, b.ambient_light) && a.max_memory_mib == b.max_memory_mib &&
+         a.rgb_maps == b.rgb_maps;
 }
 
 int32_t volume_of(const Object& o) { return o.interior == InteriorKind::Volume ? o.volume : -1; }

@@ -141,6 +141,7 @@ tinygltf::Model fixture_model() {
   blend.pbrMetallicRoughness.baseColorFactor = {0.2, 0.4, 0.6, 0.4};
   tinygltf::Material glass;
   glass.name = "glass";
+  glass.pbrMetallicRoughness.baseColorFactor = {0.9, 0.6, 0.3, 1.0};
   glass.extensions["KHR_materials_transmission"] = object({{"transmissionFactor", tinygltf::Value(0.5)}});
   glass.extensions["KHR_materials_volume"] =
       object({{"attenuationDistance", tinygltf::Value(2.0)}, {"attenuationColor", array({0.5, 0.25, 1.0})}});
@@ -235,6 +236,15 @@ TEST(Gltf, GlbSceneWithLightsCameraAndMaterials) {
   EXPECT_LT(det3(mir.transform), 0.0f);
   EXPECT_GT(signed_volume(*mir.mesh), 0.0);
   EXPECT_NEAR(mir.surface.opacity, 0.5f, 1e-6f);
+  // Transmission 0.5 of an opaque tinted material: the transmitted half is
+  // filtered by the base colour, f = ((1 - a) + a t c) / (1 - a (1 - t)) = c.
+  EXPECT_NEAR(mir.surface.transmission_color.x, 0.9f, 1e-6f);
+  EXPECT_NEAR(mir.surface.transmission_color.y, 0.6f, 1e-6f);
+  EXPECT_NEAR(mir.surface.transmission_color.z, 0.3f, 1e-6f);
+  // Blend without transmission: coverage only, a white filter.
+  EXPECT_EQ(big.surface.transmission_color.x, 1.0f);
+  EXPECT_EQ(big.surface.transmission_color.y, 1.0f);
+  EXPECT_EQ(big.surface.transmission_color.z, 1.0f);
   ASSERT_EQ(mir.interior, InteriorKind::Constant);
   // Per channel, no averaging: sigma_k = -ln(attenuationColor_k) / attenuationDistance.
   EXPECT_NEAR(mir.sigma.x, float(std::log(2.0) / 2.0), 1e-5f);
