@@ -19,6 +19,7 @@ struct MethodSpec {
   ShadowMethod method = ShadowMethod::Dsm;
   float param = 0.0f;  // ShadowSettings::method_param
   int splits = 0;      // pssmN: N parallel-split deep shadow maps (ShadowSettings::parallel_splits)
+  bool grey_maps = false;  // dsmgrey: every map scalar (ShadowSettings::rgb_maps off): RGB maps' cost
 };
 
 // The sweep axes; every combination is one configuration (baselines ignore eps).

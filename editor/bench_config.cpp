@@ -67,6 +67,9 @@ std::vector<MethodSpec> parse_methods(const std::string& list) {
     s.label = m;
     if (m == "dsm") {
       s.method = ShadowMethod::Dsm;
+    } else if (m == "dsmgrey") {
+      s.method = ShadowMethod::Dsm;
+      s.grey_maps = true;
     } else if (m == "sm" || m.rfind("sm:", 0) == 0) {
       s.method = ShadowMethod::ShadowMap;
       s.param = m == "sm" ? 0.5f : parse_float("--methods " + m, m.substr(3));
@@ -81,7 +84,7 @@ std::vector<MethodSpec> parse_methods(const std::string& list) {
       s.method = ShadowMethod::FixedNodes;
       s.param = float(count_param(m, 4, 2, 512));
     } else {
-      throw Error("--methods " + m, "unknown method (dsm, sm, sm:T, osmN, avsmN, pssmN)");
+      throw Error("--methods " + m, "unknown method (dsm, dsmgrey, sm, sm:T, osmN, avsmN, pssmN)");
     }
     out.push_back(s);
   }
@@ -213,6 +216,7 @@ void apply(const Config& c, Scene& scene, RenderOptions& opt) {
   s.resolution = c.res;
   s.max_clusters = c.method.splits > 0 ? 1 : c.clusters;
   s.parallel_splits = c.method.splits;
+  s.rgb_maps = !c.method.grey_maps;
   for (const LayoutChoice& l : kLayouts)
     if (c.layout == l.name) s.layout = l.layout;
   for (const BackendChoice& b : kBackends)

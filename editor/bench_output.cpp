@@ -79,7 +79,8 @@ void write_csv(const std::vector<Result>& results, const std::string& path) {
       "build_ms_max", "build_ms_q1", "build_ms_q3", "camera_ms_median", "camera_ms_min", "camera_ms_max",
       "camera_ms_q1", "camera_ms_q3", "frame_ms_median", "time_ms", "maps", "texels", "nodes", "index_bytes",
       "node_bytes", "slack_bytes", "memory_bytes", "avg_nodes_per_texel", "max_nodes_per_texel",
-      "overflow_texels", "overflow_extra_error", "t_points", "t_mean", "t_p99", "t_max", "t_rmse",
+      "overflow_texels", "overflow_extra_error", "rgb_maps", "rgb_map_bytes", "grey_map_bytes", "t_points",
+      "t_mean", "t_p99", "t_max", "t_rmse", "t_mean_r", "t_mean_g", "t_mean_b",
       "map_err_mean", "map_err_p99", "map_err_max", "res_err_mean", "res_err_p99", "res_err_max",
       "interior_share", "interior_total_mean", "interior_total_p99", "interior_total_max", "interior_map_p99",
       "interior_map_max", "edge_share", "edge_total_mean", "edge_total_p99", "edge_total_max", "edge_map_p99",
@@ -142,6 +143,12 @@ void write_csv(const std::vector<Result>& results, const std::string& path) {
       v["max_nodes_per_texel"] = std::to_string(m.max_nodes_per_texel);
       v["overflow_texels"] = std::to_string(m.overflow_texels);
       v["overflow_extra_error"] = num(m.max_extra_error);
+      v["rgb_maps"] = std::to_string(m.rgb_maps);
+      v["rgb_map_bytes"] = std::to_string(m.rgb_bytes);
+      v["grey_map_bytes"] = std::to_string(m.grey_bytes);
+      v["t_mean_r"] = num(t.channel_mean[0]);
+      v["t_mean_g"] = num(t.channel_mean[1]);
+      v["t_mean_b"] = num(t.channel_mean[2]);
       v["t_points"] = std::to_string(t.points);
       v["t_mean"] = num(t.mean);
       v["t_p99"] = num(t.p99);

@@ -46,6 +46,7 @@ struct Checker {
 
   // Three channels, each within [lo, hi].
   void channels(const std::string& path, Vec3 c, double lo, double hi) const {
+    if (is_grey(c)) return number(path, c.x, lo, hi);  // given as one number (or three equal)
     for (int a = 0; a < 3; ++a) number(path + "/" + std::to_string(a), c[a], lo, hi);
   }
 
