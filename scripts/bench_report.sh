@@ -89,6 +89,8 @@ run clusters content/scenes/default.json content/scenes/sparse.json "${CLUSTERS[
 SPLITS=(--methods pssm2,pssm4 --sweep eps=0.01 --sweep res=256 --sweep clusters=1 "${COMMON[@]}" --no-plot)
 run splits content/scenes/sparse.json "${SPLITS[@]}"
 run table4 "$CT" "$CT_CAST" "${TABLE4[@]}"
+# Coloured shadows: RGB maps against every map scalar on the stained-glass scene.
+run colour content/scenes/stained_glass.json --methods dsm,dsmgrey --sweep eps=0.01 --sweep res=512 "${COMMON[@]}" --no-plot
 
 mkdir -p "$OUT"
 rm -f "$OUT"/*.csv "$OUT"/*.png "$OUT"/*.md
