@@ -112,9 +112,7 @@ struct CameraVisitor {
     return march_segment(
         s, m, org, dir, t0, t1,
         [&](const MarchSample& ms) {
-          const float dt = ms.t1 - ms.t0;
-          const Vec3 a{1.0f - expf(-ms.extinction.x * dt), 1.0f - expf(-ms.extinction.y * dt),
-                       1.0f - expf(-ms.extinction.z * dt)};
+          const Vec3 a = sample_alpha(ms);
           if (max_channel(a) <= 0.0f) return true;
           // The volumes' share of each channel's absorption (constant media add none).
           Vec3 vol_a{0, 0, 0};

@@ -202,7 +202,10 @@ CDSM_HD CDSM_INLINE bool cheaper(RemovalCost x, RemovalCost y) {
 // `incoming` follows it), the first of equally cheap ones, and adds its
 // change to the error bound (without per-span memory, the sum of the
 // changes bounds the total).
-CDSM_HD inline void remove_cheapest_scan(DsmNode* n, int& count, DsmNode incoming, float& extra_error) {
+// Either node kind (removal_cost_of is overloaded for RGB nodes: the
+// largest channel's cost, hd/compress_rgb.h).
+template <class Node>
+CDSM_HD inline void remove_cheapest_scan(Node* n, int& count, Node incoming, float& extra_error) {
   int best = 1;
   RemovalCost best_cost{3.0e38f, 3.0e38f};
   for (int i = 1; i < count; ++i) {

@@ -142,6 +142,9 @@ struct WedgeRgb {
   }
 };
 
+CDSM_HD CDSM_INLINE Vec3 node_alpha(const DsmNodeRgb& n) { return rgb_of(n); }
+CDSM_HD CDSM_INLINE float node_alpha(const DsmNode& n) { return n.alpha; }
+
 // Cost of removing RGB node m between a and b: the largest over channels
 // of the scalar cost (hd/compress.h removal_cost_of).
 CDSM_HD CDSM_INLINE RemovalCost removal_cost_of(const DsmNodeRgb& a, const DsmNodeRgb& m, const DsmNodeRgb& b) {
@@ -172,18 +175,7 @@ struct RgbNodeBuffer {
   CDSM_HD void emit(float z, Vec3 a) {
     const DsmNodeRgb incoming{z, a.x, a.y, a.z};
     if (count >= node_limit(capacity) && count >= 2) {
-      int best = 1;
-      RemovalCost best_cost{3.0e38f, 3.0e38f};
-      for (int i = 1; i < count; ++i) {
-        const RemovalCost c = removal_cost_of(nodes[i - 1], nodes[i], i + 1 < count ? nodes[i + 1] : incoming);
-        if (cheaper(c, best_cost)) {
-          best_cost = c;
-          best = i;
-        }
-      }
-      for (int i = best; i + 1 < count; ++i) nodes[i] = nodes[i + 1];
-      --count;
-      extra_error += best_cost.change;
+      remove_cheapest_scan(nodes, count, incoming, extra_error);
       ++removed;
     }
     nodes[count++] = incoming;

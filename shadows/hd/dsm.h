@@ -121,15 +121,19 @@ CDSM_HD CDSM_INLINE float alpha_between(DsmNode a, DsmNode b, float z) {
 // last value after the last, linear between; exactly at a node depth the
 // first node there (for a step: the value before it — a surface exactly at
 // a step is lit by the light arriving at it). Zero-width intervals are never
-// interpolated. j is the first node with z_j >= z.
-CDSM_HD CDSM_INLINE float alpha_at_index(Span<const DsmNode> n, float z, uint32_t j) {
-  if (j >= n.size()) return n.size() ? n[n.size() - 1].alpha : 0.0f;
-  if (n[j].z == z) return n[j].alpha;
-  if (j == 0) return 0.0f;
-  return alpha_between(n[j - 1], n[j], z);
+// interpolated. j is the first node with z_j >= z. Scalar nodes give a
+// float, RGB nodes the same rules per channel (a Vec3).
+template <class Node>
+CDSM_HD CDSM_INLINE auto alpha_at_index(Span<const Node> n, float z, uint32_t j) {
+  using Alpha = decltype(node_alpha(n[0]));
+  if (j >= n.size()) return n.size() ? node_alpha(n[n.size() - 1]) : Alpha{};
+  if (n[j].z == z) return node_alpha(n[j]);
+  if (j == 0) return Alpha{};
+  return Alpha(alpha_between(n[j - 1], n[j], z));
 }
 
-CDSM_HD CDSM_INLINE float lookup_alpha(Span<const DsmNode> n, float z) {
+template <class Node>
+CDSM_HD CDSM_INLINE auto lookup_alpha(Span<const Node> n, float z) {
   return alpha_at_index(n, z, lower_bound_z(n, z));
 }
 
@@ -178,21 +182,25 @@ CDSM_HD CDSM_INLINE float lookup_alpha_from(Span<const DsmNode> n, float z, uint
 
 // The same function read from a chunked texel: a linear walk along the
 // texel's links (the thesis's layout allows no binary search). Same
-// arithmetic as alpha_at_index, so the layouts agree bit for bit.
-CDSM_HD CDSM_INLINE float lookup_alpha_chunked(Span<const ChunkNode> pool, TexelRange head, float z) {
-  DsmNode prev{0.0f, 0.0f};
+// arithmetic as alpha_at_index, so the layouts agree bit for bit. Scalar
+// (ChunkNode) or RGB (ChunkNodeRgb) pools.
+template <class Chunk>
+CDSM_HD CDSM_INLINE auto lookup_alpha_chunked(Span<const Chunk> pool, TexelRange head, float z) {
+  using Node = decltype(node_of(pool[0]));
+  using Alpha = decltype(node_alpha(Node{}));
+  Node prev{};
   uint32_t slot = head.offset;
   for (uint32_t i = 0; i < head.count; ++i) {
-    ChunkNode c = pool[slot];
+    const Chunk c = pool[slot];
     if (c.z >= z) {
-      if (c.z == z) return c.alpha;
-      if (i == 0) return 0.0f;
-      return alpha_between(prev, DsmNode{c.z, c.alpha}, z);
+      if (c.z == z) return node_alpha(node_of(c));
+      if (i == 0) return Alpha{};
+      return Alpha(alpha_between(prev, node_of(c), z));
     }
-    prev = DsmNode{c.z, c.alpha};
+    prev = node_of(c);
     slot = c.next;
   }
-  return prev.alpha;  // beyond the last node; 0 for an empty texel
+  return node_alpha(prev);  // beyond the last node; 0 for an empty texel
 }
 
 // ---- a texel of a map, any layout -------------------------------------------
@@ -288,24 +296,13 @@ CDSM_HD CDSM_INLINE float lookup_map(const DsmStorage& st, const DsmMap& m, floa
 }
 
 // ---- RGB maps: the same functions per channel --------------------------------
-// Every channel reads exactly as a scalar map would (alpha_at_index's
-// rules: 0 before the first node, at a step's depth its lower value), so a
-// grey RGB map reads what its scalar map reads.
+// Every channel reads exactly as a scalar map would (alpha_at_index and
+// lookup_alpha_chunked above are written for both kinds), so a grey RGB map
+// reads what its scalar map reads.
 
 CDSM_HD CDSM_INLINE Vec3 alpha_between(const DsmNodeRgb& a, const DsmNodeRgb& b, float z) {
   const float w = (z - a.z) / (b.z - a.z);
   return {lerpf(a.r, b.r, w), lerpf(a.g, b.g, w), lerpf(a.b, b.b, w)};
-}
-
-CDSM_HD CDSM_INLINE Vec3 alpha_at_index(Span<const DsmNodeRgb> n, float z, uint32_t j) {
-  if (j >= n.size()) return n.size() ? rgb_of(n[n.size() - 1]) : Vec3{0, 0, 0};
-  if (n[j].z == z) return rgb_of(n[j]);
-  if (j == 0) return Vec3{0, 0, 0};
-  return alpha_between(n[j - 1], n[j], z);
-}
-
-CDSM_HD CDSM_INLINE Vec3 lookup_alpha(Span<const DsmNodeRgb> n, float z) {
-  return alpha_at_index(n, z, lower_bound_z(n, z));
 }
 
 // alpha just after z, per channel (hd/dsm.h alpha_after).
@@ -333,22 +330,6 @@ CDSM_HD inline float max_change(Span<const DsmNodeRgb> f, Span<const DsmNodeRgb>
     }
   }
   return worst;
-}
-
-CDSM_HD CDSM_INLINE Vec3 lookup_alpha_chunked(Span<const ChunkNodeRgb> pool, TexelRange head, float z) {
-  DsmNodeRgb prev{0.0f, 0.0f, 0.0f, 0.0f};
-  uint32_t slot = head.offset;
-  for (uint32_t i = 0; i < head.count; ++i) {
-    const ChunkNodeRgb c = pool[slot];
-    if (c.z >= z) {
-      if (c.z == z) return Vec3{c.r, c.g, c.b};
-      if (i == 0) return Vec3{0, 0, 0};
-      return alpha_between(prev, node_of(c), z);
-    }
-    prev = node_of(c);
-    slot = c.next;
-  }
-  return rgb_of(prev);
 }
 
 // alpha(z) of texel (tx, ty) of map m per channel: RGB maps channel by

@@ -18,8 +18,6 @@
 namespace cdsm {
 
 // Both node kinds through one set of names (scalar: float alpha; RGB: Vec3).
-CDSM_HD CDSM_INLINE float node_alpha(const DsmNode& n) { return n.alpha; }
-CDSM_HD CDSM_INLINE Vec3 node_alpha(const DsmNodeRgb& n) { return rgb_of(n); }
 CDSM_HD CDSM_INLINE DsmNode make_node(float z, float a) { return {z, a}; }
 CDSM_HD CDSM_INLINE DsmNodeRgb make_node(float z, Vec3 a) { return {z, a.x, a.y, a.z}; }
 CDSM_HD CDSM_INLINE bool rises(float a, float b) { return a > b; }                      // a above b

@@ -106,9 +106,7 @@ struct DsmVisitorRgb {
     return march_segment(
         s, m, org, dir, t0, t1,
         [&](const MarchSample& ms) {
-          const float dt = ms.t1 - ms.t0;
-          add_layer(Vec3{1.0f - expf(-ms.extinction.x * dt), 1.0f - expf(-ms.extinction.y * dt),
-                         1.0f - expf(-ms.extinction.z * dt)});
+          add_layer(sample_alpha(ms));
           c.push(buf, ms.t1, alpha);
           return !saturated();
         },
@@ -118,6 +116,19 @@ struct DsmVisitorRgb {
         });
   }
 };
+
+// Walks texel (tx, ty)'s light ray with visitor kind V (scalar or RGB),
+// compressing into `buf`; fragments sorted in place.
+template <class Visitor, class Buffer>
+CDSM_HD inline void walk_texel(const SceneView& s, const LightPassParams& p, Span<Fragment> frags, int tx, int ty,
+                               Buffer& buf, WalkStats& st) {
+  const Vec3 dir = pixel_ray(p.view, tx, ty);
+  buf.eps = p.epsilon;
+  Visitor vis(s, p.view.eye, dir, p.epsilon, buf);
+  const float t_end = p.view.far / fmaxf(dot(dir, p.view.forward), 1e-6f);
+  walk_ray(s, frags, p.inside, 0.0f, t_end, vis, st);
+  vis.c.finish(buf);
+}
 
 // Builds texel (tx, ty): its fragments (from the light view's lists) are
 // sorted in place; nodes go to `buf`.
@@ -129,23 +140,13 @@ CDSM_HD inline void build_texel(const SceneView& s, const LightPassParams& p, Sp
     build_baseline_texel(s, p.method, p.method_param, p.inside, frags, p.view.eye, d, t, buf, st);
     return;
   }
-  Vec3 dir = pixel_ray(p.view, tx, ty);
-  buf.eps = p.epsilon;
-  DsmVisitor vis(s, p.view.eye, dir, p.epsilon, buf);
-  float t_end = p.view.far / fmaxf(dot(dir, p.view.forward), 1e-6f);
-  walk_ray(s, frags, p.inside, 0.0f, t_end, vis, st);
-  vis.c.finish(buf);
+  walk_texel<DsmVisitor>(s, p, frags, tx, ty, buf, st);
 }
 
 // An RGB texel (p.rgb; deep shadow maps only).
 CDSM_HD inline void build_texel(const SceneView& s, const LightPassParams& p, Span<Fragment> frags,
                                 int tx, int ty, RgbNodeBuffer& buf, WalkStats& st) {
-  Vec3 dir = pixel_ray(p.view, tx, ty);
-  buf.eps = p.epsilon;
-  DsmVisitorRgb vis(s, p.view.eye, dir, p.epsilon, buf);
-  float t_end = p.view.far / fmaxf(dot(dir, p.view.forward), 1e-6f);
-  walk_ray(s, frags, p.inside, 0.0f, t_end, vis, st);
-  vis.c.finish(buf);
+  walk_texel<DsmVisitorRgb>(s, p, frags, tx, ty, buf, st);
 }
 
 }  // namespace cdsm

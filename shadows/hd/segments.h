@@ -271,6 +271,12 @@ struct MarchSample {
   int dominant;      // index into media.volume of the largest extinction (any channel), -1 if none
 };
 
+// The opacity of one march sample per channel: 1 - exp(-sigma_k dt).
+CDSM_HD CDSM_INLINE Vec3 sample_alpha(const MarchSample& ms) {
+  const float dt = ms.t1 - ms.t0;
+  return {1.0f - expf(-ms.extinction.x * dt), 1.0f - expf(-ms.extinction.y * dt), 1.0f - expf(-ms.extinction.z * dt)};
+}
+
 // The parameter interval [enter, leave] of the index-space ray qo + t qd
 // inside box [lo, hi] (enter > leave: it misses).
 CDSM_HD CDSM_INLINE void ray_box_span(Vec3 qo, Vec3 qd, Vec3 lo, Vec3 hi, float& enter, float& leave) {

@@ -395,7 +395,7 @@ TEST(Layouts, ChunkedTileWriterLinksThreeChunks) {
   TexelRange h = heads[9];
   Span<const DsmNode> ref{texel[9].data(), texel[9].size()};
   for (float z = -1.0f; z < 152.0f; z += 0.37f)
-    EXPECT_EQ(lookup_alpha_chunked({pool.data(), pool.size()}, h, z), lookup_alpha(ref, z));
+    EXPECT_EQ(lookup_alpha_chunked(Span<const ChunkNode>{pool.data(), pool.size()}, h, z), lookup_alpha(ref, z));
 }
 
 // Exact sup |f - g| of two node lists (breakpoints of both, both sides of steps).
@@ -511,7 +511,7 @@ TEST(Layouts, FixedSmallLayersRecordOverflow) {
       worst = std::max(worst, d);
       // Lookups through the padded slots agree with the stored nodes.
       for (float z : probe_depths(a))
-        EXPECT_EQ(texel_alpha(x.storage(), x.maps[0], tx, ty, z), lookup_alpha({b.data(), b.size()}, z));
+        EXPECT_EQ(texel_alpha(x.storage(), x.maps[0], tx, ty, z), lookup_alpha(Span<const DsmNode>{b.data(), b.size()}, z));
     }
   EXPECT_GT(worst, 0.0);
   EXPECT_LE(worst, double(st.max_extra_error) + 1e-5) << "the recorded error bounds the change";

@@ -187,7 +187,7 @@ TEST(Lookup, BilinearOnFourByFourWithDepth) {
   auto texel_alpha = [&](int tx, int ty, float z) -> double {
     if (tx < 0 || ty < 0 || tx > 3 || ty > 3) return 0.0;
     const auto& t = texels[size_t(ty * 4 + tx)];
-    return lookup_alpha({t.data(), t.size()}, z);
+    return lookup_alpha(Span<const DsmNode>{t.data(), t.size()}, z);
   };
   std::mt19937 rng(9u);
   std::uniform_real_distribution<float> ud(-0.7f, 4.7f), zd(0.5f, 5.0f);
