@@ -311,7 +311,7 @@ void apply_surface(const Object& o, const std::string& where, ObjectData& od) {
   const SurfaceMaterial& m = o.surface;
   if (!(m.opacity >= 0.0f && m.opacity <= 1.0f)) throw Error(where, "surface opacity must be in [0, 1]");
   const Vec3 f = m.transmission_color;
-  if (!(min_channel(f) >= 0.0f && max_channel(f) <= 1.0f))
+  if (!is_finite(f) || !(min_channel(f) >= 0.0f && max_channel(f) <= 1.0f))
     throw Error(where, "surface transmission_color must be in [0, 1] in every channel (a filter passes at most "
                        "all light)");
   od.color = m.color;

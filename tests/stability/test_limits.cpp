@@ -352,6 +352,11 @@ TEST(BadNumbers, NaNOrInfInLightsCameraAndMaterialsIsRejected) {
       {"spot cone", [](Scene& s) { s.lights[0].outer_cone_deg = std::nanf(""); }},
       {"camera position", [](Scene& s) { s.camera.position.z = std::nanf(""); }},
       {"surface opacity", [](Scene& s) { s.objects[0].surface.opacity = std::nanf(""); }},
+      {"transmission colour", [](Scene& s) { s.objects[0].surface.transmission_color.y = std::nanf(""); }},
+      {"medium sigma channel", [](Scene& s) {
+         s.objects[0].interior = InteriorKind::Constant;
+         s.objects[0].sigma = {1.0f, std::nanf(""), 1.0f};
+       }},
       {"medium sigma", [](Scene& s) {
          s.objects[0].interior = InteriorKind::Constant;
          s.objects[0].sigma = vec3(INFINITY);

@@ -464,6 +464,17 @@ TEST(ShadowSystem, BadEditsAreRefusedByNameAndTheStateSurvives) {
   }
   sys.remove_object(b);
   EXPECT_TRUE(same_pixels(sys.render(), before)) << "the system renders its last good state";
+  // A NaN transmission colour through the API (no scene-file validation on
+  // this path): refused at update, naming the object.
+  SurfaceMaterial nan_tint = s.objects[ball].surface;
+  nan_tint.transmission_color.y = std::nanf("");
+  sys.set_surface(h, nan_tint);
+  try {
+    sys.update();
+    ADD_FAILURE() << "a NaN transmission colour compiled";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("transmission_color"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
