@@ -65,7 +65,7 @@ int add_volume(cdsm::Scene& scene, ByteReader& in) {
     cdsm::TransferPoint tp;
     density += in.unit(0.0f, 0.5f);  // sorted by density
     tp.density = density;
-    tp.extinction = vec3(in.flag() ? 0.0f : in.unit(0.0f, 30.0f));
+    tp.extinction = cdsm::vec3(in.flag() ? 0.0f : in.unit(0.0f, 30.0f));
     tp.color = colour(in);
     v.transfer.push_back(tp);
   }
@@ -106,7 +106,7 @@ void add_object(cdsm::Scene& scene, ByteReader& in) {
     const int interior = in.range(0, 3);
     if (interior == 1) {
       o.interior = cdsm::InteriorKind::Constant;
-      o.sigma = vec3(in.unit(0.0f, 10.0f));
+      o.sigma = cdsm::vec3(in.unit(0.0f, 10.0f));
     } else if (interior == 2 && kind != 2) {  // a volume inside a box or sphere
       o.interior = cdsm::InteriorKind::Volume;
       o.volume = add_volume(scene, in);
