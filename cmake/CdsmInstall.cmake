@@ -8,8 +8,9 @@
 # static project libraries (engine, shadows, cluster; gl and cuda when
 # built). Their dependencies (TBB, OpenVDB, tinygltf, OpenGL/EGL, GLFW,
 # ...) are the shared library's own DT_NEEDED entries; the exported
-# target's interface is only the include directory and C++17. Included from the top-level CMakeLists.txt after
-# every library and program target exists.
+# target's interface is only the include directory and C++17. Included
+# from the top-level CMakeLists.txt after every library and program target
+# exists.
 
 # Sanitizer and fuzz builds instrument the static libraries for their own
 # test executables; a shared library of them is of no use there (and cannot
