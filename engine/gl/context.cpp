@@ -67,6 +67,7 @@ const char* platform_name(Platform p) {
     case Platform::EglDevice: return "EGL device";
     case Platform::EglSurfaceless: return "EGL surfaceless";
     case Platform::GlfwWindow: return "GLFW window";
+    case Platform::External: return "application context";
   }
   return "?";
 }

@@ -27,6 +27,7 @@ enum class Platform {
   EglDevice,       // EGL_EXT_platform_device (a GPU, or a software device as last resort)
   EglSurfaceless,  // EGL_MESA_platform_surfaceless (Mesa: llvmpipe or a DRM GPU)
   GlfwWindow,      // a GLFW 3.3 window (GLX/X11)
+  External,        // the application's own context, adopted (adopt_current_context)
 };
 const char* platform_name(Platform p);
 
@@ -120,5 +121,14 @@ std::unique_ptr<Context> create_headless_context(const ContextOptions& options =
 // (no display, no GLFW in this build, GL < 4.5).
 std::unique_ptr<Context> create_window_context(const ContextOptions& options = {},
                                                std::string* reason = nullptr);
+
+// The application's context, current on the calling thread (made by GLFW,
+// SDL, Qt or its own EGL code), adopted: never made current, released or
+// destroyed by cdsm. Its make_current() only checks that it is still the
+// current one and throws cdsm::Error naming what is current instead (none,
+// or another context: the adopted one was destroyed or switched). Needs
+// 4.5 core. nullptr + `*reason` when none is current or it is older. Debug
+// output is left as the application set it.
+std::unique_ptr<Context> adopt_current_context(std::string* reason = nullptr);
 
 }  // namespace cdsm::gl

@@ -13,8 +13,22 @@ namespace cdsm {
 // One headless context and rasterizer per selector, made on first use and
 // kept across frames (pools are reused).
 struct FragmentSourceSelector::Gl {
-  std::unique_ptr<gl::Context> context;
+  std::unique_ptr<gl::Context> own;  // null on the application's context
+  gl::Context* context = nullptr;
   std::unique_ptr<gl::FragmentRasterizer> raster;
+  ~Gl() {
+    // GL names die with their context current. The application's context
+    // may already be gone (or another current): then the names are left to
+    // it rather than deleted from whichever context is current.
+    if (own || !raster) return;
+    bool current = false;
+    try {
+      context->make_current();
+      current = true;
+    } catch (...) {
+    }
+    if (!current) raster.release();
+  }
 };
 #else
 struct FragmentSourceSelector::Gl {};
@@ -39,10 +53,12 @@ void FragmentSourceSelector::choose(FragmentSource want, std::string& name, std:
     if (!gl_tried_) {
       gl_tried_ = true;
       std::string why;
-      auto ctx = gl::create_headless_context({}, &why);
-      if (ctx) {
+      std::unique_ptr<gl::Context> ctx;
+      if (!external_) ctx = gl::create_headless_context({}, &why);
+      if (ctx || external_) {
         gl_ = std::make_unique<Gl>();
-        gl_->context = std::move(ctx);
+        gl_->own = std::move(ctx);
+        gl_->context = external_ ? external_ : gl_->own.get();
         gl_->raster = std::make_unique<gl::FragmentRasterizer>(*gl_->context);
       } else {
         gl_failure_ = why.empty() ? "no OpenGL 4.5 context" : why;
@@ -51,7 +67,7 @@ void FragmentSourceSelector::choose(FragmentSource want, std::string& name, std:
     if (gl_) {
       use_gl_ = true;
       name_ = "gl";
-      reason_ = (want == FragmentSource::Gl ? "requested, " : "default when a context exists, ") +
+      reason_ = std::string(want == FragmentSource::Gl ? "requested, " : external_ ? "the application's context, " : "default when a context exists, ") +
                 gl_->context->description();
     } else {
       if (want == FragmentSource::Gl) throw Error("--fragments gl", "no OpenGL context: " + gl_failure_);

@@ -14,10 +14,18 @@
 
 namespace cdsm {
 
+namespace gl {
+class Context;
+}
+
 class FragmentSourceSelector {
  public:
   FragmentSourceSelector();
   ~FragmentSourceSelector();
+  // Rasterize on `context` (the application's, adopted; it outlives the
+  // selector) instead of a headless context of the selector's own. Call
+  // before the first choose().
+  void use_context(gl::Context* context) { external_ = context; }
   // Picks the producer on the first call (GL, when wanted and a context
   // can be made); later calls keep it unless `want` changes. `name` is "gl"
   // or "cpu", `reason` says why. Throws cdsm::Error when GL is requested
@@ -37,6 +45,7 @@ class FragmentSourceSelector {
   bool chosen_ = false;
   FragmentSource want_ = FragmentSource::Auto;
   std::string name_, reason_;
+  gl::Context* external_ = nullptr;
   bool gl_tried_ = false;
   std::string gl_failure_;
 };

@@ -8,7 +8,7 @@
 
 #include "cdsm/error.h"
 #include "cdsm/scene_io.h"
-#include "cpu/cpu_backend.h"
+#include "backend_select.h"
 #include "memory_budget.h"
 #include "reference/reference.h"
 #include "scene_compile.h"
@@ -75,7 +75,17 @@ const char* to_string(RebuildReason r) {
 
 // ---- Impl -------------------------------------------------------------------
 
-ShadowSystem::Impl::Impl(const SystemOptions& o) : options(o), backend(make_cpu_backend()) { scene.source = o.source; }
+ShadowSystem::Impl::Impl(const SystemOptions& o) : options(o) {
+  scene.source = o.source;
+  if (o.gl_context == GlContextUse::Application) {
+    gl = make_system_gl(o.source);
+    fragments.use_context(system_context(*gl));
+  }
+  BackendChoice c = make_backend(o.backend);
+  backend = std::move(c.backend);
+  backend_name = c.name;
+  backend_reason = c.reason;
+}
 
 ShadowSystem::Impl::~Impl() = default;
 
@@ -281,6 +291,7 @@ void ShadowSystem::Impl::compile(FrameStats& st) {
 }
 
 void ShadowSystem::Impl::update(FrameStats& st) {
+  SystemGlScope gl_scope(gl.get(), &st.warnings);
   if (changed) {
     validate_scene(scene, &st.warnings);
     check_memory(scene, estimate_frame_memory(scene, RenderOptions{}));
@@ -371,6 +382,11 @@ void ShadowSystem::Impl::update(FrameStats& st) {
   st.update.map_live_bytes = store.live_bytes;
   st.update.scene_bytes = scene_bytes(sb);
   st.update.gl_scene_bytes = fragments.gl_scene_bytes();
+  if (gl) {
+    sync_gl_maps(*gl, shadow_view(), backend->storage_epoch(), st.update);
+    st.update.gl_readback_bytes = gl_readback_bytes;
+    gl_readback_bytes = 0;
+  }
   st.lights = uint32_t(scene.lights.size());
   update_stats = st;
 }
@@ -566,8 +582,34 @@ void ShadowSystem::update(FrameStats* stats) {
   FrameStats local;
   FrameStats& st = stats ? *stats : local;
   st = FrameStats{};
+  if (impl_->scene.objects.empty() && impl_->scene.lights.empty())
+    throw Error(impl_->scene.source, "update() before any object or light was added: nothing to build maps for");
   impl_->update(st);
 }
+
+std::shared_ptr<const TriangleMesh> ShadowSystem::read_gl_mesh(const GlMeshSource& source) {
+  Impl& I = *impl_;
+  const std::string where = I.scene.source + ": read_gl_mesh";
+  if (!I.gl) throw Error(where, "needs a system created on the application's GL context (SystemOptions::gl_context = GlContextUse::Application)");
+  std::vector<std::string> warnings;
+  SystemGlScope scope(I.gl.get(), &warnings);
+  return cdsm::read_gl_mesh(*I.gl, source, where, I.gl_readback_bytes);
+}
+
+GlMapBuffers ShadowSystem::gl_buffers() const {
+  const Impl& I = *impl_;
+  if (!I.gl) throw Error(I.scene.source + ": gl_buffers", "needs a system created on the application's GL context (SystemOptions::gl_context = GlContextUse::Application)");
+  return gl_map_buffers(*I.gl);
+}
+
+void ShadowSystem::bind_gl(uint32_t program) {
+  Impl& I = *impl_;
+  const std::string where = I.scene.source + ": bind_gl";
+  if (!I.gl) throw Error(where, "needs a system created on the application's GL context (SystemOptions::gl_context = GlContextUse::Application)");
+  bind_gl_maps(*I.gl, program);  // checks the context; changes exactly the program's cdsm bindings
+}
+
+int ShadowSystem::gl_light_index(LightHandle light) const { return int(impl_->light_index(light)); }
 
 void ShadowSystem::reset_maps() {
   impl_->cache.clear(*impl_->backend);
@@ -581,6 +623,7 @@ Image ShadowSystem::render(FrameStats* stats) {
   FrameStats& st = stats ? *stats : local;
   st = FrameStats{};
   const auto t_total = Clock::now();
+  SystemGlScope gl_scope(I.gl.get(), &st.warnings);
   I.update(st);
   CameraPassParams& cam = I.cam;
   cam.view = camera_view(I.scene.camera);

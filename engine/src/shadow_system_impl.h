@@ -10,6 +10,7 @@
 #include "cdsm/shadow_system.h"
 #include "fragment_source.h"
 #include "frame.h"
+#include "system_gl.h"
 
 namespace cdsm {
 
@@ -48,9 +49,14 @@ struct ShadowSystem::Impl {
 
   SceneBuffers sb;
   double bvh_built_cost = 0.0;  // bvh_cost() when the BVH was last built
+  // The application's GL context and the maps' GL buffers (GlContextUse::
+  // Application); declared before `fragments`, whose rasterizer uses it.
+  SystemGlPtr gl;
+  uint64_t gl_readback_bytes = 0;  // read_gl_mesh() bytes since the last update
   FragmentSourceSelector fragments;
   std::string fragment_name, fragment_reason;
   std::unique_ptr<ShadowBackend> backend;
+  std::string backend_name, backend_reason;  // which backend and why (backend_select.h)
   MapCache cache;
   ShadowFrame frame;
   bool keep_previous = false;   // popping probe: replaced maps live one more frame

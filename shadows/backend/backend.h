@@ -60,6 +60,11 @@ class ShadowBackend {
   virtual DsmMap map_header(MapId id) const = 0;
   // Every stored map's texels and nodes, the storage a ShadowView reads.
   virtual DsmStorage storage() const = 0;
+  // Bumped whenever bytes already in storage() move or vanish (compaction,
+  // the store emptied). Between two bumps the arrays only grow at their
+  // ends, so a mirror of the storage (GL buffers, engine/gl/map_buffers.h)
+  // copies just the new tails: the maps built since it last looked.
+  virtual uint64_t storage_epoch() const = 0;
 
   // Shades every pixel of the camera view into `rgb` (3 floats per pixel,
   // linear), read back to the host; fragments are sorted in place.

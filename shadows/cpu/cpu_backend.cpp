@@ -117,6 +117,7 @@ class CpuBackend final : public ShadowBackend {
   }
 
   DsmStorage storage() const override { return store_.storage(); }
+  uint64_t storage_epoch() const override { return epoch_; }
 
   void camera_pass(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags,
                    std::vector<float>& rgb, WalkStats& walk) override {
@@ -144,6 +145,7 @@ class CpuBackend final : public ShadowBackend {
 
   void reset_store() {
     store_ = DsmBuffers{};  // frees the arrays (clear() would keep their capacity)
+    ++epoch_;
     maps_.clear();
     free_ids_.clear();
     live_bytes_ = 0;
@@ -177,6 +179,7 @@ class CpuBackend final : public ShadowBackend {
     }
     store_ = std::move(next);
     ++compactions_;
+    ++epoch_;
   }
 
   SceneView scene_{};
@@ -185,6 +188,7 @@ class CpuBackend final : public ShadowBackend {
   std::vector<MapId> free_ids_;
   uint64_t live_bytes_ = 0;
   uint64_t compactions_ = 0, compacted_bytes_ = 0;
+  uint64_t epoch_ = 1;  // storage_epoch()
 };
 
 }  // namespace

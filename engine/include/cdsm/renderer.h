@@ -153,6 +153,14 @@ struct UpdateStats {
   uint64_t map_live_bytes = 0;    // of which in maps of this frame (or kept for the popping probe)
   uint64_t scene_bytes = 0;       // the compiled scene's arrays (triangles, BVH, voxels), allocated
   uint64_t gl_scene_bytes = 0;    // GL buffers holding the scene geometry, allocated
+  // Maps in GL buffers (SystemOptions::gl_context = Application):
+  uint64_t gl_map_upload_bytes = 0;  // host -> GL bytes of map data this update (new maps' nodes,
+                                     // the frame block when it changed; 0 when nothing changed)
+  uint64_t gl_map_copy_bytes = 0;    // GL-side copies when a map buffer grew (no host traffic)
+  bool gl_map_full_upload = false;   // every map array uploaded (first frame, store compacted or emptied)
+  uint64_t gl_map_bytes = 0;         // GL map buffers, allocated
+  uint64_t gl_readback_bytes = 0;    // bytes read back from application buffers (read_gl_mesh) since
+                                     // the last update
 };
 
 struct FrameStats {

@@ -34,7 +34,36 @@
 // Threading: one thread at a time calls a ShadowSystem (it is not
 // thread-safe); update() and render() use every core internally (TBB). With
 // GL fragments the system makes its own headless context current during
-// update() and render().
+// update() and render() — unless it was created on the application's
+// context (below).
+//
+// Engine integration (SystemOptions::gl_context = Application): the system
+// is created while the application's GL 4.5 context is current on the
+// calling thread and keeps working on that context: fragment lists are
+// rasterized there, and after each update() every map of the frame lives
+// in GL shader storage buffers that the application's shaders read through
+// content/shaders/cdsm.glsl (bind_gl()). Rules and costs of that mode:
+//   - update(), render(), read_gl_mesh(), bind_gl() and the destructor need
+//     that context current on the calling thread; another one current (or
+//     none: the context destroyed) is a cdsm::Error naming both, never a
+//     crash. Destroy the system before its context.
+//   - GL state: update(), render() and read_gl_mesh() restore everything
+//     they change (program, vertex array, draw/read framebuffers, viewport,
+//     scissor box and test, polygon mode, colour mask, GL_DEPTH_CLAMP,
+//     GL_CLIP_DISTANCE0, depth test, face culling, blending, rasterizer
+//     discard, multisampling, the generic and indexed 0..7 shader storage
+//     bindings; engine/gl/state_guard.h). bind_gl() changes exactly the
+//     seven indexed shader storage bindings the program declares for
+//     cdsm.glsl. GL errors the application left pending are cleared on entry
+//     and reported in FrameStats::warnings.
+//   - Per frame: update() uploads only what changed — the triangles of
+//     moved objects, the nodes of maps built this frame (appended to the
+//     buffers), the frame block when lights or map headers changed; a frame
+//     with no change uploads nothing (FrameStats::update.gl_map_upload_bytes).
+//     bind_gl() is cheap (seven binds, a few queries); call it whenever the
+//     program is used after an update().
+//   - Application buffers are read back once, in read_gl_mesh(), never per
+//     frame (FrameStats::update.gl_readback_bytes of the next update()).
 #pragma once
 
 #include <cstdint>
@@ -42,6 +71,7 @@
 #include <string>
 #include <vector>
 
+#include "cdsm/gl.h"
 #include "cdsm/image.h"
 #include "cdsm/renderer.h"
 #include "cdsm/scene.h"
@@ -66,9 +96,17 @@ struct LightHandle {
   bool operator==(const LightHandle& o) const { return id == o.id; }
 };
 
+// Whose OpenGL context a shadow system works on.
+enum class GlContextUse {
+  Own,          // its own headless context, made when GL fragments are first needed
+  Application,  // the application's, current on the constructing thread; maps in GL buffers
+};
+
 struct SystemOptions {
   FragmentSource fragments = FragmentSource::Auto;  // Auto: GL when a context can be made
   std::string source = "shadow system";             // names the content in messages
+  Backend backend = Backend::Cpu;                   // where the kernels run (Reference is not a map backend)
+  GlContextUse gl_context = GlContextUse::Own;      // Application: work on the caller's current GL context
 };
 
 class ShadowSystem {
@@ -118,6 +156,28 @@ class ShadowSystem {
   // The reference image (exact shadow rays, no maps) of the current state.
   // Costly: small sizes.
   Image render_reference(float step_voxels = 0.25f);
+
+  // ---- engine integration (SystemOptions::gl_context = Application) -------
+  // A mesh from the application's GL buffers, read back now (its bytes are
+  // counted in the next update's FrameStats::update.gl_readback_bytes); give
+  // it to add_object() / set_mesh() like any mesh. Throws cdsm::Error naming
+  // the field for a buffer that is not a GL buffer of the context, too
+  // small for the counts, offsets and strides given, an index type that is
+  // not one of the three, an index past the vertices, a non-finite
+  // position. Costs a GPU->host copy of the ranges read; needs the context.
+  std::shared_ptr<const TriangleMesh> read_gl_mesh(const GlMeshSource& source);
+  // The GL buffers of the last update()'s maps (names change only when a
+  // buffer grows). Cheap.
+  GlMapBuffers gl_buffers() const;
+  // Binds the map buffers to the binding points `program` (a linked GL
+  // program that includes cdsm.glsl and calls its lookups) declares for
+  // them. Throws cdsm::Error naming the blocks the program lacks. Cheap;
+  // needs the context.
+  void bind_gl(uint32_t program);
+  // The `light` argument of cdsm_transmittance() for a light: its index
+  // among the system's lights (handle order; it changes when an earlier
+  // light is removed). Throws cdsm::Error for an unknown handle. Cheap.
+  int gl_light_index(LightHandle light) const;
 
   // Drops every map and the clusters' history (the next update rebuilds
   // all maps and clusters from scratch); the compiled scene stays.

@@ -1,0 +1,362 @@
+// cdsm.glsl — clustered deep shadow map lookups for an application's own
+// shaders (DESIGN.md §8). Include it after the application's `#version 450`
+// (or later) line, in any stage that may use shader storage blocks
+// (fragment and compute shaders always can), then bind the buffers with
+// cdsm::ShadowSystem::bind_gl(program) after each update().
+//
+//   vec3 cdsm_surface_transmittance(vec3 world_pos, vec3 plane_normal, bool caster, int light)
+//   vec3 cdsm_transmittance(vec3 world_pos, int light)
+//
+// return the light's transmittance to the point per colour channel (1 - α of
+// the light's deep shadow maps), exactly as the library's own camera pass
+// computes it (shadows/hd/lights.h: the same projection, bilinear taps,
+// node search, offsets and cluster combination, thesis eq. 3.12, 4.18-4.19):
+//   - surfaces pass their triangle's geometric normal (unit, either side;
+//     not the interpolated shading normal) as `plane_normal`: each tap reads
+//     its texel where its own light ray crosses that plane; `caster` is true
+//     when the object casts shadows (its own surface is in the maps and the
+//     lookup stops just short of it), false for receive-only surfaces;
+//   - volume samples (and any point without a surface) use
+//     cdsm_transmittance: every tap at the point's own depth.
+// `light` is the light's index (cdsm::ShadowSystem::gl_light_index). An
+// index outside [0, cdsm_light_count()) returns vec3(1, 0, 1): a magenta
+// tint that shows the mistake instead of hiding it.
+//
+// For shading, the light itself: cdsm_light_count(), cdsm_light_position(i),
+// cdsm_light_radiance(i) (colour x intensity) and cdsm_spot_factor(i, p)
+// (the spot cone's smooth falloff, 1 for point lights) — the Phong model of
+// shadows/hd/shading.h multiplies radiance, spot factor and transmittance.
+//
+// Bindings: seven shader storage blocks at CDSM_BINDING_BASE .. +6 (default
+// 8; #define it before the include to move them). bind_gl() reads the
+// bindings back from the linked program, so any base works.
+//
+// Layout (std430, the bytes the CDSM_HD code reads, static_asserted there):
+// CdsmFrame holds the lookup settings, the lights and the map headers
+// (engine/gl/map_buffers.h FrameBlockHeader, shadows/hd/dsm.h DsmMap); the
+// other six are DsmStorage's arrays: texel headers {offset, count}, scalar
+// nodes {z, α}, chunk slots {z, α, next}, and the same for RGB maps
+// ({z, r, g, b}). Depths are radial distances from the light.
+
+#ifndef CDSM_GLSL_INCLUDED
+#define CDSM_GLSL_INCLUDED
+
+#ifndef CDSM_BINDING_BASE
+#define CDSM_BINDING_BASE 8
+#endif
+
+// shadows/hd/view.h PinholeView (80 bytes).
+struct CdsmView {
+  vec3 eye;
+  float near_z;
+  vec3 right;
+  float far_z;
+  vec3 up;
+  float tan_half_x;
+  vec3 forward;
+  float tan_half_y;
+  vec2 center;
+  int width;
+  int height;
+};
+
+// shadows/hd/dsm.h DsmMap (96 bytes); texel_offset is a uint64 there.
+struct CdsmMap {
+  CdsmView view;
+  uint texel_offset;
+  uint texel_offset_high;  // always 0 (checked on upload)
+  uint res;
+  uint rgb;  // 1: RGB nodes (the Rgb blocks), 0: scalar nodes
+};
+
+// shadows/hd/lights.h LightData (64 bytes).
+struct CdsmLight {
+  vec3 position;
+  uint type;  // 0 spot, 1 point
+  vec3 direction;
+  float cos_outer;
+  vec3 radiance;
+  float cos_inner;
+  uint first_map;
+  uint map_count;
+  uint map_mode;  // 0 clusters combined, 1 six cube faces, 2 parallel splits
+  uint pad;
+};
+
+struct CdsmChunk {
+  float z;
+  float alpha;
+  uint next;
+};
+
+struct CdsmChunkRgb {
+  float z;
+  float r;
+  float g;
+  float b;
+  uint next;
+};
+
+layout(std430, binding = CDSM_BINDING_BASE + 0) readonly buffer CdsmFrame {
+  uint cdsm_layout;  // 0 packed, 1 fixed, 2 chunked
+  uint cdsm_layers;  // fixed: node slots per texel
+  uint cdsm_filtering;
+  uint cdsm_receiver;  // 0 receiver plane, 1 slope bias
+  float cdsm_bias_constant;
+  float cdsm_bias_slope;
+  uint cdsm_light_total;
+  uint cdsm_map_total;
+  CdsmLight cdsm_lights[8];
+  CdsmMap cdsm_maps[];
+};
+layout(std430, binding = CDSM_BINDING_BASE + 1) readonly buffer CdsmTexels { uvec2 cdsm_texels[]; };
+layout(std430, binding = CDSM_BINDING_BASE + 2) readonly buffer CdsmNodes { vec2 cdsm_nodes[]; };
+layout(std430, binding = CDSM_BINDING_BASE + 3) readonly buffer CdsmChunks { CdsmChunk cdsm_chunks[]; };
+layout(std430, binding = CDSM_BINDING_BASE + 4) readonly buffer CdsmRgbTexels { uvec2 cdsm_rgb_texels[]; };
+layout(std430, binding = CDSM_BINDING_BASE + 5) readonly buffer CdsmRgbNodes { vec4 cdsm_rgb_nodes[]; };
+layout(std430, binding = CDSM_BINDING_BASE + 6) readonly buffer CdsmRgbChunks { CdsmChunkRgb cdsm_rgb_chunks[]; };
+
+// shadows/hd/lights.h constants.
+const float CDSM_PLANE_REACH_TEXELS = 50.0;
+const float CDSM_RELATIVE_DEPTH_OFFSET = 2e-5;
+const float CDSM_SLOPE_BIAS_CONSTANT = 0.0005;
+const float CDSM_SLOPE_BIAS_TEXELS = 1.5;
+
+// ---- the math of cdsm/math.h, in its order of operations -------------------
+// (GLSL's dot/length/normalize/mix may associate differently; these match
+// the C++ to the last bit where the compiler does not contract.)
+
+float cdsm_dot(vec3 a, vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+float cdsm_length(vec3 a) { return sqrt(cdsm_dot(a, a)); }
+vec3 cdsm_normalize(vec3 a) {
+  float l = cdsm_length(a);
+  return l > 0.0 ? a * (1.0 / l) : a;
+}
+float cdsm_lerp(float a, float b, float t) { return a + (b - a) * t; }
+vec3 cdsm_over(vec3 alpha, vec3 a) { return alpha + a * (vec3(1.0) - alpha); }
+
+// ---- views (shadows/hd/view.h) ----------------------------------------------
+
+struct CdsmProjection {
+  float u, v;    // texels
+  float depth;   // radial distance from the eye
+  float axial;   // along the view axis
+};
+
+CdsmProjection cdsm_project(CdsmView view, vec3 p) {
+  vec3 d = p - view.eye;
+  float za = cdsm_dot(d, view.forward);
+  float inv = za > 0.0 ? 1.0 / za : 0.0;
+  float sx = cdsm_dot(d, view.right) * inv - view.center.x;
+  float sy = cdsm_dot(d, view.up) * inv - view.center.y;
+  CdsmProjection r;
+  r.u = (sx / view.tan_half_x + 1.0) * 0.5 * float(view.width);
+  r.v = (1.0 - sy / view.tan_half_y) * 0.5 * float(view.height);
+  r.depth = cdsm_length(d);
+  r.axial = za;
+  return r;
+}
+
+vec3 cdsm_view_direction(CdsmView view, float u, float v) {
+  float sx = view.center.x + (2.0 * u / float(view.width) - 1.0) * view.tan_half_x;
+  float sy = view.center.y + (1.0 - 2.0 * v / float(view.height)) * view.tan_half_y;
+  return view.forward + view.right * sx + view.up * sy;
+}
+
+// ---- one texel's visibility function (shadows/hd/dsm.h) ----------------------
+
+float cdsm_alpha_nodes(uint off, uint count, float z) {
+  uint lo = 0u, hi = count;
+  while (lo < hi) {
+    uint mid = (lo + hi) >> 1;
+    if (cdsm_nodes[off + mid].x < z) lo = mid + 1u;
+    else hi = mid;
+  }
+  if (lo >= count) return count > 0u ? cdsm_nodes[off + count - 1u].y : 0.0;
+  vec2 b = cdsm_nodes[off + lo];
+  if (b.x == z) return b.y;
+  if (lo == 0u) return 0.0;
+  vec2 a = cdsm_nodes[off + lo - 1u];
+  return cdsm_lerp(a.y, b.y, (z - a.x) / (b.x - a.x));
+}
+
+vec3 cdsm_alpha_nodes_rgb(uint off, uint count, float z) {
+  uint lo = 0u, hi = count;
+  while (lo < hi) {
+    uint mid = (lo + hi) >> 1;
+    if (cdsm_rgb_nodes[off + mid].x < z) lo = mid + 1u;
+    else hi = mid;
+  }
+  if (lo >= count) return count > 0u ? cdsm_rgb_nodes[off + count - 1u].yzw : vec3(0.0);
+  vec4 b = cdsm_rgb_nodes[off + lo];
+  if (b.x == z) return b.yzw;
+  if (lo == 0u) return vec3(0.0);
+  vec4 a = cdsm_rgb_nodes[off + lo - 1u];
+  float w = (z - a.x) / (b.x - a.x);
+  return vec3(cdsm_lerp(a.y, b.y, w), cdsm_lerp(a.z, b.z, w), cdsm_lerp(a.w, b.w, w));
+}
+
+// Chunked texels: a linear walk along the links.
+float cdsm_alpha_chunked(uvec2 head, float z) {
+  float pz = 0.0, pa = 0.0;
+  uint slot = head.x;
+  for (uint i = 0u; i < head.y; ++i) {
+    CdsmChunk c = cdsm_chunks[slot];
+    if (c.z >= z) {
+      if (c.z == z) return c.alpha;
+      if (i == 0u) return 0.0;
+      return cdsm_lerp(pa, c.alpha, (z - pz) / (c.z - pz));
+    }
+    pz = c.z;
+    pa = c.alpha;
+    slot = c.next;
+  }
+  return pa;
+}
+
+vec3 cdsm_alpha_chunked_rgb(uvec2 head, float z) {
+  float pz = 0.0;
+  vec3 pa = vec3(0.0);
+  uint slot = head.x;
+  for (uint i = 0u; i < head.y; ++i) {
+    CdsmChunkRgb c = cdsm_rgb_chunks[slot];
+    if (c.z >= z) {
+      if (c.z == z) return vec3(c.r, c.g, c.b);
+      if (i == 0u) return vec3(0.0);
+      float w = (z - pz) / (c.z - pz);
+      return vec3(cdsm_lerp(pa.x, c.r, w), cdsm_lerp(pa.y, c.g, w), cdsm_lerp(pa.z, c.b, w));
+    }
+    pz = c.z;
+    pa = vec3(c.r, c.g, c.b);
+    slot = c.next;
+  }
+  return pa;
+}
+
+// α(z) of texel (tx, ty) of map m per channel (a grey map: its value in every channel).
+vec3 cdsm_texel_alpha(CdsmMap m, int tx, int ty, float z) {
+  uint t = m.texel_offset + uint(ty) * m.res + uint(tx);
+  if (m.rgb == 0u) {
+    float a;
+    if (cdsm_layout == 1u) a = cdsm_alpha_nodes(t * cdsm_layers, cdsm_layers, z);
+    else if (cdsm_layout == 2u) a = cdsm_alpha_chunked(cdsm_texels[t], z);
+    else a = cdsm_alpha_nodes(cdsm_texels[t].x, cdsm_texels[t].y, z);
+    return vec3(a);
+  }
+  if (cdsm_layout == 1u) return cdsm_alpha_nodes_rgb(t * cdsm_layers, cdsm_layers, z);
+  if (cdsm_layout == 2u) return cdsm_alpha_chunked_rgb(cdsm_rgb_texels[t], z);
+  return cdsm_alpha_nodes_rgb(cdsm_rgb_texels[t].x, cdsm_rgb_texels[t].y, z);
+}
+
+// ---- receivers (shadows/hd/lights.h) ----------------------------------------
+
+float cdsm_texel_footprint(CdsmMap m, float axial) { return 2.0 * m.view.tan_half_x * axial / float(m.res); }
+
+// The depth at which tap (tx, ty) reads its texel: where its texel-centre ray
+// crosses the receiver's plane (within a reach of the point's depth), or
+// the point's own depth (volume samples, the slope-bias baseline).
+float cdsm_tap_depth(CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, int tx, int ty) {
+  if (cdsm_receiver == 1u || !(cdsm_dot(plane, plane) > 0.0)) return pr.depth;
+  float reach = CDSM_PLANE_REACH_TEXELS * cdsm_texel_footprint(m, pr.axial);
+  vec3 d = cdsm_normalize(cdsm_view_direction(m.view, float(tx) + 0.5, float(ty) + 0.5));
+  float dn = cdsm_dot(d, plane);
+  float t = dn != 0.0 ? cdsm_dot(p - m.view.eye, plane) / dn : pr.depth + reach;
+  if (!(t > pr.depth - reach)) t = pr.depth - reach;
+  if (!(t < pr.depth + reach)) t = pr.depth + reach;
+  return t;
+}
+
+float cdsm_receiver_offset(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, bool caster) {
+  float footprint = cdsm_texel_footprint(m, pr.axial);
+  if (cdsm_receiver == 1u) {
+    if (!(cdsm_dot(plane, plane) > 0.0)) return 0.0;
+    float ndl = abs(cdsm_dot(plane, cdsm_normalize(L.position - p)));
+    float tan_inc = sqrt(max(0.0, 1.0 - ndl * ndl)) / max(ndl, 0.02);
+    return CDSM_SLOPE_BIAS_CONSTANT + CDSM_SLOPE_BIAS_TEXELS * footprint * tan_inc;
+  }
+  return caster ? cdsm_bias_constant + cdsm_bias_slope * footprint + CDSM_RELATIVE_DEPTH_OFFSET * pr.depth : 0.0;
+}
+
+// One map's α at the receiver: its bilinear taps (thesis eq. 4.18-4.19), each
+// at its own depth less the offset; taps outside the map count as 0.
+vec3 cdsm_map_alpha(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, bool caster) {
+  float offset = cdsm_receiver_offset(L, m, pr, p, plane, caster);
+  int res = int(m.res);
+  if (cdsm_filtering == 0u) {
+    int tx = int(floor(pr.u)), ty = int(floor(pr.v));
+    if (tx < 0 || ty < 0 || tx >= res || ty >= res) return vec3(0.0);
+    return cdsm_texel_alpha(m, tx, ty, cdsm_tap_depth(m, pr, p, plane, tx, ty) - offset);
+  }
+  float lx = pr.u - 0.5, ly = pr.v - 0.5;
+  float fx = floor(lx), fy = floor(ly);
+  float wx = lx - fx, wy = ly - fy;
+  int x0 = int(fx), y0 = int(fy);
+  vec3 a = vec3(0.0);
+  for (int k = 0; k < 4; ++k) {
+    int tx = x0 + (k & 1), ty = y0 + (k >> 1);
+    float w = ((k & 1) != 0 ? wx : 1.0 - wx) * ((k >> 1) != 0 ? wy : 1.0 - wy);
+    if (w <= 0.0 || tx < 0 || ty < 0 || tx >= res || ty >= res) continue;
+    vec3 t = cdsm_texel_alpha(m, tx, ty, cdsm_tap_depth(m, pr, p, plane, tx, ty) - offset);
+    if (m.rgb == 0u) a.x += w * t.x;  // grey maps accumulate one scalar, as the C++ does
+    else a = a + t * w;
+  }
+  return m.rgb == 0u ? vec3(a.x) : a;
+}
+
+int cdsm_cube_face(vec3 d) {
+  float ax = abs(d.x), ay = abs(d.y), az = abs(d.z);
+  if (ax >= ay && ax >= az) return d.x >= 0.0 ? 0 : 1;
+  if (ay >= az) return d.y >= 0.0 ? 2 : 3;
+  return d.z >= 0.0 ? 4 : 5;
+}
+
+// α per channel between light L and the receiver over the light's maps:
+// clusters combined (eq. 3.12), the one cube face, or the first split holding it.
+vec3 cdsm_shadow_alpha(CdsmLight L, vec3 p, vec3 plane, bool caster) {
+  vec3 alpha = vec3(0.0);
+  uint first = L.first_map, count = L.map_count;
+  if (L.map_mode == 1u && count == 6u) {
+    first += uint(cdsm_cube_face(p - L.position));
+    count = 1u;
+  }
+  for (uint k = 0u; k < count; ++k) {
+    CdsmMap m = cdsm_maps[first + k];
+    CdsmProjection pr = cdsm_project(m.view, p);
+    if (pr.axial <= 0.0) continue;
+    if (L.map_mode == 2u) {
+      float lo = 1.0, hi = float(m.res) - 1.0;
+      if (k + 1u < count && (pr.u < lo || pr.v < lo || pr.u > hi || pr.v > hi)) continue;
+      count = k + 1u;
+    }
+    alpha = cdsm_over(alpha, cdsm_map_alpha(L, m, pr, p, plane, caster));
+  }
+  return alpha;
+}
+
+// ---- the application's calls -------------------------------------------------
+
+int cdsm_light_count() { return int(cdsm_light_total); }
+vec3 cdsm_light_position(int light) { return cdsm_lights[light].position; }
+vec3 cdsm_light_radiance(int light) { return cdsm_lights[light].radiance; }
+
+// The spot cone's falloff at p (smoothstep between the outer and inner cone), 1 for point lights.
+float cdsm_spot_factor(int light, vec3 p) {
+  CdsmLight L = cdsm_lights[light];
+  if (L.type != 0u) return 1.0;
+  float c = cdsm_dot(cdsm_normalize(p - L.position), L.direction);
+  if (c <= L.cos_outer) return 0.0;
+  if (c >= L.cos_inner) return 1.0;
+  float t = (c - L.cos_outer) / (L.cos_inner - L.cos_outer);
+  return t * t * (3.0 - 2.0 * t);
+}
+
+vec3 cdsm_surface_transmittance(vec3 world_pos, vec3 plane_normal, bool caster, int light) {
+  if (light < 0 || light >= int(cdsm_light_total)) return vec3(1.0, 0.0, 1.0);
+  return vec3(1.0) - cdsm_shadow_alpha(cdsm_lights[light], world_pos, plane_normal, caster);
+}
+
+vec3 cdsm_transmittance(vec3 world_pos, int light) {
+  return cdsm_surface_transmittance(world_pos, vec3(0.0), false, light);
+}
+
+#endif  // CDSM_GLSL_INCLUDED

@@ -1,0 +1,175 @@
+#include "gl/map_buffers.h"
+
+#include <algorithm>
+#include <cstring>
+#include <string>
+
+#include "cdsm/error.h"
+#include "gl/context.h"
+
+namespace cdsm::gl {
+
+namespace {
+
+constexpr uint64_t kMinBytes = 16;  // a zero-size buffer cannot be bound
+
+std::string mib(uint64_t bytes) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.1f MiB", double(bytes) / (1024.0 * 1024.0));
+  return b;
+}
+
+template <class T>
+uint64_t bytes_of(Span<const T> s) {
+  return s.size() * sizeof(T);
+}
+
+}  // namespace
+
+const char* block_name(MapBlock b) {
+  switch (b) {
+    case MapBlock::Frame: return "CdsmFrame";
+    case MapBlock::Texels: return "CdsmTexels";
+    case MapBlock::Nodes: return "CdsmNodes";
+    case MapBlock::Chunks: return "CdsmChunks";
+    case MapBlock::RgbTexels: return "CdsmRgbTexels";
+    case MapBlock::RgbNodes: return "CdsmRgbNodes";
+    case MapBlock::RgbChunks: return "CdsmRgbChunks";
+    case MapBlock::Count: break;
+  }
+  return "?";
+}
+
+MapBuffers::MapBuffers(Context& context, uint64_t max_block_bytes) : context_(context) {
+  const uint64_t limit = uint64_t(std::max<int64_t>(context.limits().max_ssbo_block_size, 0));
+  max_block_ = max_block_bytes ? std::min(max_block_bytes, limit) : limit;
+  for (int b = 0; b < kMapBlocks; ++b) {
+    buffers_[b] = Buffer(std::string("cdsm.maps.") + block_name(MapBlock(b)));
+    buffers_[b].reserve(kMinBytes);
+  }
+}
+
+MapBuffers::~MapBuffers() {
+  try {
+    context_.make_current();  // the names belong to it
+  } catch (...) {
+  }
+}
+
+void MapBuffers::sync_array(int b, const void* data, uint64_t bytes, bool full, MapUploadStats& st) {
+  if (bytes > max_block_)
+    throw Error(std::string("GL map buffers: ") + block_name(MapBlock(b)),
+                "the frame's maps need " + mib(bytes) + " in one storage block, more than this GL implementation's " +
+                    "largest (" + mib(max_block_) + ", GL_MAX_SHADER_STORAGE_BLOCK_SIZE): lower the map resolution or " +
+                    "the number of clusters, or raise epsilon");
+  Buffer& buf = buffers_[b];
+  const unsigned char* src = static_cast<const unsigned char*>(data);
+  if (full || bytes < used_[b]) {
+    const uint64_t want = std::max(bytes, kMinBytes);
+    if (want > buf.capacity() || buf.capacity() > 2 * want) {
+      buf.destroy();
+      buf.reserve(want);
+    }
+    buf.upload(src, bytes, 0);
+    st.upload_bytes += bytes;
+  } else if (bytes > used_[b]) {
+    if (bytes > buf.capacity()) {  // grow, keeping the contents (a GL-side copy)
+      const uint64_t grown = std::min(std::max(bytes, buf.capacity() + buf.capacity() / 2), std::max(max_block_, bytes));
+      Buffer next(buf.label());
+      next.reserve(grown);
+      if (used_[b] > 0) {
+        CDSM_GL(glCopyNamedBufferSubData(buf.id(), next.id(), 0, 0, GLsizeiptr(used_[b])));
+        st.copy_bytes += used_[b];
+      }
+      buf = std::move(next);
+    }
+    buf.upload(src + used_[b], bytes - used_[b], used_[b]);
+    st.upload_bytes += bytes - used_[b];
+  }
+  used_[b] = bytes;
+}
+
+MapUploadStats MapBuffers::sync(const ShadowView& view, uint64_t epoch) {
+  context_.make_current();
+  MapUploadStats st;
+  const DsmStorage& s = view.storage;
+  st.full = epoch != epoch_ || s.layout != layout_;
+  sync_array(int(MapBlock::Texels), s.texels.data(), bytes_of(s.texels), st.full, st);
+  sync_array(int(MapBlock::Nodes), s.nodes.data(), bytes_of(s.nodes), st.full, st);
+  sync_array(int(MapBlock::Chunks), s.chunks.data(), bytes_of(s.chunks), st.full, st);
+  sync_array(int(MapBlock::RgbTexels), s.rgb_texels.data(), bytes_of(s.rgb_texels), st.full, st);
+  sync_array(int(MapBlock::RgbNodes), s.rgb_nodes.data(), bytes_of(s.rgb_nodes), st.full, st);
+  sync_array(int(MapBlock::RgbChunks), s.rgb_chunks.data(), bytes_of(s.rgb_chunks), st.full, st);
+  epoch_ = epoch;
+  layout_ = s.layout;
+
+  // The frame block: settings, lights, map headers.
+  if (view.lights.size() > uint64_t(kMaxLights))
+    throw Error("GL map buffers", "more than " + std::to_string(kMaxLights) + " lights");
+  FrameBlockHeader h{};
+  h.layout = s.layout;
+  h.layers = s.layers;
+  h.filtering = view.filtering ? 1u : 0u;
+  h.receiver = view.receiver;
+  h.bias_constant = view.bias_constant;
+  h.bias_slope = view.bias_slope;
+  h.light_count = uint32_t(view.lights.size());
+  h.map_count = uint32_t(view.maps.size());
+  for (uint64_t i = 0; i < view.lights.size(); ++i) h.lights[i] = view.lights[i];
+  for (const DsmMap& m : view.maps)
+    if (m.texel_offset > 0xffffffffull) throw Error("GL map buffers", "a map's texel offset does not fit 32 bits");
+  std::vector<unsigned char> frame(sizeof h + view.maps.size() * sizeof(DsmMap));
+  std::memcpy(frame.data(), &h, sizeof h);
+  if (!view.maps.empty()) std::memcpy(frame.data() + sizeof h, view.maps.data(), view.maps.size() * sizeof(DsmMap));
+  if (frame != frame_) {
+    const uint64_t bytes = frame.size();
+    Buffer& buf = buffers_[int(MapBlock::Frame)];
+    if (bytes > buf.capacity() || buf.capacity() > 2 * bytes) {
+      buf.destroy();
+      buf.reserve(bytes);
+    }
+    buf.upload(frame.data(), bytes, 0);
+    st.upload_bytes += bytes;
+    used_[int(MapBlock::Frame)] = bytes;
+    frame_ = std::move(frame);
+  }
+  for (int b = 0; b < kMapBlocks; ++b) {
+    st.allocated_bytes += buffers_[b].capacity();
+    st.used_bytes += used_[b];
+  }
+  return st;
+}
+
+void MapBuffers::bind(GLuint program) const {
+  context_.make_current();
+  const std::string where = "GL program " + std::to_string(program);
+  if (program == 0 || !glIsProgram(program)) throw Error(where, "is not a GL program name of the current context");
+  GLint linked = GL_FALSE;
+  CDSM_GL(glGetProgramiv(program, GL_LINK_STATUS, &linked));
+  if (!linked) throw Error(where, "is not linked");
+  GLint binding[kMapBlocks];
+  std::string missing;
+  for (int b = 0; b < kMapBlocks; ++b) {
+    const GLuint idx = CDSM_GLV(glGetProgramResourceIndex(program, GL_SHADER_STORAGE_BLOCK, block_name(MapBlock(b))));
+    binding[b] = -1;
+    if (idx == GL_INVALID_INDEX) {
+      missing += std::string(missing.empty() ? "" : ", ") + block_name(MapBlock(b));
+      continue;
+    }
+    const GLenum prop = GL_BUFFER_BINDING;
+    CDSM_GL(glGetProgramResourceiv(program, GL_SHADER_STORAGE_BLOCK, idx, 1, &prop, 1, nullptr, &binding[b]));
+  }
+  if (!missing.empty())
+    throw Error(where, "lacks the storage blocks " + missing +
+                           " of cdsm.glsl: include content/shaders/cdsm.glsl and call cdsm_transmittance or "
+                           "cdsm_surface_transmittance in the program (unused blocks are removed by the compiler)");
+  for (int a = 0; a < kMapBlocks; ++a)
+    for (int b = a + 1; b < kMapBlocks; ++b)
+      if (binding[a] == binding[b])
+        throw Error(where, std::string("binds ") + block_name(MapBlock(a)) + " and " + block_name(MapBlock(b)) +
+                               " to the same point " + std::to_string(binding[a]));
+  for (int b = 0; b < kMapBlocks; ++b)
+    CDSM_GL(glBindBufferBase(GL_SHADER_STORAGE_BUFFER, GLuint(binding[b]), buffers_[b].id()));
+}
+
+}  // namespace cdsm::gl

@@ -1,0 +1,96 @@
+// The deep shadow maps of a frame in GL shader storage buffers, in the
+// std430 layout content/shaders/cdsm.glsl reads (DESIGN.md §8): one block of
+// frame data (lookup settings, lights, map headers) and the six arrays of
+// the backend's storage (DsmStorage: texel headers, nodes and chunk slots,
+// grey and RGB), byte for byte, so the GLSL lookup reads the offsets the
+// CDSM_HD lookup reads.
+//
+// Uploads follow the backend's storage_epoch(): while it stays the same the
+// arrays only grew at their ends (maps built since), and only those tails
+// are uploaded; a new epoch (compaction, an emptied store, another layout)
+// uploads every array once. A buffer that must grow keeps its contents by a
+// GL-side copy (glCopyNamedBufferSubData, no host traffic) into one 1.5x
+// larger; after a full upload buffers are re-allocated to the exact size
+// when they are more than twice it. The frame block is re-uploaded only when
+// its bytes changed. So a frame in which no map changed uploads nothing.
+//
+// Every array must fit one storage block (GL_MAX_SHADER_STORAGE_BLOCK_SIZE,
+// 128 MiB on llvmpipe): a larger one is refused with cdsm::Error naming the
+// array, its size and the limit (the lookup indexes each array in one
+// block).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "gl/gl_objects.h"
+#include "hd/lights.h"
+
+namespace cdsm::gl {
+
+class Context;
+
+// The head of the CdsmFrame block (std430): then `map_count` DsmMap.
+struct FrameBlockHeader {
+  uint32_t layout;        // kDsmPacked / kDsmFixed / kDsmChunked
+  uint32_t layers;        // fixed: node slots per texel
+  uint32_t filtering;     // 1: bilinear taps
+  uint32_t receiver;      // kReceiverPlane / kReceiverSlopeBias
+  float bias_constant;    // casters' offset from their own plane, world units
+  float bias_slope;       // + texel footprints
+  uint32_t light_count;
+  uint32_t map_count;
+  LightData lights[kMaxLights];  // lights[i] owns maps [first_map, first_map + map_count)
+};
+static_assert(sizeof(FrameBlockHeader) == 32 + 64 * kMaxLights, "CdsmFrame header layout (cdsm.glsl)");
+static_assert(sizeof(FrameBlockHeader) % 16 == 0, "DsmMap (16-byte aligned in std430) follows the header");
+
+// The blocks of cdsm.glsl, in binding order from CDSM_BINDING_BASE.
+enum class MapBlock : int { Frame = 0, Texels, Nodes, Chunks, RgbTexels, RgbNodes, RgbChunks, Count };
+inline constexpr int kMapBlocks = int(MapBlock::Count);
+const char* block_name(MapBlock b);  // "CdsmFrame", ...
+
+struct MapUploadStats {
+  uint64_t upload_bytes = 0;   // host -> GL bytes of this sync
+  uint64_t copy_bytes = 0;     // GL-side copies of grown buffers
+  bool full = false;           // every array uploaded (new epoch or first sync)
+  uint64_t allocated_bytes = 0;  // all blocks' buffers
+  uint64_t used_bytes = 0;       // of which holding data
+};
+
+class MapBuffers {
+ public:
+  // `max_block_bytes` 0: the context's GL_MAX_SHADER_STORAGE_BLOCK_SIZE
+  // (tests pass less to reach the limit).
+  explicit MapBuffers(Context& context, uint64_t max_block_bytes = 0);
+  ~MapBuffers();
+  MapBuffers(const MapBuffers&) = delete;
+  MapBuffers& operator=(const MapBuffers&) = delete;
+
+  // Brings the buffers to `view` (its lights, maps and storage; the storage
+  // of a backend at storage epoch `epoch`). The context must be current.
+  MapUploadStats sync(const ShadowView& view, uint64_t epoch);
+
+  GLuint buffer(MapBlock b) const { return buffers_[int(b)].id(); }
+  uint64_t limit_bytes() const { return max_block_; }
+
+  // Binds every block to the binding point `program` declares for it.
+  // Throws cdsm::Error naming the program and the blocks it lacks (a program
+  // that does not use cdsm.glsl's lookup, or whose compiler dropped it) or
+  // two blocks sharing a binding.
+  void bind(GLuint program) const;
+
+ private:
+  void sync_array(int block, const void* data, uint64_t bytes, bool full, MapUploadStats& st);
+
+  Context& context_;
+  uint64_t max_block_ = 0;
+  Buffer buffers_[kMapBlocks];
+  uint64_t used_[kMapBlocks] = {};  // bytes holding data
+  uint64_t epoch_ = 0;              // of the last sync (0: none yet)
+  uint32_t layout_ = ~0u;
+  std::vector<unsigned char> frame_;  // the frame block last uploaded
+};
+
+}  // namespace cdsm::gl

@@ -1,0 +1,212 @@
+#include "system_gl.h"
+
+#include <cmath>
+#include <cstring>
+#include <vector>
+
+#include "cdsm/error.h"
+
+#if CDSM_HAVE_GL
+#include "gl/context.h"
+#include "gl/map_buffers.h"
+#include "gl/shaders.h"
+#include "gl/state_guard.h"
+#endif
+
+namespace cdsm {
+
+#if CDSM_HAVE_GL
+
+struct SystemGl {
+  std::unique_ptr<gl::Context> context;
+  std::unique_ptr<gl::MapBuffers> maps;
+  uint64_t block_limit = 0;
+};
+
+void SystemGlDeleter::operator()(SystemGl* p) const {
+  if (!p) return;
+  // GL objects die with their context current; if another one is, they are
+  // left to the application's context (destroyed with it).
+  bool current = false;
+  try {
+    p->context->make_current();
+    current = true;
+  } catch (...) {
+  }
+  if (!current && p->maps) p->maps.release();  // leaked into the (gone or other) context on purpose
+  delete p;
+}
+
+SystemGlPtr make_system_gl(const std::string& where) {
+  std::string why;
+  auto ctx = gl::adopt_current_context(&why);
+  if (!ctx) throw Error(where, "GlContextUse::Application needs the application's OpenGL 4.5 context current: " + why);
+  SystemGlPtr g(new SystemGl);
+  g->context = std::move(ctx);
+  return g;
+}
+
+gl::Context* system_context(SystemGl& g) { return g.context.get(); }
+
+struct SystemGlScope::Guard {
+  gl::StateGuard state;
+};
+
+SystemGlScope::SystemGlScope(SystemGl* g, std::vector<std::string>* warnings) {
+  if (!g) return;
+  g->context->make_current();  // throws naming what is current instead
+  guard_ = std::make_unique<Guard>();
+  if (const GLenum e = guard_->state.pending_error(); e != GL_NO_ERROR && warnings)
+    warnings->push_back(std::string("the application left the GL error ") + gl::error_name(e) +
+                        " pending before a shadow-system call; it was cleared");
+}
+SystemGlScope::~SystemGlScope() = default;
+
+void sync_gl_maps(SystemGl& g, const ShadowView& view, uint64_t epoch, UpdateStats& st) {
+  if (!g.maps) g.maps = std::make_unique<gl::MapBuffers>(*g.context, g.block_limit);
+  const gl::MapUploadStats m = g.maps->sync(view, epoch);
+  st.gl_map_upload_bytes += m.upload_bytes;
+  st.gl_map_copy_bytes += m.copy_bytes;
+  st.gl_map_full_upload = st.gl_map_full_upload || m.full;
+  st.gl_map_bytes = m.allocated_bytes;
+}
+
+GlMapBuffers gl_map_buffers(const SystemGl& g) {
+  GlMapBuffers b;
+  if (!g.maps) return b;
+  b.frame = g.maps->buffer(gl::MapBlock::Frame);
+  b.texels = g.maps->buffer(gl::MapBlock::Texels);
+  b.nodes = g.maps->buffer(gl::MapBlock::Nodes);
+  b.chunks = g.maps->buffer(gl::MapBlock::Chunks);
+  b.rgb_texels = g.maps->buffer(gl::MapBlock::RgbTexels);
+  b.rgb_nodes = g.maps->buffer(gl::MapBlock::RgbNodes);
+  b.rgb_chunks = g.maps->buffer(gl::MapBlock::RgbChunks);
+  return b;
+}
+
+void bind_gl_maps(SystemGl& g, uint32_t program) {
+  if (!g.maps) throw Error("ShadowSystem::bind_gl", "no maps yet: call update() first");
+  g.maps->bind(program);
+}
+
+void set_gl_map_block_limit(SystemGl& g, uint64_t bytes) {
+  g.block_limit = bytes;
+  g.maps.reset();
+}
+
+namespace {
+
+// One attribute stream of an application buffer: `count` vec3 from `offset`
+// every `stride` bytes, read back in one call over the range they span.
+std::vector<Vec3> read_vec3(GLuint buffer, uint64_t offset, uint32_t stride, uint32_t count, const std::string& where,
+                            const char* what, uint64_t& bytes) {
+  if (buffer == 0 || !glIsBuffer(buffer))
+    throw Error(where, std::string(what) + " buffer " + std::to_string(buffer) + " is not a GL buffer of the current context");
+  if (stride == 0) stride = 12;
+  if (stride < 12) throw Error(where, std::string(what) + " stride " + std::to_string(stride) + " is below the 12 bytes of a position");
+  if (count == 0) return {};
+  GLint64 size = 0;
+  CDSM_GL(glGetNamedBufferParameteri64v(buffer, GL_BUFFER_SIZE, &size));
+  const uint64_t span = uint64_t(count - 1) * stride + 12;
+  if (offset + span > uint64_t(size))
+    throw Error(where, std::string(what) + " buffer " + std::to_string(buffer) + " holds " + std::to_string(size) +
+                           " bytes; " + std::to_string(count) + " vec3 at offset " + std::to_string(offset) + " stride " +
+                           std::to_string(stride) + " need " + std::to_string(offset + span));
+  std::vector<unsigned char> raw(span);
+  CDSM_GL(glGetNamedBufferSubData(buffer, GLintptr(offset), GLsizeiptr(span), raw.data()));
+  bytes += span;
+  std::vector<Vec3> out(count);
+  for (uint32_t i = 0; i < count; ++i) {
+    float v[3];
+    std::memcpy(v, raw.data() + uint64_t(i) * stride, sizeof v);
+    if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]))
+      throw Error(where, std::string(what) + " " + std::to_string(i) + " is not finite");
+    out[i] = {v[0], v[1], v[2]};
+  }
+  return out;
+}
+
+}  // namespace
+
+std::shared_ptr<TriangleMesh> read_gl_mesh(SystemGl& g, const GlMeshSource& s, const std::string& where,
+                                           uint64_t& bytes) {
+  auto mesh = std::make_shared<TriangleMesh>();
+  mesh->positions = read_vec3(s.vertex_buffer, s.vertex_offset, s.vertex_stride, s.vertex_count, where, "vertex", bytes);
+  if (s.normal_buffer)
+    mesh->normals = read_vec3(s.normal_buffer, s.normal_offset, s.normal_stride, s.vertex_count, where, "normal", bytes);
+  if (s.index_buffer == 0) {
+    if (s.vertex_count % 3 != 0)
+      throw Error(where, "a mesh without indices needs a multiple of 3 vertices, got " + std::to_string(s.vertex_count));
+    mesh->indices.resize(s.vertex_count);
+    for (uint32_t i = 0; i < s.vertex_count; ++i) mesh->indices[i] = i;
+  } else {
+    uint32_t size_of = 0;
+    switch (s.index_type) {
+      case GL_UNSIGNED_INT: size_of = 4; break;
+      case GL_UNSIGNED_SHORT: size_of = 2; break;
+      case GL_UNSIGNED_BYTE: size_of = 1; break;
+      default: {
+        char hex[16];
+        std::snprintf(hex, sizeof hex, "0x%04x", s.index_type);
+        throw Error(where, std::string("index_type ") + hex +
+                               " is not GL_UNSIGNED_INT, GL_UNSIGNED_SHORT or GL_UNSIGNED_BYTE");
+      }
+    }
+    if (s.index_count % 3 != 0)
+      throw Error(where, "index_count " + std::to_string(s.index_count) + " is not a multiple of 3");
+    if (!glIsBuffer(s.index_buffer))
+      throw Error(where, "index buffer " + std::to_string(s.index_buffer) + " is not a GL buffer of the current context");
+    GLint64 size = 0;
+    CDSM_GL(glGetNamedBufferParameteri64v(s.index_buffer, GL_BUFFER_SIZE, &size));
+    const uint64_t span = uint64_t(s.index_count) * size_of;
+    if (s.index_offset % size_of != 0) throw Error(where, "index_offset " + std::to_string(s.index_offset) + " is not aligned to its type");
+    if (s.index_offset + span > uint64_t(size))
+      throw Error(where, "index buffer " + std::to_string(s.index_buffer) + " holds " + std::to_string(size) + " bytes; " +
+                             std::to_string(s.index_count) + " indices at offset " + std::to_string(s.index_offset) +
+                             " need " + std::to_string(s.index_offset + span));
+    std::vector<unsigned char> raw(span);
+    if (span) CDSM_GL(glGetNamedBufferSubData(s.index_buffer, GLintptr(s.index_offset), GLsizeiptr(span), raw.data()));
+    bytes += span;
+    mesh->indices.resize(s.index_count);
+    for (uint32_t i = 0; i < s.index_count; ++i) {
+      uint32_t v = 0;
+      if (size_of == 4) std::memcpy(&v, raw.data() + 4 * uint64_t(i), 4);
+      else if (size_of == 2) {
+        uint16_t h;
+        std::memcpy(&h, raw.data() + 2 * uint64_t(i), 2);
+        v = h;
+      } else {
+        v = raw[i];
+      }
+      if (v >= s.vertex_count)
+        throw Error(where, "index " + std::to_string(i) + " is " + std::to_string(v) + ", past the " +
+                               std::to_string(s.vertex_count) + " vertices");
+      mesh->indices[i] = v;
+    }
+  }
+  return mesh;
+}
+
+std::string glsl_include() { return gl::shader_source("cdsm.glsl"); }
+
+#else  // no OpenGL in this build
+
+struct SystemGl {};
+void SystemGlDeleter::operator()(SystemGl* p) const { delete p; }
+SystemGlPtr make_system_gl(const std::string& where) {
+  throw Error(where, "GlContextUse::Application needs OpenGL, and this build has none (configured with CDSM_GL=OFF)");
+}
+gl::Context* system_context(SystemGl&) { return nullptr; }
+struct SystemGlScope::Guard {};
+SystemGlScope::SystemGlScope(SystemGl*, std::vector<std::string>*) {}
+SystemGlScope::~SystemGlScope() = default;
+void sync_gl_maps(SystemGl&, const ShadowView&, uint64_t, UpdateStats&) {}
+GlMapBuffers gl_map_buffers(const SystemGl&) { return {}; }
+void bind_gl_maps(SystemGl&, uint32_t) {}
+std::shared_ptr<TriangleMesh> read_gl_mesh(SystemGl&, const GlMeshSource&, const std::string&, uint64_t&) { return {}; }
+void set_gl_map_block_limit(SystemGl&, uint64_t) {}
+std::string glsl_include() { throw Error("cdsm::glsl_include", "this build has no OpenGL (configured with CDSM_GL=OFF)"); }
+
+#endif
+
+}  // namespace cdsm

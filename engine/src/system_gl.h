@@ -1,0 +1,58 @@
+// The GL side of a shadow system created on the application's context
+// (cdsm/shadow_system.h, GlContextUse::Application): the adopted context,
+// the map buffers, mesh read-back and the state guard around every GL use.
+// Built without OpenGL, make_system_gl() throws and nothing else is called.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "cdsm/gl.h"
+#include "cdsm/renderer.h"
+#include "cdsm/scene.h"
+#include "hd/lights.h"
+
+namespace cdsm {
+
+namespace gl {
+class Context;
+}
+
+struct SystemGl;
+struct SystemGlDeleter {
+  void operator()(SystemGl* p) const;
+};
+using SystemGlPtr = std::unique_ptr<SystemGl, SystemGlDeleter>;
+
+// Adopts the context current on this thread. Throws cdsm::Error (`where`
+// names the system) when there is none, or it is not GL 4.5 core.
+SystemGlPtr make_system_gl(const std::string& where);
+gl::Context* system_context(SystemGl& g);
+
+// While alive: the adopted context is checked to be current (throws
+// otherwise) and the GL state cdsm changes is saved, restored at the end.
+class SystemGlScope {
+ public:
+  SystemGlScope(SystemGl* g, std::vector<std::string>* warnings);
+  ~SystemGlScope();
+  SystemGlScope(const SystemGlScope&) = delete;
+  SystemGlScope& operator=(const SystemGlScope&) = delete;
+
+ private:
+  struct Guard;
+  std::unique_ptr<Guard> guard_;
+};
+
+// Uploads what changed of the frame's maps (engine/gl/map_buffers.h);
+// the figures go to `st`.
+void sync_gl_maps(SystemGl& g, const ShadowView& view, uint64_t epoch, UpdateStats& st);
+GlMapBuffers gl_map_buffers(const SystemGl& g);
+void bind_gl_maps(SystemGl& g, uint32_t program);
+// Reads a mesh from application buffers; adds the bytes read to `bytes`.
+std::shared_ptr<TriangleMesh> read_gl_mesh(SystemGl& g, const GlMeshSource& src, const std::string& where,
+                                           uint64_t& bytes);
+// Test hook: the largest block the map buffers may use (0: the driver's).
+void set_gl_map_block_limit(SystemGl& g, uint64_t bytes);
+
+}  // namespace cdsm

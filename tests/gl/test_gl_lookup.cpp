@@ -1,0 +1,234 @@
+// content/shaders/cdsm.glsl against the CDSM_HD lookup (shadows/hd/lights.h):
+// the maps of a ShadowSystem made on the application's context, read by a GL
+// compute shader through cdsm.glsl and by the C++ functions the camera pass
+// calls, at >= 10^5 points per scene — surface points of every object with
+// their triangle's plane and caster flag, volume samples inside the media,
+// and free points in the lights' reach — agree within 1e-5 per channel, in
+// all three layouts, grey and RGB maps, clusters and cube faces.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "cdsm/error.h"
+#include "cdsm/gl.h"
+#include "cdsm/scene_io.h"
+#include "cdsm/shadow_system.h"
+#include "gl/gl_api.h"
+#include "gl_test_util.h"
+#include "shadow_system_impl.h"
+
+namespace cdsm::test {
+namespace {
+
+std::string scene_path(const std::string& name) { return std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/" + name; }
+
+// One lookup: a point, the receiver's plane (0: a volume sample / free
+// point) and whether its surface is in the maps.
+struct LookupPoint {
+  Vec3 p;
+  Vec3 plane;
+  bool caster;
+  bool surface;
+};
+
+// Points over a compiled scene: `surface` on its triangles (area-uniform
+// within a triangle, triangles uniform), `volume` inside the boxes of
+// objects with an interior, `free` in the whole scene box.
+std::vector<LookupPoint> sample_points(const SceneBuffers& sb, int surface, int volume, int free, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u01(0.0f, 1.0f);
+  std::vector<LookupPoint> pts;
+  const uint32_t tris = uint32_t(sb.tri_object.size());
+  for (int i = 0; i < surface; ++i) {
+    const uint32_t t = std::min(uint32_t(u01(rng) * float(tris)), tris - 1);
+    const Vec3 a = sb.tri_vertices[3 * t], b = sb.tri_vertices[3 * t + 1], c = sb.tri_vertices[3 * t + 2];
+    float r1 = u01(rng), r2 = u01(rng);
+    if (r1 + r2 > 1.0f) r1 = 1.0f - r1, r2 = 1.0f - r2;
+    const Vec3 p = a + (b - a) * r1 + (c - a) * r2;
+    const Vec3 n = normalize(cross(b - a, c - a));
+    const ObjectData& o = sb.objects[sb.tri_object[t]];
+    pts.push_back({p, n, (o.flags & kObjCastsShadows) != 0u, true});
+  }
+  std::vector<Box3> media;
+  for (size_t i = 0; i < sb.objects.size(); ++i)
+    if (sb.objects[i].interior != 0u) media.push_back(sb.object_bounds[i]);
+  for (int i = 0; i < volume && !media.empty(); ++i) {
+    const Box3& b = media[size_t(u01(rng) * float(media.size())) % media.size()];
+    const Vec3 e = b.extent();
+    pts.push_back({b.lo + Vec3{e.x * u01(rng), e.y * u01(rng), e.z * u01(rng)}, {0, 0, 0}, false, false});
+  }
+  const Vec3 e = sb.bounds.extent();
+  for (int i = 0; i < free; ++i)
+    pts.push_back({sb.bounds.lo + Vec3{e.x * u01(rng), e.y * u01(rng), e.z * u01(rng)}, {0, 0, 0}, false, false});
+  return pts;
+}
+
+GLuint compile_compute(const std::string& body) {
+  const std::string src = "#version 450\nlayout(local_size_x = 64) in;\n" + glsl_include() + body;
+  const GLuint sh = glCreateShader(GL_COMPUTE_SHADER);
+  const char* text = src.c_str();
+  glShaderSource(sh, 1, &text, nullptr);
+  glCompileShader(sh);
+  GLint ok = 0;
+  glGetShaderiv(sh, GL_COMPILE_STATUS, &ok);
+  std::string log(4096, '\0');
+  glGetShaderInfoLog(sh, GLsizei(log.size()), nullptr, log.data());
+  EXPECT_TRUE(ok) << log.c_str();
+  const GLuint prog = glCreateProgram();
+  glAttachShader(prog, sh);
+  glLinkProgram(prog);
+  glDeleteShader(sh);
+  glGetProgramiv(prog, GL_LINK_STATUS, &ok);
+  EXPECT_TRUE(ok);
+  return prog;
+}
+
+// Per point and light the transmittance from cdsm.glsl.
+const char* const kLookupShader = R"(
+layout(std430, binding = 0) readonly buffer Points { vec4 pts[]; };   // xyz, w: 1 surface caster, 2 receive-only surface, 0 none
+layout(std430, binding = 1) readonly buffer Planes { vec4 planes[]; };
+layout(std430, binding = 2) writeonly buffer Result { vec4 result[]; };
+uniform int u_count;
+uniform int u_light;
+void main() {
+  int i = int(gl_GlobalInvocationID.x);
+  if (i >= u_count) return;
+  vec4 p = pts[i];
+  vec3 t = p.w > 0.5 ? cdsm_surface_transmittance(p.xyz, planes[i].xyz, p.w < 1.5, u_light)
+                     : cdsm_transmittance(p.xyz, u_light);
+  result[i] = vec4(t, 0.0);
+}
+)";
+
+class GlLookup : public GlTest {
+ protected:
+  // The GLSL transmittances of `pts` for light `light` of `sys`.
+  std::vector<Vec3> glsl_lookups(ShadowSystem& sys, const std::vector<LookupPoint>& pts, int light) {
+    if (!program_) program_ = compile_compute(kLookupShader);
+    std::vector<float> p4, n4;
+    for (const LookupPoint& q : pts) {
+      p4.insert(p4.end(), {q.p.x, q.p.y, q.p.z, q.surface ? (q.caster ? 1.0f : 2.0f) : 0.0f});
+      n4.insert(n4.end(), {q.plane.x, q.plane.y, q.plane.z, 0.0f});
+    }
+    GLuint bufs[3];
+    glCreateBuffers(3, bufs);
+    glNamedBufferStorage(bufs[0], GLsizeiptr(p4.size() * 4), p4.data(), 0);
+    glNamedBufferStorage(bufs[1], GLsizeiptr(n4.size() * 4), n4.data(), 0);
+    glNamedBufferStorage(bufs[2], GLsizeiptr(pts.size() * 16), nullptr, 0);
+    glUseProgram(program_);
+    sys.bind_gl(program_);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, bufs[0]);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, bufs[1]);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, bufs[2]);
+    glUniform1i(glGetUniformLocation(program_, "u_count"), int(pts.size()));
+    glUniform1i(glGetUniformLocation(program_, "u_light"), light);
+    glDispatchCompute(GLuint((pts.size() + 63) / 64), 1, 1);
+    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+    std::vector<float> out(pts.size() * 4);
+    glGetNamedBufferSubData(bufs[2], 0, GLsizeiptr(out.size() * 4), out.data());
+    glDeleteBuffers(3, bufs);
+    glUseProgram(0);
+    EXPECT_EQ(glGetError(), GLenum(GL_NO_ERROR));
+    std::vector<Vec3> t(pts.size());
+    for (size_t i = 0; i < pts.size(); ++i) t[i] = {out[4 * i], out[4 * i + 1], out[4 * i + 2]};
+    return t;
+  }
+
+  void TearDown() override {
+    if (program_) glDeleteProgram(program_);
+  }
+
+  // Every light of `scene` at `pts`: GLSL against C++ within 1e-5.
+  void expect_agreement(const Scene& scene, int surface, int volume, int free, const char* what) {
+    SystemOptions o;
+    o.gl_context = GlContextUse::Application;
+    o.source = scene.source;
+    ShadowSystem sys(o);
+    sync_scene(sys, scene);
+    sys.update();
+    ShadowSystem::Impl& I = sys.internals();
+    const std::vector<LookupPoint> pts = sample_points(I.sb, surface, volume, free, 7);
+    ASSERT_GE(pts.size(), size_t(surface + free));
+    const ShadowView sv = I.shadow_view();
+    uint32_t rgb_maps = 0;
+    for (const DsmMap& m : sv.maps) rgb_maps += m.rgb;
+    for (int l = 0; l < int(sv.lights.size()); ++l) {
+      const std::vector<Vec3> g = glsl_lookups(sys, pts, l);
+      double worst = 0.0;
+      size_t identical = 0, shadowed = 0, worst_at = 0;
+      for (size_t i = 0; i < pts.size(); ++i) {
+        const LookupPoint& q = pts[i];
+        const Receiver r{q.p, q.surface ? q.plane : Vec3{0, 0, 0}, q.surface && q.caster};
+        const Vec3 c = one_minus(shadow_alpha_rgb(sv, sv.lights[uint32_t(l)], r));
+        double d = 0.0;
+        for (int k = 0; k < 3; ++k) d = std::max(d, double(std::fabs(c[k] - g[i][k])));
+        if (!(d <= worst) || std::isnan(d)) worst = std::isnan(d) ? 1e9 : d, worst_at = i;
+        identical += d == 0.0;
+        shadowed += min_channel(c) < 0.999f;
+      }
+      std::printf("[ lookup   ] %s light %d: %zu points (%zu shadowed), %u RGB of %zu maps, max |dT| %.3g, %.2f%% bit-identical\n",
+                  what, l, pts.size(), shadowed, rgb_maps, sv.maps.size(), worst, 100.0 * double(identical) / double(pts.size()));
+      EXPECT_LE(worst, 1e-5) << what << " light " << l << " at point " << worst_at;
+      EXPECT_GT(shadowed, pts.size() / 20) << what << ": the points must probe shadows, not only lit space";
+    }
+  }
+
+  GLuint program_ = 0;
+};
+
+TEST_F(GlLookup, DefaultSceneAllLayouts) {
+  for (DsmLayout layout : {DsmLayout::Packed, DsmLayout::Fixed, DsmLayout::Chunked}) {
+    Scene scene = load_scene(scene_path("default.json"));
+    scene.shadows.layout = layout;
+    scene.shadows.resolution = 256;
+    const char* names[] = {"default packed", "default fixed", "default chunked"};
+    expect_agreement(scene, 70000, 25000, 10000, names[int(layout)]);
+  }
+}
+
+TEST_F(GlLookup, DefaultSceneClustered) {
+  Scene scene = load_scene(scene_path("default.json"));
+  scene.shadows.max_clusters = 4;
+  scene.shadows.d0 = 0.05f;
+  expect_agreement(scene, 70000, 25000, 10000, "default 4 clusters");
+}
+
+TEST_F(GlLookup, StainedGlass) {
+  Scene scene = load_scene(scene_path("stained_glass.json"));
+  expect_agreement(scene, 70000, 25000, 10000, "stained glass");
+}
+
+TEST_F(GlLookup, OmniCubeFacesAndSlopeBias) {
+  Scene scene = load_scene(scene_path("teapot_omni.json"));
+  scene.shadows.receiver = ReceiverLookup::SlopeBias;
+  scene.shadows.filtering = false;
+  expect_agreement(scene, 30000, 10000, 5000, "teapot omni, slope bias, nearest");
+}
+
+// An index outside the lights shows magenta rather than a plausible value.
+TEST_F(GlLookup, UnknownLightIndexIsMagenta) {
+  Scene scene = load_scene(scene_path("default.json"));
+  SystemOptions o;
+  o.gl_context = GlContextUse::Application;
+  ShadowSystem sys(o);
+  sync_scene(sys, scene);
+  sys.update();
+  const std::vector<LookupPoint> pts = {{{0, 0.01f, 0}, {0, 1, 0}, false, true}, {{0, 1, 0}, {0, 0, 0}, false, false}};
+  for (int light : {-1, int(scene.lights.size()), 99}) {
+    const std::vector<Vec3> g = glsl_lookups(sys, pts, light);
+    for (const Vec3& t : g) {
+      EXPECT_EQ(t.x, 1.0f);
+      EXPECT_EQ(t.y, 0.0f);
+      EXPECT_EQ(t.z, 1.0f);
+    }
+  }
+  EXPECT_THROW(sys.gl_light_index(LightHandle{12345}), Error);
+  EXPECT_EQ(sys.gl_light_index(sys.lights()[0]), 0);
+}
+
+}  // namespace
+}  // namespace cdsm::test

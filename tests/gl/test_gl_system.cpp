@@ -1,0 +1,455 @@
+// A ShadowSystem on the application's GL context (GlContextUse::Application):
+// the GL state it must leave as it found it, the map uploads it counts
+// (nothing when nothing changed, only new maps' nodes otherwise), meshes
+// read from application buffers, and every misuse as a clear error.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "cdsm/error.h"
+#include "cdsm/gl.h"
+#include "cdsm/procedural.h"
+#include "cdsm/scene_io.h"
+#include "cdsm/shadow_system.h"
+#include "gl/gl_api.h"
+#include "gl_test_util.h"
+#include "shadow_system_impl.h"
+
+namespace cdsm::test {
+namespace {
+
+std::string scene_path(const std::string& name) { return std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/" + name; }
+
+SystemOptions app_options(FragmentSource fragments = FragmentSource::Gl) {
+  SystemOptions o;
+  o.gl_context = GlContextUse::Application;
+  o.fragments = fragments;
+  o.source = "test system";
+  return o;
+}
+
+// A message containing `part`, from a call that must throw cdsm::Error.
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    return std::string("not a cdsm::Error: ") + e.what();
+  }
+  return "no error";
+}
+
+// Every piece of state the system promises to restore, as one comparable record.
+struct GlStateSnapshot {
+  GLint program, vao, draw_fbo, read_fbo, viewport[4], scissor[4], polygon[2], ssbo_generic;
+  GLboolean mask[4], caps[8];
+  GLint ssbo[8];
+  GLint64 ssbo_start[8], ssbo_size[8];
+  static GlStateSnapshot take() {
+    GlStateSnapshot s{};
+    glGetIntegerv(GL_CURRENT_PROGRAM, &s.program);
+    glGetIntegerv(GL_VERTEX_ARRAY_BINDING, &s.vao);
+    glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &s.draw_fbo);
+    glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &s.read_fbo);
+    glGetIntegerv(GL_VIEWPORT, s.viewport);
+    glGetIntegerv(GL_SCISSOR_BOX, s.scissor);
+    glGetIntegerv(GL_POLYGON_MODE, s.polygon);
+    glGetBooleani_v(GL_COLOR_WRITEMASK, 0, s.mask);
+    const GLenum caps[8] = {GL_SCISSOR_TEST, GL_DEPTH_CLAMP, GL_CLIP_DISTANCE0, GL_DEPTH_TEST,
+                            GL_CULL_FACE,    GL_BLEND,       GL_RASTERIZER_DISCARD, GL_MULTISAMPLE};
+    for (int i = 0; i < 8; ++i) s.caps[i] = glIsEnabled(caps[i]);
+    glGetIntegerv(GL_SHADER_STORAGE_BUFFER_BINDING, &s.ssbo_generic);
+    for (GLuint i = 0; i < 8; ++i) {
+      glGetIntegeri_v(GL_SHADER_STORAGE_BUFFER_BINDING, i, &s.ssbo[i]);
+      glGetInteger64i_v(GL_SHADER_STORAGE_BUFFER_START, i, &s.ssbo_start[i]);
+      glGetInteger64i_v(GL_SHADER_STORAGE_BUFFER_SIZE, i, &s.ssbo_size[i]);
+    }
+    return s;
+  }
+  bool operator==(const GlStateSnapshot& o) const { return std::memcmp(this, &o, sizeof *this) == 0; }
+};
+
+class GlSystem : public GlTest {};
+
+TEST_F(GlSystem, LeavesTheApplicationsGlStateAsItFoundIt) {
+  // The application's state: its own program, vertex array, framebuffer,
+  // storage buffers in every low binding, non-default switches.
+  GLuint vs = glCreateShader(GL_VERTEX_SHADER);
+  const char* src = "#version 450\nvoid main() { gl_Position = vec4(0.0); }\n";
+  glShaderSource(vs, 1, &src, nullptr);
+  glCompileShader(vs);
+  GLuint prog = glCreateProgram();
+  glAttachShader(prog, vs);
+  glLinkProgram(prog);
+  GLuint vao, fbo, tex, bufs[8];
+  glCreateVertexArrays(1, &vao);
+  glCreateFramebuffers(1, &fbo);
+  glCreateTextures(GL_TEXTURE_2D, 1, &tex);
+  glTextureStorage2D(tex, 1, GL_RGBA8, 64, 64);
+  glNamedFramebufferTexture(fbo, GL_COLOR_ATTACHMENT0, tex, 0);
+  glCreateBuffers(8, bufs);
+  for (GLuint i = 0; i < 8; ++i) {
+    glNamedBufferStorage(bufs[i], 4096, nullptr, 0);
+    if (i % 2) glBindBufferRange(GL_SHADER_STORAGE_BUFFER, i, bufs[i], 256, 512);
+    else glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, bufs[i]);
+  }
+  glBindBuffer(GL_SHADER_STORAGE_BUFFER, bufs[5]);
+  glUseProgram(prog);
+  glBindVertexArray(vao);
+  glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+  glViewport(3, 5, 37, 41);
+  glScissor(1, 2, 30, 20);
+  glEnable(GL_SCISSOR_TEST);
+  glEnable(GL_DEPTH_TEST);
+  glEnable(GL_CULL_FACE);
+  glEnable(GL_BLEND);
+  glDisable(GL_MULTISAMPLE);
+  glColorMaski(0, GL_TRUE, GL_FALSE, GL_TRUE, GL_FALSE);
+  glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
+  ASSERT_EQ(glGetError(), GLenum(GL_NO_ERROR));
+  const GlStateSnapshot before = GlStateSnapshot::take();
+
+  Scene scene = load_scene(scene_path("default.json"));
+  scene.camera.width = 96;
+  scene.camera.height = 64;
+  scene.shadows.resolution = 128;
+  ShadowSystem sys(app_options());
+  sync_scene(sys, scene);
+  FrameStats st;
+  sys.update(&st);
+  EXPECT_EQ(st.fragment_source, "gl");
+  EXPECT_TRUE(GlStateSnapshot::take() == before) << "update() changed the application's GL state";
+  sys.render(&st);  // camera fragments rasterized on the same context
+  EXPECT_TRUE(GlStateSnapshot::take() == before) << "render() changed the application's GL state";
+  auto mesh = std::make_shared<TriangleMesh>(make_box({1, 1, 1}));
+  GLuint vb;
+  glCreateBuffers(1, &vb);
+  glNamedBufferStorage(vb, GLsizeiptr(mesh->positions.size() * 12), mesh->positions.data(), 0);
+  GlMeshSource m;
+  m.vertex_buffer = vb;
+  m.vertex_count = uint32_t(mesh->positions.size());
+  GLuint ib;
+  glCreateBuffers(1, &ib);
+  glNamedBufferStorage(ib, GLsizeiptr(mesh->indices.size() * 4), mesh->indices.data(), 0);
+  m.index_buffer = ib;
+  m.index_count = uint32_t(mesh->indices.size());
+  sys.read_gl_mesh(m);
+  EXPECT_TRUE(GlStateSnapshot::take() == before) << "read_gl_mesh() changed the application's GL state";
+
+  // A GL error the application left pending is cleared and reported, not
+  // blamed on the system's own calls.
+  glBindBuffer(0xdead, 0);
+  sys.set_camera(scene.camera);
+  sys.update(&st);
+  ASSERT_FALSE(st.warnings.empty());
+  EXPECT_NE(st.warnings.back().find("GL_INVALID_ENUM"), std::string::npos) << st.warnings.back();
+  EXPECT_EQ(glGetError(), GLenum(GL_NO_ERROR));
+
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glUseProgram(0);
+  glBindVertexArray(0);
+  glDisable(GL_SCISSOR_TEST);
+  glDisable(GL_DEPTH_TEST);
+  glDisable(GL_CULL_FACE);
+  glDisable(GL_BLEND);
+  glEnable(GL_MULTISAMPLE);
+  glColorMaski(0, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+  glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+  glDeleteBuffers(8, bufs);
+  glDeleteBuffers(1, &vb);
+  glDeleteBuffers(1, &ib);
+  glDeleteTextures(1, &tex);
+  glDeleteFramebuffers(1, &fbo);
+  glDeleteVertexArrays(1, &vao);
+  glDeleteProgram(prog);
+  glDeleteShader(vs);
+}
+
+// Maps reach GL once: a frame in which nothing changed uploads nothing; a
+// moved light uploads its new maps' nodes (appended) and the frame block.
+TEST_F(GlSystem, UploadsOnlyWhatChanged) {
+  Scene scene = load_scene(scene_path("teapot_omni.json"));
+  scene.shadows.resolution = 128;
+  ShadowSystem sys(app_options(FragmentSource::Cpu));
+  sync_scene(sys, scene);
+  FrameStats first, again, moved;
+  sys.update(&first);
+  ShadowSystem::Impl& I = sys.internals();
+  const DsmStorage s0 = I.backend->storage();
+  const uint64_t arrays0 = (s0.texels.size() + s0.rgb_texels.size()) * 8 + s0.nodes.size() * 8 +
+                           s0.rgb_nodes.size() * 16 + s0.chunks.size() * 12 + s0.rgb_chunks.size() * 20;
+  const uint64_t frame_block = 32 + 64 * kMaxLights + 96 * I.frame.headers.size();
+  EXPECT_TRUE(first.update.gl_map_full_upload);
+  EXPECT_EQ(first.update.gl_map_upload_bytes, arrays0 + frame_block);
+  EXPECT_GE(first.update.gl_map_bytes, arrays0 + frame_block);
+
+  sys.set_camera(scene.camera);  // the same camera: no map changes
+  sys.update(&again);
+  EXPECT_EQ(again.maps_rebuilt, 0u);
+  EXPECT_EQ(again.update.gl_map_upload_bytes, 0u);
+  EXPECT_FALSE(again.update.gl_map_full_upload);
+
+  const auto array_bytes = [](const DsmStorage& d) {
+    return (d.texels.size() + d.rgb_texels.size()) * 8 + d.nodes.size() * 8 + d.rgb_nodes.size() * 16 +
+           d.chunks.size() * 12 + d.rgb_chunks.size() * 20;
+  };
+  // A spot light is added: its map is appended to the buffers.
+  ASSERT_EQ(scene.lights[0].type, LightType::Spot);
+  Light l = scene.lights[0];
+  l.position = l.position + Vec3{-2.0f, 0, 0};
+  sys.add_light(l);
+  sys.update(&moved);
+  ASSERT_EQ(moved.maps_rebuilt, 1u);
+  ASSERT_FALSE(moved.update.gl_map_full_upload);
+  const DsmStorage s1 = I.backend->storage();
+  const uint64_t frame1 = 32 + 64 * kMaxLights + 96 * I.frame.headers.size();
+  EXPECT_EQ(moved.update.gl_map_upload_bytes, array_bytes(s1) - arrays0 + frame1);
+  // The omni light (six maps) moves: the holes its old maps leave exceed a
+  // quarter of the store, which compacts: every array is uploaded once.
+  FrameStats omni;
+  Light o = scene.lights[1];
+  o.position = o.position + Vec3{0.05f, 0, 0};
+  sys.set_light(sys.lights()[1], o);
+  sys.update(&omni);
+  ASSERT_EQ(omni.maps_rebuilt, 6u);
+  EXPECT_TRUE(omni.update.gl_map_full_upload);
+  const DsmStorage s2 = I.backend->storage();
+  EXPECT_EQ(omni.update.gl_map_upload_bytes, array_bytes(s2) + frame1);
+  std::printf("[ uploads  ] first %llu B (full), unchanged %llu B, spot added %llu B (appended), omni moved %llu B (compacted, full)\n",
+              (unsigned long long)first.update.gl_map_upload_bytes, (unsigned long long)again.update.gl_map_upload_bytes,
+              (unsigned long long)moved.update.gl_map_upload_bytes, (unsigned long long)omni.update.gl_map_upload_bytes);
+
+  // The GL buffers hold exactly the backend's arrays.
+  const GlMapBuffers b = sys.gl_buffers();
+  std::vector<unsigned char> gl_nodes(s2.nodes.size() * 8), gl_texels(s2.texels.size() * 8);
+  glGetNamedBufferSubData(b.nodes, 0, GLsizeiptr(gl_nodes.size()), gl_nodes.data());
+  glGetNamedBufferSubData(b.texels, 0, GLsizeiptr(gl_texels.size()), gl_texels.data());
+  EXPECT_EQ(std::memcmp(gl_nodes.data(), s2.nodes.data(), gl_nodes.size()), 0);
+  EXPECT_EQ(std::memcmp(gl_texels.data(), s2.texels.data(), gl_texels.size()), 0);
+}
+
+// A mesh given through the application's buffers (interleaved, 16-bit
+// indices at an offset) is the mesh given as arrays: the same maps, node
+// for node; the bytes read back are counted once, never per frame.
+TEST_F(GlSystem, MeshFromApplicationBuffersEqualsArrays) {
+  auto mesh = std::make_shared<const TriangleMesh>(make_sphere(0.6f, 24, 12));
+  ASSERT_LT(mesh->positions.size(), 65536u);
+  // position + normal + a 4-byte attribute the system must skip
+  const uint32_t stride = 28;
+  std::vector<unsigned char> vbo(64 + mesh->positions.size() * stride, 0xab);
+  for (size_t i = 0; i < mesh->positions.size(); ++i) {
+    std::memcpy(vbo.data() + 64 + i * stride, &mesh->positions[i], 12);
+    std::memcpy(vbo.data() + 64 + i * stride + 12, &mesh->normals[i], 12);
+  }
+  std::vector<uint16_t> ibo(8, 0);
+  for (uint32_t v : mesh->indices) ibo.push_back(uint16_t(v));
+  GLuint vb, ib;
+  glCreateBuffers(1, &vb);
+  glCreateBuffers(1, &ib);
+  glNamedBufferStorage(vb, GLsizeiptr(vbo.size()), vbo.data(), 0);
+  glNamedBufferStorage(ib, GLsizeiptr(ibo.size() * 2), ibo.data(), 0);
+  GlMeshSource src;
+  src.vertex_buffer = vb;
+  src.vertex_offset = 64;
+  src.vertex_stride = stride;
+  src.vertex_count = uint32_t(mesh->positions.size());
+  src.normal_buffer = vb;
+  src.normal_offset = 64 + 12;
+  src.normal_stride = stride;
+  src.index_buffer = ib;
+  src.index_offset = 16;
+  src.index_type = GL_UNSIGNED_SHORT;
+  src.index_count = uint32_t(mesh->indices.size());
+
+  auto build = [&](bool from_gl, FrameStats& st) {
+    ShadowSystem sys(app_options());
+    Object ground;
+    ground.mesh = std::make_shared<const TriangleMesh>(make_box({4, 0.1f, 4}));
+    ground.casts_shadows = false;
+    sys.add_object(ground);
+    Object ball;
+    ball.mesh = from_gl ? sys.read_gl_mesh(src) : mesh;
+    ball.transform = make_transform({0, 1, 0}, {0, 0, 0}, {1, 1, 1});
+    ball.surface.opacity = 0.5f;
+    sys.add_object(ball);
+    Light spot;
+    spot.position = {0, 4, 0};
+    sys.add_light(spot);
+    ShadowSettings s;
+    s.resolution = 96;
+    sys.set_settings(s);
+    sys.update(&st);
+    // Texel by texel (the pool's order follows the tiles' reservations).
+    ShadowSystem::Impl& I = sys.internals();
+    const DsmStorage d = I.backend->storage();
+    std::vector<DsmNode> nodes;
+    for (const DsmMap& m : I.frame.headers)
+      for (int ty = 0; ty < int(m.res); ++ty)
+        for (int tx = 0; tx < int(m.res); ++tx) {
+          DsmNode buf[256];
+          const uint32_t n = read_texel(d, m, tx, ty, buf, 256);
+          nodes.push_back({float(n), -1.0f});
+          nodes.insert(nodes.end(), buf, buf + std::min(n, 256u));
+        }
+    return nodes;
+  };
+  FrameStats a, g;
+  const std::vector<DsmNode> from_arrays = build(false, a), from_gl = build(true, g);
+  ASSERT_EQ(from_arrays.size(), from_gl.size());
+  EXPECT_EQ(std::memcmp(from_arrays.data(), from_gl.data(), from_gl.size() * sizeof(DsmNode)), 0);
+  const uint64_t expect = (uint64_t(src.vertex_count - 1) * stride + 12) * 2 + uint64_t(src.index_count) * 2;
+  EXPECT_EQ(g.update.gl_readback_bytes, expect);
+  EXPECT_EQ(a.update.gl_readback_bytes, 0u);
+  glDeleteBuffers(1, &vb);
+  glDeleteBuffers(1, &ib);
+}
+
+TEST_F(GlSystem, UpdateBeforeAnythingIsRegisteredIsAnError) {
+  ShadowSystem sys(app_options());
+  EXPECT_NE(error_of([&] { sys.update(); }).find("before any object or light"), std::string::npos);
+  EXPECT_NE(error_of([&] { sys.bind_gl(1); }).find("call update() first"), std::string::npos);
+}
+
+TEST_F(GlSystem, AnotherOrNoContextCurrentIsAnError) {
+  Scene scene = load_scene(scene_path("primitives.json"));
+  scene.shadows.resolution = 64;
+  ShadowSystem sys(app_options());
+  sync_scene(sys, scene);
+  sys.update();
+  {
+    std::string why;
+    auto other = gl::create_headless_context({}, &why);  // current now
+    ASSERT_TRUE(other) << why;
+    const std::string e = error_of([&] { sys.update(); });
+    EXPECT_NE(e.find("another OpenGL context is current"), std::string::npos) << e;
+    other->release();
+    const std::string none = error_of([&] { sys.update(); });
+    EXPECT_NE(none.find("no OpenGL context is current"), std::string::npos) << none;
+    EXPECT_NE(error_of([&] { sys.bind_gl(1); }).find("no OpenGL context is current"), std::string::npos);
+  }
+  context().make_current();
+  FrameStats st;
+  sys.update(&st);  // the system works again on its own context
+  EXPECT_EQ(st.fragment_source, "gl");
+
+  // Created without a current context: refused at construction.
+  context().release();
+  EXPECT_NE(error_of([&] { ShadowSystem s(app_options()); }).find("needs the application's OpenGL 4.5 context current"),
+            std::string::npos);
+  context().make_current();
+}
+
+TEST_F(GlSystem, BadApplicationBuffersAreNamedErrors) {
+  ShadowSystem sys(app_options());
+  const float tri[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  GLuint vb, ib;
+  glCreateBuffers(1, &vb);
+  glNamedBufferStorage(vb, sizeof tri, tri, 0);
+  const uint32_t idx[3] = {0, 1, 7};
+  glCreateBuffers(1, &ib);
+  glNamedBufferStorage(ib, sizeof idx, idx, 0);
+  GlMeshSource s;
+  s.vertex_buffer = vb;
+  s.vertex_count = 3;
+  EXPECT_EQ(sys.read_gl_mesh(s)->indices.size(), 3u);  // the good case
+
+  GlMeshSource big = s;
+  big.vertex_count = 4;
+  EXPECT_NE(error_of([&] { sys.read_gl_mesh(big); }).find("holds 36 bytes"), std::string::npos);
+  GlMeshSource off = s;
+  off.vertex_offset = 8;
+  EXPECT_NE(error_of([&] { sys.read_gl_mesh(off); }).find("need 44"), std::string::npos);
+  GlMeshSource stride = s;
+  stride.vertex_stride = 8;
+  EXPECT_NE(error_of([&] { sys.read_gl_mesh(stride); }).find("stride 8"), std::string::npos);
+  GlMeshSource bad_name = s;
+  bad_name.vertex_buffer = 987654;
+  EXPECT_NE(error_of([&] { sys.read_gl_mesh(bad_name); }).find("is not a GL buffer"), std::string::npos);
+  GlMeshSource type = s;
+  type.index_buffer = ib;
+  type.index_count = 3;
+  type.index_type = GL_FLOAT;
+  EXPECT_NE(error_of([&] { sys.read_gl_mesh(type); }).find("index_type 0x1406"), std::string::npos);
+  GlMeshSource range = type;
+  range.index_type = GL_UNSIGNED_INT;
+  EXPECT_NE(error_of([&] { sys.read_gl_mesh(range); }).find("index 2 is 7, past the 3 vertices"), std::string::npos);
+  GlMeshSource count = range;
+  count.index_count = 4;
+  EXPECT_NE(error_of([&] { sys.read_gl_mesh(count); }).find("not a multiple of 3"), std::string::npos);
+  const float nan_tri[9] = {0, 0, 0, NAN, 0, 0, 0, 1, 0};
+  glNamedBufferSubData(vb, 0, 0, nullptr);
+  GLuint nb;
+  glCreateBuffers(1, &nb);
+  glNamedBufferStorage(nb, sizeof nan_tri, nan_tri, 0);
+  GlMeshSource nan = s;
+  nan.vertex_buffer = nb;
+  EXPECT_NE(error_of([&] { sys.read_gl_mesh(nan); }).find("vertex 1 is not finite"), std::string::npos);
+  glDeleteBuffers(1, &vb);
+  glDeleteBuffers(1, &ib);
+  glDeleteBuffers(1, &nb);
+
+  // Without the application's context the GL calls are refused by name.
+  ShadowSystem own;
+  EXPECT_NE(error_of([&] { own.read_gl_mesh(s); }).find("GlContextUse::Application"), std::string::npos);
+  EXPECT_NE(error_of([&] { own.bind_gl(1); }).find("GlContextUse::Application"), std::string::npos);
+  EXPECT_THROW(own.gl_buffers(), Error);
+}
+
+TEST_F(GlSystem, ProgramsWithoutTheBlocksAreRefused) {
+  Scene scene = load_scene(scene_path("primitives.json"));
+  scene.shadows.resolution = 64;
+  ShadowSystem sys(app_options(FragmentSource::Cpu));
+  sync_scene(sys, scene);
+  sys.update();
+  auto program = [](const std::string& body) {
+    const std::string src = "#version 450\nlayout(local_size_x = 1) in;\n" + body;
+    const char* t = src.c_str();
+    GLuint sh = glCreateShader(GL_COMPUTE_SHADER);
+    glShaderSource(sh, 1, &t, nullptr);
+    glCompileShader(sh);
+    GLuint p = glCreateProgram();
+    glAttachShader(p, sh);
+    glLinkProgram(p);
+    glDeleteShader(sh);
+    return p;
+  };
+  const GLuint plain = program("layout(std430, binding = 0) buffer B { float x[]; };\nvoid main() { x[0] = 1.0; }\n");
+  std::string e = error_of([&] { sys.bind_gl(plain); });
+  EXPECT_NE(e.find("lacks the storage blocks CdsmFrame, CdsmTexels"), std::string::npos) << e;
+  EXPECT_NE(error_of([&] { sys.bind_gl(0); }).find("is not a GL program"), std::string::npos);
+  EXPECT_NE(error_of([&] { sys.bind_gl(424242); }).find("is not a GL program"), std::string::npos);
+  // The good case: a program that calls the lookup binds at its own base.
+  const GLuint good = program("#define CDSM_BINDING_BASE 1\n" + glsl_include() +
+                              "layout(std430, binding = 0) buffer B { vec4 x[]; };\n"
+                              "void main() { x[0] = vec4(cdsm_transmittance(vec3(0.0), 0), 1.0); }\n");
+  sys.bind_gl(good);
+  GLint bound = 0;
+  glGetIntegeri_v(GL_SHADER_STORAGE_BUFFER_BINDING, 1, &bound);
+  EXPECT_EQ(GLuint(bound), sys.gl_buffers().frame);
+  glGetIntegeri_v(GL_SHADER_STORAGE_BUFFER_BINDING, 7, &bound);
+  EXPECT_EQ(GLuint(bound), sys.gl_buffers().rgb_chunks);
+  for (GLuint p : {plain, good}) glDeleteProgram(p);
+}
+
+// Maps larger than one storage block are refused with the sizes, not cut.
+TEST_F(GlSystem, MapsBeyondTheStorageBlockLimitAreRefused) {
+  Scene scene = load_scene(scene_path("primitives.json"));
+  scene.shadows.resolution = 256;
+  ShadowSystem sys(app_options(FragmentSource::Cpu));
+  sync_scene(sys, scene);
+  set_gl_map_block_limit(*sys.internals().gl, 64 * 1024);  // 256^2 texel headers need 512 KiB
+  const std::string e = error_of([&] { sys.update(); });
+  EXPECT_NE(e.find("CdsmTexels"), std::string::npos) << e;
+  EXPECT_NE(e.find("GL_MAX_SHADER_STORAGE_BLOCK_SIZE"), std::string::npos) << e;
+  set_gl_map_block_limit(*sys.internals().gl, 0);
+  sys.set_camera(scene.camera);
+  sys.update();  // the driver's real limit (128 MiB on llvmpipe) holds them
+}
+
+}  // namespace
+}  // namespace cdsm::test
