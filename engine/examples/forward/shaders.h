@@ -1,0 +1,188 @@
+// The example renderer's own GLSL: a conventional forward renderer's
+// shaders. Everything about shadows comes from cdsm.glsl (the library's
+// include, pasted after each #version line by the renderer) and the buffers
+// ShadowSystem::bind_gl() binds; the rest — transforms, Phong shading,
+// blending, the volume ray marcher — is the application's.
+#pragma once
+
+namespace forward {
+
+// Meshes: world position and normal per vertex (normal matrix applied and
+// normalized per vertex, as the library compiles its meshes).
+inline const char* const kMeshVertex = R"(
+layout(location = 0) in vec3 a_position;
+layout(location = 1) in vec3 a_normal;
+uniform mat4 u_model;
+uniform mat3 u_normal_matrix;
+uniform mat4 u_view_proj;
+out vec3 v_world;
+out vec3 v_normal;
+void main() {
+  vec4 w = u_model * vec4(a_position, 1.0);
+  v_world = w.xyz;
+  v_normal = normalize(u_normal_matrix * a_normal);
+  gl_Position = u_view_proj * w;
+}
+)";
+
+// The triangle's geometric normal, flat: the receiver plane of the shadow
+// lookup (not the interpolated shading normal).
+inline const char* const kMeshGeometry = R"(
+layout(triangles) in;
+layout(triangle_strip, max_vertices = 3) out;
+in vec3 v_world[];
+in vec3 v_normal[];
+out vec3 g_world;
+out vec3 g_normal;
+flat out vec3 g_plane;
+void main() {
+  vec3 n = cross(v_world[1] - v_world[0], v_world[2] - v_world[0]);
+  float l = length(n);
+  vec3 plane = l > 0.0 ? n / l : vec3(0.0);
+  for (int i = 0; i < 3; ++i) {
+    g_world = v_world[i];
+    g_normal = v_normal[i];
+    g_plane = plane;
+    gl_Position = gl_in[i].gl_Position;
+    EmitVertex();
+  }
+  EndPrimitive();
+}
+)";
+
+// Phong surfaces (thesis eq. 3.8) lit through the library's transmittance.
+// Output 0 is the colour times coverage, output 1 what the surface passes
+// of what lies behind it (dual-source blending: dst = src0 + dst * src1).
+inline const char* const kSurfaceFragment = R"(
+in vec3 g_world;
+in vec3 g_normal;
+flat in vec3 g_plane;
+layout(location = 0, index = 0) out vec4 o_color;
+layout(location = 0, index = 1) out vec4 o_pass;
+uniform vec3 u_eye;
+uniform vec3 u_ambient;
+uniform vec3 u_color;
+uniform float u_opacity;
+uniform vec3 u_transmission;
+uniform vec4 u_phong;        // ka, kd, ks, shininess
+uniform bool u_caster;       // the object casts shadows: its surface is in the maps
+uniform bool u_has_normals;  // else the geometric normal shades
+uniform bool u_shadows;      // false: every light unshadowed (to see what the maps do)
+void main() {
+  vec3 dir = normalize(g_world - u_eye);
+  vec3 n = u_has_normals ? g_normal : g_plane;
+  n = normalize(n);
+  if (dot(n, dir) > 0.0) n = -n;
+  vec3 v = -dir;
+  vec3 c = u_color * u_ambient * u_phong.x;
+  for (int i = 0; i < cdsm_light_count(); ++i) {
+    float cone = cdsm_spot_factor(i, g_world);
+    if (cone <= 0.0) continue;
+    vec3 to_l = cdsm_light_position(i) - g_world;
+    float dist = length(to_l);
+    if (dist <= 0.0) continue;
+    vec3 l = to_l / dist;
+    float ndl = dot(n, l);
+    if (ndl <= 0.0) continue;
+    vec3 vis = u_shadows ? cdsm_surface_transmittance(g_world, g_plane, u_caster, i) : vec3(1.0);
+    if (max(vis.r, max(vis.g, vis.b)) <= 0.0) continue;
+    vec3 r = n * (2.0 * ndl) - l;
+    float rv = max(0.0, dot(r, v));
+    float spec = u_phong.z * (rv > 0.0 ? pow(rv, u_phong.w) : 0.0);
+    c += (u_color * (u_phong.y * ndl) + vec3(spec)) * cdsm_light_radiance(i) * (vis * cone);
+  }
+  o_color = vec4(c * u_opacity, 1.0);
+  o_pass = vec4((1.0 - u_opacity) * u_transmission, 1.0);
+}
+)";
+
+// Volumes: drawn on the back faces of their proxy box; each fragment
+// marches its camera ray from where it enters the box to the back face or
+// the opaque surface in front of it, with emission-absorption and single
+// scattering (isotropic), the light's transmittance from cdsm.glsl at every
+// sample.
+inline const char* const kVolumeFragment = R"(
+in vec3 g_world;
+in vec3 g_normal;
+flat in vec3 g_plane;
+layout(location = 0, index = 0) out vec4 o_color;
+layout(location = 0, index = 1) out vec4 o_pass;
+uniform vec3 u_eye;
+uniform vec3 u_ambient;
+uniform mat4 u_world_to_index;  // world -> voxel index coordinates (centres at integers)
+uniform mat4 u_world_to_box;    // world -> the proxy's object space
+uniform vec3 u_box_lo, u_box_hi;
+uniform vec3 u_grid_size;
+uniform sampler3D u_density;     // trilinear, background outside
+uniform sampler2D u_scene_depth; // the opaque pass's depth
+uniform vec2 u_viewport;
+uniform vec3 u_forward;          // the camera's view axis
+uniform vec2 u_near_far;
+uniform float u_step;            // world units
+uniform int u_points;
+uniform float u_tf_density[16];
+uniform vec3 u_tf_extinction[16];
+uniform vec3 u_tf_color[16];
+uniform bool u_shadows;
+
+void transfer(float d, out vec3 sigma, out vec3 albedo) {
+  if (d <= u_tf_density[0]) { sigma = u_tf_extinction[0]; albedo = u_tf_color[0]; return; }
+  for (int i = 1; i < u_points; ++i) {
+    if (d <= u_tf_density[i]) {
+      float t = (d - u_tf_density[i - 1]) / max(u_tf_density[i] - u_tf_density[i - 1], 1e-30);
+      sigma = mix(u_tf_extinction[i - 1], u_tf_extinction[i], t);
+      albedo = mix(u_tf_color[i - 1], u_tf_color[i], t);
+      return;
+    }
+  }
+  sigma = u_tf_extinction[u_points - 1];
+  albedo = u_tf_color[u_points - 1];
+}
+
+void main() {
+  vec3 dir = normalize(g_world - u_eye);
+  float t_exit = length(g_world - u_eye);
+  // The opaque surface in front of the back face ends the march.
+  vec2 uv = gl_FragCoord.xy / u_viewport;
+  float zd = texture(u_scene_depth, uv).r;
+  if (zd < 1.0) {  // window depth -> view-axis distance -> distance along the ray
+    float n = u_near_far.x, f = u_near_far.y, z_ndc = zd * 2.0 - 1.0;
+    float axial = 2.0 * f * n / ((f + n) - z_ndc * (f - n));
+    t_exit = min(t_exit, axial / dot(dir, u_forward));
+  }
+  // Entry: the ray against the proxy's box (slabs in its object space).
+  vec3 o = (u_world_to_box * vec4(u_eye, 1.0)).xyz;
+  vec3 d = (u_world_to_box * vec4(dir, 0.0)).xyz;
+  vec3 inv = 1.0 / d;
+  vec3 ta = (u_box_lo - o) * inv, tb = (u_box_hi - o) * inv;
+  float t_enter = max(max(min(ta.x, tb.x), min(ta.y, tb.y)), min(ta.z, tb.z));
+  t_enter = max(t_enter, 0.0);
+  vec3 color = vec3(0.0), T = vec3(1.0);
+  int steps = int(ceil((t_exit - t_enter) / u_step));
+  for (int s = 0; s < steps && s < 4096; ++s) {
+    float t0 = t_enter + float(s) * u_step, t1 = min(t0 + u_step, t_exit);
+    vec3 p = u_eye + dir * (0.5 * (t0 + t1));
+    vec3 idx = (u_world_to_index * vec4(p, 1.0)).xyz;
+    float dens = texture(u_density, (idx + 0.5) / u_grid_size).r;
+    vec3 sigma, albedo;
+    transfer(dens, sigma, albedo);
+    vec3 a = vec3(1.0) - exp(-sigma * (t1 - t0));
+    if (max(a.r, max(a.g, a.b)) <= 0.0) continue;
+    vec3 c = albedo * u_ambient;
+    for (int i = 0; i < cdsm_light_count(); ++i) {
+      float cone = cdsm_spot_factor(i, p);
+      if (cone <= 0.0) continue;
+      vec3 vis = u_shadows ? cdsm_transmittance(p, i) : vec3(1.0);
+      c += albedo * cdsm_light_radiance(i) * (vis * cone);
+    }
+    color += c * T * a;
+    T *= vec3(1.0) - a;
+    if (max(T.r, max(T.g, T.b)) < 0.005) break;
+  }
+  if (T == vec3(1.0)) discard;  // nothing absorbed: leave the pixel (and its stencil) alone
+  o_color = vec4(color, 1.0);
+  o_pass = vec4(T, 1.0);
+}
+)";
+
+}  // namespace forward
