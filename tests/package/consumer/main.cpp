@@ -6,6 +6,10 @@
 //
 // Usage: cdsm_consumer [OUTPUT_DIR]   (writes consumer.png there)
 #include <cdsm/cdsm.h>
+#include <cdsm/gl.h>
+
+#define GL_GLEXT_PROTOTYPES 1
+#include <GL/glcorearb.h>
 
 #include <cmath>
 #include <cstdio>
@@ -164,6 +168,71 @@ void check_shadows(const std::string& out_dir) {
   check(std::fabs(t - kExpectedT) <= 0.05f, line);
 }
 
+// The engine path: a shadow system on the application's own (headless)
+// context, the maps in GL buffers, read by a compute shader built from the
+// installed cdsm.glsl at the three ground points: T = 1, 0.49, 0.
+void check_gl_lookups() {
+  std::string why;
+  auto context = cdsm::GlContext::create_headless(&why);
+  if (!context) {
+    const char* req = std::getenv("CDSM_REQUIRE_GL");
+    check(!(req && std::string(req) == "1"), "an OpenGL 4.5 context (CDSM_REQUIRE_GL=1): " + why);
+    std::printf("skip GL lookups: no OpenGL 4.5 context (%s)\n", why.c_str());
+    return;
+  }
+  std::ifstream f(std::string(CDSM_PACKAGE_GLSL_DIR) + "/cdsm.glsl");
+  const std::string include((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  check(!include.empty(), "the installed cdsm.glsl is readable");
+  if (include.empty()) return;
+  cdsm::SystemOptions options;
+  options.gl_context = cdsm::GlContextUse::Application;
+  options.source = "package consumer (GL)";
+  cdsm::ShadowSystem system(options);
+  cdsm::Camera camera;
+  build_scene(system, camera);
+  cdsm::FrameStats stats;
+  system.update(&stats);
+  check(stats.update.gl_map_upload_bytes > 0, "maps uploaded to GL buffers");
+
+  const std::string src = "#version 450\nlayout(local_size_x = 4) in;\n" + include + R"(
+layout(std430, binding = 0) buffer Out { vec4 t[]; };
+void main() {
+  const vec3 p[3] = vec3[3](vec3(0.0, 0.0, 1.0), vec3(1.8, 0.0, 0.4), vec3(-1.8, 0.0, 0.4));
+  uint i = gl_GlobalInvocationID.x;
+  if (i < 3u) t[i] = vec4(cdsm_surface_transmittance(p[i], vec3(0.0, 1.0, 0.0), false, 0), 0.0);
+}
+)";
+  const char* text = src.c_str();
+  GLuint sh = glCreateShader(GL_COMPUTE_SHADER);
+  glShaderSource(sh, 1, &text, nullptr);
+  glCompileShader(sh);
+  GLint ok = 0;
+  glGetShaderiv(sh, GL_COMPILE_STATUS, &ok);
+  check(ok != 0, "a compute shader with the installed cdsm.glsl compiles");
+  GLuint prog = glCreateProgram();
+  glAttachShader(prog, sh);
+  glLinkProgram(prog);
+  glDeleteShader(sh);
+  GLuint out;
+  glCreateBuffers(1, &out);
+  glNamedBufferStorage(out, 3 * 16, nullptr, 0);
+  glUseProgram(prog);
+  system.bind_gl(prog);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, out);
+  glDispatchCompute(1, 1, 1);
+  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+  float t[12] = {};
+  glGetNamedBufferSubData(out, 0, sizeof t, t);
+  glDeleteBuffers(1, &out);
+  glDeleteProgram(prog);
+  std::printf("GLSL transmittance at the lit, translucent-shadow and opaque-shadow ground points: %.4f %.4f %.4f\n", t[0],
+              t[4], t[8]);
+  check(std::fabs(t[0] - 1.0f) <= 1e-4f, "GLSL: the lit point sees the light");
+  check(std::fabs(t[4] - kExpectedT) <= 0.02f, "GLSL: the translucent cube passes 0.49 (+- 0.02)");
+  check(t[8] <= 0.02f, "GLSL: the opaque cube passes nothing");
+  check(glGetError() == GL_NO_ERROR, "no GL error");
+}
+
 // The installed data: the GLSL include, and content (scenes, meshes) that
 // the library reads through CDSM_CONTENT_DIR, not the source tree it was
 // built from.
@@ -206,6 +275,9 @@ int main(int argc, char** argv) {
   try {
     check_shadows(argc > 1 ? argv[1] : "");
     check_installed_files();
+#if CDSM_CONSUMER_EXPECT_GLSL
+    check_gl_lookups();
+#endif
   } catch (const std::exception& e) {
     check(false, std::string("exception: ") + e.what());
   }
