@@ -443,6 +443,8 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
     }
   }
   FragmentBuffers fb;
+  if (in.maps_built) in.maps_built->store(0);
+  if (in.maps_to_build) in.maps_to_build->store(uint32_t(n - size_t(std::count(found.begin(), found.end(), 1))));
   for (size_t k = 0; k < n; ++k) {
     MapCache::Entry& e = next[k];
     const MapPlan& plan = frame.setup.maps[k];
@@ -468,6 +470,7 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
       frame.build_ms += ms_since(t0);
       frame.map_rebuilt.push_back(1);
       ++frame.rebuilt;
+      if (in.maps_built) in.maps_built->fetch_add(1);
     }
     frame.maps.push_back(e.id);
     frame.map_stats.push_back(e.stats);

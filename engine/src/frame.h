@@ -9,6 +9,7 @@
 // so a frame rebuilds only maps whose inputs changed.
 #pragma once
 
+#include <atomic>
 #include <functional>
 #include <memory>
 #include <string>
@@ -79,6 +80,10 @@ struct FrameInputs {
   Camera camera;
   ShadowSettings settings;
   bool keep_previous = false;  // keep the last frame's replaced maps alive one frame (popping probe)
+  // Optional progress of the builds (read by other threads): maps to build
+  // this frame, and built so far.
+  std::atomic<uint32_t>* maps_to_build = nullptr;
+  std::atomic<uint32_t>* maps_built = nullptr;
 };
 
 // State kept across frames: the built maps by key, the clusters per light.

@@ -135,6 +135,7 @@ struct Renderer::Impl {
   // (sync_scene), so frames cost what changed.
   std::unique_ptr<ShadowSystem> system = std::make_unique<ShadowSystem>();
   FragmentSource fragments = FragmentSource::Auto;
+  Backend backend = Backend::Cpu;  // the system's (Reference renders through a cpu system)
   Image last_reference;
   // Popping probe: the previous frame's maps and its sampled receivers.
   struct Previous {
@@ -149,9 +150,13 @@ struct Renderer::Impl {
   // The system for `scene` with these options (a new fragment source
   // starts a new system).
   ShadowSystem::Impl& sync(const Scene& scene, const RenderOptions& opt) {
-    if (opt.fragments != fragments) {
-      system = std::make_unique<ShadowSystem>(SystemOptions{opt.fragments, scene.source});
+    const Backend want = opt.backend == Backend::Reference ? Backend::Cpu : opt.backend;
+    if (opt.fragments != fragments || want != backend) {
+      SystemOptions so{opt.fragments, scene.source};
+      so.backend = want;
+      system = std::make_unique<ShadowSystem>(so);
       fragments = opt.fragments;
+      backend = want;
       previous = Previous{};
     }
     // Checked before any edit reaches the system (its update() checks the
@@ -370,7 +375,7 @@ Image Renderer::render(const Scene& scene, const RenderOptions& opt, FrameStats*
   if (opt.compare_reference) {
     auto t0 = Clock::now();
     st.transmittance = impl_->probe_error(opt, f);
-    impl_->last_reference = impl_->system->render_reference(opt.reference_step_voxels);
+    impl_->last_reference = impl_->system->render_reference(opt.reference_step_voxels, opt.progress);
     st.image = compare_images(img, impl_->last_reference);
     st.has_reference = true;
     st.times.reference_ms = ms_since(t0);
@@ -385,7 +390,7 @@ Image Renderer::render_reference(const Scene& scene, const RenderOptions& opt, F
   auto t0 = Clock::now();
   impl_->sync(scene, opt);
   auto t1 = Clock::now();
-  Image img = impl_->system->render_reference(opt.reference_step_voxels);
+  Image img = impl_->system->render_reference(opt.reference_step_voxels, opt.progress);
   st.times.reference_ms = ms_since(t1);
   st.times.total_ms = ms_since(t0);
   st.lights = uint32_t(scene.lights.size());

@@ -291,7 +291,21 @@ void ShadowSystem::Impl::compile(FrameStats& st) {
 }
 
 void ShadowSystem::Impl::update(FrameStats& st) {
+  build(st);
+  publish(st);
+}
+
+void ShadowSystem::Impl::publish(FrameStats& st) {
+  if (!gl) return;
   SystemGlScope gl_scope(gl.get(), &st.warnings);
+  sync_gl_maps(*gl, shadow_view(), backend->storage_epoch(), st.update);
+  st.update.gl_readback_bytes = gl_readback_bytes;
+  gl_readback_bytes = 0;
+}
+
+void ShadowSystem::Impl::build(FrameStats& st) {
+  // GL only where the fragments come from GL (then on the context's thread).
+  SystemGlScope gl_scope(options.fragments == FragmentSource::Cpu ? nullptr : gl.get(), &st.warnings);
   if (changed) {
     validate_scene(scene, &st.warnings);
     check_memory(scene, estimate_frame_memory(scene, RenderOptions{}));
@@ -307,6 +321,8 @@ void ShadowSystem::Impl::update(FrameStats& st) {
     in.camera = scene.camera;
     in.settings = scene.shadows;
     in.keep_previous = keep_previous;
+    in.maps_built = &progress_built;
+    in.maps_to_build = &progress_total;
     build_shadow_frame(in, fragments.producer(sb), *backend, cache, frame);
     changed = false;
   } else {
@@ -382,11 +398,6 @@ void ShadowSystem::Impl::update(FrameStats& st) {
   st.update.map_live_bytes = store.live_bytes;
   st.update.scene_bytes = scene_bytes(sb);
   st.update.gl_scene_bytes = fragments.gl_scene_bytes();
-  if (gl) {
-    sync_gl_maps(*gl, shadow_view(), backend->storage_epoch(), st.update);
-    st.update.gl_readback_bytes = gl_readback_bytes;
-    gl_readback_bytes = 0;
-  }
   st.lights = uint32_t(scene.lights.size());
   update_stats = st;
 }
@@ -587,6 +598,24 @@ void ShadowSystem::update(FrameStats* stats) {
   impl_->update(st);
 }
 
+void ShadowSystem::build(FrameStats* stats) {
+  FrameStats local;
+  FrameStats& st = stats ? *stats : local;
+  st = FrameStats{};
+  if (impl_->scene.objects.empty() && impl_->scene.lights.empty())
+    throw Error(impl_->scene.source, "build() before any object or light was added: nothing to build maps for");
+  impl_->build(st);
+}
+
+void ShadowSystem::publish(FrameStats* stats) {
+  FrameStats local;
+  impl_->publish(stats ? *stats : local);
+}
+
+ShadowSystem::BuildProgress ShadowSystem::build_progress() const {
+  return {impl_->progress_built.load(), impl_->progress_total.load()};
+}
+
 std::shared_ptr<const TriangleMesh> ShadowSystem::read_gl_mesh(const GlMeshSource& source) {
   Impl& I = *impl_;
   const std::string where = I.scene.source + ": read_gl_mesh";
@@ -652,14 +681,20 @@ Image ShadowSystem::render(FrameStats* stats) {
   return img;
 }
 
-Image ShadowSystem::render_reference(float step_voxels) {
+Image ShadowSystem::render_reference(float step_voxels, RenderProgress* progress) {
   Impl& I = *impl_;
   FrameStats st;
   validate_scene(I.scene, &st.warnings);
   I.compile(st);
   SceneView sv = I.sb.view();
   LightSetup ls = setup_lights(I.scene.lights, I.sb, 4);
-  ReferenceRenderer ref(sv, ls.lights, ReferenceOptions{step_voxels});
+  ReferenceOptions ro;
+  ro.step_voxels = step_voxels;
+  if (progress) {
+    ro.progress = &progress->fraction;
+    ro.cancel = &progress->cancel;
+  }
+  ReferenceRenderer ref(sv, ls.lights, ro);
   CameraPassParams cam;
   cam.view = camera_view(I.scene.camera);
   std::vector<uint32_t> inside = objects_containing(sv, cam.view.eye, ObjectMask{});
@@ -670,6 +705,10 @@ Image ShadowSystem::render_reference(float step_voxels) {
   img.width = cam.view.width;
   img.height = cam.view.height;
   ref.render(cam, img.rgb);
+  if (progress) {
+    if (progress->cancel.load()) throw Error(I.scene.source, "reference render cancelled");
+    progress->fraction.store(1.0f);
+  }
   return img;
 }
 

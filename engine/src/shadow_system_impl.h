@@ -2,6 +2,7 @@
 // shared with the renderer (error probe, popping probe) and tests.
 #pragma once
 
+#include <atomic>
 #include <memory>
 #include <string>
 #include <unordered_map>
@@ -76,7 +77,10 @@ struct ShadowSystem::Impl {
   void touch_object(size_t i);
 
   void compile(FrameStats& st);  // the scene part of update()
-  void update(FrameStats& st);
+  void update(FrameStats& st);   // build() + publish()
+  void build(FrameStats& st);    // compile, fragments, maps (GL only with GL fragments)
+  void publish(FrameStats& st);  // the map buffers (GlContextUse::Application)
+  std::atomic<uint32_t> progress_built{0}, progress_total{0};  // of the running build
   void compile_volumes(FrameStats& st);
   void erase_volume_data(size_t vi);
   void compile_structure(FrameStats& st);

@@ -217,10 +217,14 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
   rgb.assign(size_t(w) * h * 3, 0.0f);
   Span<const LightData> lights{lights_.data(), lights_.size()};
   auto visibility = [&](int light, const Receiver& r) { return transmittance_rgb(light, r.p); };
+  std::atomic<uint32_t> rows_started{0};
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     std::vector<Hit> hits;
     std::vector<float> ts;
-    for (int py = rows.begin(); py < rows.end(); ++py)
+    for (int py = rows.begin(); py < rows.end(); ++py) {
+      if (opt_.cancel && opt_.cancel->load(std::memory_order_relaxed)) return;
+      const uint32_t started = rows_started.fetch_add(1, std::memory_order_relaxed) + 1;
+      if (opt_.progress) opt_.progress->store(float(started) / float(h), std::memory_order_relaxed);
       for (int px = 0; px < w; ++px) {
         Vec3 dir = pixel_ray(view, px, py);
         float c = dot(dir, view.forward);
@@ -374,6 +378,7 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
         o[1] = color.y;
         o[2] = color.z;
       }
+    }
   });
 }
 

@@ -7,6 +7,7 @@
 // models with the DSM path, so image error isolates shadows.
 #pragma once
 
+#include <atomic>
 #include <vector>
 
 #include "hd/camera_pass.h"
@@ -17,6 +18,11 @@ namespace cdsm {
 
 struct ReferenceOptions {
   float step_voxels = 0.25f;  // march step in voxels (<= 1/4: converged to 1e-4)
+  // render(): the fraction of rows started is stored in `progress`; when
+  // `cancel` becomes true the remaining rows are skipped (the caller checks
+  // `cancel` afterwards).
+  std::atomic<float>* progress = nullptr;
+  const std::atomic<bool>* cancel = nullptr;
 };
 
 class ReferenceRenderer {

@@ -4,6 +4,7 @@
 // GL context), so an engine calls render() every frame.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -17,6 +18,14 @@ namespace cdsm {
 enum class Backend { Cpu, Reference };
 enum class FragmentSource { Auto, Gl, Cpu };
 
+// Progress of a long render (the reference image of compare_reference),
+// shared with another thread: `fraction` grows from 0 to 1; setting
+// `cancel` makes the render stop early and throw cdsm::Error ("cancelled").
+struct RenderProgress {
+  std::atomic<float> fraction{0.0f};
+  std::atomic<bool> cancel{false};
+};
+
 struct RenderOptions {
   Backend backend = Backend::Cpu;
   FragmentSource fragments = FragmentSource::Auto;  // Auto: GL when a context can be made
@@ -25,6 +34,7 @@ struct RenderOptions {
                                     // 48x48 receiver walk and keeps replaced maps one frame)
   int error_samples = 20000;        // shaded points for the transmittance error
   float reference_step_voxels = 0.25f;
+  RenderProgress* progress = nullptr;  // optional: the reference's progress, cancellation
 };
 
 struct StageTimes {

@@ -148,6 +148,28 @@ class ShadowSystem {
   // edits since the last update touched (table above) plus the clustering.
   void update(FrameStats* stats = nullptr);
 
+  // Two phases of update(), for an application that keeps drawing while
+  // maps build (the editor): build() is the CPU part — compile, fragment
+  // lists, map builds; publish() the GL part — uploading what build() made
+  // to the map buffers (GlContextUse::Application; nothing otherwise).
+  // update() = build() + publish(). With FragmentSource::Cpu, build() makes
+  // no GL call and may run on a worker thread while the context's thread
+  // keeps calling bind_gl() and gl_buffers() (they read only the buffers of
+  // the last publish()) and nothing else of this system; publish() then
+  // runs on the context's thread. With GL fragments build() needs the
+  // context like update(). build() fills `stats` like update();
+  // publish() adds only the GL figures of FrameStats::update (gl_map_*,
+  // gl_readback_bytes) to `stats`.
+  void build(FrameStats* stats = nullptr);
+  void publish(FrameStats* stats = nullptr);
+  // Maps built / maps to build by the build() running now (or the last
+  // one); safe to read from any thread.
+  struct BuildProgress {
+    uint32_t built = 0;
+    uint32_t to_build = 0;
+  };
+  BuildProgress build_progress() const;
+
   // The camera pass over the maps of the last update(): camera fragments,
   // lookups, shading, compositing. O(pixels x depth complexity). Calls
   // update() first when anything changed since.
@@ -155,7 +177,9 @@ class ShadowSystem {
 
   // The reference image (exact shadow rays, no maps) of the current state.
   // Costly: small sizes.
-  Image render_reference(float step_voxels = 0.25f);
+  // `progress` (optional): fraction of rows done; its cancel flag stops the
+  // render, which then throws cdsm::Error naming the cancellation.
+  Image render_reference(float step_voxels = 0.25f, RenderProgress* progress = nullptr);
 
   // ---- engine integration (SystemOptions::gl_context = Application) -------
   // A mesh from the application's GL buffers, read back now (its bytes are
@@ -178,6 +202,51 @@ class ShadowSystem {
   // among the system's lights (handle order; it changes when an earlier
   // light is removed). Throws cdsm::Error for an unknown handle. Cheap.
   int gl_light_index(LightHandle light) const;
+
+  // ---- inspection of the last update()'s maps (the editor's views) --------
+  struct MapInfo {
+    int light = 0;              // light index (handle order)
+    int slot = 0;               // map within its light: cluster, cube face or split
+    int res = 0;                // texels per side
+    bool rgb = false;           // RGB nodes (a coloured caster among its members)
+    bool rebuilt = false;       // built by the last update()
+    std::vector<int> members;   // the caster objects in it (object indices, handle order)
+    Vec3 corners[8];            // its frustum: near plane, then far plane (world)
+    float near = 0.0f, far = 0.0f;  // view-axis range of its depths
+    uint64_t nodes = 0;
+    uint32_t max_nodes = 0;     // per texel
+    uint64_t index_bytes = 0, node_bytes = 0, slack_bytes = 0;
+  };
+  std::vector<MapInfo> maps() const;  // cheap
+  // Per texel of map `map` (row 0 at the top, res x res): its node count,
+  // or its opacity at radial depth `depth` (RGB maps: the channel mean).
+  // O(texels) (x nodes per texel for alpha).
+  std::vector<uint32_t> map_node_counts(int map) const;
+  std::vector<float> map_alpha(int map, float depth) const;
+
+  // One texel's visibility function against the uncompressed one: for the
+  // map of light `light` that serves point p (the cube face holding it, or
+  // the map with the largest opacity at p among those whose window holds
+  // it), the texel whose centre is nearest to p's projection; its stored
+  // nodes and the same light ray walked with epsilon 0 (every sample a
+  // node, the map's own segments and march steps). Costs one light ray's
+  // fragments and walk.
+  struct AlphaSample {
+    float z;     // radial depth from the light
+    Vec3 alpha;  // per channel (grey maps: equal)
+  };
+  struct TexelInspection {
+    bool found = false;
+    std::string why;             // when not found
+    int map = -1, light = -1, slot = -1, tx = -1, ty = -1;
+    float depth = 0.0f;          // p's radial depth from the light
+    float epsilon = 0.0f;
+    bool rgb = false;
+    std::vector<AlphaSample> nodes;  // the map's
+    std::vector<AlphaSample> exact;  // epsilon 0
+    float max_deviation = 0.0f;  // sup over the exact samples and channels of |alpha_map - alpha_exact|
+  };
+  TexelInspection inspect_texel(int light, Vec3 p) const;
 
   // Drops every map and the clusters' history (the next update rebuilds
   // all maps and clusters from scratch); the compiled scene stays.

@@ -1,0 +1,197 @@
+// Inspection of a shadow system's maps (cdsm/shadow_system.h): what the
+// editor's views show — each map's frustum, members and memory, its node
+// counts and opacity per texel, and one texel's stored visibility function
+// against the same light ray walked with epsilon 0.
+#include <algorithm>
+#include <cmath>
+
+#include "cdsm/error.h"
+#include "cdsm/shadow_system.h"
+#include "cpu/fragments_cpu.h"
+#include "hd/light_pass.h"
+#include "shadow_system_impl.h"
+
+namespace cdsm {
+namespace {
+
+const ShadowSystem::Impl& checked_map(const ShadowSystem::Impl& I, int map) {
+  if (map < 0 || size_t(map) >= I.frame.headers.size())
+    throw Error(I.scene.source, "map " + std::to_string(map) + " does not exist (the last update built " +
+                                    std::to_string(I.frame.headers.size()) + ")");
+  return I;
+}
+
+// The light whose maps include map k, and k's place among them.
+void owner_of(const ShadowFrame& f, size_t k, int& light, int& slot) {
+  light = int(f.setup.maps[k].light);
+  slot = int(k) - int(f.setup.lights[size_t(light)].first_map);
+}
+
+// The one-texel view whose pixel centre is texel (tx, ty)'s centre of v.
+PinholeView texel_view(const PinholeView& v, int tx, int ty) {
+  PinholeView t = v;
+  t.center.x = v.center.x + (2.0f * (float(tx) + 0.5f) / float(v.width) - 1.0f) * v.tan_half_x;
+  t.center.y = v.center.y + (1.0f - 2.0f * (float(ty) + 0.5f) / float(v.height)) * v.tan_half_y;
+  t.tan_half_x = v.tan_half_x / float(v.width);
+  t.tan_half_y = v.tan_half_y / float(v.height);
+  t.width = t.height = 1;
+  return t;
+}
+
+// Per channel, for both node kinds (grey: the one value).
+Vec3 alpha_rgb_of(const DsmNode& n) { return vec3(n.alpha); }
+Vec3 alpha_rgb_of(const DsmNodeRgb& n) { return {n.r, n.g, n.b}; }
+
+template <class Node>
+std::vector<ShadowSystem::AlphaSample> samples_of(const Node* n, uint32_t count) {
+  std::vector<ShadowSystem::AlphaSample> out;
+  for (uint32_t i = 0; i < count; ++i) out.push_back({n[i].z, alpha_rgb_of(n[i])});
+  return out;
+}
+
+}  // namespace
+
+std::vector<ShadowSystem::MapInfo> ShadowSystem::maps() const {
+  const Impl& I = *impl_;
+  const ShadowFrame& f = I.frame;
+  std::vector<MapInfo> out;
+  for (size_t k = 0; k < f.headers.size(); ++k) {
+    MapInfo m;
+    owner_of(f, k, m.light, m.slot);
+    const PinholeView& v = f.setup.maps[k].view;
+    m.res = int(f.headers[k].res);
+    m.rgb = f.headers[k].rgb != 0u;
+    m.rebuilt = k < f.map_rebuilt.size() && f.map_rebuilt[k] != 0;
+    for (uint32_t o : f.setup.maps[k].members) m.members.push_back(int(o));
+    m.near = v.near;
+    m.far = v.far;
+    for (int c = 0; c < 8; ++c) {
+      const float sx = v.center.x + ((c & 1) ? v.tan_half_x : -v.tan_half_x);
+      const float sy = v.center.y + ((c & 2) ? v.tan_half_y : -v.tan_half_y);
+      const float d = (c & 4) ? v.far : v.near;
+      m.corners[c] = v.eye + (v.forward + v.right * sx + v.up * sy) * d;
+    }
+    if (k < f.map_stats.size()) {
+      const DsmBuildStats& b = f.map_stats[k];
+      m.nodes = b.nodes;
+      m.max_nodes = b.max_nodes;
+      m.index_bytes = b.index_bytes;
+      m.node_bytes = b.node_bytes_used;
+      m.slack_bytes = b.slack_bytes;
+    }
+    out.push_back(std::move(m));
+  }
+  return out;
+}
+
+std::vector<uint32_t> ShadowSystem::map_node_counts(int map) const {
+  const Impl& I = checked_map(*impl_, map);
+  const DsmMap& m = I.frame.headers[size_t(map)];
+  const DsmStorage st = I.backend->storage();
+  std::vector<uint32_t> out(size_t(m.res) * m.res);
+  for (int ty = 0; ty < int(m.res); ++ty)
+    for (int tx = 0; tx < int(m.res); ++tx)
+      out[size_t(ty) * m.res + tx] =
+          m.rgb ? read_texel_rgb(st, m, tx, ty, nullptr, 0) : read_texel(st, m, tx, ty, nullptr, 0);
+  return out;
+}
+
+std::vector<float> ShadowSystem::map_alpha(int map, float depth) const {
+  const Impl& I = checked_map(*impl_, map);
+  const DsmMap& m = I.frame.headers[size_t(map)];
+  const DsmStorage st = I.backend->storage();
+  std::vector<float> out(size_t(m.res) * m.res);
+  for (int ty = 0; ty < int(m.res); ++ty)
+    for (int tx = 0; tx < int(m.res); ++tx) {
+      const Vec3 a = texel_alpha_rgb(st, m, tx, ty, depth);
+      out[size_t(ty) * m.res + tx] = (a.x + a.y + a.z) / 3.0f;
+    }
+  return out;
+}
+
+ShadowSystem::TexelInspection ShadowSystem::inspect_texel(int light, Vec3 p) const {
+  const Impl& I = *impl_;
+  const ShadowFrame& f = I.frame;
+  TexelInspection r;
+  r.light = light;
+  if (light < 0 || size_t(light) >= f.setup.lights.size()) {
+    r.why = "light " + std::to_string(light) + " does not exist";
+    return r;
+  }
+  const LightData& L = f.setup.lights[size_t(light)];
+  const ShadowView sv = I.shadow_view();
+  const DsmStorage st = I.backend->storage();
+  // The map that serves p: the cube face holding it, else the map whose
+  // window holds it with the largest opacity there.
+  uint32_t first = L.first_map, count = L.map_count;
+  if (L.map_mode == kMapsCubeFaces && count == 6) {
+    first += uint32_t(cube_face_of(p - L.position));
+    count = 1;
+  }
+  float best = -1.0f;
+  for (uint32_t k = first; k < first + count; ++k) {
+    const DsmMap& m = f.headers[k];
+    const ViewProjection pr = project(m.view, p);
+    if (pr.axial <= 0.0f || pr.u < 0.0f || pr.v < 0.0f || pr.u >= float(m.res) || pr.v >= float(m.res)) continue;
+    const float a = grey_of(map_alpha_rgb(sv, L, m, pr, Receiver{p, Vec3{0, 0, 0}, false}));
+    if (a > best) {
+      best = a;
+      r.map = int(k);
+    }
+  }
+  if (r.map < 0) {
+    r.why = "the point lies outside every map of light " + std::to_string(light);
+    return r;
+  }
+  const size_t k = size_t(r.map);
+  const DsmMap& m = f.headers[k];
+  const ViewProjection pr = project(m.view, p);
+  owner_of(f, k, r.light, r.slot);
+  r.tx = std::min(int(std::floor(pr.u)), int(m.res) - 1);
+  r.ty = std::min(int(std::floor(pr.v)), int(m.res) - 1);
+  r.depth = pr.depth;
+  r.epsilon = I.scene.shadows.epsilon;
+  r.rgb = m.rgb != 0u;
+
+  // The stored nodes.
+  const uint32_t n = r.rgb ? read_texel_rgb(st, m, r.tx, r.ty, nullptr, 0) : read_texel(st, m, r.tx, r.ty, nullptr, 0);
+  std::vector<DsmNode> grey(n);
+  std::vector<DsmNodeRgb> rgb(n);
+  if (r.rgb) read_texel_rgb(st, m, r.tx, r.ty, rgb.data(), n);
+  else read_texel(st, m, r.tx, r.ty, grey.data(), n);
+
+  // The same ray, epsilon 0: the texel's one-pixel view, its members' fragments.
+  const MapPlan& plan = f.setup.maps[k];
+  const SceneView scene = I.sb.view();
+  std::vector<uint32_t> words = I.sb.mask_where([&](uint32_t o) {
+    return std::find(plan.members.begin(), plan.members.end(), o) != plan.members.end();
+  });
+  const ObjectMask mask{{words.data(), words.size()}};
+  const PinholeView one = texel_view(m.view, r.tx, r.ty);
+  FragmentBuffers fb;
+  cast_fragments(scene, one, mask, fb);
+  std::vector<uint32_t> inside = objects_containing(scene, one.eye, mask);
+  LightPassParams lp{one, 0.0f, {inside.data(), inside.size()}, kMethodDsm, 0.0f};
+  lp.rgb = r.rgb;
+  WalkStats ws;
+  constexpr int kCapacity = 1 << 16;  // every sample of a long march
+  if (r.rgb) {
+    std::vector<DsmNodeRgb> exact(kCapacity);
+    RgbNodeBuffer buf{exact.data(), kCapacity};
+    build_texel(scene, lp, fb.lists().pixel(0, 0), 0, 0, buf, ws);
+    r.nodes = samples_of(rgb.data(), n);
+    r.exact = samples_of(exact.data(), uint32_t(buf.count));
+    r.max_deviation = max_change(Span<const DsmNodeRgb>{rgb.data(), n}, Span<const DsmNodeRgb>{exact.data(), uint64_t(buf.count)});
+  } else {
+    std::vector<DsmNode> exact(kCapacity);
+    NodeBuffer buf{exact.data(), kCapacity};
+    build_texel(scene, lp, fb.lists().pixel(0, 0), 0, 0, buf, ws);
+    r.nodes = samples_of(grey.data(), n);
+    r.exact = samples_of(exact.data(), uint32_t(buf.count));
+    r.max_deviation = max_change(Span<const DsmNode>{grey.data(), n}, Span<const DsmNode>{exact.data(), uint64_t(buf.count)});
+  }
+  r.found = true;
+  return r;
+}
+
+}  // namespace cdsm
