@@ -102,239 +102,255 @@ bool passes_all(const cdsm::SurfaceMaterial& s) {
 
 }  // namespace
 
+
 struct ForwardRenderer::Mesh {
+  std::shared_ptr<const cdsm::TriangleMesh> keep;  // identity: kept alive while uploaded
   GLuint vao = 0, vbo = 0, ibo = 0;
   GLsizei index_count = 0;
-  cdsm::Mat4 model;
-  float normal_matrix[9] = {};
-  cdsm::SurfaceMaterial surface;
-  bool caster = true, has_normals = false, mirrored = false, invisible = false;
-  cdsm::Vec3 center;
+  uint32_t vertex_count = 0;
+  bool has_normals = false;
   cdsm::Box3 box;  // object space
-  int volume = -1;  // index into volumes_ (a volume's proxy)
-};
-
-struct ForwardRenderer::Volume {
-  GLuint texture = 0;
-  cdsm::Mat4 world_to_index, world_to_box;
-  cdsm::Vec3 size;
-  float step = 0.01f;
-  const cdsm::Volume* volume = nullptr;
-};
-
-ForwardRenderer::ForwardRenderer(const cdsm::Scene& scene, std::vector<std::string>& notes) : scene_(scene) {
-  cdsm::SystemOptions o;
-  o.gl_context = cdsm::GlContextUse::Application;  // this renderer's context, current now
-  o.source = scene.source;
-  system_ = std::make_unique<cdsm::ShadowSystem>(o);
-  cdsm::ShadowSystem& sys = *system_;
-
-  std::vector<cdsm::VolumeHandle> volume_handles;
-  for (const cdsm::Volume& v : scene.volumes) volume_handles.push_back(sys.add_volume(v));
-
-  for (const cdsm::Object& obj : scene.objects) {
-    const cdsm::TriangleMesh& tm = *obj.mesh;
-    Mesh m;
-    m.has_normals = tm.normals.size() == tm.positions.size();
-    // The application's buffers: interleaved position + normal, 32-bit indices.
-    std::vector<float> interleaved;
-    interleaved.reserve(tm.positions.size() * 6);
-    for (size_t i = 0; i < tm.positions.size(); ++i) {
-      const cdsm::Vec3 p = tm.positions[i], n = m.has_normals ? tm.normals[i] : cdsm::Vec3{0, 0, 1};
-      interleaved.insert(interleaved.end(), {p.x, p.y, p.z, n.x, n.y, n.z});
-    }
-    glCreateBuffers(1, &m.vbo);
-    glNamedBufferStorage(m.vbo, GLsizeiptr(interleaved.size() * sizeof(float)), interleaved.data(), 0);
-    glCreateBuffers(1, &m.ibo);
-    glNamedBufferStorage(m.ibo, GLsizeiptr(tm.indices.size() * 4), tm.indices.data(), 0);
-    glCreateVertexArrays(1, &m.vao);
-    glVertexArrayVertexBuffer(m.vao, 0, m.vbo, 0, 24);
-    glVertexArrayElementBuffer(m.vao, m.ibo);
-    for (GLuint a = 0; a < 2; ++a) {
-      glEnableVertexArrayAttrib(m.vao, a);
-      glVertexArrayAttribFormat(m.vao, a, 3, GL_FLOAT, GL_FALSE, a * 12);
-      glVertexArrayAttribBinding(m.vao, a, 0);
-    }
-    m.index_count = GLsizei(tm.indices.size());
-    check("mesh upload");
-
-    // The shadow system reads the same buffers back, once.
-    cdsm::GlMeshSource src;
-    src.vertex_buffer = m.vbo;
-    src.vertex_stride = 24;
-    src.vertex_count = uint32_t(tm.positions.size());
-    if (m.has_normals) {
-      src.normal_buffer = m.vbo;
-      src.normal_offset = 12;
-      src.normal_stride = 24;
-    }
-    src.index_buffer = m.ibo;
-    src.index_type = GL_UNSIGNED_INT;
-    src.index_count = uint32_t(tm.indices.size());
-    cdsm::Object shadow_obj = obj;
-    shadow_obj.mesh = sys.read_gl_mesh(src);
-    const cdsm::VolumeHandle vh =
-        obj.interior == cdsm::InteriorKind::Volume ? volume_handles[size_t(obj.volume)] : cdsm::VolumeHandle{};
-    sys.add_object(shadow_obj, vh);
-
-    m.model = obj.transform;
-    const cdsm::Mat4 nm = cdsm::transpose(inverse(obj.transform));
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) m.normal_matrix[c * 3 + r] = nm.m[r][c];  // column-major
-    m.surface = obj.surface;
-    m.caster = obj.casts_shadows;
-    m.mirrored = cdsm::mirrors(obj.transform);
-    m.invisible = passes_all(obj.surface);
-    for (const cdsm::Vec3& p : tm.positions) m.box.grow(p);
-    m.center = obj.transform.point(m.box.center());
-    if (obj.interior == cdsm::InteriorKind::Volume) {
-      const cdsm::Volume& v = scene.volumes[size_t(obj.volume)];
-      if (!v.grid) {
-        notes.push_back("volume '" + v.name + "': sparse (NanoVDB) grids are not drawn by this example");
-      } else if (v.shading != cdsm::VolumeShading::Scatter) {
-        notes.push_back("volume '" + v.name + "': Phong-shaded volumes are not drawn by this example");
-      } else {
-        Volume vol;
-        vol.volume = &scene_.volumes[size_t(obj.volume)];
-        const cdsm::Mat4 index_to_world = obj.transform * v.index_to_object;
-        vol.world_to_index = inverse(index_to_world);
-        vol.world_to_box = inverse(obj.transform);
-        vol.size = {float(v.grid->nx), float(v.grid->ny), float(v.grid->nz)};
-        float voxel = 1e30f;
-        for (int c = 0; c < 3; ++c)
-          voxel = std::min(voxel, cdsm::length({index_to_world.m[0][c], index_to_world.m[1][c], index_to_world.m[2][c]}));
-        vol.step = v.step_voxels * voxel;
-        glCreateTextures(GL_TEXTURE_3D, 1, &vol.texture);
-        glTextureStorage3D(vol.texture, 1, GL_R32F, v.grid->nx, v.grid->ny, v.grid->nz);
-        glTextureSubImage3D(vol.texture, 0, 0, 0, 0, v.grid->nx, v.grid->ny, v.grid->nz, GL_RED, GL_FLOAT,
-                            v.grid->values.data());
-        glTextureParameteri(vol.texture, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-        glTextureParameteri(vol.texture, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-        for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
-          glTextureParameteri(vol.texture, w, GL_CLAMP_TO_BORDER);
-        const float border[4] = {v.grid->background, 0, 0, 0};
-        glTextureParameterfv(vol.texture, GL_TEXTURE_BORDER_COLOR, border);
-        check("volume texture");
-        m.volume = int(volumes_.size());
-        volumes_.push_back(vol);
-      }
-    } else if (obj.interior == cdsm::InteriorKind::Constant && obj.surface.opacity < 1.0f) {
-      notes.push_back("object '" + obj.name + "': its constant medium is not drawn (only its surface)");
-    }
-    meshes_.push_back(m);
+  bool used = false;
+  ~Mesh() {
+    glDeleteVertexArrays(1, &vao);
+    glDeleteBuffers(1, &vbo);
+    glDeleteBuffers(1, &ibo);
   }
-  for (const cdsm::Light& l : scene.lights) sys.add_light(l);
-  sys.set_camera(scene.camera);
-  sys.set_settings(scene.shadows);
-  sys.set_background(scene.background);
+};
 
-  // Programs: the application's shaders with the library's include.
-  const GLuint vs = compile(GL_VERTEX_SHADER, kMeshVertex, false);
-  const GLuint gs = compile(GL_GEOMETRY_SHADER, kMeshGeometry, false);
-  surface_program_ = link({vs, gs, compile(GL_FRAGMENT_SHADER, kSurfaceFragment, true)});
-  const GLuint vs2 = compile(GL_VERTEX_SHADER, kMeshVertex, false);
-  const GLuint gs2 = compile(GL_GEOMETRY_SHADER, kMeshGeometry, false);
-  volume_program_ = link({vs2, gs2, compile(GL_FRAGMENT_SHADER, kVolumeFragment, true)});
+struct ForwardRenderer::Grid {
+  std::shared_ptr<const cdsm::DenseGrid> keep;
+  GLuint texture = 0;
+  cdsm::Vec3 size;
+  bool used = false;
+  ~Grid() { glDeleteTextures(1, &texture); }
+};
 
-  // The frame: linear float colour, depth + stencil (the stencil marks what
-  // the translucent passes covered), and a copy of the opaque depth the
-  // ray marcher reads.
-  width_ = scene.camera.width;
-  height_ = scene.camera.height;
-  glCreateTextures(GL_TEXTURE_2D, 1, &color_);
-  glTextureStorage2D(color_, 1, GL_RGBA32F, width_, height_);
-  glCreateTextures(GL_TEXTURE_2D, 1, &depth_);
-  glTextureStorage2D(depth_, 1, GL_DEPTH24_STENCIL8, width_, height_);
-  glCreateFramebuffers(1, &fbo_);
-  glNamedFramebufferTexture(fbo_, GL_COLOR_ATTACHMENT0, color_, 0);
-  glNamedFramebufferTexture(fbo_, GL_DEPTH_STENCIL_ATTACHMENT, depth_, 0);
-  glCreateTextures(GL_TEXTURE_2D, 1, &depth_copy_);
-  glTextureStorage2D(depth_copy_, 1, GL_DEPTH24_STENCIL8, width_, height_);
-  glTextureParameteri(depth_copy_, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-  glTextureParameteri(depth_copy_, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-  glCreateFramebuffers(1, &depth_copy_fbo_);
-  glNamedFramebufferTexture(depth_copy_fbo_, GL_DEPTH_STENCIL_ATTACHMENT, depth_copy_, 0);
-  if (glCheckNamedFramebufferStatus(fbo_, GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-    throw std::runtime_error("the frame's framebuffer is incomplete");
-  check("framebuffer");
+ForwardRenderer::ForwardRenderer() {
+  auto mesh_program = [](const char* fragment, bool with_cdsm) {
+    return link({compile(GL_VERTEX_SHADER, kMeshVertex, false), compile(GL_GEOMETRY_SHADER, kMeshGeometry, false),
+                 compile(GL_FRAGMENT_SHADER, fragment, with_cdsm)});
+  };
+  surface_program_ = mesh_program(kSurfaceFragment, true);
+  volume_program_ = mesh_program(kVolumeFragment, true);
+  pick_program_ = mesh_program(kPickFragment, false);
+  solid_program_ = mesh_program(kSolidFragment, false);
+  line_program_ = link({compile(GL_VERTEX_SHADER, kLineVertex, false), compile(GL_FRAGMENT_SHADER, kLineFragment, false)});
+  glCreateVertexArrays(1, &line_vao_);
+  for (GLuint a = 0; a < 2; ++a) {
+    glEnableVertexArrayAttrib(line_vao_, a);
+    glVertexArrayAttribFormat(line_vao_, a, 3, GL_FLOAT, GL_FALSE, a * 12);
+    glVertexArrayAttribBinding(line_vao_, a, 0);
+  }
+  check("programs");
 }
 
 ForwardRenderer::~ForwardRenderer() {
-  system_.reset();  // before the GL objects and the context go
-  for (Mesh& m : meshes_) {
-    glDeleteVertexArrays(1, &m.vao);
-    glDeleteBuffers(1, &m.vbo);
-    glDeleteBuffers(1, &m.ibo);
-  }
-  for (Volume& v : volumes_) glDeleteTextures(1, &v.texture);
-  glDeleteProgram(surface_program_);
-  glDeleteProgram(volume_program_);
-  glDeleteFramebuffers(1, &fbo_);
-  glDeleteFramebuffers(1, &depth_copy_fbo_);
-  glDeleteTextures(1, &color_);
-  glDeleteTextures(1, &depth_);
-  glDeleteTextures(1, &depth_copy_);
+  meshes_.clear();
+  grids_.clear();
+  for (GLuint p : {surface_program_, volume_program_, pick_program_, solid_program_, line_program_}) glDeleteProgram(p);
+  resize(0, 0);
+  glDeleteVertexArrays(1, &line_vao_);
+  glDeleteBuffers(1, &line_vbo_);
 }
 
-void ForwardRenderer::draw_mesh(const Mesh& m, GLuint p, bool shadows) {
-  set_mat4(p, "u_model", m.model);
-  glProgramUniformMatrix3fv(p, glGetUniformLocation(p, "u_normal_matrix"), 1, GL_FALSE, m.normal_matrix);
-  const cdsm::SurfaceMaterial& s = m.surface;
+void ForwardRenderer::upload(const cdsm::Scene& scene, std::vector<std::string>* notes) {
+  for (auto& [k, m] : meshes_) m->used = false;
+  for (auto& [k, g] : grids_) g->used = false;
+  for (const cdsm::Object& obj : scene.objects) {
+    if (!obj.mesh) continue;
+    auto [it, fresh] = meshes_.try_emplace(obj.mesh.get());
+    if (fresh) {
+      // The application's buffers: interleaved position + normal, 32-bit indices.
+      auto m = std::make_unique<Mesh>();
+      const cdsm::TriangleMesh& tm = *obj.mesh;
+      m->keep = obj.mesh;
+      m->has_normals = tm.normals.size() == tm.positions.size();
+      std::vector<float> interleaved;
+      interleaved.reserve(tm.positions.size() * 6);
+      for (size_t i = 0; i < tm.positions.size(); ++i) {
+        const cdsm::Vec3 p = tm.positions[i], n = m->has_normals ? tm.normals[i] : cdsm::Vec3{0, 0, 1};
+        interleaved.insert(interleaved.end(), {p.x, p.y, p.z, n.x, n.y, n.z});
+        m->box.grow(p);
+      }
+      glCreateBuffers(1, &m->vbo);
+      glNamedBufferStorage(m->vbo, GLsizeiptr(std::max<size_t>(interleaved.size(), 6) * sizeof(float)),
+                           interleaved.empty() ? nullptr : interleaved.data(), 0);
+      glCreateBuffers(1, &m->ibo);
+      glNamedBufferStorage(m->ibo, GLsizeiptr(std::max<size_t>(tm.indices.size(), 3) * 4),
+                           tm.indices.empty() ? nullptr : tm.indices.data(), 0);
+      glCreateVertexArrays(1, &m->vao);
+      glVertexArrayVertexBuffer(m->vao, 0, m->vbo, 0, 24);
+      glVertexArrayElementBuffer(m->vao, m->ibo);
+      for (GLuint a = 0; a < 2; ++a) {
+        glEnableVertexArrayAttrib(m->vao, a);
+        glVertexArrayAttribFormat(m->vao, a, 3, GL_FLOAT, GL_FALSE, a * 12);
+        glVertexArrayAttribBinding(m->vao, a, 0);
+      }
+      m->index_count = GLsizei(tm.indices.size());
+      m->vertex_count = uint32_t(tm.positions.size());
+      check("mesh upload");
+      it->second = std::move(m);
+    }
+    it->second->used = true;
+    if (obj.interior != cdsm::InteriorKind::Volume || obj.volume < 0 || size_t(obj.volume) >= scene.volumes.size())
+      continue;
+    const cdsm::Volume& v = scene.volumes[size_t(obj.volume)];
+    if (!v.grid || v.shading != cdsm::VolumeShading::Scatter) {
+      const std::string note = "volume '" + v.name + "': " +
+                               (v.grid ? "Phong-shaded volumes" : "sparse (NanoVDB) grids") +
+                               " are not drawn by this renderer (their shadows are)";
+      if (notes && std::find(noted_.begin(), noted_.end(), note) == noted_.end()) notes->push_back(note);
+      noted_.push_back(note);
+      continue;
+    }
+    auto [git, gfresh] = grids_.try_emplace(v.grid.get());
+    if (gfresh) {
+      auto g = std::make_unique<Grid>();
+      g->keep = v.grid;
+      g->size = {float(v.grid->nx), float(v.grid->ny), float(v.grid->nz)};
+      glCreateTextures(GL_TEXTURE_3D, 1, &g->texture);
+      glTextureStorage3D(g->texture, 1, GL_R32F, v.grid->nx, v.grid->ny, v.grid->nz);
+      glTextureSubImage3D(g->texture, 0, 0, 0, 0, v.grid->nx, v.grid->ny, v.grid->nz, GL_RED, GL_FLOAT,
+                          v.grid->values.data());
+      glTextureParameteri(g->texture, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+      glTextureParameteri(g->texture, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+      for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
+        glTextureParameteri(g->texture, w, GL_CLAMP_TO_BORDER);
+      const float border[4] = {v.grid->background, 0, 0, 0};
+      glTextureParameterfv(g->texture, GL_TEXTURE_BORDER_COLOR, border);
+      check("volume texture");
+      git->second = std::move(g);
+    }
+    git->second->used = true;
+  }
+  for (auto it = meshes_.begin(); it != meshes_.end();) it = it->second->used ? std::next(it) : meshes_.erase(it);
+  for (auto it = grids_.begin(); it != grids_.end();) it = it->second->used ? std::next(it) : grids_.erase(it);
+}
+
+cdsm::GlMeshSource ForwardRenderer::mesh_source(const cdsm::Scene& scene, size_t object) const {
+  const Mesh& m = *meshes_.at(scene.objects.at(object).mesh.get());
+  cdsm::GlMeshSource src;
+  src.vertex_buffer = m.vbo;
+  src.vertex_stride = 24;
+  src.vertex_count = m.vertex_count;
+  if (m.has_normals) {
+    src.normal_buffer = m.vbo;
+    src.normal_offset = 12;
+    src.normal_stride = 24;
+  }
+  src.index_buffer = m.ibo;
+  src.index_type = GL_UNSIGNED_INT;
+  src.index_count = uint32_t(m.index_count);
+  return src;
+}
+
+void ForwardRenderer::resize(int width, int height) {
+  if (width == width_ && height == height_) return;
+  GLuint fbos[3] = {fbo_, depth_copy_fbo_, pick_fbo_};
+  glDeleteFramebuffers(3, fbos);
+  GLuint texs[7] = {color_, depth_, depth_copy_, pick_id_, pick_pos_, pick_plane_, pick_depth_};
+  glDeleteTextures(7, texs);
+  fbo_ = depth_copy_fbo_ = pick_fbo_ = color_ = depth_ = depth_copy_ = pick_id_ = pick_pos_ = pick_depth_ = 0;
+  pick_plane_ = 0;
+  width_ = width;
+  height_ = height;
+  if (width <= 0 || height <= 0) return;
+  // The frame: linear float colour, depth + stencil (the stencil marks what
+  // the translucent passes covered), and a copy of the opaque depth the ray
+  // marcher reads (sampling the attached one would be a feedback loop).
+  auto texture = [&](GLenum format) {
+    GLuint t;
+    glCreateTextures(GL_TEXTURE_2D, 1, &t);
+    glTextureStorage2D(t, 1, format, width, height);
+    glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTextureParameteri(t, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    return t;
+  };
+  color_ = texture(GL_RGBA32F);
+  glTextureParameteri(color_, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTextureParameteri(color_, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  depth_ = texture(GL_DEPTH24_STENCIL8);
+  depth_copy_ = texture(GL_DEPTH24_STENCIL8);
+  glCreateFramebuffers(1, &fbo_);
+  glNamedFramebufferTexture(fbo_, GL_COLOR_ATTACHMENT0, color_, 0);
+  glNamedFramebufferTexture(fbo_, GL_DEPTH_STENCIL_ATTACHMENT, depth_, 0);
+  glCreateFramebuffers(1, &depth_copy_fbo_);
+  glNamedFramebufferTexture(depth_copy_fbo_, GL_DEPTH_STENCIL_ATTACHMENT, depth_copy_, 0);
+  // Picking: ids, positions, planes.
+  pick_id_ = texture(GL_R32UI);
+  pick_pos_ = texture(GL_RGBA32F);
+  pick_plane_ = texture(GL_RGBA32F);
+  pick_depth_ = texture(GL_DEPTH_COMPONENT32F);
+  glCreateFramebuffers(1, &pick_fbo_);
+  glNamedFramebufferTexture(pick_fbo_, GL_COLOR_ATTACHMENT0, pick_id_, 0);
+  glNamedFramebufferTexture(pick_fbo_, GL_COLOR_ATTACHMENT1, pick_pos_, 0);
+  glNamedFramebufferTexture(pick_fbo_, GL_COLOR_ATTACHMENT2, pick_plane_, 0);
+  glNamedFramebufferTexture(pick_fbo_, GL_DEPTH_ATTACHMENT, pick_depth_, 0);
+  const GLenum bufs[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2};
+  glNamedFramebufferDrawBuffers(pick_fbo_, 3, bufs);
+  if (glCheckNamedFramebufferStatus(fbo_, GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE ||
+      glCheckNamedFramebufferStatus(pick_fbo_, GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+    throw std::runtime_error("the frame's framebuffers are incomplete");
+  check("framebuffers");
+}
+
+void ForwardRenderer::draw_object(size_t i, const cdsm::Object& o, GLuint p, const DrawOptions& opt) {
+  const Mesh& m = *meshes_.at(o.mesh.get());
+  set_mat4(p, "u_model", o.transform);
+  const cdsm::Mat4 nm = cdsm::transpose(inverse(o.transform));
+  float n3[9];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) n3[c * 3 + r] = nm.m[r][c];  // column-major
+  glProgramUniformMatrix3fv(p, glGetUniformLocation(p, "u_normal_matrix"), 1, GL_FALSE, n3);
+  const cdsm::SurfaceMaterial& s = o.surface;
   set_vec3(p, "u_color", s.color);
+  const float w = i < opt.tint_weight.size() ? opt.tint_weight[i] : 0.0f;
+  const cdsm::Vec3 t = i < opt.tint.size() ? opt.tint[i] : cdsm::Vec3{};
+  glProgramUniform4f(p, glGetUniformLocation(p, "u_tint"), t.x, t.y, t.z, w);
   glProgramUniform1f(p, glGetUniformLocation(p, "u_opacity"), s.opacity);
   set_vec3(p, "u_transmission", s.transmission_color);
   glProgramUniform4f(p, glGetUniformLocation(p, "u_phong"), s.ambient, s.diffuse, s.specular, s.shininess);
-  glProgramUniform1i(p, glGetUniformLocation(p, "u_caster"), m.caster);
+  glProgramUniform1i(p, glGetUniformLocation(p, "u_caster"), o.casts_shadows);
   glProgramUniform1i(p, glGetUniformLocation(p, "u_has_normals"), m.has_normals);
-  glProgramUniform1i(p, glGetUniformLocation(p, "u_shadows"), shadows);
-  glFrontFace(m.mirrored ? GL_CW : GL_CCW);
+  glProgramUniform1i(p, glGetUniformLocation(p, "u_shadows"), opt.shadows);
+  glProgramUniform1ui(p, glGetUniformLocation(p, "u_id"), GLuint(i + 1));
+  glFrontFace(cdsm::mirrors(o.transform) ? GL_CW : GL_CCW);
   glBindVertexArray(m.vao);
   glDrawElements(GL_TRIANGLES, m.index_count, GL_UNSIGNED_INT, nullptr);
 }
 
-void ForwardRenderer::draw_volume(const Volume& v, bool shadows) {
-  const GLuint p = volume_program_;
-  const cdsm::Volume& vol = *v.volume;
-  set_mat4(p, "u_world_to_index", v.world_to_index);
-  set_mat4(p, "u_world_to_box", v.world_to_box);
-  set_vec3(p, "u_grid_size", v.size);
-  glProgramUniform1f(p, glGetUniformLocation(p, "u_step"), v.step);
-  const int n = int(std::min<size_t>(vol.transfer.size(), 16));
-  glProgramUniform1i(p, glGetUniformLocation(p, "u_points"), n);
-  for (int i = 0; i < n; ++i) {
-    const std::string k = "[" + std::to_string(i) + "]";
-    glProgramUniform1f(p, glGetUniformLocation(p, ("u_tf_density" + k).c_str()), vol.transfer[size_t(i)].density);
-    set_vec3(p, ("u_tf_extinction" + k).c_str(), vol.transfer[size_t(i)].extinction);
-    set_vec3(p, ("u_tf_color" + k).c_str(), vol.transfer[size_t(i)].color);
-  }
-  glProgramUniform1i(p, glGetUniformLocation(p, "u_shadows"), shadows);
-  glBindTextureUnit(0, v.texture);
-  glProgramUniform1i(p, glGetUniformLocation(p, "u_density"), 0);
-}
-
-FrameTimes ForwardRenderer::render(bool shadows, cdsm::FrameStats* stats) {
+FrameTimes ForwardRenderer::draw(cdsm::ShadowSystem& system, const cdsm::Scene& scene, const cdsm::Camera& camera_in,
+                                 const DrawOptions& opt) {
   FrameTimes t;
   const auto t0 = Clock::now();
-  system_->update(stats);  // maps reused unless something changed
-  t.update_ms = ms_since(t0);
-  const auto t1 = Clock::now();
-
-  const cdsm::Camera& cam = scene_.camera;
+  cdsm::Camera cam = camera_in;
+  if (opt.width > 0) cam.width = opt.width;
+  if (opt.height > 0) cam.height = opt.height;
+  resize(cam.width, cam.height);
   const cdsm::Mat4 vp = view_projection(cam);
   glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
   glViewport(0, 0, width_, height_);
-  const float bg[4] = {scene_.background.x, scene_.background.y, scene_.background.z, 1.0f};
+  const float bg[4] = {scene.background.x, scene.background.y, scene.background.z, 1.0f};
   glClearNamedFramebufferfv(fbo_, GL_COLOR, 0, bg);
   glClearNamedFramebufferfi(fbo_, GL_DEPTH_STENCIL, 0, 1.0f, 0);
-  for (GLuint p : {surface_program_, volume_program_}) {
+  for (GLuint p : {surface_program_, volume_program_, solid_program_, line_program_}) {
     set_mat4(p, "u_view_proj", vp);
     set_vec3(p, "u_eye", cam.position);
-    set_vec3(p, "u_ambient", scene_.shadows.ambient_light);
+    set_vec3(p, "u_ambient", scene.shadows.ambient_light);
   }
+  auto visible = [&](const cdsm::Object& o) { return o.mesh && meshes_.count(o.mesh.get()) && !passes_all(o.surface); };
+  auto drawn_volume = [&](const cdsm::Object& o) -> const Grid* {
+    if (o.interior != cdsm::InteriorKind::Volume || o.volume < 0 || size_t(o.volume) >= scene.volumes.size()) return nullptr;
+    const cdsm::Volume& v = scene.volumes[size_t(o.volume)];
+    if (!v.grid || v.shading != cdsm::VolumeShading::Scatter || !o.mesh || !meshes_.count(o.mesh.get())) return nullptr;
+    auto it = grids_.find(v.grid.get());
+    return it == grids_.end() ? nullptr : it->second.get();
+  };
 
   // 1. Opaque surfaces: depth test and write; stencil 1 where drawn.
   glUseProgram(surface_program_);
-  system_->bind_gl(surface_program_);
+  system.bind_gl(surface_program_);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
   glDepthMask(GL_TRUE);
@@ -343,71 +359,164 @@ FrameTimes ForwardRenderer::render(bool shadows, cdsm::FrameStats* stats) {
   glEnable(GL_STENCIL_TEST);
   glStencilFunc(GL_ALWAYS, 1, 0xff);
   glStencilOp(GL_KEEP, GL_KEEP, GL_REPLACE);
-  for (const Mesh& m : meshes_)
-    if (!m.invisible && m.surface.opacity >= 1.0f) draw_mesh(m, surface_program_, shadows);
+  for (size_t i = 0; i < scene.objects.size(); ++i)
+    if (visible(scene.objects[i]) && scene.objects[i].surface.opacity >= 1.0f)
+      draw_object(i, scene.objects[i], surface_program_, opt);
 
-  // The opaque depth for the ray marcher (sampling the attached one would
-  // be a feedback loop).
   glBlitNamedFramebuffer(fbo_, depth_copy_fbo_, 0, 0, width_, height_, 0, 0, width_, height_,
                          GL_DEPTH_BUFFER_BIT | GL_STENCIL_BUFFER_BIT, GL_NEAREST);
 
   // 2. Translucent surfaces and volumes, back to front (object centres):
   //    dst = src0 + dst * src1, no depth writes; stencil 2 where drawn.
-  std::vector<const Mesh*> order;
-  for (const Mesh& m : meshes_)
-    if (m.volume >= 0 || (!m.invisible && m.surface.opacity < 1.0f)) order.push_back(&m);
-  std::sort(order.begin(), order.end(), [&](const Mesh* a, const Mesh* b) {
-    return cdsm::length(a->center - cam.position) > cdsm::length(b->center - cam.position);
-  });
+  std::vector<std::pair<float, size_t>> order;
+  for (size_t i = 0; i < scene.objects.size(); ++i) {
+    const cdsm::Object& o = scene.objects[i];
+    if (drawn_volume(o) || (visible(o) && o.surface.opacity < 1.0f)) {
+      const cdsm::Vec3 c = o.transform.point(meshes_.at(o.mesh.get())->box.center());
+      order.push_back({cdsm::length(c - cam.position), i});
+    }
+  }
+  std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
   glEnable(GL_BLEND);
   glBlendFuncSeparate(GL_ONE, GL_SRC1_COLOR, GL_ZERO, GL_ONE);
   glDepthMask(GL_FALSE);
   glStencilFunc(GL_ALWAYS, 2, 0xff);
   glEnable(GL_CULL_FACE);
-  const float viewport[2] = {float(width_), float(height_)};
-  glProgramUniform2fv(volume_program_, glGetUniformLocation(volume_program_, "u_viewport"), 1, viewport);
-  set_vec3(volume_program_, "u_forward", cdsm::normalize(cam.target - cam.position));
+  const cdsm::Vec3 forward = cdsm::normalize(cam.target - cam.position);
+  glProgramUniform2f(volume_program_, glGetUniformLocation(volume_program_, "u_viewport"), float(width_), float(height_));
+  set_vec3(volume_program_, "u_forward", forward);
   glProgramUniform2f(volume_program_, glGetUniformLocation(volume_program_, "u_near_far"), cam.near, cam.far);
   glBindTextureUnit(1, depth_copy_);
   glProgramUniform1i(volume_program_, glGetUniformLocation(volume_program_, "u_scene_depth"), 1);
-  for (const Mesh* m : order) {
-    if (m->volume >= 0) {
-      const Volume& v = volumes_[size_t(m->volume)];
-      glUseProgram(volume_program_);
-      system_->bind_gl(volume_program_);
-      draw_volume(v, shadows);
-      set_vec3(volume_program_, "u_box_lo", m->box.lo);
-      set_vec3(volume_program_, "u_box_hi", m->box.hi);
+  glProgramUniform1i(volume_program_, glGetUniformLocation(volume_program_, "u_density"), 0);
+  for (const auto& [dist, i] : order) {
+    const cdsm::Object& o = scene.objects[i];
+    const bool mirrored = cdsm::mirrors(o.transform);
+    if (const Grid* g = drawn_volume(o)) {
+      const cdsm::Volume& v = scene.volumes[size_t(o.volume)];
+      const GLuint p = volume_program_;
+      glUseProgram(p);
+      system.bind_gl(p);
+      const cdsm::Mat4 index_to_world = o.transform * v.index_to_object;
+      set_mat4(p, "u_world_to_index", inverse(index_to_world));
+      set_mat4(p, "u_world_to_box", inverse(o.transform));
+      const cdsm::Box3& box = meshes_.at(o.mesh.get())->box;
+      set_vec3(p, "u_box_lo", box.lo);
+      set_vec3(p, "u_box_hi", box.hi);
+      set_vec3(p, "u_grid_size", g->size);
+      float voxel = 1e30f;
+      for (int c = 0; c < 3; ++c)
+        voxel = std::min(voxel, cdsm::length({index_to_world.m[0][c], index_to_world.m[1][c], index_to_world.m[2][c]}));
+      glProgramUniform1f(p, glGetUniformLocation(p, "u_step"), v.step_voxels * voxel * std::max(opt.volume_step_scale, 1.0f));
+      const int n = int(std::min<size_t>(v.transfer.size(), 16));
+      glProgramUniform1i(p, glGetUniformLocation(p, "u_points"), n);
+      for (int k = 0; k < n; ++k) {
+        const std::string idx = "[" + std::to_string(k) + "]";
+        glProgramUniform1f(p, glGetUniformLocation(p, ("u_tf_density" + idx).c_str()), v.transfer[size_t(k)].density);
+        set_vec3(p, ("u_tf_extinction" + idx).c_str(), v.transfer[size_t(k)].extinction);
+        set_vec3(p, ("u_tf_color" + idx).c_str(), v.transfer[size_t(k)].color);
+      }
+      glBindTextureUnit(0, g->texture);
       glDisable(GL_DEPTH_TEST);  // the march itself stops at the opaque depth
-      glCullFace(m->mirrored ? GL_BACK : GL_FRONT);
-      draw_mesh(*m, volume_program_, shadows);
+      glCullFace(mirrored ? GL_BACK : GL_FRONT);
+      draw_object(i, o, p, opt);
       glEnable(GL_DEPTH_TEST);
       continue;
     }
     glUseProgram(surface_program_);
-    system_->bind_gl(surface_program_);
+    system.bind_gl(surface_program_);
     glCullFace(GL_FRONT);  // its far side first, then its near side
-    draw_mesh(*m, surface_program_, shadows);
+    draw_object(i, o, surface_program_, opt);
     glCullFace(GL_BACK);
-    draw_mesh(*m, surface_program_, shadows);
+    draw_object(i, o, surface_program_, opt);
   }
   glDisable(GL_CULL_FACE);
   glDisable(GL_BLEND);
   glDisable(GL_STENCIL_TEST);
   glDepthMask(GL_TRUE);
+
+  // 3. Overlays: the selection's outline, lines (frusta, lights).
+  if (opt.selected >= 0 && size_t(opt.selected) < scene.objects.size() && scene.objects[size_t(opt.selected)].mesh) {
+    glUseProgram(solid_program_);
+    glProgramUniform4f(solid_program_, glGetUniformLocation(solid_program_, "u_solid"), 1.0f, 0.55f, 0.1f, 1.0f);
+    glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
+    glDepthFunc(GL_LEQUAL);
+    draw_object(size_t(opt.selected), scene.objects[size_t(opt.selected)], solid_program_, opt);
+    glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+    glDepthFunc(GL_LESS);
+  }
+  if (!opt.lines.empty()) {
+    std::vector<float> v;
+    for (const Line& l : opt.lines) v.insert(v.end(), {l.a.x, l.a.y, l.a.z, l.color.x, l.color.y, l.color.z, l.b.x, l.b.y,
+                                                       l.b.z, l.color.x, l.color.y, l.color.z});
+    const uint64_t bytes = v.size() * sizeof(float);
+    if (bytes > line_capacity_) {
+      glDeleteBuffers(1, &line_vbo_);
+      glCreateBuffers(1, &line_vbo_);
+      line_capacity_ = std::max<uint64_t>(bytes, 2 * line_capacity_);
+      glNamedBufferStorage(line_vbo_, GLsizeiptr(line_capacity_), nullptr, GL_DYNAMIC_STORAGE_BIT);
+      glVertexArrayVertexBuffer(line_vao_, 0, line_vbo_, 0, 24);
+    }
+    glNamedBufferSubData(line_vbo_, 0, GLsizeiptr(bytes), v.data());
+    glUseProgram(line_program_);
+    glBindVertexArray(line_vao_);
+    glDrawArrays(GL_LINES, 0, GLsizei(opt.lines.size() * 2));
+  }
   glFrontFace(GL_CCW);
   glBindVertexArray(0);
   glUseProgram(0);
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
   glFinish();
   check("frame");
-  t.draw_ms = ms_since(t1);
-  t.total_ms = ms_since(t0);
+  t.draw_ms = ms_since(t0);
+  t.total_ms = t.draw_ms;
   return t;
 }
 
-void ForwardRenderer::present() {
-  glBlitNamedFramebuffer(fbo_, 0, 0, 0, width_, height_, 0, 0, width_, height_, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+Pick ForwardRenderer::pick(const cdsm::Scene& scene, const cdsm::Camera& camera_in, int x, int y) {
+  Pick r;
+  if (x < 0 || y < 0 || x >= width_ || y >= height_) return r;
+  cdsm::Camera cam = camera_in;
+  cam.width = width_;
+  cam.height = height_;
+  set_mat4(pick_program_, "u_view_proj", view_projection(cam));
+  glBindFramebuffer(GL_FRAMEBUFFER, pick_fbo_);
+  glViewport(0, 0, width_, height_);
+  const GLuint zero[4] = {0, 0, 0, 0};
+  const float fzero[4] = {0, 0, 0, 0};
+  glClearNamedFramebufferuiv(pick_fbo_, GL_COLOR, 0, zero);
+  glClearNamedFramebufferfv(pick_fbo_, GL_COLOR, 1, fzero);
+  glClearNamedFramebufferfv(pick_fbo_, GL_COLOR, 2, fzero);
+  const float far_depth = 1.0f;
+  glClearNamedFramebufferfv(pick_fbo_, GL_DEPTH, 0, &far_depth);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDepthMask(GL_TRUE);
+  glDisable(GL_BLEND);
+  glDisable(GL_CULL_FACE);
+  glUseProgram(pick_program_);
+  DrawOptions none;
+  for (size_t i = 0; i < scene.objects.size(); ++i)
+    if (scene.objects[i].mesh && meshes_.count(scene.objects[i].mesh.get())) draw_object(i, scene.objects[i], pick_program_, none);
+  const int gy = height_ - 1 - y;  // GL rows go up
+  GLuint id = 0;
+  float pos[4] = {0, 0, 0, 0}, plane[4] = {0, 0, 0, 0};
+  glGetTextureSubImage(pick_id_, 0, x, gy, 0, 1, 1, 1, GL_RED_INTEGER, GL_UNSIGNED_INT, sizeof id, &id);
+  glGetTextureSubImage(pick_pos_, 0, x, gy, 0, 1, 1, 1, GL_RGBA, GL_FLOAT, sizeof pos, pos);
+  glGetTextureSubImage(pick_plane_, 0, x, gy, 0, 1, 1, 1, GL_RGBA, GL_FLOAT, sizeof plane, plane);
+  glUseProgram(0);
+  glBindVertexArray(0);
+  glFrontFace(GL_CCW);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  check("pick");
+  r.object = int(id) - 1;
+  r.position = {pos[0], pos[1], pos[2]};
+  r.plane = {plane[0], plane[1], plane[2]};
+  return r;
+}
+
+void ForwardRenderer::present(int x, int y, int width, int height) {
+  glBlitNamedFramebuffer(fbo_, 0, 0, 0, width_, height_, x, y, x + width, y + height, GL_COLOR_BUFFER_BIT, GL_LINEAR);
 }
 
 cdsm::Image ForwardRenderer::read_color() const {

@@ -1,8 +1,8 @@
 // An application's own forward renderer (OpenGL 4.5) that takes its
 // translucent and volumetric shadows from cdsm only through the public API
 // (cdsm/shadow_system.h, cdsm/gl.h) and content/shaders/cdsm.glsl:
-//   - its meshes live in its own vertex / index buffers; the shadow system
-//     reads them back once when they are registered (read_gl_mesh);
+//   - its meshes live in its own vertex / index buffers (mesh_source() hands
+//     them to ShadowSystem::read_gl_mesh, which reads them back once);
 //   - opaque meshes first (depth test and write), then translucent meshes
 //     and volumes sorted back to front (dual-source blending: colour times
 //     coverage, plus what lies behind times the surface's transmission), a
@@ -10,13 +10,18 @@
 //   - every shader that shades calls cdsm_surface_transmittance (surfaces,
 //     with the triangle's plane from a geometry shader) or
 //     cdsm_transmittance (volume samples) after ShadowSystem::bind_gl.
-// Limits of the example (not of the library): constant-medium interiors are
-// drawn as their translucent surface only, sparse (NanoVDB) volumes and
-// Phong-shaded volumes are skipped with a note.
+// The scene is read every frame (transforms, materials, lights, transfer
+// functions: uniforms); meshes and grids are uploaded once per mesh / grid
+// (by identity), so a live editor can draw the document it edits. Used by
+// the example (cdsm_forward) and the editor's viewport (cdsm edit).
+// Limits (of this renderer, not of the library): constant-medium interiors
+// are drawn as their surfaces only; sparse (NanoVDB) and Phong-shaded
+// volumes are not drawn (upload() says so once).
 #pragma once
 
 #include <GL/glcorearb.h>
 
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -27,48 +32,85 @@
 namespace forward {
 
 struct FrameTimes {
-  double update_ms = 0.0;   // ShadowSystem::update (maps reused when nothing changed)
-  double draw_ms = 0.0;     // the three passes, to glFinish
+  double update_ms = 0.0;   // ShadowSystem::update (callers that update themselves leave it 0)
+  double draw_ms = 0.0;     // the passes, to glFinish
   double total_ms = 0.0;
+};
+
+// A world-space line segment of an overlay (frusta, light gizmos).
+struct Line {
+  cdsm::Vec3 a, b, color;
+};
+
+struct DrawOptions {
+  int width = 0, height = 0;         // the frame's size (0: the scene camera's)
+  bool shadows = true;               // false: every light unshadowed (what the maps change)
+  float volume_step_scale = 1.0f;    // > 1: coarser volume marching (the editor while interacting)
+  // Per object (may be empty): a colour that replaces the surface colour
+  // with weight w (the editor's cluster view); w = 0: none.
+  std::vector<cdsm::Vec3> tint;
+  std::vector<float> tint_weight;
+  int selected = -1;                 // drawn with an outline
+  std::vector<Line> lines;           // drawn over the scene, depth-tested
+};
+
+// What a pixel shows (pick()).
+struct Pick {
+  int object = -1;         // -1: background
+  cdsm::Vec3 position;     // the nearest surface's world position
+  cdsm::Vec3 plane;        // its triangle's unit normal
 };
 
 class ForwardRenderer {
  public:
-  // Uploads `scene` to GL buffers and textures of its own and registers it
-  // with a shadow system created on the current context. Notes on what it
-  // cannot draw go to `notes`.
-  ForwardRenderer(const cdsm::Scene& scene, std::vector<std::string>& notes);
+  // Compiles the programs on the current context.
+  ForwardRenderer();
   ~ForwardRenderer();
   ForwardRenderer(const ForwardRenderer&) = delete;
   ForwardRenderer& operator=(const ForwardRenderer&) = delete;
 
-  // One frame: the shadow system's update, then the passes. `shadows`
-  // false draws every light unshadowed (what the maps change).
-  FrameTimes render(bool shadows, cdsm::FrameStats* stats);
+  // Uploads the meshes and dense grids of `scene` not uploaded yet (by
+  // identity) and releases those no object uses any more. Notes on what
+  // it cannot draw go to `notes` (once per grid).
+  void upload(const cdsm::Scene& scene, std::vector<std::string>* notes = nullptr);
+  // The GL buffers holding object i's mesh, for ShadowSystem::read_gl_mesh.
+  cdsm::GlMeshSource mesh_source(const cdsm::Scene& scene, size_t object) const;
+
+  // One frame of `scene` seen by `camera` with the maps of `system`'s last
+  // update / publish (bind_gl: the only call into the system, so it may run
+  // while the system builds on another thread).
+  FrameTimes draw(cdsm::ShadowSystem& system, const cdsm::Scene& scene, const cdsm::Camera& camera,
+                  const DrawOptions& options);
 
   // The last frame, linear RGB, row 0 at the top (cdsm::Image's order).
   cdsm::Image read_color() const;
   // Per pixel: 1 where only opaque surfaces were drawn (no translucent
   // surface or volume in front), else 0. Row 0 at the top.
   std::vector<unsigned char> read_opaque_mask() const;
-
-  // Copies the last frame to the window's framebuffer (0).
-  void present();
-
-  cdsm::ShadowSystem& shadows() { return *system_; }
+  // The colour texture of the last frame (bottom row first, GL's order).
+  GLuint color_texture() const { return color_; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+  // The object and surface point at pixel (x, y) (row 0 at the top) of the
+  // last frame's view: one extra pass of object ids and positions.
+  Pick pick(const cdsm::Scene& scene, const cdsm::Camera& camera, int x, int y);
+  // Copies the last frame to the framebuffer that is bound (a window's).
+  void present(int x, int y, int width, int height);
 
  private:
   struct Mesh;
-  struct Volume;
-  void draw_mesh(const Mesh& m, GLuint program, bool shadows);
-  void draw_volume(const Volume& v, bool shadows);
+  struct Grid;
+  void resize(int width, int height);
+  void draw_object(size_t i, const cdsm::Object& o, GLuint program, const DrawOptions& opt);
 
-  cdsm::Scene scene_;
-  std::unique_ptr<cdsm::ShadowSystem> system_;
-  std::vector<Mesh> meshes_;
-  std::vector<Volume> volumes_;
-  GLuint surface_program_ = 0, volume_program_ = 0;
+  std::map<const cdsm::TriangleMesh*, std::unique_ptr<Mesh>> meshes_;
+  std::map<const cdsm::DenseGrid*, std::unique_ptr<Grid>> grids_;
+  std::vector<std::string> noted_;
+  GLuint surface_program_ = 0, volume_program_ = 0, pick_program_ = 0, solid_program_ = 0, line_program_ = 0;
   GLuint fbo_ = 0, color_ = 0, depth_ = 0, depth_copy_fbo_ = 0, depth_copy_ = 0;
+  GLuint pick_fbo_ = 0, pick_id_ = 0, pick_pos_ = 0, pick_plane_ = 0, pick_depth_ = 0;
+  GLuint line_vao_ = 0, line_vbo_ = 0;
+  uint64_t line_capacity_ = 0;
   int width_ = 0, height_ = 0;
 };
 

@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
   std::string scene_path, out, raw, mask_path;
   int width = 0, height = 0, frames = 1;
-  bool shadows = true, window = false;
+  bool shadows_on = true, window = false;
   try {
     for (size_t i = 0; i < args.size(); ++i) {
       const std::string& a = args[i];
@@ -68,7 +68,7 @@ int main(int argc, char** argv) {
       else if (a == "--frames") frames = parse_int(a, value());
       else if (a == "--raw") raw = value();
       else if (a == "--mask") mask_path = value();
-      else if (a == "--no-shadows") shadows = false;
+      else if (a == "--no-shadows") shadows_on = false;
       else if (a == "--window") window = true;
       else if (a == "--help" || a == "-h") {
         std::fputs(kUsage, stdout);
@@ -92,23 +92,52 @@ int main(int argc, char** argv) {
     cdsm::Scene scene = cdsm::load_scene(scene_path);
     if (width) scene.camera.width = width;
     if (height) scene.camera.height = height;
-    std::vector<std::string> notes;
-    forward::ForwardRenderer renderer(scene, notes);
-    for (const std::string& n : notes) std::fprintf(stderr, "cdsm_forward: note: %s\n", n.c_str());
 
+    // The shadow system on this context; the renderer's own buffers hold
+    // the meshes, and the system reads them back once from there.
+    cdsm::SystemOptions options;
+    options.gl_context = cdsm::GlContextUse::Application;
+    options.source = scene.source;
+    cdsm::ShadowSystem shadows(options);
+    forward::ForwardRenderer renderer;
+    std::vector<std::string> notes;
+    renderer.upload(scene, &notes);
+    for (const std::string& n : notes) std::fprintf(stderr, "cdsm_forward: note: %s\n", n.c_str());
+    std::vector<cdsm::VolumeHandle> volumes;
+    for (const cdsm::Volume& v : scene.volumes) volumes.push_back(shadows.add_volume(v));
+    for (size_t i = 0; i < scene.objects.size(); ++i) {
+      cdsm::Object o = scene.objects[i];
+      o.mesh = shadows.read_gl_mesh(renderer.mesh_source(scene, i));
+      shadows.add_object(o, o.interior == cdsm::InteriorKind::Volume ? volumes[size_t(o.volume)] : cdsm::VolumeHandle{});
+      if (o.interior == cdsm::InteriorKind::Constant && o.surface.opacity < 1.0f)
+        std::fprintf(stderr, "cdsm_forward: note: object '%s': its constant medium is not drawn (only its surface)\n",
+                     o.name.c_str());
+    }
+    for (const cdsm::Light& l : scene.lights) shadows.add_light(l);
+    shadows.set_camera(scene.camera);
+    shadows.set_settings(scene.shadows);
+    shadows.set_background(scene.background);
+
+    forward::DrawOptions draw;
+    draw.shadows = shadows_on;
+    using Clock = std::chrono::steady_clock;
     double sum_total = 0.0, sum_draw = 0.0, sum_update = 0.0;
     for (int f = 0; f < frames; ++f) {
       cdsm::FrameStats st;
-      const forward::FrameTimes t = renderer.render(shadows, &st);
+      const auto t0 = Clock::now();
+      shadows.update(&st);  // maps reused unless something changed
+      const double update_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+      const forward::FrameTimes t = renderer.draw(shadows, scene, scene.camera, draw);
+      const double total_ms = update_ms + t.draw_ms;
       if (f == 0) {
         std::printf("frame 1: %.1f ms (shadow update %.1f ms: %u maps built, %.1f KiB uploaded to GL, %.1f KiB read back "
                     "from the application's buffers; draw %.1f ms)\n",
-                    t.total_ms, t.update_ms, st.maps_rebuilt, double(st.update.gl_map_upload_bytes) / 1024.0,
+                    total_ms, update_ms, st.maps_rebuilt, double(st.update.gl_map_upload_bytes) / 1024.0,
                     double(st.update.gl_readback_bytes) / 1024.0, t.draw_ms);
       } else {
-        sum_total += t.total_ms;
+        sum_total += total_ms;
         sum_draw += t.draw_ms;
-        sum_update += t.update_ms;
+        sum_update += update_ms;
         if (st.update.gl_map_upload_bytes != 0)
           std::printf("frame %d: %llu bytes uploaded although nothing changed\n", f + 1,
                       (unsigned long long)st.update.gl_map_upload_bytes);
@@ -126,8 +155,9 @@ int main(int argc, char** argv) {
     if (!mask_path.empty()) write_pgm(renderer.read_opaque_mask(), img.width, img.height, mask_path);
     if (window) {
       while (!context->should_close()) {
-        renderer.render(shadows, nullptr);
-        renderer.present();
+        shadows.update();
+        renderer.draw(shadows, scene, scene.camera, draw);
+        renderer.present(0, 0, scene.camera.width, scene.camera.height);
         context->swap_buffers();
       }
     }

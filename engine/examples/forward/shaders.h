@@ -62,6 +62,7 @@ layout(location = 0, index = 1) out vec4 o_pass;
 uniform vec3 u_eye;
 uniform vec3 u_ambient;
 uniform vec3 u_color;
+uniform vec4 u_tint;         // rgb replaces the colour with weight a (the editor's cluster view)
 uniform float u_opacity;
 uniform vec3 u_transmission;
 uniform vec4 u_phong;        // ka, kd, ks, shininess
@@ -74,7 +75,8 @@ void main() {
   n = normalize(n);
   if (dot(n, dir) > 0.0) n = -n;
   vec3 v = -dir;
-  vec3 c = u_color * u_ambient * u_phong.x;
+  vec3 base = mix(u_color, u_tint.rgb, u_tint.a);
+  vec3 c = base * u_ambient * u_phong.x;
   for (int i = 0; i < cdsm_light_count(); ++i) {
     float cone = cdsm_spot_factor(i, g_world);
     if (cone <= 0.0) continue;
@@ -89,7 +91,7 @@ void main() {
     vec3 r = n * (2.0 * ndl) - l;
     float rv = max(0.0, dot(r, v));
     float spec = u_phong.z * (rv > 0.0 ? pow(rv, u_phong.w) : 0.0);
-    c += (u_color * (u_phong.y * ndl) + vec3(spec)) * cdsm_light_radiance(i) * (vis * cone);
+    c += (base * (u_phong.y * ndl) + vec3(spec)) * cdsm_light_radiance(i) * (vis * cone);
   }
   o_color = vec4(c * u_opacity, 1.0);
   o_pass = vec4((1.0 - u_opacity) * u_transmission, 1.0);
@@ -159,7 +161,7 @@ void main() {
   t_enter = max(t_enter, 0.0);
   vec3 color = vec3(0.0), T = vec3(1.0);
   int steps = int(ceil((t_exit - t_enter) / u_step));
-  for (int s = 0; s < steps && s < 4096; ++s) {
+  for (int s = 0; s < steps && s < 8192; ++s) {
     float t0 = t_enter + float(s) * u_step, t1 = min(t0 + u_step, t_exit);
     vec3 p = u_eye + dir * (0.5 * (t0 + t1));
     vec3 idx = (u_world_to_index * vec4(p, 1.0)).xyz;
@@ -182,6 +184,57 @@ void main() {
   if (T == vec3(1.0)) discard;  // nothing absorbed: leave the pixel (and its stencil) alone
   o_color = vec4(color, 1.0);
   o_pass = vec4(T, 1.0);
+}
+)";
+
+// Picking: the object's id + 1, the world position and the triangle's plane.
+inline const char* const kPickFragment = R"(
+in vec3 g_world;
+in vec3 g_normal;
+flat in vec3 g_plane;
+layout(location = 0) out uint o_id;
+layout(location = 1) out vec4 o_position;
+layout(location = 2) out vec4 o_plane;
+uniform uint u_id;
+void main() {
+  o_id = u_id;
+  o_position = vec4(g_world, 1.0);
+  o_plane = vec4(g_plane, 0.0);
+}
+)";
+
+// One colour (the selection's outline).
+inline const char* const kSolidFragment = R"(
+in vec3 g_world;
+in vec3 g_normal;
+flat in vec3 g_plane;
+layout(location = 0, index = 0) out vec4 o_color;
+layout(location = 0, index = 1) out vec4 o_pass;
+uniform vec4 u_solid;
+void main() {
+  o_color = vec4(u_solid.rgb, 1.0);
+  o_pass = vec4(0.0);
+}
+)";
+
+// Overlay lines: world positions with a colour each.
+inline const char* const kLineVertex = R"(
+layout(location = 0) in vec3 a_position;
+layout(location = 1) in vec3 a_color;
+uniform mat4 u_view_proj;
+out vec3 v_color;
+void main() {
+  v_color = a_color;
+  gl_Position = u_view_proj * vec4(a_position, 1.0);
+}
+)";
+inline const char* const kLineFragment = R"(
+in vec3 v_color;
+layout(location = 0, index = 0) out vec4 o_color;
+layout(location = 0, index = 1) out vec4 o_pass;
+void main() {
+  o_color = vec4(v_color, 1.0);
+  o_pass = vec4(0.0);
 }
 )";
 
