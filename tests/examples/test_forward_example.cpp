@@ -3,8 +3,9 @@
 // and cdsm.glsl. Run headless on the default scene, its image must agree
 // with the library's own camera pass (cdsm::Renderer) on the opaque
 // surfaces — PSNR >= 35 dB over the pixels its stencil marks as opaque
-// only — where the shadows of the translucent meshes and the smoke fall;
-// the same run without shadows must not (so the mask holds shadows).
+// only — where the shadows of the translucent meshes and the smoke fall,
+// and over the whole image; the same run without shadows must not (so the
+// mask holds shadows).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -124,6 +125,9 @@ TEST(ForwardExample, MatchesTheLibrarysCameraPassOnOpaqueSurfaces) {
               cdsm::compare_images(example, library).psnr);
   EXPECT_GT(share, 0.5) << "the mask must cover most of the ground and the opaque meshes";
   EXPECT_GE(psnr, 35.0);
+  // The whole image too: translucent meshes (their constant media absorbed
+  // between front and back faces) and the ray-marched smoke.
+  EXPECT_GE(cdsm::compare_images(example, library).psnr, 35.0);
 
   // Without shadows the same pixels differ: the shadows are in the mask.
   const ExampleRun flat = run_example("'" + kScene + "' -o '" + kOut + ".noshadow.png' --raw '" + kOut +

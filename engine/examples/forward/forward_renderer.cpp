@@ -135,6 +135,7 @@ ForwardRenderer::ForwardRenderer() {
   volume_program_ = mesh_program(kVolumeFragment, true);
   pick_program_ = mesh_program(kPickFragment, false);
   solid_program_ = mesh_program(kSolidFragment, false);
+  distance_program_ = mesh_program(kDistanceFragment, false);
   line_program_ = link({compile(GL_VERTEX_SHADER, kLineVertex, false), compile(GL_FRAGMENT_SHADER, kLineFragment, false)});
   glCreateVertexArrays(1, &line_vao_);
   for (GLuint a = 0; a < 2; ++a) {
@@ -148,7 +149,8 @@ ForwardRenderer::ForwardRenderer() {
 ForwardRenderer::~ForwardRenderer() {
   meshes_.clear();
   grids_.clear();
-  for (GLuint p : {surface_program_, volume_program_, pick_program_, solid_program_, line_program_}) glDeleteProgram(p);
+  for (GLuint p : {surface_program_, volume_program_, pick_program_, solid_program_, line_program_, distance_program_})
+    glDeleteProgram(p);
   resize(0, 0);
   glDeleteVertexArrays(1, &line_vao_);
   glDeleteBuffers(1, &line_vbo_);
@@ -247,12 +249,12 @@ cdsm::GlMeshSource ForwardRenderer::mesh_source(const cdsm::Scene& scene, size_t
 
 void ForwardRenderer::resize(int width, int height) {
   if (width == width_ && height == height_) return;
-  GLuint fbos[3] = {fbo_, depth_copy_fbo_, pick_fbo_};
-  glDeleteFramebuffers(3, fbos);
-  GLuint texs[7] = {color_, depth_, depth_copy_, pick_id_, pick_pos_, pick_plane_, pick_depth_};
-  glDeleteTextures(7, texs);
-  fbo_ = depth_copy_fbo_ = pick_fbo_ = color_ = depth_ = depth_copy_ = pick_id_ = pick_pos_ = pick_depth_ = 0;
-  pick_plane_ = 0;
+  GLuint fbos[4] = {fbo_, depth_copy_fbo_, pick_fbo_, back_fbo_};
+  glDeleteFramebuffers(4, fbos);
+  GLuint texs[8] = {color_, depth_, depth_copy_, pick_id_, pick_pos_, pick_plane_, pick_depth_, back_distance_};
+  glDeleteTextures(8, texs);
+  fbo_ = depth_copy_fbo_ = pick_fbo_ = back_fbo_ = color_ = depth_ = depth_copy_ = pick_id_ = pick_pos_ = pick_depth_ = 0;
+  pick_plane_ = back_distance_ = 0;
   width_ = width;
   height_ = height;
   if (width <= 0 || height <= 0) return;
@@ -277,6 +279,10 @@ void ForwardRenderer::resize(int width, int height) {
   glNamedFramebufferTexture(fbo_, GL_DEPTH_STENCIL_ATTACHMENT, depth_, 0);
   glCreateFramebuffers(1, &depth_copy_fbo_);
   glNamedFramebufferTexture(depth_copy_fbo_, GL_DEPTH_STENCIL_ATTACHMENT, depth_copy_, 0);
+  // Constant media: the nearest back face of one object at a time.
+  back_distance_ = texture(GL_R32F);
+  glCreateFramebuffers(1, &back_fbo_);
+  glNamedFramebufferTexture(back_fbo_, GL_COLOR_ATTACHMENT0, back_distance_, 0);
   // Picking: ids, positions, planes.
   pick_id_ = texture(GL_R32UI);
   pick_pos_ = texture(GL_RGBA32F);
@@ -295,7 +301,7 @@ void ForwardRenderer::resize(int width, int height) {
   check("framebuffers");
 }
 
-void ForwardRenderer::draw_object(size_t i, const cdsm::Object& o, GLuint p, const DrawOptions& opt) {
+void ForwardRenderer::draw_object(size_t i, const cdsm::Object& o, GLuint p, const DrawOptions& opt, bool medium) {
   const Mesh& m = *meshes_.at(o.mesh.get());
   set_mat4(p, "u_model", o.transform);
   const cdsm::Mat4 nm = cdsm::transpose(inverse(o.transform));
@@ -315,6 +321,7 @@ void ForwardRenderer::draw_object(size_t i, const cdsm::Object& o, GLuint p, con
   glProgramUniform1i(p, glGetUniformLocation(p, "u_has_normals"), m.has_normals);
   glProgramUniform1i(p, glGetUniformLocation(p, "u_shadows"), opt.shadows);
   glProgramUniform1ui(p, glGetUniformLocation(p, "u_id"), GLuint(i + 1));
+  glProgramUniform1i(p, glGetUniformLocation(p, "u_medium"), medium);
   glFrontFace(cdsm::mirrors(o.transform) ? GL_CW : GL_CCW);
   glBindVertexArray(m.vao);
   glDrawElements(GL_TRIANGLES, m.index_count, GL_UNSIGNED_INT, nullptr);
@@ -391,7 +398,6 @@ FrameTimes ForwardRenderer::draw(cdsm::ShadowSystem& system, const cdsm::Scene& 
   glProgramUniform1i(volume_program_, glGetUniformLocation(volume_program_, "u_density"), 0);
   for (const auto& [dist, i] : order) {
     const cdsm::Object& o = scene.objects[i];
-    const bool mirrored = cdsm::mirrors(o.transform);
     if (const Grid* g = drawn_volume(o)) {
       const cdsm::Volume& v = scene.volumes[size_t(o.volume)];
       const GLuint p = volume_program_;
@@ -418,17 +424,48 @@ FrameTimes ForwardRenderer::draw(cdsm::ShadowSystem& system, const cdsm::Scene& 
       }
       glBindTextureUnit(0, g->texture);
       glDisable(GL_DEPTH_TEST);  // the march itself stops at the opaque depth
-      glCullFace(mirrored ? GL_BACK : GL_FRONT);
+      glCullFace(GL_FRONT);  // its back faces
       draw_object(i, o, p, opt);
       glEnable(GL_DEPTH_TEST);
       continue;
+    }
+    const bool medium = o.interior == cdsm::InteriorKind::Constant && cdsm::max_channel(o.sigma) > 0.0f;
+    if (medium) {  // the distance of its back faces, for its front faces' absorption
+      const float far_away[1] = {3.0e38f};
+      glClearNamedFramebufferfv(back_fbo_, GL_COLOR, 0, far_away);
+      glBindFramebuffer(GL_FRAMEBUFFER, back_fbo_);
+      glUseProgram(distance_program_);
+      set_mat4(distance_program_, "u_view_proj", vp);
+      set_vec3(distance_program_, "u_eye", cam.position);
+      glBlendEquation(GL_MIN);
+      glBlendFunc(GL_ONE, GL_ONE);
+      glDisable(GL_DEPTH_TEST);
+      glDisable(GL_STENCIL_TEST);
+      glCullFace(GL_FRONT);  // its back faces (draw_object sets the winding of mirrored objects)
+      draw_object(i, o, distance_program_, opt);
+      glEnable(GL_DEPTH_TEST);
+      glEnable(GL_STENCIL_TEST);
+      glBlendEquation(GL_FUNC_ADD);
+      glBlendFuncSeparate(GL_ONE, GL_SRC1_COLOR, GL_ZERO, GL_ONE);
+      glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
     }
     glUseProgram(surface_program_);
     system.bind_gl(surface_program_);
     glCullFace(GL_FRONT);  // its far side first, then its near side
     draw_object(i, o, surface_program_, opt);
     glCullFace(GL_BACK);
-    draw_object(i, o, surface_program_, opt);
+    if (medium) {
+      const GLuint p = surface_program_;
+      glBindTextureUnit(2, back_distance_);
+      glProgramUniform1i(p, glGetUniformLocation(p, "u_back_distance"), 2);
+      glProgramUniform1i(p, glGetUniformLocation(p, "u_scene_depth"), 1);
+      set_vec3(p, "u_forward", forward);
+      glProgramUniform2f(p, glGetUniformLocation(p, "u_near_far"), cam.near, cam.far);
+      set_vec3(p, "u_sigma", o.sigma);
+      draw_object(i, o, p, opt, true);
+    } else {
+      draw_object(i, o, surface_program_, opt);
+    }
   }
   glDisable(GL_CULL_FACE);
   glDisable(GL_BLEND);

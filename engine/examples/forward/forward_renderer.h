@@ -14,9 +14,10 @@
 // functions: uniforms); meshes and grids are uploaded once per mesh / grid
 // (by identity), so a live editor can draw the document it edits. Used by
 // the example (cdsm_forward) and the editor's viewport (cdsm edit).
-// Limits (of this renderer, not of the library): constant-medium interiors
-// are drawn as their surfaces only; sparse (NanoVDB) and Phong-shaded
-// volumes are not drawn (upload() says so once).
+// Constant-medium interiors absorb between an object's front face and the
+// nearer of its back face and the opaque surface behind (exact for convex
+// objects). Limits (of this renderer, not of the library): sparse (NanoVDB)
+// and Phong-shaded volumes are not drawn (upload() says so once).
 #pragma once
 
 #include <GL/glcorearb.h>
@@ -101,12 +102,13 @@ class ForwardRenderer {
   struct Mesh;
   struct Grid;
   void resize(int width, int height);
-  void draw_object(size_t i, const cdsm::Object& o, GLuint program, const DrawOptions& opt);
+  void draw_object(size_t i, const cdsm::Object& o, GLuint program, const DrawOptions& opt, bool medium = false);
 
   std::map<const cdsm::TriangleMesh*, std::unique_ptr<Mesh>> meshes_;
   std::map<const cdsm::DenseGrid*, std::unique_ptr<Grid>> grids_;
   std::vector<std::string> noted_;
   GLuint surface_program_ = 0, volume_program_ = 0, pick_program_ = 0, solid_program_ = 0, line_program_ = 0;
+  GLuint distance_program_ = 0, back_fbo_ = 0, back_distance_ = 0;
   GLuint fbo_ = 0, color_ = 0, depth_ = 0, depth_copy_fbo_ = 0, depth_copy_ = 0;
   GLuint pick_fbo_ = 0, pick_id_ = 0, pick_pos_ = 0, pick_plane_ = 0, pick_depth_ = 0;
   GLuint line_vao_ = 0, line_vbo_ = 0;

@@ -69,6 +69,14 @@ uniform vec4 u_phong;        // ka, kd, ks, shininess
 uniform bool u_caster;       // the object casts shadows: its surface is in the maps
 uniform bool u_has_normals;  // else the geometric normal shades
 uniform bool u_shadows;      // false: every light unshadowed (to see what the maps do)
+// A constant medium behind a front face: what it absorbs between this face
+// and the nearer of the object's back face and the opaque surface there.
+uniform bool u_medium;
+uniform vec3 u_sigma;
+uniform sampler2D u_back_distance;  // nearest back face of the object, distance from the eye
+uniform sampler2D u_scene_depth;    // the opaque pass's depth
+uniform vec3 u_forward;
+uniform vec2 u_near_far;
 void main() {
   vec3 dir = normalize(g_world - u_eye);
   vec3 n = u_has_normals ? g_normal : g_plane;
@@ -94,8 +102,29 @@ void main() {
     c += (base * (u_phong.y * ndl) + vec3(spec)) * cdsm_light_radiance(i) * (vis * cone);
   }
   o_color = vec4(c * u_opacity, 1.0);
-  o_pass = vec4((1.0 - u_opacity) * u_transmission, 1.0);
+  vec3 pass = (1.0 - u_opacity) * u_transmission;
+  if (u_medium) {
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    float t_end = texelFetch(u_back_distance, px, 0).r;
+    float zd = texelFetch(u_scene_depth, px, 0).r;
+    if (zd < 1.0) {  // window depth -> view-axis distance -> distance along the ray
+      float n = u_near_far.x, f = u_near_far.y;
+      t_end = min(t_end, 2.0 * f * n / ((f + n) - (zd * 2.0 - 1.0) * (f - n)) / dot(dir, u_forward));
+    }
+    pass *= exp(-u_sigma * max(t_end - length(g_world - u_eye), 0.0));
+  }
+  o_pass = vec4(pass, 1.0);
 }
+)";
+
+// An object's back faces: their distance from the eye (blended with MIN).
+inline const char* const kDistanceFragment = R"(
+in vec3 g_world;
+in vec3 g_normal;
+flat in vec3 g_plane;
+layout(location = 0) out float o_distance;
+uniform vec3 u_eye;
+void main() { o_distance = length(g_world - u_eye); }
 )";
 
 // Volumes: drawn on the back faces of their proxy box; each fragment
