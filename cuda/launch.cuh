@@ -1,0 +1,161 @@
+// The CUDA executor (shadows/exec/exec.h): parallel_for as a kernel launch
+// of the same CDSM_LAMBDA the CPU threads run (pbrt-v4's GPU ParallelFor),
+// memory in device memory, every asynchronous call on the executor's
+// stream, every call checked (cuda/check.cuh), and a pair of CUDA events
+// around every launch so take_stage_times() reports milliseconds per
+// launch name.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "check.cuh"
+#include "exec/exec.h"
+
+namespace cdsm::cuda {
+
+template <class F>
+__global__ void parallel_for_kernel(uint64_t n, F f) {
+  const uint64_t i = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (i < n) f(i);
+}
+
+// Owner of a CUDA stream (non-blocking), or of one event; cannot be copied.
+class Stream {
+ public:
+  Stream() { CDSM_CUDA_CHECK(cudaStreamCreateWithFlags(&s_, cudaStreamNonBlocking)); }
+  ~Stream() {
+    if (s_) CDSM_CUDA_CHECK_NOTHROW(cudaStreamDestroy(s_));
+  }
+  Stream(const Stream&) = delete;
+  Stream& operator=(const Stream&) = delete;
+  cudaStream_t get() const { return s_; }
+
+ private:
+  cudaStream_t s_ = nullptr;
+};
+
+class CudaExec {
+ public:
+  static constexpr bool kHostMemory = false;
+
+  // Works on `device` (the caller checked it exists: cuda/device.h).
+  explicit CudaExec(int device = 0) : device_(device) {
+    CDSM_CUDA_CHECK(cudaSetDevice(device));
+    int pools = 0;
+    CDSM_CUDA_CHECK(cudaDeviceGetAttribute(&pools, cudaDevAttrMemoryPoolsSupported, device));
+    async_alloc_ = pools != 0;
+    stream_ = std::make_unique<Stream>();
+  }
+  ~CudaExec() {
+    if (stream_) CDSM_CUDA_CHECK_NOTHROW(cudaStreamSynchronize(stream_->get()));
+    for (Launch& l : pending_) free_events_.push_back({l.start, l.stop});
+    for (auto& e : free_events_) {
+      CDSM_CUDA_CHECK_NOTHROW(cudaEventDestroy(e.first));
+      CDSM_CUDA_CHECK_NOTHROW(cudaEventDestroy(e.second));
+    }
+  }
+  CudaExec(const CudaExec&) = delete;
+  CudaExec& operator=(const CudaExec&) = delete;
+
+  cudaStream_t stream() const { return stream_->get(); }
+  int device() const { return device_; }
+
+  void* allocate(size_t bytes) {
+    void* p = nullptr;
+    if (async_alloc_) CDSM_CUDA_CHECK(cudaMallocAsync(&p, bytes ? bytes : 1, stream()));
+    else CDSM_CUDA_CHECK(cudaMalloc(&p, bytes ? bytes : 1));
+    return p;
+  }
+  void release(void* p) noexcept {
+    if (!p) return;
+    if (async_alloc_) CDSM_CUDA_CHECK_NOTHROW(cudaFreeAsync(p, stream()));
+    else CDSM_CUDA_CHECK_NOTHROW(cudaFree(p));
+  }
+
+  template <class F>
+  void parallel_for(const char* name, uint64_t n, F f) {
+    if (n == 0) return;
+    static const int block = [] {
+      int min_grid = 0, b = 0;
+      CDSM_CUDA_CHECK(cudaOccupancyMaxPotentialBlockSize(&min_grid, &b, parallel_for_kernel<F>, 0, 0));
+      return b > 0 ? b : 128;
+    }();
+    const uint64_t grid = (n + uint64_t(block) - 1) / uint64_t(block);
+    if (grid > 0x7fffffffull) throw std::length_error(std::string(name) + ": too many threads for one launch");
+    Launch l{name, nullptr, nullptr};
+    take_events(l);
+    CDSM_CUDA_CHECK(cudaEventRecord(l.start, stream()));
+    parallel_for_kernel<F><<<unsigned(grid), unsigned(block), 0, stream()>>>(n, f);
+    const cudaError_t launched = cudaGetLastError();
+    if (launched != cudaSuccess) {
+      free_events_.push_back({l.start, l.stop});
+      throw CudaError(launched, describe(launched, name, __FILE__, __LINE__));
+    }
+    CDSM_CUDA_CHECK(cudaEventRecord(l.stop, stream()));
+    pending_.push_back(l);
+    if (pending_.size() >= 1024) fold();  // nobody asked for the times yet: keep the events bounded
+  }
+
+  void upload(void* dst, const void* src, size_t bytes) {
+    if (bytes) CDSM_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyHostToDevice, stream()));
+  }
+  void download(void* dst, const void* src, size_t bytes) {
+    if (bytes) CDSM_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToHost, stream()));
+    synchronize();
+  }
+  void copy(void* dst, const void* src, size_t bytes) {
+    if (bytes) CDSM_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToDevice, stream()));
+  }
+  void fill_zero(void* dst, size_t bytes) {
+    if (bytes) CDSM_CUDA_CHECK(cudaMemsetAsync(dst, 0, bytes, stream()));
+  }
+
+  void synchronize() { CDSM_CUDA_CHECK(cudaStreamSynchronize(stream())); }
+
+  std::vector<exec::StageTime> take_stage_times() {
+    fold();
+    return std::exchange(folded_, {});
+  }
+
+ private:
+  struct Launch {
+    const char* name;  // a string literal
+    cudaEvent_t start, stop;
+  };
+  // The finished launches' times into folded_, their events back to the pool.
+  void fold() {
+    synchronize();
+    for (Launch& l : pending_) {
+      float ms = 0.0f;
+      CDSM_CUDA_CHECK(cudaEventElapsedTime(&ms, l.start, l.stop));
+      exec::add_stage_time(folded_, l.name, double(ms));
+      free_events_.push_back({l.start, l.stop});
+    }
+    pending_.clear();
+  }
+
+  void take_events(Launch& l) {
+    if (!free_events_.empty()) {
+      l.start = free_events_.back().first;
+      l.stop = free_events_.back().second;
+      free_events_.pop_back();
+      return;
+    }
+    CDSM_CUDA_CHECK(cudaEventCreate(&l.start));
+    const cudaError_t e = cudaEventCreate(&l.stop);
+    if (e != cudaSuccess) CDSM_CUDA_CHECK_NOTHROW(cudaEventDestroy(l.start));
+    CDSM_CUDA_CHECK(e);
+  }
+
+  int device_;
+  bool async_alloc_ = false;
+  std::unique_ptr<Stream> stream_;
+  std::vector<Launch> pending_;
+  std::vector<exec::StageTime> folded_;
+  std::vector<std::pair<cudaEvent_t, cudaEvent_t>> free_events_;
+};
+
+}  // namespace cdsm::cuda

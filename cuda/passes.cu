@@ -1,0 +1,20 @@
+// The camera pass, the fragment producer and the store's launches
+// (cuda/instances.cuh).
+#include "instances.cuh"
+
+namespace cdsm::exec {
+template void shade_pixels<cuda::CudaExec>(cuda::CudaExec&, const SceneView&, const ShadowView&, const CameraPassParams&,
+                                           FragmentLists, float*, uint32_t*);
+template void cast_fragments_exec<cuda::CudaExec>(cuda::CudaExec&, const SceneView&, const PinholeView&, ObjectMask, bool,
+                                                  ExecArray<uint32_t, cuda::CudaExec>&, ExecArray<uint32_t, cuda::CudaExec>&,
+                                                  ExecArray<Fragment, cuda::CudaExec>&,
+                                                  ExecArray<unsigned long long, cuda::CudaExec>&);
+template ExecStoredMap move_map_exec<DsmNode, cuda::CudaExec>(cuda::CudaExec&, const ExecStoredMap&, uint32_t,
+                                                              const KindStore<DsmNode, cuda::CudaExec>&,
+                                                              KindStore<DsmNode, cuda::CudaExec>&);
+template ExecStoredMap move_map_exec<DsmNodeRgb, cuda::CudaExec>(cuda::CudaExec&, const ExecStoredMap&, uint32_t,
+                                                                 const KindStore<DsmNodeRgb, cuda::CudaExec>&,
+                                                                 KindStore<DsmNodeRgb, cuda::CudaExec>&);
+template void read_map_exec<cuda::CudaExec>(cuda::CudaExec&, const DsmStorage&, const DsmMap&, uint32_t,
+                                            std::vector<uint32_t>&, std::vector<DsmNode>&);
+}  // namespace cdsm::exec

@@ -1,0 +1,345 @@
+// A ShadowBackend (shadows/backend/backend.h) whose every kernel runs
+// through an executor (shadows/exec/exec.h): scene buffers, maps and the
+// camera pass live in the executor's memory. Over CudaExec it is the cuda
+// backend (cuda/cuda_backend.h); over HostExec the same code runs on CPU
+// threads, which is how CI tests it without a GPU (tests/gpu/).
+//
+// Maps are appended to one store per node kind (as the cpu backend's),
+// freed maps leave holes that are compacted on the executor once they
+// exceed a quarter of the store. storage() is the host's view: over device
+// memory, a host mirror downloaded when the maps changed since the last
+// call (the probes and the GL map buffers read it); the camera pass reads
+// the executor's copy.
+#pragma once
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "backend/backend.h"
+#include "exec/camera_pass.h"
+#include "exec/light_pass.h"
+#include "exec/map_store.h"
+
+namespace cdsm::exec {
+
+// The exec backend's own controls beyond ShadowBackend (tests, benchmark).
+class ExecShadowBackend : public ShadowBackend {
+ public:
+  // How the light pass builds maps (two-pass by default).
+  virtual LightPassOptions& light_pass() = 0;
+  // Milliseconds per launch name since the last call.
+  virtual std::vector<StageTime> take_stage_times() = 0;
+  // The ray-cast fragment producer on the executor (the scene of the last
+  // update_scene), lists read back to `out`; `mask` is a host mask.
+  virtual void cast_fragments(const PinholeView& view, ObjectMask mask, FragmentBuffers& out) = 0;
+  // Texel t's nodes of map `id` (pads excluded), read on the executor:
+  // counts[t], nodes[t * cap ...]. Grey maps only.
+  virtual void read_map(MapId id, uint32_t cap, std::vector<uint32_t>& counts, std::vector<DsmNode>& nodes) = 0;
+};
+
+template <class Ex>
+class ExecBackend final : public ExecShadowBackend {
+ public:
+  template <class... Args>
+  explicit ExecBackend(const char* name, Args&&... args)
+      : name_(name), ex_(std::forward<Args>(args)...), tri_vertices_(ex_), tri_normals_(ex_), tri_object_(ex_),
+        objects_(ex_), volumes_(ex_), voxels_(ex_), macro_max_(ex_), nano_pool_(ex_), bvh_(ex_), bvh_prims_(ex_),
+        grey_(ex_), rgb_(ex_), scratch_(ex_), cam_offsets_(ex_), cam_fragments_(ex_), cam_inside_(ex_),
+        cam_lights_(ex_), cam_maps_(ex_), cam_rgb_(ex_), cam_walk_(ex_), frag_counts_(ex_), frag_offsets_(ex_),
+        frag_lists_(ex_), frag_total_(ex_), frag_mask_(ex_) {}
+  ExecBackend(const ExecBackend&) = delete;
+  ExecBackend& operator=(const ExecBackend&) = delete;
+
+  const char* name() const override { return name_; }
+  Ex& executor() { return ex_; }
+
+  // Every array again: called when the scene changed (not per frame); the
+  // SceneChange's ranges are not relied on.
+  void update_scene(const SceneBuffers& sb, const SceneChange&) override {
+    host_scene_ = &sb;
+    tri_vertices_.assign(sb.tri_vertices);
+    tri_normals_.assign(sb.tri_normals);
+    tri_object_.assign(sb.tri_object);
+    objects_.assign(sb.objects);
+    volumes_.assign(sb.volumes);
+    voxels_.assign(sb.voxels);
+    macro_max_.assign(sb.macro_max);
+    nano_pool_.assign(reinterpret_cast<const unsigned char*>(sb.nano_pool.data()), sb.nano_pool.size() * sizeof(GridBlock));
+    bvh_.assign(sb.bvh);
+    bvh_prims_.assign(sb.bvh_prims);
+  }
+
+  MapId build_map(const LightPassParams& params, FragmentLists frags, const DsmLayoutParams& layout,
+                  DsmBuildStats& stats) override {
+    check_layout(layout);
+    if (params.rgb && params.method != kMethodDsm) throw std::invalid_argument("build_map: the baselines are grey (no RGB maps)");
+    if (live_maps() == 0) reset_store();
+    if (stored_any_ && !same_layout(layout_, layout))
+      throw std::logic_error("exec backend: maps of different layouts cannot share the store");
+    layout_ = layout;
+    stored_any_ = true;
+    // The map's inputs into executor memory.
+    scratch_.offsets.assign(frags.offsets.data(), frags.offsets.size());
+    scratch_.fragments.assign(frags.fragments.data(), frags.fragments.size());
+    scratch_.inside.assign(params.inside.data(), params.inside.size());
+    FragmentLists ef = frags;
+    ef.offsets = scratch_.offsets.cspan();
+    ef.fragments = scratch_.fragments.span();
+    LightPassParams ep = params;
+    ep.inside = scratch_.inside.cspan();
+
+    ExecStoredMap m;
+    m.live = true;
+    if (params.rgb) m = build_kind(ep, ef, layout, rgb_, stats);
+    else m = build_kind(ep, ef, layout, grey_, stats);
+    live_bytes_ += m.bytes();
+    mirror_dirty_ = true;
+    MapId id;
+    if (!free_ids_.empty()) {
+      id = free_ids_.back();
+      free_ids_.pop_back();
+      maps_[id] = m;
+    } else {
+      id = MapId(maps_.size());
+      maps_.push_back(m);
+    }
+    return id;
+  }
+
+  void free_map(MapId id) override {
+    if (id >= maps_.size() || !maps_[id].live) throw std::logic_error("free_map: map " + std::to_string(id) + " is not stored");
+    live_bytes_ -= maps_[id].bytes();
+    maps_[id].live = false;
+    free_ids_.push_back(id);
+    if (live_maps() == 0) reset_store();
+    else if (allocated_bytes() - live_bytes_ > allocated_bytes() / 4) compact();
+  }
+
+  DsmMap map_header(MapId id) const override {
+    if (id >= maps_.size() || !maps_[id].live) throw std::logic_error("map_header: map " + std::to_string(id) + " is not stored");
+    return maps_[id].map;
+  }
+
+  DsmStorage storage() const override {
+    if constexpr (Ex::kHostMemory) {
+      return exec_storage();
+    } else {
+      if (mirror_dirty_) {
+        grey_.texels.read(mirror_.texels);
+        grey_.nodes.read(mirror_.nodes);
+        grey_.chunks.read(mirror_.chunks);
+        rgb_.texels.read(mirror_.rgb.texels);
+        rgb_.nodes.read(mirror_.rgb.nodes);
+        rgb_.chunks.read(mirror_.rgb.chunks);
+        mirror_.layout = layout_;
+        mirror_dirty_ = false;
+      }
+      return mirror_.storage();
+    }
+  }
+  uint64_t storage_epoch() const override { return epoch_; }
+
+  void camera_pass(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags,
+                   std::vector<float>& rgb, WalkStats& walk) override {
+    const uint64_t n = uint64_t(params.view.width) * uint64_t(params.view.height);
+    cam_offsets_.assign(frags.offsets.data(), frags.offsets.size());
+    cam_fragments_.assign(frags.fragments.data(), frags.fragments.size());
+    cam_inside_.assign(params.inside.data(), params.inside.size());
+    cam_lights_.assign(shadows.lights.data(), shadows.lights.size());
+    cam_maps_.assign(shadows.maps.data(), shadows.maps.size());
+    cam_rgb_.resize_discard(n * 3);
+    cam_walk_.resize_discard(4);
+    ex_.fill_zero(cam_walk_.data(), cam_walk_.bytes());
+    FragmentLists ef = frags;
+    ef.offsets = cam_offsets_.cspan();
+    ef.fragments = cam_fragments_.span();
+    ShadowView sv = shadows;
+    sv.lights = cam_lights_.cspan();
+    sv.maps = cam_maps_.cspan();
+    sv.storage = exec_storage();
+    CameraPassParams cp = params;
+    cp.inside = cam_inside_.cspan();
+    shade_pixels(ex_, scene_view(), sv, cp, ef, cam_rgb_.data(), cam_walk_.data());
+    cam_rgb_.read(rgb);
+    uint32_t w[4];
+    ex_.download(w, cam_walk_.data(), sizeof w);
+    walk.enclosing_overflow += w[0];
+    walk.match_overflow += w[1];
+    walk.unmatched += w[2];
+    walk.march_lengthened += w[3];
+  }
+
+  MapStoreStats map_store() const override {
+    MapStoreStats s;
+    s.live_bytes = live_bytes_;
+    s.allocated_bytes = allocated_bytes();
+    s.compactions = compactions_;
+    s.compacted_bytes = compacted_bytes_;
+    s.maps = live_maps();
+    return s;
+  }
+
+  LightPassOptions& light_pass() override { return options_; }
+  std::vector<StageTime> take_stage_times() override { return ex_.take_stage_times(); }
+
+  void cast_fragments(const PinholeView& view, ObjectMask mask, FragmentBuffers& out) override {
+    if (!host_scene_) throw std::logic_error("cast_fragments: no scene (update_scene first)");
+    const bool any_media = mask_has_media(host_scene_->view(), mask);
+    frag_mask_.assign(mask.words.data(), mask.words.size());
+    cast_fragments_exec(ex_, scene_view(), view, ObjectMask{frag_mask_.cspan()}, any_media, frag_counts_, frag_offsets_,
+                        frag_lists_, frag_total_);
+    out.width = view.width;
+    out.height = view.height;
+    frag_offsets_.read(out.offsets);
+    frag_lists_.read(out.fragments);
+  }
+
+  void read_map(MapId id, uint32_t cap, std::vector<uint32_t>& counts, std::vector<DsmNode>& nodes) override {
+    const DsmMap m = map_header(id);
+    if (m.rgb) throw std::invalid_argument("read_map: grey maps only");
+    read_map_exec(ex_, exec_storage(), m, cap, counts, nodes);
+  }
+
+ private:
+  static bool same_layout(const DsmLayoutParams& a, const DsmLayoutParams& b) {
+    if (a.layout != b.layout) return false;
+    if (a.layout == kDsmFixed) return a.fixed_layers == b.fixed_layers;
+    if (a.layout == kDsmChunked) return a.chunk_nodes == b.chunk_nodes;
+    return true;
+  }
+  static void check_layout(const DsmLayoutParams& p) {
+    if (p.layout > kDsmChunked) throw std::invalid_argument("build_map: unknown DSM layout " + std::to_string(p.layout));
+    if (p.layout == kDsmFixed && (p.fixed_layers < 2 || p.fixed_layers > 4096))
+      throw std::invalid_argument("build_map: fixed_layers must be within [2, 4096]");
+    if (p.layout == kDsmChunked && (p.chunk_nodes < 1 || p.chunk_nodes > 4096))
+      throw std::invalid_argument("build_map: chunk_nodes must be within [1, 4096]");
+  }
+
+  template <class Node>
+  ExecStoredMap build_kind(const LightPassParams& p, FragmentLists f, const DsmLayoutParams& layout,
+                           KindStore<Node, Ex>& store, DsmBuildStats& stats) {
+    ExecStoredMap m;
+    m.live = true;
+    m.texel_begin = store.texels.size();
+    m.node_begin = store.nodes.size();
+    m.chunk_begin = store.chunks.size();
+    stats = build_map_exec(ex_, scene_view(), p, f, layout, options_, store, m.map, scratch_);
+    m.texel_end = store.texels.size();
+    m.node_end = store.nodes.size();
+    m.chunk_end = store.chunks.size();
+    return m;
+  }
+
+  SceneView scene_view() const {
+    SceneView v;
+    v.tri_vertices = tri_vertices_.cspan();
+    v.tri_normals = tri_normals_.cspan();
+    v.tri_object = tri_object_.cspan();
+    v.objects = objects_.cspan();
+    v.volumes = volumes_.cspan();
+    v.voxels = voxels_.cspan();
+    v.macro_max = macro_max_.cspan();
+    v.nano_pool = {nano_pool_.data(), nano_pool_.size()};
+    v.bvh = bvh_.cspan();
+    v.bvh_prims = bvh_prims_.cspan();
+    return v;
+  }
+
+  DsmStorage exec_storage() const {
+    DsmStorage s;
+    s.texels = grey_.texels.cspan();
+    s.nodes = grey_.nodes.cspan();
+    s.chunks = grey_.chunks.cspan();
+    s.rgb_texels = rgb_.texels.cspan();
+    s.rgb_nodes = rgb_.nodes.cspan();
+    s.rgb_chunks = rgb_.chunks.cspan();
+    s.layout = layout_.layout;
+    s.layers = layout_.layout == kDsmFixed ? uint32_t(layout_.fixed_layers) : 0u;
+    return s;
+  }
+
+  uint32_t live_maps() const { return uint32_t(maps_.size() - free_ids_.size()); }
+
+  uint64_t allocated_bytes() const {
+    return grey_.texels.capacity() * sizeof(TexelRange) + grey_.nodes.capacity() * sizeof(DsmNode) +
+           grey_.chunks.capacity() * sizeof(ChunkNode) + rgb_.texels.capacity() * sizeof(TexelRange) +
+           rgb_.nodes.capacity() * sizeof(DsmNodeRgb) + rgb_.chunks.capacity() * sizeof(ChunkNodeRgb);
+  }
+
+  template <class Node>
+  static void release(KindStore<Node, Ex>& k) {
+    k.texels.reset();
+    k.nodes.reset();
+    k.chunks.reset();
+    k.texel_count = 0;
+  }
+
+  void reset_store() {
+    release(grey_);
+    release(rgb_);
+    maps_.clear();
+    free_ids_.clear();
+    live_bytes_ = 0;
+    stored_any_ = false;
+    mirror_dirty_ = true;
+    ++epoch_;
+  }
+
+  // The live maps into fresh arrays, exactly sized, offsets and links re-based.
+  void compact() {
+    KindStore<DsmNode, Ex> grey(ex_);
+    KindStore<DsmNodeRgb, Ex> rgb(ex_);
+    for (ExecStoredMap& m : maps_) {
+      if (!m.live) continue;
+      m = m.map.rgb ? move_map_exec(ex_, m, layout_.layout, rgb_, rgb) : move_map_exec(ex_, m, layout_.layout, grey_, grey);
+      compacted_bytes_ += m.bytes();
+    }
+    grey_ = std::move(grey);
+    rgb_ = std::move(rgb);
+    ++compactions_;
+    ++epoch_;
+    mirror_dirty_ = true;
+  }
+
+  const char* name_;
+  Ex ex_;  // first: every array below holds a pointer to it
+  ExecArray<Vec3, Ex> tri_vertices_, tri_normals_;
+  ExecArray<uint32_t, Ex> tri_object_;
+  ExecArray<ObjectData, Ex> objects_;
+  ExecArray<VolumeData, Ex> volumes_;
+  ExecArray<float, Ex> voxels_, macro_max_;
+  ExecArray<unsigned char, Ex> nano_pool_;
+  ExecArray<BvhNode, Ex> bvh_;
+  ExecArray<uint32_t, Ex> bvh_prims_;
+  KindStore<DsmNode, Ex> grey_;
+  KindStore<DsmNodeRgb, Ex> rgb_;
+  LightPassScratch<Ex> scratch_;
+  ExecArray<uint32_t, Ex> cam_offsets_;
+  ExecArray<Fragment, Ex> cam_fragments_;
+  ExecArray<uint32_t, Ex> cam_inside_;
+  ExecArray<LightData, Ex> cam_lights_;
+  ExecArray<DsmMap, Ex> cam_maps_;
+  ExecArray<float, Ex> cam_rgb_;
+  ExecArray<uint32_t, Ex> cam_walk_;
+  ExecArray<uint32_t, Ex> frag_counts_, frag_offsets_;
+  ExecArray<Fragment, Ex> frag_lists_;
+  ExecArray<unsigned long long, Ex> frag_total_;
+  ExecArray<uint32_t, Ex> frag_mask_;
+
+  const SceneBuffers* host_scene_ = nullptr;
+  LightPassOptions options_;
+  DsmLayoutParams layout_;
+  bool stored_any_ = false;
+  std::vector<ExecStoredMap> maps_;
+  std::vector<MapId> free_ids_;
+  uint64_t live_bytes_ = 0;
+  uint64_t compactions_ = 0, compacted_bytes_ = 0;
+  uint64_t epoch_ = 1;
+  mutable DsmBuffers mirror_;  // storage() over device memory
+  mutable bool mirror_dirty_ = true;
+};
+
+}  // namespace cdsm::exec
