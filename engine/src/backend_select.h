@@ -1,6 +1,8 @@
 // Which ShadowBackend a shadow system runs its kernels on (DESIGN.md §5):
-// the cpu backend always; a cuda backend when the build has one and a
-// device is there. The choice and its reason are reported in FrameStats.
+// the cpu backend always; the cuda backend (cuda/cuda_backend.h) when the
+// build has one (CDSM_HAVE_CUDA) and a device is there. resolve_backend()
+// (cdsm/renderer.h) says which and why; the choice and its reason are
+// reported in FrameStats.
 #pragma once
 
 #include <memory>
@@ -13,12 +15,13 @@ namespace cdsm {
 
 struct BackendChoice {
   std::unique_ptr<ShadowBackend> backend;
-  std::string name;    // "cpu", ...
+  std::string name;    // "cpu", "cuda"
   std::string reason;  // why this one
 };
 
-// The backend for `want`. Throws cdsm::Error when a backend that cannot
-// run here is requested explicitly (Backend::Reference draws no maps).
+// The backend for `want` (Auto: cuda when it can run, else cpu). Throws
+// cdsm::Error when a backend that cannot run here is requested explicitly
+// (Cuda without a device; Reference draws no maps).
 BackendChoice make_backend(Backend want);
 
 }  // namespace cdsm
