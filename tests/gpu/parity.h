@@ -1,0 +1,142 @@
+// Backend parity (DESIGN.md §5, issue 16 item 9): one frame of a scene on
+// two ShadowBackends — maps from the same fragment lists, the camera pass
+// over the same camera fragments — compared texel by texel and pixel by
+// pixel. Used with the exec backend on CPU threads (test_exec_backend.cpp,
+// every build) and with the cuda backend (test_cuda_backend.cpp, on a GPU).
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "backend/backend.h"
+#include "cdsm/scene.h"
+#include "cdsm/scene_io.h"
+#include "frame.h"
+#include "scene_compile.h"
+
+namespace cdsm::parity {
+
+inline std::string scene_path(const std::string& name) {
+  if (name == "default") return std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/default.json";
+  return std::string(CDSM_GPU_SCENES_DIR) + "/" + name + ".json";
+}
+
+// A scene of the GPU suite, made small enough for CI (res x res maps, w x h camera).
+inline Scene load(const std::string& name, int res, int w, int h) {
+  Scene s = load_scene(scene_path(name));
+  s.shadows.resolution = res;
+  s.camera.width = w;
+  s.camera.height = h;
+  return s;
+}
+
+// One frame of `scene` on `backend`: every map built (CPU-cast fragment
+// lists), then the camera pass.
+struct Frame {
+  MapCache cache;
+  ShadowFrame frame;
+  std::vector<float> rgb;
+  WalkStats walk;
+  std::vector<DsmBuildStats> stats;
+};
+
+inline void run(const Scene& scene, const SceneBuffers& sb, ShadowBackend& backend, Frame& f) {
+  backend.update_scene(sb, SceneChange{true, 0, 0, true});
+  const SceneView sv = sb.view();
+  build_shadow_frame(frame_inputs(scene, sb), cpu_fragment_producer(sv), backend, f.cache, f.frame);
+  f.stats = f.frame.map_stats;
+  CameraPassParams cam;
+  cam.view = camera_view(scene.camera);
+  std::vector<uint32_t> inside = objects_containing(sv, cam.view.eye, ObjectMask{});
+  cam.inside = {inside.data(), inside.size()};
+  cam.ambient = scene.shadows.ambient_light;
+  cam.background = scene.background;
+  FragmentBuffers fb;
+  cast_fragments(sv, cam.view, ObjectMask{}, fb);
+  backend.camera_pass(f.frame.view(scene.shadows), cam, fb.lists(), f.rgb, f.walk);
+}
+
+// Node lists of texel (tx, ty) of a map from host-readable storage (any layout, either kind).
+struct TexelList {
+  std::vector<float> z, a;  // a: one value per node (grey) or three (RGB)
+};
+inline TexelList texel_list(const DsmStorage& st, const DsmMap& m, int tx, int ty) {
+  TexelList t;
+  if (m.rgb) {
+    std::vector<DsmNodeRgb> n(8192);
+    const uint32_t c = read_texel_rgb(st, m, tx, ty, n.data(), uint32_t(n.size()));
+    for (uint32_t i = 0; i < c && i < n.size(); ++i) {
+      t.z.push_back(n[i].z);
+      t.a.insert(t.a.end(), {n[i].r, n[i].g, n[i].b});
+    }
+  } else {
+    std::vector<DsmNode> n(8192);
+    const uint32_t c = read_texel(st, m, tx, ty, n.data(), uint32_t(n.size()));
+    for (uint32_t i = 0; i < c && i < n.size(); ++i) {
+      t.z.push_back(n[i].z);
+      t.a.push_back(n[i].alpha);
+    }
+  }
+  return t;
+}
+
+// alpha of a texel's node list at depth z (per channel for RGB).
+inline std::vector<float> alpha_at(const DsmStorage& st, const DsmMap& m, int tx, int ty, float z) {
+  if (m.rgb) {
+    const Vec3 a = texel_alpha_rgb(st, m, tx, ty, z);
+    return {a.x, a.y, a.z};
+  }
+  return {texel_alpha(st, m, tx, ty, z)};
+}
+
+struct MapComparison {
+  uint64_t texels = 0, identical = 0;
+  double max_alpha_diff = 0.0;  // over every node depth of either list (and just before it)
+  std::string first_difference;
+};
+
+// Texel by texel: identical node lists, and the largest |alpha_a - alpha_b|
+// at every node depth of either (the functions are piecewise linear
+// between them, so that is the sup over z).
+inline MapComparison compare_maps(const DsmStorage& sa, const DsmMap& ma, const DsmStorage& sb, const DsmMap& mb) {
+  MapComparison r;
+  const int res = int(ma.res);
+  for (int ty = 0; ty < res; ++ty)
+    for (int tx = 0; tx < res; ++tx) {
+      ++r.texels;
+      const TexelList a = texel_list(sa, ma, tx, ty), b = texel_list(sb, mb, tx, ty);
+      if (a.z == b.z && a.a == b.a) {
+        ++r.identical;
+        continue;
+      }
+      if (r.first_difference.empty())
+        r.first_difference = "texel (" + std::to_string(tx) + ", " + std::to_string(ty) + "): " +
+                             std::to_string(a.z.size()) + " vs " + std::to_string(b.z.size()) + " nodes";
+      std::vector<float> zs = a.z;
+      zs.insert(zs.end(), b.z.begin(), b.z.end());
+      for (float z : zs)
+        for (float zz : {z, std::nextafter(z, 0.0f)}) {
+          const std::vector<float> x = alpha_at(sa, ma, tx, ty, zz), y = alpha_at(sb, mb, tx, ty, zz);
+          for (size_t k = 0; k < x.size(); ++k) r.max_alpha_diff = std::max(r.max_alpha_diff, double(std::fabs(x[k] - y[k])));
+        }
+    }
+  return r;
+}
+
+// PSNR in dB of two linear images (values clamped to [0, 1]); inf when equal.
+inline double psnr(const std::vector<float>& a, const std::vector<float>& b) {
+  double se = 0.0;
+  for (size_t i = 0; i < a.size() && i < b.size(); ++i) {
+    const double d = double(std::min(std::max(a[i], 0.0f), 1.0f)) - double(std::min(std::max(b[i], 0.0f), 1.0f));
+    se += d * d;
+  }
+  const double mse = se / double(std::max<size_t>(a.size(), 1));
+  return mse == 0.0 ? INFINITY : 10.0 * std::log10(1.0 / mse);
+}
+
+}  // namespace cdsm::parity
