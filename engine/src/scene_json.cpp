@@ -2,6 +2,7 @@
 #include <array>
 #include <cctype>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -31,6 +32,24 @@ struct Parser {
   // or found in the shared data directory (cdsm/loaders.h).
   std::string resolve(const JsonNode& n) const {
     return resolve_asset(n.as_string(), base_dir, n.file() + ": " + n.path());
+  }
+
+  // The JSON text of a mesh or grid node as read (Object::mesh_source,
+  // Volume::grid_source), compact. A "file" found relative to the scene's
+  // folder is made absolute, so the description still names that file when
+  // the scene is saved elsewhere ("$SHARED/..." and absolute paths are kept).
+  std::string source_of(const JsonNode& n) const {
+    nlohmann::json j = n.raw();
+    if (j.is_object() && j.contains("file") && j["file"].is_string()) {
+      const std::string ref = j["file"].get<std::string>();
+      if (!ref.empty() && ref[0] != '/' && ref.rfind("$SHARED/", 0) != 0) {
+        std::error_code ec;
+        std::filesystem::path local = std::filesystem::path(base_dir.empty() ? "." : base_dir) / ref;
+        if (std::filesystem::is_regular_file(local, ec))
+          j["file"] = std::filesystem::absolute(local, ec).lexically_normal().string();
+      }
+    }
+    return j.dump();
   }
 
   // Runs a loader; its errors (which name the asset) also get the scene
@@ -127,7 +146,21 @@ struct Parser {
     return s;
   }
 
+  // {"matrix": [16 numbers]}: row-major, the last row 0 0 0 1 (affine).
+  static Mat4 matrix(const JsonNode& n) {
+    n.expect_object({"matrix"});
+    JsonNode a = n.at("matrix");
+    a.expect_array();
+    if (a.size() != 16) a.fail("expected 16 numbers (row-major 4x4), got " + std::to_string(a.size()));
+    Mat4 m;
+    for (size_t i = 0; i < 16; ++i) m.m[i / 4][i % 4] = a.at(i).as_float();
+    if (m.m[3][0] != 0 || m.m[3][1] != 0 || m.m[3][2] != 0 || m.m[3][3] != 1)
+      a.fail("the last row must be 0 0 0 1 (an affine transform)");
+    return m;
+  }
+
   Mat4 transform(const JsonNode& n) {
+    if (n.has("matrix")) return matrix(n);  // ranges (singular, infinite): compile_scene
     n.expect_object({"translate", "rotate", "scale"});
     Vec3 s = n.get("scale", Vec3{1, 1, 1});
     if (s.x == 0 || s.y == 0 || s.z == 0) n.at("scale").fail("scale must not be 0");
@@ -222,8 +255,8 @@ struct Parser {
   }
 
   Volume volume(const JsonNode& n) {
-    n.expect_object({"name", "grid", "voxel_size", "origin", "transfer", "shading", "step_voxels", "gradient_scale",
-                     "proxy"});
+    n.expect_object({"name", "grid", "voxel_size", "origin", "index_to_object", "transfer", "shading", "step_voxels",
+                     "gradient_scale", "proxy"});
     Volume v;
     v.name = n.get("name", "");
     JsonNode gn = n.at("grid");
@@ -232,8 +265,9 @@ struct Parser {
     Vec3 spacing{1, 1, 1};
     if (type == "vdb") {  // {"type":"vdb", "file", "grid": name}: the grid's own transform
       gn.expect_object({"type", "file", "grid"});
-      if (n.has("voxel_size") || n.has("origin"))
-        n.fail("a vdb grid is placed by its own transform: give no voxel_size or origin (use the object's transform)");
+      if (n.has("voxel_size") || n.has("origin") || n.has("index_to_object"))
+        n.fail("a vdb grid is placed by its own transform: give no voxel_size, origin or index_to_object (use the "
+               "object's transform)");
       std::string path = resolve(gn.at("file"));
       std::string grid_name = gn.get("grid", "density");
       VdbVolume vdb = load(gn.at("file"), [&] { return load_vdb(path, grid_name); });
@@ -242,6 +276,12 @@ struct Parser {
     } else {
       v.grid = type == "raw" ? raw_grid(gn, has_spacing, spacing) : grid(gn);
       if (has_spacing && n.has("voxel_size")) n.fail("give the raw grid's spacing or the volume's voxel_size, not both");
+    }
+    if (!v.sparse && n.has("index_to_object")) {  // any affine placement (scene_write.cpp writes it when needed)
+      if (has_spacing || n.has("voxel_size") || n.has("origin"))
+        n.fail("give index_to_object or voxel_size / origin (or a raw grid's spacing), not both");
+      v.index_to_object = matrix(n.at("index_to_object"));
+    } else if (!v.sparse) {
       Vec3 vs = has_spacing ? spacing : n.get("voxel_size", Vec3{0.05f, 0.05f, 0.05f});
       if (!(vs.x >= kMinVoxelSize && vs.y >= kMinVoxelSize && vs.z >= kMinVoxelSize && vs.x <= kMaxVoxelSize &&
             vs.y <= kMaxVoxelSize && vs.z <= kMaxVoxelSize))
@@ -259,6 +299,7 @@ struct Parser {
       m.m[2][3] = origin.z + 0.5f * vs.z;
       v.index_to_object = m;
     }
+    if (!(type == "dense" && gn.has("values"))) v.grid_source = source_of(gn);  // values are data, not a description
     std::string proxy = n.get("proxy", "box");
     if (proxy == "box") proxy_of.push_back(VolumeProxy::Box);
     else if (proxy == "leaves") proxy_of.push_back(VolumeProxy::Leaves);
@@ -290,6 +331,44 @@ struct Parser {
   std::shared_ptr<TriangleMesh> volume_box(int volume_index) {
     return std::make_shared<TriangleMesh>(
         make_volume_proxy(scene.volumes[size_t(volume_index)], proxy_of[size_t(volume_index)]));
+  }
+
+  // {"type":"triangles", "positions":[x,y,z, ...], "indices":[i,j,k, ...], "normals":[x,y,z, ...]}:
+  // a mesh given by its data (what scene_write.cpp writes for meshes built
+  // in code or taken from a whole glTF scene). Normals are optional.
+  std::shared_ptr<TriangleMesh> triangles(const JsonNode& n) {
+    n.expect_object({"type", "positions", "indices", "normals"});
+    auto mesh = std::make_shared<TriangleMesh>();
+    JsonNode p = n.at("positions"), ix = n.at("indices");
+    p.expect_array();
+    ix.expect_array();
+    if (p.size() % 3 != 0) p.fail("needs x, y, z per vertex: " + std::to_string(p.size()) + " numbers");
+    if (ix.size() % 3 != 0) ix.fail("needs 3 indices per triangle: " + std::to_string(ix.size()) + " indices");
+    check_allocation(n.file() + ": " + n.path(), "a mesh of " + std::to_string(ix.size() / 3) + " triangles",
+                     double(p.size()) * 8.0 + double(ix.size()) * 80.0, scene.shadows);
+    auto vec3s = [](const JsonNode& a, std::vector<Vec3>& out) {
+      out.resize(a.size() / 3);
+      for (size_t i = 0; i < out.size(); ++i)
+        out[i] = {a.at(3 * i).as_float(), a.at(3 * i + 1).as_float(), a.at(3 * i + 2).as_float()};
+    };
+    vec3s(p, mesh->positions);
+    mesh->indices.resize(ix.size());
+    for (size_t i = 0; i < ix.size(); ++i) {
+      JsonNode e = ix.at(i);
+      const double v = e.is_number() ? e.raw().get<double>() : -1.0;
+      if (!(v >= 0 && v < double(mesh->positions.size()) && v == std::floor(v)))
+        e.fail("must be a vertex index within [0, " + std::to_string(mesh->positions.size()) + ")");
+      mesh->indices[i] = uint32_t(v);
+    }
+    if (n.has("normals")) {
+      JsonNode nn = n.at("normals");
+      nn.expect_array();
+      if (nn.size() != p.size() && nn.size() != 0)
+        nn.fail("needs one normal per vertex (" + std::to_string(p.size()) + " numbers), got " +
+                std::to_string(nn.size()));
+      vec3s(nn, mesh->normals);
+    }
+    return mesh;
   }
 
   std::shared_ptr<TriangleMesh> mesh(const JsonNode& n, int volume_index) {
@@ -331,6 +410,7 @@ struct Parser {
       if (sub < 1 || sub > 64) n.at("subdivisions").fail("must be within [1, 64]");
       return std::make_shared<TriangleMesh>(make_newell_mesh(content_dir() + "/meshes/newell/" + type, sub));
     }
+    if (type == "triangles") return triangles(n);
     if (type == "volume_box") {
       n.expect_object({"type"});
       if (volume_index < 0) n.fail("a volume_box mesh needs an interior of type volume");
@@ -349,7 +429,7 @@ struct Parser {
       return load(n.at("file"), [&] { return std::make_shared<TriangleMesh>(load_gltf_mesh(path, node, subtree)); });
     }
     n.at("type").fail("unknown mesh type '" + type +
-                      "' (box, sphere, ground, quad, teapot, teacup, gltf, volume_box)");
+                      "' (box, sphere, ground, quad, teapot, teacup, gltf, triangles, volume_box)");
   }
 
   Object object(const JsonNode& n) {
@@ -396,9 +476,15 @@ struct Parser {
         in.at("type").fail("unknown interior type '" + type + "' (none, constant or volume)");
       }
     }
-    if (n.has("mesh")) o.mesh = mesh(n.at("mesh"), o.volume);
-    else if (o.interior == InteriorKind::Volume) o.mesh = volume_box(o.volume);
-    else n.at("mesh").fail("missing required field");
+    if (n.has("mesh")) {
+      o.mesh = mesh(n.at("mesh"), o.volume);
+      if (n.at("mesh").at("type").as_string() != "triangles") o.mesh_source = source_of(n.at("mesh"));  // data: none
+    } else if (o.interior == InteriorKind::Volume) {
+      o.mesh = volume_box(o.volume);
+      o.mesh_source = R"({"type":"volume_box"})";
+    } else {
+      n.at("mesh").fail("missing required field");
+    }
     return o;
   }
 
@@ -412,14 +498,18 @@ struct Parser {
     else if (type == "point") l.type = LightType::Point;
     else n.at("type").fail("unknown light type '" + type + "' (spot or point)");
     l.position = n.at("position").as_vec3();
-    if (l.type == LightType::Spot) {
+    // A point light keeps a direction and cones when given (unused; they
+    // come back when it is made a spot again, and a saved scene keeps them).
+    if (l.type == LightType::Spot || n.has("target") || n.has("direction")) {
       if (n.has("target")) l.direction = n.at("target").as_vec3() - l.position;
       else l.direction = n.at("direction").as_vec3();
-      if (length(l.direction) <= 0) n.fail("spot direction is zero");
-      l.direction = normalize(l.direction);
-      l.outer_cone_deg = n.get("outer_cone", l.outer_cone_deg);
-      l.inner_cone_deg = n.get("inner_cone", std::min(l.inner_cone_deg, l.outer_cone_deg));
+      const float len = length(l.direction);
+      if (l.type == LightType::Spot && len <= 0) n.fail("spot direction is zero");
+      // Unit length already (a saved scene): kept bit for bit.
+      if (len > 0 && std::fabs(len - 1.0f) > 1e-6f) l.direction = normalize(l.direction);
     }
+    l.outer_cone_deg = n.get("outer_cone", l.outer_cone_deg);
+    l.inner_cone_deg = n.get("inner_cone", std::min(l.inner_cone_deg, l.outer_cone_deg));
     l.color = n.get("color", l.color);
     l.intensity = n.get("intensity", l.intensity);
     return l;  // ranges: validate_scene

@@ -105,6 +105,14 @@ struct Volume {
   VolumeShading shading = VolumeShading::Scatter;
   float step_voxels = 0.5f;             // march step, in voxels
   float gradient_scale = 1.0f;          // phong: normal from -grad(density)
+  // How the grid was described: the JSON text of the scene file's `grid`
+  // node as read, compact ({"type":"noise","seed":7,...}; a file found
+  // beside the scene made absolute), so save_scene() (cdsm/scene_io.h)
+  // writes the description again instead of the voxels. Empty for a grid
+  // built in code or given by its values ({"type":"dense","values":...}):
+  // a dense one is then written inline, its values. Code that gives the
+  // volume another grid must clear it.
+  std::string grid_source;
 };
 
 // A scene object: a closed (or open) triangle mesh with a surface and an interior.
@@ -118,6 +126,15 @@ struct Object {
   Vec3 sigma{0, 0, 0};  // Constant: extinction per colour channel, per world unit (Beer-Lambert;
                         // glTF KHR_materials_volume: -ln(attenuationColor_k) / attenuationDistance)
   int32_t volume = -1;  // Volume: index into Scene::volumes
+  // How the mesh was described: the JSON text of the scene file's `mesh`
+  // node as read, compact ({"type":"teapot","subdivisions":8}; a file found
+  // beside the scene made absolute; {"type":"volume_box"} for a volume's
+  // object without one), so save_scene() writes the description again
+  // instead of the triangles. Empty for a mesh built in code, taken from a
+  // whole glTF scene or given by its data (all written inline,
+  // {"type":"triangles",...}). Code that gives the object another mesh
+  // must clear it.
+  std::string mesh_source;
 };
 
 enum class LightType : uint32_t { Spot = 0, Point = 1 };

@@ -17,6 +17,28 @@ Scene load_scene(const std::string& path);
 // relative file references.
 Scene parse_scene(const std::string& json_text, const std::string& name, const std::string& base_dir);
 
+// Writes a scene file that load_scene() reads back to an equal scene (bit
+// for bit: every float is printed with enough digits). Meshes and grids
+// with a description (Object::mesh_source, Volume::grid_source) are written
+// as that description, the others as data ({"type":"triangles"} meshes,
+// {"type":"dense"} grids with their values); transforms as {"matrix": [16
+// numbers]}; every field of the README's "Scene files" tables is written,
+// defaults included. A file referred to by a description is written
+// relative to the new file's folder when it was found beside the old one.
+// The scene is checked first (validate_scene, then what only the reader
+// checks: finite transforms and mesh data, each volume inside exactly one
+// object, distinct volume names, non-negative grid values); a scene the
+// reader would refuse is refused. The text goes to a temporary file in the
+// same folder, renamed over `path` when complete, so an error never leaves
+// a half-written file. Errors throw cdsm::Error naming `path` (and the
+// field, as a JSON pointer). `path` must not end in .gltf or .glb.
+void save_scene(const Scene& scene, const std::string& path);
+
+// The text save_scene() writes (file references relative to `base_dir`,
+// the folder the text will be read from; "" keeps them as they are).
+// Throws cdsm::Error naming `scene.source` and the field.
+std::string scene_to_json(const Scene& scene, const std::string& base_dir = "");
+
 // Checks every numeric field of a scene (from a file or built in code)
 // against its documented range (README "Scene files"): a value outside
 // throws cdsm::Error("SOURCE: /json/pointer", "must be within [lo, hi], got
