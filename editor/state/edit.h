@@ -105,6 +105,7 @@ struct Invalidation {
     None,    // no map: lookup settings (filtering, bias, receiver, ambient, memory), light colour, intensity
              // or inner cone, a point light's unused direction, the camera with fixed maps, background,
              // a light removed (its maps are freed, the others kept), anything of an object no map holds
+             // (but moving one that bounds the scene changes the lights' depth ranges: see Object)
     Lights,  // the maps of lights [light_first, light_last] (indices after the edit): a light moved,
              // turned or its outer cone changed (reason Light), a light added (reason New; the lights
              // after an insertion come back to the system with their maps reused: same views)

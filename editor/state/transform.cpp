@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <vector>
 
 namespace cdsm::editor {
 namespace {
@@ -72,24 +73,29 @@ Values solve(const Mat4& m, const int sign[3], bool second) {
 
 Mat4 compose(const Trs& t) { return make_transform(t.translate, t.rotate_deg, t.scale); }
 
-Trs decompose(const Mat4& m) {
-  const Vec3 translate{m.m[0][3], m.m[1][3], m.m[2][3]};
+namespace {
+
+// Every answer for m: per sign pattern and Euler solution, the shortest
+// decimals that compose to m exactly (exact = true), else the analytic
+// values. In order of preference (fewest negative scales, first solution).
+struct Answer {
+  Values values;
+  bool exact = false;
+};
+
+std::vector<Answer> answers(const Mat4& m, const Vec3& translate, bool first_exact_only) {
+  std::vector<Answer> out;
   const bool mirrored = det3(m) < 0.0f;
   // Sign patterns of the scales: as few negative as the determinant allows.
   static const int kPositive[4][3] = {{1, 1, 1}, {-1, -1, 1}, {-1, 1, -1}, {1, -1, -1}};
   static const int kMirrored[4][3] = {{-1, 1, 1}, {1, -1, 1}, {1, 1, -1}, {-1, -1, -1}};
   const int(*signs)[3] = mirrored ? kMirrored : kPositive;
-  Values first{};
-  bool have_first = false;
   for (int s = 0; s < 4; ++s)
     for (int second = 0; second < 2; ++second) {
       const Values raw = solve(m, signs[s], second == 1);
-      if (!have_first) {
-        first = raw;
-        have_first = true;
-      }
+      Answer a{raw, false};
       // The coarsest decimals, all values alike, that compose to m ...
-      for (int d = 0; d <= 6; ++d) {
+      for (int d = 0; d <= 6 && !a.exact; ++d) {
         Values c = raw;
         for (double& x : c.v) x = round_to(x, d);
         if (!same_bits(compose(c.trs(translate)), m)) continue;
@@ -103,11 +109,53 @@ Trs decompose(const Mat4& m) {
               break;
             }
           }
-        return c.trs(translate);
+        a = {c, true};
       }
-      if (same_bits(compose(raw.trs(translate)), m)) return raw.trs(translate);
+      if (!a.exact) a.exact = same_bits(compose(raw.trs(translate)), m);
+      out.push_back(a);
+      if (a.exact && first_exact_only) return out;
     }
-  return first.trs(translate);
+  return out;
+}
+
+double distance(const Values& a, const Trs& b) {
+  const double hint[6] = {b.rotate_deg.x, b.rotate_deg.y, b.rotate_deg.z, b.scale.x, b.scale.y, b.scale.z};
+  double d = 0.0;
+  for (int k = 0; k < 6; ++k) {
+    const double diff = k < 3 ? wrap180(a.v[k] - hint[k]) : a.v[k] - hint[k];
+    d += diff * diff;
+  }
+  return d;
+}
+
+}  // namespace
+
+Trs decompose(const Mat4& m) {
+  const Vec3 translate{m.m[0][3], m.m[1][3], m.m[2][3]};
+  const std::vector<Answer> all = answers(m, translate, true);
+  if (all.back().exact) return all.back().values.trs(translate);
+  return all.front().values.trs(translate);
+}
+
+Trs decompose(const Mat4& m, const Trs& near) {
+  const Vec3 translate{m.m[0][3], m.m[1][3], m.m[2][3]};
+  const std::vector<Answer> all = answers(m, translate, false);
+  bool any_exact = false;
+  for (const Answer& a : all) any_exact |= a.exact;
+  const Answer* best = nullptr;
+  for (const Answer& a : all)
+    if ((a.exact || !any_exact) && (!best || distance(a.values, near) < distance(best->values, near))) best = &a;
+  Trs t = best->values.trs(translate);
+  // Angles as close to the hint as whole turns allow (the same matrix).
+  for (int k = 0; k < 3; ++k) {
+    float& a = k == 0 ? t.rotate_deg.x : k == 1 ? t.rotate_deg.y : t.rotate_deg.z;
+    const float h = k == 0 ? near.rotate_deg.x : k == 1 ? near.rotate_deg.y : near.rotate_deg.z;
+    Trs turned = t;
+    float& b = k == 0 ? turned.rotate_deg.x : k == 1 ? turned.rotate_deg.y : turned.rotate_deg.z;
+    b = a + 360.0f * std::round((h - a) / 360.0f);
+    if (b != a && same_bits(compose(turned), m)) a = b;
+  }
+  return t;
 }
 
 }  // namespace cdsm::editor

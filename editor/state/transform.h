@@ -30,4 +30,10 @@ Mat4 compose(const Trs& t);
 // is lost). A singular matrix gives scale 0 on the collapsed axes.
 Trs decompose(const Mat4& m);
 
+// The same, choosing among the equivalent answers (the two Euler triples,
+// the axis a mirror is put on) the one nearest to `near` — the values the
+// panel showed before, so a rotation dragged past Y = 90 keeps going
+// instead of jumping to the other triple.
+Trs decompose(const Mat4& m, const Trs& near);
+
 }  // namespace cdsm::editor

@@ -456,6 +456,31 @@ TEST(Trs, DecomposeGivesBackWhatComposeWasGiven) {
   EXPECT_EQ(mirrored.rotate_deg.y, 0.0f);
 }
 
+TEST(Trs, AHintKeepsADragGoing) {
+  // Y past 90: of the two Euler triples, (0, 91, 0) and (180, 89, 180),
+  // only the first composes to the matrix exactly, so it is the answer.
+  const Mat4 m = compose({{0, 0, 0}, {0, 91, 0}, {1, 1, 1}});
+  const Trs plain = decompose(m);
+  EXPECT_EQ(plain.rotate_deg.x, 0.0f);
+  EXPECT_EQ(plain.rotate_deg.y, 91.0f);
+  EXPECT_EQ(plain.rotate_deg.z, 0.0f);
+  // A matrix no short decimals make (a glTF node's, say): without a hint
+  // the triple with Y within [-90, 90]; with the panel's last values, the
+  // one the drag is on.
+  Mat4 odd = m;
+  odd.m[0][0] = std::nextafter(odd.m[0][0], 1.0f);
+  const Trs far = decompose(odd);
+  EXPECT_NEAR(far.rotate_deg.y, 89.0f, 1e-3f);
+  EXPECT_NEAR(std::fabs(far.rotate_deg.x), 180.0f, 1e-3f);
+  const Trs near = decompose(odd, Trs{{0, 0, 0}, {0, 90.5f, 0}, {1, 1, 1}});
+  EXPECT_NEAR(near.rotate_deg.x, 0.0f, 1e-3f);
+  EXPECT_NEAR(near.rotate_deg.y, 91.0f, 1e-3f);
+  EXPECT_NEAR(near.rotate_deg.z, 0.0f, 1e-3f);
+  // Angles stay near the hint by whole turns when that is exact too.
+  const Trs turned = decompose(compose({{0, 0, 0}, {0, 0, 0}, {1, 1, 1}}), Trs{{0, 0, 0}, {0, 359, 0}, {1, 1, 1}});
+  EXPECT_TRUE(turned.rotate_deg.y == 0.0f || turned.rotate_deg.y == 360.0f);
+}
+
 TEST(Trs, OtherMatricesGiveTheNearestTrs) {
   // A gimbal-locked rotation and a sheared matrix: finite values, the
   // rotation kept (the shear cannot be).
