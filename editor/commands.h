@@ -10,6 +10,7 @@ namespace cdsm::cli {
 // Each returns the process exit code.
 int cmd_render(const std::vector<std::string>& args);
 int cmd_info(const std::vector<std::string>& args);
+int cmd_edit(const std::vector<std::string>& args);  // editor/edit/cmd_edit.cpp (CDSM_HAVE_EDITOR)
 
 // Parsing helpers shared by commands: a bad value throws cdsm::Error naming the option.
 float parse_float(const std::string& opt, const std::string& v);

@@ -1,4 +1,4 @@
-// cdsm: the command-line front end (the ImGui editor joins later).
+// cdsm: the command-line front end and the editor (cdsm edit).
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -22,6 +22,8 @@ const char* kHelp =
     "                                     baselines (shadow map, opacity slices, AVSM); CSV, Markdown, plot\n"
     "                                     (cdsm bench --help for all options)\n"
     "  info SCENE                         print what a scene holds (objects, triangles, volumes, lights)\n"
+    "  edit SCENE [--script FILE]         the interactive editor: tune epsilon, d0 and clusters live, see what\n"
+    "                                     each does (cdsm edit --help)\n"
     "  --help                             this text\n"
     "\n"
     "SCENE is a JSON scene file (content/scenes/*.json).\n";
@@ -40,6 +42,13 @@ int main(int argc, char** argv) {
     if (cmd == "render") return cdsm::cli::cmd_render(args);
     if (cmd == "info") return cdsm::cli::cmd_info(args);
     if (cmd == "bench") return cdsm::cli::cmd_bench(args);
+    if (cmd == "edit") {
+#if CDSM_HAVE_EDITOR
+      return cdsm::cli::cmd_edit(args);
+#else
+      throw cdsm::Error("cdsm edit", "this build has no editor (it needs OpenGL, GLFW 3.3 and libimgui-dev)");
+#endif
+    }
     std::fprintf(stderr, "cdsm: unknown command '%s' (try cdsm --help)\n", cmd.c_str());
     return 2;
   } catch (const cdsm::Error& e) {

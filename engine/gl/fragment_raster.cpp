@@ -107,10 +107,21 @@ struct FragmentRasterizer::Impl {
   }
 
   ~Impl() {
-    // GL names belong to this context: delete them with it current.
+    // GL names belong to this context: delete them with it current. When it
+    // cannot be made current here (current on another thread, or another
+    // window system's context is current on this one), the names are
+    // dropped, not deleted from whatever context is current; they die with
+    // their context.
     try {
+      // Never take the thread's current context away from its owner.
+      if (Context::current() != nullptr && Context::current() != &context) throw Error("", "");
       context.make_current();
     } catch (...) {
+      program.forget();
+      scan.forget();
+      vao.forget();
+      fbo.forget();
+      for (Buffer* b : {&vertices, &normals, &media, &counts, &offsets, &pool}) b->forget();
     }
   }
 

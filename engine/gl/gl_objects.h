@@ -29,6 +29,10 @@ class Object {
   }
   GLuint id() const { return id_; }
   explicit operator bool() const { return id_ != 0; }
+  // Drops the name without deleting it: for when its context cannot be made
+  // current (deleting would hit whatever context is current instead). The
+  // object dies with its context.
+  void forget() noexcept { id_ = 0; }
   const std::string& label() const { return label_; }
 
  protected:

@@ -87,4 +87,11 @@ bool PrefixSum::overflowed() {
   return flag != 0;
 }
 
+void PrefixSum::forget() noexcept {
+  scan_.forget();
+  add_.forget();
+  for (Buffer& b : levels_) b.forget();
+  status_.forget();
+}
+
 }  // namespace cdsm::gl

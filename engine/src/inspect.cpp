@@ -42,6 +42,36 @@ PinholeView texel_view(const PinholeView& v, int tx, int ty) {
 Vec3 alpha_rgb_of(const DsmNode& n) { return vec3(n.alpha); }
 Vec3 alpha_rgb_of(const DsmNodeRgb& n) { return {n.r, n.g, n.b}; }
 
+// alpha per channel just before / at z (lookup_alpha) and just after z.
+Vec3 before_rgb(Span<const DsmNode> n, float z) { return vec3(lookup_alpha(n, z)); }
+Vec3 before_rgb(Span<const DsmNodeRgb> n, float z) { return lookup_alpha(n, z); }
+Vec3 after_rgb(Span<const DsmNode> n, float z) { return vec3(alpha_after(n, z)); }
+Vec3 after_rgb(Span<const DsmNodeRgb> n, float z) { return alpha_after(n, z); }
+
+// sup over depths and channels of how far one visibility function lies
+// outside the other's range within +-tol(z) of the same depth: |f - g| where
+// both have their steps at the same depths, but a step moved by a depth
+// difference below tol (the GL and CPU fragment producers differ by up to
+// ~1e-5 of the depth) does not count as the step's height. Both functions
+// are monotone, so g's range over [z - tol, z + tol] is [g(z - tol), g(z + tol)].
+template <class Node>
+float deviation(Span<const Node> f, Span<const Node> g, float rel_tol) {
+  float worst = 0.0f;
+  for (int pass = 0; pass < 2; ++pass) {
+    const Span<const Node> a = pass == 0 ? f : g, b = pass == 0 ? g : f;
+    for (int list = 0; list < 2; ++list) {
+      const Span<const Node> at = list == 0 ? a : b;
+      for (uint64_t i = 0; i < at.size(); ++i) {
+        const float z = at[i].z, tol = rel_tol * fabsf(z);
+        const Vec3 lo = before_rgb(b, z - tol), hi = after_rgb(b, z + tol);
+        for (const Vec3& v : {before_rgb(a, z), after_rgb(a, z)})
+          for (int k = 0; k < 3; ++k) worst = fmaxf(worst, fmaxf(lo[k] - v[k], v[k] - hi[k]));
+      }
+    }
+  }
+  return worst;
+}
+
 template <class Node>
 std::vector<ShadowSystem::AlphaSample> samples_of(const Node* n, uint32_t count) {
   std::vector<ShadowSystem::AlphaSample> out;
@@ -181,14 +211,16 @@ ShadowSystem::TexelInspection ShadowSystem::inspect_texel(int light, Vec3 p) con
     build_texel(scene, lp, fb.lists().pixel(0, 0), 0, 0, buf, ws);
     r.nodes = samples_of(rgb.data(), n);
     r.exact = samples_of(exact.data(), uint32_t(buf.count));
-    r.max_deviation = max_change(Span<const DsmNodeRgb>{rgb.data(), n}, Span<const DsmNodeRgb>{exact.data(), uint64_t(buf.count)});
+    r.max_deviation = deviation(Span<const DsmNodeRgb>{rgb.data(), n}, Span<const DsmNodeRgb>{exact.data(), uint64_t(buf.count)},
+                                kRelativeDepthOffset);
   } else {
     std::vector<DsmNode> exact(kCapacity);
     NodeBuffer buf{exact.data(), kCapacity};
     build_texel(scene, lp, fb.lists().pixel(0, 0), 0, 0, buf, ws);
     r.nodes = samples_of(grey.data(), n);
     r.exact = samples_of(exact.data(), uint32_t(buf.count));
-    r.max_deviation = max_change(Span<const DsmNode>{grey.data(), n}, Span<const DsmNode>{exact.data(), uint64_t(buf.count)});
+    r.max_deviation = deviation(Span<const DsmNode>{grey.data(), n}, Span<const DsmNode>{exact.data(), uint64_t(buf.count)},
+                                kRelativeDepthOffset);
   }
   r.found = true;
   return r;

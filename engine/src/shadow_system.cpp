@@ -79,7 +79,7 @@ ShadowSystem::Impl::Impl(const SystemOptions& o) : options(o) {
   scene.source = o.source;
   if (o.gl_context == GlContextUse::Application) {
     gl = make_system_gl(o.source);
-    fragments.use_context(system_context(*gl));
+    if (!o.private_fragment_context) fragments.use_context(system_context(*gl));
   }
   BackendChoice c = make_backend(o.backend);
   backend = std::move(c.backend);
@@ -304,8 +304,10 @@ void ShadowSystem::Impl::publish(FrameStats& st) {
 }
 
 void ShadowSystem::Impl::build(FrameStats& st) {
-  // GL only where the fragments come from GL (then on the context's thread).
-  SystemGlScope gl_scope(options.fragments == FragmentSource::Cpu ? nullptr : gl.get(), &st.warnings);
+  // The application's context only where the fragments are rasterized on it
+  // (then on that context's thread).
+  const bool app_fragments = options.fragments != FragmentSource::Cpu && !options.private_fragment_context;
+  SystemGlScope gl_scope(app_fragments ? gl.get() : nullptr, &st.warnings);
   if (changed) {
     validate_scene(scene, &st.warnings);
     check_memory(scene, estimate_frame_memory(scene, RenderOptions{}));

@@ -121,10 +121,26 @@ struct ForwardRenderer::Mesh {
 struct ForwardRenderer::Grid {
   std::shared_ptr<const cdsm::DenseGrid> keep;
   GLuint texture = 0;
+  GLuint blocks = 0;  // per 8^3 block the largest value a sample in it can read (apron of one voxel)
+  int bx = 0, by = 0, bz = 0;
   cdsm::Vec3 size;
   bool used = false;
-  ~Grid() { glDeleteTextures(1, &texture); }
+  ~Grid() {
+    glDeleteTextures(1, &texture);
+    glDeleteTextures(1, &blocks);
+  }
 };
+
+namespace {
+// The largest density below which the transfer function has no extinction
+// (-inf when even the lowest has some).
+float empty_below(const std::vector<cdsm::TransferPoint>& tf) {
+  if (tf.empty() || cdsm::max_channel(tf[0].extinction) > 0.0f) return -3.0e38f;
+  for (size_t k = 1; k < tf.size(); ++k)
+    if (cdsm::max_channel(tf[k].extinction) > 0.0f) return tf[k - 1].density;
+  return 3.0e38f;  // none anywhere
+}
+}  // namespace
 
 ForwardRenderer::ForwardRenderer() {
   auto mesh_program = [](const char* fragment, bool with_cdsm) {
@@ -136,6 +152,7 @@ ForwardRenderer::ForwardRenderer() {
   pick_program_ = mesh_program(kPickFragment, false);
   solid_program_ = mesh_program(kSolidFragment, false);
   distance_program_ = mesh_program(kDistanceFragment, false);
+  display_program_ = link({compile(GL_COMPUTE_SHADER, kDisplayCompute, false)});
   line_program_ = link({compile(GL_VERTEX_SHADER, kLineVertex, false), compile(GL_FRAGMENT_SHADER, kLineFragment, false)});
   glCreateVertexArrays(1, &line_vao_);
   for (GLuint a = 0; a < 2; ++a) {
@@ -149,7 +166,8 @@ ForwardRenderer::ForwardRenderer() {
 ForwardRenderer::~ForwardRenderer() {
   meshes_.clear();
   grids_.clear();
-  for (GLuint p : {surface_program_, volume_program_, pick_program_, solid_program_, line_program_, distance_program_})
+  for (GLuint p : {surface_program_, volume_program_, pick_program_, solid_program_, line_program_, distance_program_,
+                   display_program_})
     glDeleteProgram(p);
   resize(0, 0);
   glDeleteVertexArrays(1, &line_vao_);
@@ -221,6 +239,27 @@ void ForwardRenderer::upload(const cdsm::Scene& scene, std::vector<std::string>*
         glTextureParameteri(g->texture, w, GL_CLAMP_TO_BORDER);
       const float border[4] = {v.grid->background, 0, 0, 0};
       glTextureParameterfv(g->texture, GL_TEXTURE_BORDER_COLOR, border);
+      // Empty-space skipping: the largest value over each 8^3 block and its
+      // one-voxel apron (trilinear reach), and the background (outside).
+      const cdsm::DenseGrid& d = *v.grid;
+      g->bx = (d.nx + 7) / 8;
+      g->by = (d.ny + 7) / 8;
+      g->bz = (d.nz + 7) / 8;
+      std::vector<float> mx(size_t(g->bx) * g->by * g->bz, d.background);
+      for (int k = 0; k < d.nz; ++k)
+        for (int j = 0; j < d.ny; ++j)
+          for (int i = 0; i < d.nx; ++i) {
+            const float val = d.at(i, j, k);
+            for (int c = 0; c < 8; ++c) {  // the blocks whose samples can reach this voxel
+              const int bi = (i - (c & 1)) / 8, bj = (j - ((c >> 1) & 1)) / 8, bk = (k - (c >> 2)) / 8;
+              if (i - (c & 1) < 0 || j - ((c >> 1) & 1) < 0 || k - (c >> 2) < 0) continue;
+              float& m = mx[(size_t(bk) * g->by + bj) * g->bx + bi];
+              m = std::max(m, val);
+            }
+          }
+      glCreateTextures(GL_TEXTURE_3D, 1, &g->blocks);
+      glTextureStorage3D(g->blocks, 1, GL_R32F, g->bx, g->by, g->bz);
+      glTextureSubImage3D(g->blocks, 0, 0, 0, 0, g->bx, g->by, g->bz, GL_RED, GL_FLOAT, mx.data());
       check("volume texture");
       git->second = std::move(g);
     }
@@ -251,8 +290,9 @@ void ForwardRenderer::resize(int width, int height) {
   if (width == width_ && height == height_) return;
   GLuint fbos[4] = {fbo_, depth_copy_fbo_, pick_fbo_, back_fbo_};
   glDeleteFramebuffers(4, fbos);
-  GLuint texs[8] = {color_, depth_, depth_copy_, pick_id_, pick_pos_, pick_plane_, pick_depth_, back_distance_};
-  glDeleteTextures(8, texs);
+  GLuint texs[9] = {color_, depth_, depth_copy_, pick_id_, pick_pos_, pick_plane_, pick_depth_, back_distance_, display_};
+  glDeleteTextures(9, texs);
+  display_ = 0;
   fbo_ = depth_copy_fbo_ = pick_fbo_ = back_fbo_ = color_ = depth_ = depth_copy_ = pick_id_ = pick_pos_ = pick_depth_ = 0;
   pick_plane_ = back_distance_ = 0;
   width_ = width;
@@ -274,6 +314,7 @@ void ForwardRenderer::resize(int width, int height) {
   glTextureParameteri(color_, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
   depth_ = texture(GL_DEPTH24_STENCIL8);
   depth_copy_ = texture(GL_DEPTH24_STENCIL8);
+  display_ = texture(GL_RGBA8);
   glCreateFramebuffers(1, &fbo_);
   glNamedFramebufferTexture(fbo_, GL_COLOR_ATTACHMENT0, color_, 0);
   glNamedFramebufferTexture(fbo_, GL_DEPTH_STENCIL_ATTACHMENT, depth_, 0);
@@ -355,20 +396,32 @@ FrameTimes ForwardRenderer::draw(cdsm::ShadowSystem& system, const cdsm::Scene& 
     return it == grids_.end() ? nullptr : it->second.get();
   };
 
-  // 1. Opaque surfaces: depth test and write; stencil 1 where drawn.
-  glUseProgram(surface_program_);
-  system.bind_gl(surface_program_);
+  // 1. Opaque surfaces: a depth-only pass, then shading where the depth is
+  //    equal (each pixel shaded once, whatever the draw order); stencil 1
+  //    where drawn.
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
   glDepthMask(GL_TRUE);
   glDisable(GL_BLEND);
   glDisable(GL_CULL_FACE);
+  glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+  glUseProgram(solid_program_);
+  for (size_t i = 0; i < scene.objects.size(); ++i)
+    if (visible(scene.objects[i]) && scene.objects[i].surface.opacity >= 1.0f)
+      draw_object(i, scene.objects[i], solid_program_, opt);
+  glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+  glDepthFunc(GL_EQUAL);
+  glDepthMask(GL_FALSE);
+  glUseProgram(surface_program_);
+  system.bind_gl(surface_program_);
   glEnable(GL_STENCIL_TEST);
   glStencilFunc(GL_ALWAYS, 1, 0xff);
   glStencilOp(GL_KEEP, GL_KEEP, GL_REPLACE);
   for (size_t i = 0; i < scene.objects.size(); ++i)
     if (visible(scene.objects[i]) && scene.objects[i].surface.opacity >= 1.0f)
       draw_object(i, scene.objects[i], surface_program_, opt);
+  glDepthFunc(GL_LESS);
+  glDepthMask(GL_TRUE);
 
   glBlitNamedFramebuffer(fbo_, depth_copy_fbo_, 0, 0, width_, height_, 0, 0, width_, height_,
                          GL_DEPTH_BUFFER_BIT | GL_STENCIL_BUFFER_BIT, GL_NEAREST);
@@ -423,6 +476,11 @@ FrameTimes ForwardRenderer::draw(cdsm::ShadowSystem& system, const cdsm::Scene& 
         set_vec3(p, ("u_tf_color" + idx).c_str(), v.transfer[size_t(k)].color);
       }
       glBindTextureUnit(0, g->texture);
+      glBindTextureUnit(3, g->blocks);
+      glProgramUniform1i(p, glGetUniformLocation(p, "u_blocks"), 3);
+      glProgramUniform3i(p, glGetUniformLocation(p, "u_block_count"), g->bx, g->by, g->bz);
+      glProgramUniform1f(p, glGetUniformLocation(p, "u_empty_below"), empty_below(v.transfer));
+      glProgramUniform1i(p, glGetUniformLocation(p, "u_lookup_every"), std::max(opt.volume_lookup_every, 1));
       glDisable(GL_DEPTH_TEST);  // the march itself stops at the opaque depth
       glCullFace(GL_FRONT);  // its back faces
       draw_object(i, o, p, opt);
@@ -501,8 +559,14 @@ FrameTimes ForwardRenderer::draw(cdsm::ShadowSystem& system, const cdsm::Scene& 
   }
   glFrontFace(GL_CCW);
   glBindVertexArray(0);
-  glUseProgram(0);
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  // 4. The display copy: sRGB-encoded 8 bits.
+  glUseProgram(display_program_);
+  glBindImageTexture(0, color_, 0, GL_FALSE, 0, GL_READ_ONLY, GL_RGBA32F);
+  glBindImageTexture(1, display_, 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA8);
+  glDispatchCompute(GLuint((width_ + 7) / 8), GLuint((height_ + 7) / 8), 1);
+  glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
+  glUseProgram(0);
   glFinish();
   check("frame");
   t.draw_ms = ms_since(t0);
@@ -526,15 +590,18 @@ Pick ForwardRenderer::pick(const cdsm::Scene& scene, const cdsm::Camera& camera_
   glClearNamedFramebufferfv(pick_fbo_, GL_COLOR, 2, fzero);
   const float far_depth = 1.0f;
   glClearNamedFramebufferfv(pick_fbo_, GL_DEPTH, 0, &far_depth);
+  check("pick: clear");
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
   glDepthMask(GL_TRUE);
   glDisable(GL_BLEND);
+  glBlendFunc(GL_ONE, GL_ZERO);  // no dual-source factors with three draw buffers
   glDisable(GL_CULL_FACE);
   glUseProgram(pick_program_);
   DrawOptions none;
   for (size_t i = 0; i < scene.objects.size(); ++i)
     if (scene.objects[i].mesh && meshes_.count(scene.objects[i].mesh.get())) draw_object(i, scene.objects[i], pick_program_, none);
+  check("pick: draw");
   const int gy = height_ - 1 - y;  // GL rows go up
   GLuint id = 0;
   float pos[4] = {0, 0, 0, 0}, plane[4] = {0, 0, 0, 0};

@@ -47,6 +47,7 @@ struct DrawOptions {
   int width = 0, height = 0;         // the frame's size (0: the scene camera's)
   bool shadows = true;               // false: every light unshadowed (what the maps change)
   float volume_step_scale = 1.0f;    // > 1: coarser volume marching (the editor while interacting)
+  int volume_lookup_every = 1;       // volume samples per shadow lookup (1: every sample, as cdsm render)
   // Per object (may be empty): a colour that replaces the surface colour
   // with weight w (the editor's cluster view); w = 0: none.
   std::vector<cdsm::Vec3> tint;
@@ -88,8 +89,10 @@ class ForwardRenderer {
   // Per pixel: 1 where only opaque surfaces were drawn (no translucent
   // surface or volume in front), else 0. Row 0 at the top.
   std::vector<unsigned char> read_opaque_mask() const;
-  // The colour texture of the last frame (bottom row first, GL's order).
+  // The colour texture of the last frame (linear float, bottom row first,
+  // GL's order), and the same sRGB-encoded in 8 bits for display.
   GLuint color_texture() const { return color_; }
+  GLuint display_texture() const { return display_; }
   int width() const { return width_; }
   int height() const { return height_; }
   // The object and surface point at pixel (x, y) (row 0 at the top) of the
@@ -109,6 +112,7 @@ class ForwardRenderer {
   std::vector<std::string> noted_;
   GLuint surface_program_ = 0, volume_program_ = 0, pick_program_ = 0, solid_program_ = 0, line_program_ = 0;
   GLuint distance_program_ = 0, back_fbo_ = 0, back_distance_ = 0;
+  GLuint display_program_ = 0, display_ = 0;
   GLuint fbo_ = 0, color_ = 0, depth_ = 0, depth_copy_fbo_ = 0, depth_copy_ = 0;
   GLuint pick_fbo_ = 0, pick_id_ = 0, pick_pos_ = 0, pick_plane_ = 0, pick_depth_ = 0;
   GLuint line_vao_ = 0, line_vbo_ = 0;

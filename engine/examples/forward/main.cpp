@@ -24,6 +24,7 @@ const char* const kUsage =
     "  --raw FILE.pfm        the linear float image (Portable Float Map)\n"
     "  --mask FILE.pgm       255 where only opaque surfaces were drawn\n"
     "  --no-shadows          every light unshadowed (to see what the maps change)\n"
+    "  --lookup-every N      volume samples per shadow lookup (default 1: every sample)\n"
     "  --window              a GLFW window instead of a headless context\n";
 
 void write_pfm(const cdsm::Image& img, const std::string& path) {
@@ -53,7 +54,7 @@ int parse_int(const std::string& opt, const std::string& v) {
 int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
   std::string scene_path, out, raw, mask_path;
-  int width = 0, height = 0, frames = 1;
+  int width = 0, height = 0, frames = 1, lookup_every = 1;
   bool shadows_on = true, window = false;
   try {
     for (size_t i = 0; i < args.size(); ++i) {
@@ -69,6 +70,7 @@ int main(int argc, char** argv) {
       else if (a == "--raw") raw = value();
       else if (a == "--mask") mask_path = value();
       else if (a == "--no-shadows") shadows_on = false;
+      else if (a == "--lookup-every") lookup_every = parse_int(a, value());
       else if (a == "--window") window = true;
       else if (a == "--help" || a == "-h") {
         std::fputs(kUsage, stdout);
@@ -109,9 +111,6 @@ int main(int argc, char** argv) {
       cdsm::Object o = scene.objects[i];
       o.mesh = shadows.read_gl_mesh(renderer.mesh_source(scene, i));
       shadows.add_object(o, o.interior == cdsm::InteriorKind::Volume ? volumes[size_t(o.volume)] : cdsm::VolumeHandle{});
-      if (o.interior == cdsm::InteriorKind::Constant && o.surface.opacity < 1.0f)
-        std::fprintf(stderr, "cdsm_forward: note: object '%s': its constant medium is not drawn (only its surface)\n",
-                     o.name.c_str());
     }
     for (const cdsm::Light& l : scene.lights) shadows.add_light(l);
     shadows.set_camera(scene.camera);
@@ -120,6 +119,7 @@ int main(int argc, char** argv) {
 
     forward::DrawOptions draw;
     draw.shadows = shadows_on;
+    draw.volume_lookup_every = lookup_every;
     using Clock = std::chrono::steady_clock;
     double sum_total = 0.0, sum_draw = 0.0, sum_update = 0.0;
     for (int f = 0; f < frames; ++f) {

@@ -17,6 +17,7 @@ uniform mat3 u_normal_matrix;
 uniform mat4 u_view_proj;
 out vec3 v_world;
 out vec3 v_normal;
+invariant gl_Position;  // the same depth in the depth-only pass and the shading pass
 void main() {
   vec4 w = u_model * vec4(a_position, 1.0);
   v_world = w.xyz;
@@ -35,6 +36,7 @@ in vec3 v_normal[];
 out vec3 g_world;
 out vec3 g_normal;
 flat out vec3 g_plane;
+invariant gl_Position;
 void main() {
   vec3 n = cross(v_world[1] - v_world[0], v_world[2] - v_world[0]);
   float l = length(n);
@@ -145,6 +147,10 @@ uniform mat4 u_world_to_box;    // world -> the proxy's object space
 uniform vec3 u_box_lo, u_box_hi;
 uniform vec3 u_grid_size;
 uniform sampler3D u_density;     // trilinear, background outside
+uniform sampler3D u_blocks;      // per 8^3 block: the largest value its samples can read
+uniform ivec3 u_block_count;
+uniform float u_empty_below;     // values below this have no extinction (the transfer function)
+uniform int u_lookup_every;      // absorbing samples per shadow lookup (1: every sample)
 uniform sampler2D u_scene_depth; // the opaque pass's depth
 uniform vec2 u_viewport;
 uniform vec3 u_forward;          // the camera's view axis
@@ -189,9 +195,25 @@ void main() {
   float t_enter = max(max(min(ta.x, tb.x), min(ta.y, tb.y)), min(ta.z, tb.z));
   t_enter = max(t_enter, 0.0);
   vec3 color = vec3(0.0), T = vec3(1.0);
-  int steps = int(ceil((t_exit - t_enter) / u_step));
-  for (int s = 0; s < steps && s < 8192; ++s) {
-    float t0 = t_enter + float(s) * u_step, t1 = min(t0 + u_step, t_exit);
+  // The ray in index space (affine), for skipping blocks of 8^3 voxels whose
+  // largest value (apron included) the transfer function maps to nothing.
+  vec3 oi = (u_world_to_index * vec4(u_eye, 1.0)).xyz;
+  vec3 di = (u_world_to_index * vec4(dir, 0.0)).xyz;
+  float t = t_enter;
+  vec3 vis_cache[8];
+  int lookup_age = 1 << 20;
+  for (int s = 0; s < 16384 && t < t_exit; ++s) {
+    vec3 here = oi + di * t;
+    ivec3 b = ivec3(floor(here / 8.0));
+    if (all(greaterThanEqual(b, ivec3(0))) && all(lessThan(b, u_block_count)) &&
+        texelFetch(u_blocks, b, 0).r < u_empty_below) {
+      vec3 lo = vec3(b) * 8.0, hi = lo + 8.0;
+      vec3 te = (mix(lo, hi, step(vec3(0.0), di)) - oi) / di;  // where the ray leaves the block, per axis
+      t = max(min(te.x, min(te.y, te.z)) + 1e-3 * u_step, t + 1e-4 * u_step);
+      continue;
+    }
+    float t0 = t, t1 = min(t + u_step, t_exit);
+    t = t1;
     vec3 p = u_eye + dir * (0.5 * (t0 + t1));
     vec3 idx = (u_world_to_index * vec4(p, 1.0)).xyz;
     float dens = texture(u_density, (idx + 0.5) / u_grid_size).r;
@@ -199,12 +221,20 @@ void main() {
     transfer(dens, sigma, albedo);
     vec3 a = vec3(1.0) - exp(-sigma * (t1 - t0));
     if (max(a.r, max(a.g, a.b)) <= 0.0) continue;
+    // The lights' transmittance, looked up at every u_lookup_every-th
+    // absorbing sample (it varies slowly inside a medium; the lookup is the
+    // march's main cost).
+    if (lookup_age >= u_lookup_every) {
+      for (int i = 0; i < cdsm_light_count(); ++i)
+        vis_cache[i] = u_shadows ? cdsm_transmittance(p, i) : vec3(1.0);
+      lookup_age = 0;
+    }
+    ++lookup_age;
     vec3 c = albedo * u_ambient;
     for (int i = 0; i < cdsm_light_count(); ++i) {
       float cone = cdsm_spot_factor(i, p);
       if (cone <= 0.0) continue;
-      vec3 vis = u_shadows ? cdsm_transmittance(p, i) : vec3(1.0);
-      c += albedo * cdsm_light_radiance(i) * (vis * cone);
+      c += albedo * cdsm_light_radiance(i) * (vis_cache[i] * cone);
     }
     color += c * T * a;
     T *= vec3(1.0) - a;
@@ -264,6 +294,24 @@ layout(location = 0, index = 1) out vec4 o_pass;
 void main() {
   o_color = vec4(v_color, 1.0);
   o_pass = vec4(0.0);
+}
+)";
+
+// The frame for display: linear float to sRGB-encoded 8-bit (what a PNG of
+// cdsm render holds), for windows that show the frame as a texture.
+inline const char* const kDisplayCompute = R"(
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(rgba32f, binding = 0) readonly uniform image2D u_src;
+layout(rgba8, binding = 1) writeonly uniform image2D u_dst;
+float srgb(float c) {
+  c = clamp(c, 0.0, 1.0);
+  return c <= 0.0031308 ? 12.92 * c : 1.055 * pow(c, 1.0 / 2.4) - 0.055;
+}
+void main() {
+  ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+  if (any(greaterThanEqual(p, imageSize(u_src)))) return;
+  vec4 c = imageLoad(u_src, p);
+  imageStore(u_dst, p, vec4(srgb(c.r), srgb(c.g), srgb(c.b), 1.0));
 }
 )";
 

@@ -1,0 +1,132 @@
+// `cdsm edit SCENE [--script FILE]`: the interactive editor (GLFW window,
+// Dear ImGui panels, an OpenGL viewport with cdsm.glsl shadows).
+#define GL_GLEXT_PROTOTYPES 1
+#include <GL/glcorearb.h>
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_opengl3.h>
+#include <imgui.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cdsm/error.h"
+#include "cdsm/gl.h"
+#include "commands.h"
+#include "script.h"
+#include "session.h"
+#include "ui.h"
+
+namespace cdsm::cli {
+
+namespace {
+const char* const kEditHelp =
+    "usage: cdsm edit SCENE [options]\n"
+    "  SCENE               a JSON scene, or a glTF / GLB file\n"
+    "  --script FILE       run the commands of FILE (see editor/edit/script.h) instead of waiting for a person\n"
+    "  --width W --height H  window size (default 1600 x 900)\n"
+    "  --hidden            no visible window (scripts)\n"
+    "\n"
+    "Viewport: left drag orbits, middle drag pans, wheel zooms, right drag + W/A/S/D/Q/E flies, F frames the scene,\n"
+    "a click selects an object and plots its light ray's alpha(z); shift + left drag moves the selected light.\n"
+    "Ctrl+Z / Ctrl+Y undo and redo. Needs a display (X11, or xvfb-run).\n";
+}  // namespace
+
+int cmd_edit(const std::vector<std::string>& args) {
+  std::string scene_path, script_path;
+  int width = 1600, height = 900;
+  bool hidden = false;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    auto value = [&]() -> const std::string& {
+      if (i + 1 >= args.size()) throw Error(a, "needs a value");
+      return args[++i];
+    };
+    if (a == "--help" || a == "-h") {
+      std::fputs(kEditHelp, stdout);
+      return 0;
+    } else if (a == "--script") {
+      script_path = value();
+    } else if (a == "--width") {
+      width = parse_int(a, value());
+    } else if (a == "--height") {
+      height = parse_int(a, value());
+    } else if (a == "--hidden") {
+      hidden = true;
+    } else if (!a.empty() && a[0] == '-') {
+      throw Error(a, "unknown option (cdsm edit --help)");
+    } else if (scene_path.empty()) {
+      scene_path = a;
+    } else {
+      throw Error(a, "one scene at a time");
+    }
+  }
+  if (scene_path.empty()) {
+    std::fputs(kEditHelp, stderr);
+    return 2;
+  }
+  if (width < 640 || height < 400 || width > 8192 || height > 8192)
+    throw Error("--width/--height", "the window must be 640x400 .. 8192x8192");
+  std::unique_ptr<editor::ScriptRunner> script;
+  if (!script_path.empty()) script = std::make_unique<editor::ScriptRunner>(script_path);  // a bad path fails first
+
+  std::string why;
+  auto context = GlContext::create_window(width, height, "cdsm edit - " + scene_path, !hidden, &why);
+  if (!context) throw Error("cdsm edit", "no window with OpenGL 4.5 (needs a display: X11, or run under xvfb-run): " + why);
+  GLFWwindow* window = static_cast<GLFWwindow*>(context->native_window());
+  glfwSwapInterval(script ? 0 : 1);
+
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini next to the user's files
+  ImGui::StyleColorsDark();
+  ImGui_ImplGlfw_InitForOpenGL(window, true);
+  ImGui_ImplOpenGL3_Init("#version 450");
+  int rc = 0;
+  {
+    editor::Session session(scene_path);  // errors name the file; the window closes with them
+    editor::UiState ui;
+    ui.recent = editor::load_recent();
+    editor::remember_recent(ui.recent, scene_path);
+    std::fprintf(stderr, "cdsm edit: %s\n", context->description().c_str());
+    bool running = true;
+    while (running) {
+      glfwPollEvents();
+      if (context->should_close() || ui.quit) break;
+      session.tick();
+      if (script && !script->step(session, ui)) running = false;
+      int fbw = 0, fbh = 0;
+      glfwGetFramebufferSize(window, &fbw, &fbh);
+      if (ui.viewport.w == 0) ui.viewport = {340, 20, std::max(fbw - 660, 16), std::max(fbh - 44, 16)};
+      session.draw_viewport(ui.viewport.w, ui.viewport.h, ui.interacting);
+      ImGui_ImplOpenGL3_NewFrame();
+      ImGui_ImplGlfw_NewFrame();
+      ImGui::NewFrame();
+      editor::draw_ui(session, ui, fbw, fbh);
+      editor::handle_viewport_input(session, ui);
+      ImGui::Render();
+      glViewport(0, 0, fbw, fbh);
+      glClearColor(0.1f, 0.1f, 0.12f, 1.0f);
+      glClear(GL_COLOR_BUFFER_BIT);
+      ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+      if (script) script->after_frame(session, ui, fbw, fbh);
+      if (!ui.screenshot_request.empty()) {
+        editor::write_window_png(ui.screenshot_request, fbw, fbh);
+        ui.status = "wrote " + ui.screenshot_request;
+        ui.screenshot_request.clear();
+      }
+      context->swap_buffers();
+    }
+    if (script && script->failures() > 0) rc = 1;
+  }
+  ImGui_ImplOpenGL3_Shutdown();
+  ImGui_ImplGlfw_Shutdown();
+  ImGui::DestroyContext();
+  return rc;
+}
+
+}  // namespace cdsm::cli

@@ -1,0 +1,60 @@
+// Script mode of `cdsm edit SCENE --script FILE`: the editor driven by a
+// list of commands, one per line, for tests and for measuring (each line is
+// echoed with what it did; `wait` prints the time from the last change to
+// the refined frame). Commands:
+//
+//   set epsilon|resolution|clusters|d0|layout|filtering|receiver VALUE
+//   light INDEX position|direction X Y Z | light INDEX intensity V
+//   orbit DYAW DPITCH        camera orbit, degrees
+//   zoom STEPS | frame
+//   select OBJECT            name or index
+//   click X Y                viewport pixel (full resolution, row 0 at the top): select + inspect
+//   view clusters on|off [LIGHT] | view map INDEX nodes|alpha [DEPTH] | view plot on|off
+//   view error WIDTH         compute the error against the reference (waits until done)
+//   noop                     an edit that changes nothing
+//   undo | redo
+//   wait                     until the frame is refined (maps built and published, full resolution)
+//   screenshot FILE.png      the window (FILE.png.rect: the viewport's x y w h)
+//   viewport FILE.pfm        the viewport frame, linear float (Portable Float Map)
+//   save FILE [overwrite]
+//   quit
+//   # comment
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "ui.h"
+
+namespace cdsm::editor {
+
+class ScriptRunner {
+ public:
+  // Throws cdsm::Error naming the file when it cannot be read.
+  explicit ScriptRunner(const std::string& path);
+  // Runs commands until one has to wait for later frames. Returns false
+  // when the script ended (quit or its end). Errors (an unknown command, a
+  // bad value) throw cdsm::Error naming the file and line.
+  bool step(Session& s, UiState& ui);
+  // After the frame was drawn and presented: a screenshot requested by the
+  // last command is taken here.
+  void after_frame(Session& s, UiState& ui, int width, int height);
+  int failures() const { return failures_; }
+
+ private:
+  std::string file_;
+  std::vector<std::string> lines_;
+  size_t next_ = 0;
+  double changed_at_ = 0.0;  // of the last change (for `wait`)
+  bool waiting_ = false;
+  std::string waiting_for_;
+  std::string screenshot_;  // to take after this frame
+  int frames_waited_ = 0;
+  int failures_ = 0;
+};
+
+// Writes the window's framebuffer (bound: 0) as a PNG (sRGB 8-bit as
+// displayed), rows top first.
+void write_window_png(const std::string& path, int width, int height);
+
+}  // namespace cdsm::editor
