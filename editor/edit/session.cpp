@@ -107,8 +107,10 @@ bool Session::save(const std::string& path, bool overwrite_opened, std::string* 
 }
 
 void Session::apply(Edit e, double now) {
+  const bool refused = !e.refused.empty();
   const bool changed = history_.apply(doc_, std::move(e), now);  // false: refused, or nothing changes
   for (Edit& p : history_.take_pending()) queued_.push_back(std::move(p));
+  refusal_ = refused ? history_.last_refusal() : std::string();
   if (changed) ++generation_;
 }
 
@@ -210,6 +212,9 @@ bool Session::refined() const {
 
 void Session::draw_viewport(int width, int height, bool interacting) {
   if (!published_) return;  // the first maps are still building (the viewport stays empty meanwhile)
+  // While maps are still to come, a quick frame (the edit shows at once, the
+  // maps follow); the full one when they are there.
+  interacting = interacting || building_ || !queued_.empty() || camera_dirty_ || system_dirty_;
   const std::string view = std::to_string(width) + "x" + std::to_string(height) + " " + std::to_string(int(tint)) + " " +
                            std::to_string(tint_light) + " " + std::to_string(show_frusta) + " " + std::to_string(map_view) +
                            " " + std::to_string(selected_object) + " " + std::to_string(selected_light);
@@ -228,6 +233,7 @@ void Session::draw_viewport(int width, int height, bool interacting) {
   opt.width = std::max(width / div, 1);
   opt.height = std::max(height / div, 1);
   opt.volume_step_scale = interacting ? 2.0f : 1.0f;
+  opt.volume_lookup_every = interacting ? 4 : 2;  // ~58 dB against every sample at 1.4x the speed (README)
   opt.selected = selected_object;
   const size_t n = doc_.scene.objects.size();
   if (tint == Tint::Clusters) {

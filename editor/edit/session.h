@@ -84,6 +84,8 @@ class Session {
   bool undo();
   bool redo();
   const History& history() const { return history_; }
+  // Why the last edit was refused ("" when it applied): shown in the status line.
+  const std::string& refusal() const { return refusal_; }
   // Save (refuses the opened file unless `overwrite_opened`); false + why.
   bool save(const std::string& path, bool overwrite_opened, std::string* why);
   // Replaces the document (a new system and viewport data).
@@ -184,6 +186,7 @@ class Session {
   double last_build_ms_ = 0.0, last_draw_ms_ = 0.0;
   double build_started_ = 0.0;
   std::vector<std::string> notes_;
+  std::string refusal_;
   ErrorView error_;
 };
 

@@ -418,8 +418,10 @@ void stats_window(Session& s, UiState& ui, float x, float y, float h) {
 }
 
 void plot_window(Session& s, UiState& ui) {
-  ImGui::SetNextWindowSize(ImVec2(460, 320), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowPos(ImVec2(kLeftWidth + 20, 60), ImGuiCond_FirstUseEver);
+  // Floating views sit in the viewport's corners, apart from each other.
+  const Rect& v = ui.viewport;
+  ImGui::SetNextWindowSize(ImVec2(std::min(460.0f, float(v.w) - 20.0f), 280), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowPos(ImVec2(float(v.x) + 10, float(v.y) + 10), ImGuiCond_FirstUseEver);
   ImGui::Begin("alpha(z) of the clicked pixel", &ui.show_plot);
   const ShadowSystem::TexelInspection& t = s.inspection();
   if (s.scene().lights.size() > 1) ImGui::SliderInt("light", &s.inspect_light, 0, int(s.scene().lights.size()) - 1);
@@ -460,8 +462,9 @@ void plot_window(Session& s, UiState& ui) {
 }
 
 void map_window(Session& s, UiState& ui) {
-  ImGui::SetNextWindowSize(ImVec2(340, 420), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowPos(ImVec2(kLeftWidth + 40, 90), ImGuiCond_FirstUseEver);
+  const Rect& v = ui.viewport;
+  ImGui::SetNextWindowSize(ImVec2(300, 360), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowPos(ImVec2(float(v.x) + 10, float(v.y + v.h) - 370), ImGuiCond_FirstUseEver);
   ImGui::Begin("Map viewer", &ui.show_map);
   const auto& maps = s.maps();
   if (maps.empty()) {
@@ -495,8 +498,9 @@ void map_window(Session& s, UiState& ui) {
 }
 
 void error_window(Session& s, UiState& ui) {
-  ImGui::SetNextWindowSize(ImVec2(420, 460), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowPos(ImVec2(kLeftWidth + 60, 120), ImGuiCond_FirstUseEver);
+  const Rect& v = ui.viewport;
+  ImGui::SetNextWindowSize(ImVec2(400, 440), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowPos(ImVec2(float(v.x + v.w) - 410, float(v.y + v.h) - 450), ImGuiCond_FirstUseEver);
   ImGui::Begin("Error against the reference", &ui.show_error);
   ErrorView& e = s.error_view();
   ImGui::SliderInt("width", &ui.error_width, 64, 480);
@@ -594,6 +598,7 @@ void draw_ui(Session& s, UiState& ui, int width, int height) {
   ImGui::SetNextWindowSize(ImVec2(float(width), kStatusHeight));
   ImGui::Begin("status", nullptr, ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoMove);
   const ShadowSystem::BuildProgress p = s.progress();
+  if (!s.refusal().empty()) ui.status = s.refusal();
   ImGui::Text("%s%s | %s | undo %zu | %s", s.document().path.c_str(), s.document().dirty ? " *" : "",
               s.building() ? ("building " + std::to_string(p.built) + "/" + std::to_string(p.to_build)).c_str()
                            : (s.refined() ? "refined" : "refining"),
