@@ -437,25 +437,34 @@ void plot_window(Session& s, UiState& ui) {
     const ImVec2 size(ImGui::GetContentRegionAvail().x, std::max(ImGui::GetContentRegionAvail().y - 4.0f, 80.0f));
     ImDrawList* dl = ImGui::GetWindowDrawList();
     dl->AddRectFilled(at, ImVec2(at.x + size.x, at.y + size.y), IM_COL32(20, 22, 28, 255));
-    float z0 = 1e30f, z1 = -1e30f;
+    float z0 = 1e30f, z1 = -1e30f, top = 0.05f;
+    auto grey = [](const Vec3& a) { return (a.x + a.y + a.z) / 3.0f; };
     for (const auto& v : {&t.exact, &t.nodes})
-      for (const ShadowSystem::AlphaSample& a : *v) z0 = std::min(z0, a.z), z1 = std::max(z1, a.z);
+      for (const ShadowSystem::AlphaSample& a : *v) {
+        z0 = std::min(z0, a.z);
+        z1 = std::max(z1, a.z);
+        top = std::max(top, grey(a.alpha) * 1.1f);
+      }
     z0 = std::min(z0, t.depth);
     z1 = std::max(z1, t.depth);
     if (!(z1 > z0)) z1 = z0 + 1.0f;
+    top = std::min(top, 1.0f);
     auto pt = [&](float z, float a) {
-      return ImVec2(at.x + (z - z0) / (z1 - z0) * size.x, at.y + size.y - a * (size.y - 8.0f) - 4.0f);
+      return ImVec2(at.x + (z - z0) / (z1 - z0) * size.x, at.y + size.y - a / top * (size.y - 8.0f) - 4.0f);
     };
-    auto grey = [](const Vec3& a) { return (a.x + a.y + a.z) / 3.0f; };
-    for (size_t i = 1; i < t.exact.size(); ++i)
-      dl->AddLine(pt(t.exact[i - 1].z, grey(t.exact[i - 1].alpha)), pt(t.exact[i].z, grey(t.exact[i].alpha)),
-                  IM_COL32(200, 200, 200, 255), 1.5f);
+    // The stored nodes (orange, with markers), the epsilon-0 ray over them (white).
     for (size_t i = 0; i < t.nodes.size(); ++i) {
       const ImVec2 p = pt(t.nodes[i].z, grey(t.nodes[i].alpha));
-      if (i > 0) dl->AddLine(pt(t.nodes[i - 1].z, grey(t.nodes[i - 1].alpha)), p, IM_COL32(255, 150, 30, 255), 2.0f);
-      dl->AddCircleFilled(p, 3.0f, IM_COL32(255, 200, 60, 255));
+      if (i > 0) dl->AddLine(pt(t.nodes[i - 1].z, grey(t.nodes[i - 1].alpha)), p, IM_COL32(255, 150, 30, 255), 3.0f);
+      dl->AddCircleFilled(p, 3.5f, IM_COL32(255, 200, 60, 255));
     }
-    dl->AddLine(pt(t.depth, 0.0f), pt(t.depth, 1.0f), IM_COL32(90, 160, 255, 200), 1.0f);
+    for (size_t i = 1; i < t.exact.size(); ++i)
+      dl->AddLine(pt(t.exact[i - 1].z, grey(t.exact[i - 1].alpha)), pt(t.exact[i].z, grey(t.exact[i].alpha)),
+                  IM_COL32(235, 235, 235, 255), 1.0f);
+    dl->AddLine(pt(t.depth, 0.0f), pt(t.depth, top), IM_COL32(90, 160, 255, 200), 1.0f);
+    char axis[96];
+    std::snprintf(axis, sizeof axis, "alpha 0 .. %.3g   z %.3g .. %.3g (blue: the point)", top, z0, z1);
+    dl->AddText(ImVec2(at.x + 4, at.y + 2), IM_COL32(160, 160, 170, 255), axis);
     ImGui::Dummy(size);
   }
   ImGui::End();
