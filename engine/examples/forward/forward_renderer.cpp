@@ -145,7 +145,7 @@ float empty_below(const std::vector<cdsm::TransferPoint>& tf) {
 ForwardRenderer::ForwardRenderer() {
   auto mesh_program = [](const char* fragment, bool with_cdsm) {
     return link({compile(GL_VERTEX_SHADER, kMeshVertex, false), compile(GL_GEOMETRY_SHADER, kMeshGeometry, false),
-                 compile(GL_FRAGMENT_SHADER, fragment, with_cdsm)});
+                 compile(GL_FRAGMENT_SHADER, std::string(kMeshFragmentCommon) + fragment, with_cdsm)});
   };
   surface_program_ = mesh_program(kSurfaceFragment, true);
   volume_program_ = mesh_program(kVolumeFragment, true);
@@ -443,7 +443,6 @@ FrameTimes ForwardRenderer::draw(cdsm::ShadowSystem& system, const cdsm::Scene& 
   glStencilFunc(GL_ALWAYS, 2, 0xff);
   glEnable(GL_CULL_FACE);
   const cdsm::Vec3 forward = cdsm::normalize(cam.target - cam.position);
-  glProgramUniform2f(volume_program_, glGetUniformLocation(volume_program_, "u_viewport"), float(width_), float(height_));
   set_vec3(volume_program_, "u_forward", forward);
   glProgramUniform2f(volume_program_, glGetUniformLocation(volume_program_, "u_near_far"), cam.near, cam.far);
   glBindTextureUnit(1, depth_copy_);

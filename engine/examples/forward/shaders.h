@@ -52,13 +52,25 @@ void main() {
 }
 )";
 
+// What every mesh fragment shader starts with: the geometry shader's
+// outputs, and the distance along the camera ray `dir` to the opaque surface
+// at pixel px (from the opaque pass's depth; far away where there is none).
+inline const char* const kMeshFragmentCommon = R"(
+in vec3 g_world;
+in vec3 g_normal;
+flat in vec3 g_plane;
+float opaque_distance(sampler2D depth, ivec2 px, vec3 dir, vec3 forward, vec2 near_far) {
+  float zd = texelFetch(depth, px, 0).r;
+  if (zd >= 1.0) return 3.0e38;
+  float n = near_far.x, f = near_far.y;  // window depth -> view-axis distance -> along the ray
+  return 2.0 * f * n / ((f + n) - (zd * 2.0 - 1.0) * (f - n)) / dot(dir, forward);
+}
+)";
+
 // Phong surfaces (thesis eq. 3.8) lit through the library's transmittance.
 // Output 0 is the colour times coverage, output 1 what the surface passes
 // of what lies behind it (dual-source blending: dst = src0 + dst * src1).
 inline const char* const kSurfaceFragment = R"(
-in vec3 g_world;
-in vec3 g_normal;
-flat in vec3 g_plane;
 layout(location = 0, index = 0) out vec4 o_color;
 layout(location = 0, index = 1) out vec4 o_pass;
 uniform vec3 u_eye;
@@ -107,12 +119,7 @@ void main() {
   vec3 pass = (1.0 - u_opacity) * u_transmission;
   if (u_medium) {
     ivec2 px = ivec2(gl_FragCoord.xy);
-    float t_end = texelFetch(u_back_distance, px, 0).r;
-    float zd = texelFetch(u_scene_depth, px, 0).r;
-    if (zd < 1.0) {  // window depth -> view-axis distance -> distance along the ray
-      float n = u_near_far.x, f = u_near_far.y;
-      t_end = min(t_end, 2.0 * f * n / ((f + n) - (zd * 2.0 - 1.0) * (f - n)) / dot(dir, u_forward));
-    }
+    float t_end = min(texelFetch(u_back_distance, px, 0).r, opaque_distance(u_scene_depth, px, dir, u_forward, u_near_far));
     pass *= exp(-u_sigma * max(t_end - length(g_world - u_eye), 0.0));
   }
   o_pass = vec4(pass, 1.0);
@@ -121,9 +128,6 @@ void main() {
 
 // An object's back faces: their distance from the eye (blended with MIN).
 inline const char* const kDistanceFragment = R"(
-in vec3 g_world;
-in vec3 g_normal;
-flat in vec3 g_plane;
 layout(location = 0) out float o_distance;
 uniform vec3 u_eye;
 void main() { o_distance = length(g_world - u_eye); }
@@ -135,9 +139,6 @@ void main() { o_distance = length(g_world - u_eye); }
 // scattering (isotropic), the light's transmittance from cdsm.glsl at every
 // sample.
 inline const char* const kVolumeFragment = R"(
-in vec3 g_world;
-in vec3 g_normal;
-flat in vec3 g_plane;
 layout(location = 0, index = 0) out vec4 o_color;
 layout(location = 0, index = 1) out vec4 o_pass;
 uniform vec3 u_eye;
@@ -152,7 +153,6 @@ uniform ivec3 u_block_count;
 uniform float u_empty_below;     // values below this have no extinction (the transfer function)
 uniform int u_lookup_every;      // absorbing samples per shadow lookup (1: every sample)
 uniform sampler2D u_scene_depth; // the opaque pass's depth
-uniform vec2 u_viewport;
 uniform vec3 u_forward;          // the camera's view axis
 uniform vec2 u_near_far;
 uniform float u_step;            // world units
@@ -180,13 +180,7 @@ void main() {
   vec3 dir = normalize(g_world - u_eye);
   float t_exit = length(g_world - u_eye);
   // The opaque surface in front of the back face ends the march.
-  vec2 uv = gl_FragCoord.xy / u_viewport;
-  float zd = texture(u_scene_depth, uv).r;
-  if (zd < 1.0) {  // window depth -> view-axis distance -> distance along the ray
-    float n = u_near_far.x, f = u_near_far.y, z_ndc = zd * 2.0 - 1.0;
-    float axial = 2.0 * f * n / ((f + n) - z_ndc * (f - n));
-    t_exit = min(t_exit, axial / dot(dir, u_forward));
-  }
+  t_exit = min(t_exit, opaque_distance(u_scene_depth, ivec2(gl_FragCoord.xy), dir, u_forward, u_near_far));
   // Entry: the ray against the proxy's box (slabs in its object space).
   vec3 o = (u_world_to_box * vec4(u_eye, 1.0)).xyz;
   vec3 d = (u_world_to_box * vec4(dir, 0.0)).xyz;
@@ -248,9 +242,6 @@ void main() {
 
 // Picking: the object's id + 1, the world position and the triangle's plane.
 inline const char* const kPickFragment = R"(
-in vec3 g_world;
-in vec3 g_normal;
-flat in vec3 g_plane;
 layout(location = 0) out uint o_id;
 layout(location = 1) out vec4 o_position;
 layout(location = 2) out vec4 o_plane;
@@ -264,9 +255,6 @@ void main() {
 
 // One colour (the selection's outline).
 inline const char* const kSolidFragment = R"(
-in vec3 g_world;
-in vec3 g_normal;
-flat in vec3 g_plane;
 layout(location = 0, index = 0) out vec4 o_color;
 layout(location = 0, index = 1) out vec4 o_pass;
 uniform vec4 u_solid;
