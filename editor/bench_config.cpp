@@ -29,7 +29,7 @@ struct BackendChoice {
 };
 constexpr BackendChoice kBackends[] = {
     {"cpu", Backend::Cpu, true},
-    {"cuda", Backend::Cpu, false},  // becomes Backend::Cuda when the renderer offers it
+    {"cuda", Backend::Cuda, true},  // at run time: needs a CUDA device (resolve_backend)
 };
 
 constexpr int kMaxClustersAvailable = kMaxMapsPerLight;  // clustering (thesis Alg. 4.2) is wired
@@ -116,6 +116,8 @@ std::vector<std::string> parse_backends(const std::string& list) {
       if (v == b.name) c = &b;
     if (!c) throw Error("--backends " + v, "unknown backend (cpu, cuda)");
     if (!c->available) throw Error("--backends " + v, "the " + v + " backend is not available yet (only cpu)");
+    const BackendResolution r = resolve_backend(c->backend);
+    if (!r.available) throw Error("--backends " + v, r.reason);
     out.push_back(v);
   }
   return out;

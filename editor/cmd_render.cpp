@@ -21,7 +21,9 @@ const char* kRenderHelp =
     "\n"
     "options:\n"
     "  -o, --output PATH        PNG to write (required; never the scene file itself)\n"
-    "  --backend cpu|reference  cpu: deep shadow maps (default); reference: exact shadow rays, no maps\n"
+    "  --backend cuda|cpu|reference  deep shadow maps on a CUDA device or on the CPU, or the exact\n"
+    "                           reference (shadow rays, no maps). Default: cuda when a CUDA device\n"
+    "                           exists, else cpu (stderr says which and why)\n"
     "  --fragments auto|gl|cpu  fragment producer: OpenGL rasterizer or CPU ray caster (default auto:\n"
     "                           gl when an OpenGL 4.5 context can be created)\n"
     "  --eps E                  compression error bound epsilon (>= 0), overrides the scene\n"
@@ -281,6 +283,7 @@ void check_writable(const std::string& path) {
 int cmd_render(const std::vector<std::string>& args) {
   std::string scene_path, out, stats_path;
   RenderOptions opt;
+  opt.backend = Backend::Auto;  // cuda when a CUDA device exists, else cpu
   float eps = -1.0f;
   int res = 0, width = 0, height = 0;
   int filtering = -1;
@@ -305,8 +308,8 @@ int cmd_render(const std::vector<std::string>& args) {
       std::string v = value();
       if (v == "cpu") opt.backend = Backend::Cpu;
       else if (v == "reference") opt.backend = Backend::Reference;
-      else if (v == "cuda") throw Error("--backend cuda", "the CUDA backend is not available in this build yet");
-      else throw Error("--backend", "unknown backend '" + v + "' (cpu or reference)");
+      else if (v == "cuda") opt.backend = Backend::Cuda;
+      else throw Error("--backend", "unknown backend '" + v + "' (cuda, cpu or reference)");
     } else if (a == "--fragments") {
       std::string v = value();
       if (v == "auto") opt.fragments = FragmentSource::Auto;
@@ -369,6 +372,11 @@ int cmd_render(const std::vector<std::string>& args) {
   }
   if (scene_path.empty()) throw Error("cdsm render", "needs a scene file (try cdsm render --help)");
   if (out.empty()) throw Error("cdsm render", "needs -o OUT.png");
+  // Which backend, and why: no CUDA device means the cpu backend, unless
+  // cuda was asked for by name (then the same reason is an error).
+  const BackendResolution backend = resolve_backend(opt.backend);
+  if (!backend.available) throw Error("--backend cuda", backend.reason);
+  opt.backend = backend.backend;
   if (out.size() < 4 || out.substr(out.size() - 4) != ".png") throw Error(out, "output must be a .png file");
   namespace fs = std::filesystem;
   std::error_code ec;
@@ -401,6 +409,7 @@ int cmd_render(const std::vector<std::string>& args) {
   if (fixed_layers > 0) scene.shadows.fixed_layers = fixed_layers;
   if (splits >= 0) scene.shadows.parallel_splits = splits;
 
+  std::fprintf(stderr, "cdsm: backend %s: %s\n", backend.name.c_str(), backend.reason.c_str());
   Renderer renderer;
   FrameStats stats;
   Image img = renderer.render(scene, opt, &stats);
@@ -419,7 +428,7 @@ int cmd_render(const std::vector<std::string>& args) {
   if (!stats_path.empty()) {
     std::ofstream f(stats_path);
     if (!f) throw Error(stats_path, "cannot write stats file");
-    f << stats_json(stats, scene, opt.backend == Backend::Reference ? "reference" : "cpu").dump(2) << "\n";
+    f << stats_json(stats, scene, backend.name).dump(2) << "\n";
     std::printf("wrote        %s\n", stats_path.c_str());
   }
   return 0;

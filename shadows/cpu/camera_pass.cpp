@@ -1,30 +1,21 @@
-// cpu driver of the camera pass.
-#include <tbb/combinable.h>
-#include <tbb/parallel_for.h>
-
+// cpu driver of the camera pass: the exec camera pass (shadows/exec/
+// camera_pass.h) on CPU threads — the code the cuda backend launches.
 #include "cpu/backend.h"
+#include "exec/camera_pass.h"
+#include "exec/host_exec.h"
 
 namespace cdsm {
 
 void render_camera(const SceneView& scene, const ShadowView& shadows, const CameraPassParams& params,
                    FragmentLists frags, std::vector<float>& rgb, WalkStats& walk) {
-  const int w = params.view.width, h = params.view.height;
-  rgb.assign(size_t(w) * h * 3, 0.0f);
-  DsmVisibility vis{shadows};
-  tbb::combinable<WalkStats> partial;
-  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
-    WalkStats& st = partial.local();
-    NoRecorder rec;
-    for (int py = rows.begin(); py < rows.end(); ++py)
-      for (int px = 0; px < w; ++px) {
-        PixelResult r = shade_pixel(scene, shadows.lights, vis, params, frags.pixel(px, py), px, py, rec, st);
-        float* o = rgb.data() + (size_t(py) * w + px) * 3;
-        o[0] = r.color.x;
-        o[1] = r.color.y;
-        o[2] = r.color.z;
-      }
-  });
-  partial.combine_each([&](const WalkStats& p) { walk.add(p); });
+  rgb.assign(size_t(params.view.width) * size_t(params.view.height) * 3, 0.0f);
+  uint32_t counts[4] = {0, 0, 0, 0};
+  exec::HostExec ex;
+  exec::shade_pixels(ex, scene, shadows, params, frags, rgb.data(), counts);
+  walk.enclosing_overflow += counts[0];
+  walk.match_overflow += counts[1];
+  walk.unmatched += counts[2];
+  walk.march_lengthened += counts[3];
 }
 
 }  // namespace cdsm

@@ -5,6 +5,7 @@
 #include "hd/baselines.h"
 #include "hd/compress.h"
 #include "hd/compress_rgb.h"
+#include "hd/dsm_fixed.h"
 #include "hd/segments.h"
 #include "hd/view.h"
 
@@ -19,15 +20,19 @@ struct LightPassParams {
   bool rgb = false;              // RGB nodes (a coloured caster among the map's members; DSM only)
 };
 
-struct DsmVisitor {
+// Sink: where the wedge's nodes go — a NodeBuffer (the cpu backend), or a
+// FixedSlotSink (hd/dsm_fixed.h) that counts them or writes them straight
+// into a layout (the two-pass build of shadows/exec/).
+template <class Sink>
+struct DsmVisitorOf {
   const SceneView& s;
   Vec3 org, dir;
   float eps;
-  WedgeCompressor c;
-  NodeBuffer& buf;
+  Wedge<Sink> c;
+  Sink& buf;
   float alpha = 0.0f;
 
-  CDSM_HD DsmVisitor(const SceneView& sv, Vec3 o, Vec3 d, float e, NodeBuffer& b)
+  CDSM_HD DsmVisitorOf(const SceneView& sv, Vec3 o, Vec3 d, float e, Sink& b)
       : s(sv), org(o), dir(d), eps(e), c(e), buf(b) {}
 
   CDSM_HD bool saturated() const { return alpha >= kSaturatedAlpha; }
@@ -70,15 +75,16 @@ struct DsmVisitor {
 // The same walk with alpha per colour channel: one RGB wedge (shared node
 // depths, hd/compress_rgb.h), each channel within eps. A ray ends early
 // only when every channel is saturated.
-struct DsmVisitorRgb {
+template <class Sink>
+struct DsmVisitorRgbOf {
   const SceneView& s;
   Vec3 org, dir;
   float eps;
-  WedgeCompressorRgb c;
-  RgbNodeBuffer& buf;
+  WedgeRgb<Sink> c;
+  Sink& buf;
   Vec3 alpha{0, 0, 0};
 
-  CDSM_HD DsmVisitorRgb(const SceneView& sv, Vec3 o, Vec3 d, float e, RgbNodeBuffer& b)
+  CDSM_HD DsmVisitorRgbOf(const SceneView& sv, Vec3 o, Vec3 d, float e, Sink& b)
       : s(sv), org(o), dir(d), eps(e), c(e), buf(b) {}
 
   CDSM_HD bool saturated() const { return min_channel(alpha) >= kSaturatedAlpha; }
@@ -117,17 +123,26 @@ struct DsmVisitorRgb {
   }
 };
 
+using DsmVisitor = DsmVisitorOf<NodeBuffer>;
+using DsmVisitorRgb = DsmVisitorRgbOf<RgbNodeBuffer>;
+
 // Walks texel (tx, ty)'s light ray with visitor kind V (scalar or RGB),
-// compressing into `buf`; fragments sorted in place.
+// compressing into `sink`; fragments sorted in place.
+template <class Visitor, class Sink>
+CDSM_HD inline void walk_texel_into(const SceneView& s, const LightPassParams& p, Span<Fragment> frags, int tx,
+                                    int ty, Sink& sink, WalkStats& st) {
+  const Vec3 dir = pixel_ray(p.view, tx, ty);
+  Visitor vis(s, p.view.eye, dir, p.epsilon, sink);
+  const float t_end = p.view.far / fmaxf(dot(dir, p.view.forward), 1e-6f);
+  walk_ray(s, frags, p.inside, 0.0f, t_end, vis, st);
+  vis.c.finish(sink);
+}
+
 template <class Visitor, class Buffer>
 CDSM_HD inline void walk_texel(const SceneView& s, const LightPassParams& p, Span<Fragment> frags, int tx, int ty,
                                Buffer& buf, WalkStats& st) {
-  const Vec3 dir = pixel_ray(p.view, tx, ty);
   buf.eps = p.epsilon;
-  Visitor vis(s, p.view.eye, dir, p.epsilon, buf);
-  const float t_end = p.view.far / fmaxf(dot(dir, p.view.forward), 1e-6f);
-  walk_ray(s, frags, p.inside, 0.0f, t_end, vis, st);
-  vis.c.finish(buf);
+  walk_texel_into<Visitor>(s, p, frags, tx, ty, buf, st);
 }
 
 // Builds texel (tx, ty): its fragments (from the light view's lists) are
@@ -147,6 +162,21 @@ CDSM_HD inline void build_texel(const SceneView& s, const LightPassParams& p, Sp
 CDSM_HD inline void build_texel(const SceneView& s, const LightPassParams& p, Span<Fragment> frags,
                                 int tx, int ty, RgbNodeBuffer& buf, WalkStats& st) {
   walk_texel<DsmVisitorRgb>(s, p, frags, tx, ty, buf, st);
+}
+
+// Texel (tx, ty) of a deep shadow map (p.method == kMethodDsm) into a
+// FixedSlotSink: with no slots it only counts the nodes (the wedge reads
+// back just the last two), with `count` slots it writes them in place.
+// Until a NodeBuffer of K slots would overflow (node_limit(K) nodes), the
+// nodes are exactly the ones build_texel() puts there (the two-pass build,
+// shadows/exec/light_pass.h). Scalar or RGB nodes.
+CDSM_HD inline void build_texel_into(const SceneView& s, const LightPassParams& p, Span<Fragment> frags, int tx,
+                                     int ty, FixedSlotSink<DsmNode>& sink, WalkStats& st) {
+  walk_texel_into<DsmVisitorOf<FixedSlotSink<DsmNode>>>(s, p, frags, tx, ty, sink, st);
+}
+CDSM_HD inline void build_texel_into(const SceneView& s, const LightPassParams& p, Span<Fragment> frags, int tx,
+                                     int ty, FixedSlotSink<DsmNodeRgb>& sink, WalkStats& st) {
+  walk_texel_into<DsmVisitorRgbOf<FixedSlotSink<DsmNodeRgb>>>(s, p, frags, tx, ty, sink, st);
 }
 
 }  // namespace cdsm

@@ -15,7 +15,22 @@
 
 namespace cdsm {
 
-enum class Backend { Cpu, Reference };
+// Where a frame's kernels run. Cuda: the cuda backend (a build with nvcc and
+// a CUDA device); Auto: cuda when it can run here, else cpu; Reference: the
+// exact renderer, no maps.
+enum class Backend { Cpu, Reference, Cuda, Auto };
+
+// What `want` runs on in this process and why (the cdsm program prints it).
+// Auto resolves to Cuda or Cpu. available = false when Cuda was asked for
+// and cannot run here (no CUDA build, no driver, no device): `reason` says
+// which, in one line.
+struct BackendResolution {
+  Backend backend = Backend::Cpu;
+  bool available = true;
+  std::string name;    // "cpu", "cuda", "reference"
+  std::string reason;  // "requested", "NVIDIA H200 (sm_90, 141 GiB)", "no CUDA device: ..."
+};
+BackendResolution resolve_backend(Backend want);
 enum class FragmentSource { Auto, Gl, Cpu };
 
 // Progress of a long render (the reference image of compare_reference),

@@ -20,6 +20,10 @@
 // Invariant check usable inside CDSM_HD code: assert() on both sides.
 #define CDSM_HD_ASSERT(cond) assert(cond)
 
+// The body of a parallel_for (shadows/exec/): a lambda that captures by
+// value and runs on CPU threads or in a CUDA launch (nvcc: --extended-lambda).
+#define CDSM_LAMBDA(...) [=] CDSM_HD(__VA_ARGS__)
+
 namespace cdsm {
 
 // Hard limits of the bounded per-ray / per-texel state (DESIGN.md §2).
