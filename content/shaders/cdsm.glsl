@@ -323,6 +323,10 @@ vec3 cdsm_shadow_alpha(CdsmLight L, vec3 p, vec3 plane, bool caster) {
     CdsmMap m = cdsm_maps[first + k];
     CdsmProjection pr = cdsm_project(m.view, p);
     if (pr.axial <= 0.0) continue;
+    // Every tap outside the map: it adds nothing (alpha + 0 (1 - alpha) is
+    // alpha exactly), skipped before its offsets and taps are computed.
+    float res_f = float(m.res);
+    if (L.map_mode == 0u && (pr.u < -0.5 || pr.v < -0.5 || pr.u > res_f + 0.5 || pr.v > res_f + 0.5)) continue;
     if (L.map_mode == 2u) {
       float lo = 1.0, hi = float(m.res) - 1.0;
       if (k + 1u < count && (pr.u < lo || pr.v < lo || pr.u > hi || pr.v > hi)) continue;

@@ -159,6 +159,7 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
       changed_at_ = now;
       return true;
     } else if (cmd == "view") {
+      changed_at_ = now;
       const std::string what = word("clusters, map, plot or error");
       if (what == "clusters") {
         s.tint = on_off(word("on or off"), where) ? Tint::Clusters : Tint::None;
