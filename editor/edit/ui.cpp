@@ -386,7 +386,7 @@ void stats_window(Session& s, UiState& ui, float x, float y, float h) {
   if (ImGui::BeginTable("maps", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingStretchProp)) {
     ImGui::TableSetupColumn("map");
     ImGui::TableSetupColumn("nodes");
-    ImGui::TableSetupColumn("KiB");
+    ImGui::TableSetupColumn("KiB idx/nod/slk");
     ImGui::TableSetupColumn("objects");
     ImGui::TableHeadersRow();
     for (size_t k = 0; k < s.maps().size(); ++k) {
@@ -399,7 +399,8 @@ void stats_window(Session& s, UiState& ui, float x, float y, float h) {
       ImGui::TableNextColumn();
       ImGui::Text("%llu (max %u)", (unsigned long long)m.nodes, m.max_nodes);
       ImGui::TableNextColumn();
-      ImGui::Text("%.0f", double(m.index_bytes + m.node_bytes + m.slack_bytes) / 1024.0);
+      ImGui::Text("%.0f/%.0f/%.0f", double(m.index_bytes) / 1024.0, double(m.node_bytes) / 1024.0,
+                  double(m.slack_bytes) / 1024.0);
       ImGui::TableNextColumn();
       std::string names;
       for (int o : m.members)

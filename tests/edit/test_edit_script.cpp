@@ -115,6 +115,7 @@ TEST(EditScript, ParametersChangeTheViewportAndItMatchesTheLibrary) {
          << "click 440 520\n"
          << "view plot on\nwait\n"
          << "screenshot " << s << "plot.png\n"
+         << "view error 64\n"
          << "save " << s << "edited.json\n"
          << "save " << kScene << "\n"  // the opened file: refused without overwrite
          << "quit\n";
@@ -171,6 +172,10 @@ TEST(EditScript, ParametersChangeTheViewportAndItMatchesTheLibrary) {
   std::smatch m;
   ASSERT_TRUE(std::regex_search(out, m, std::regex("max deviation ([0-9.]+) \\(epsilon ([0-9.]+)\\)"))) << out;
   EXPECT_LE(std::stod(m[1]), std::stod(m[2]) + 1e-5);
+  // The error view against the reference finished with its figures.
+  ASSERT_TRUE(std::regex_search(out, m, std::regex("error view: PSNR ([0-9.]+) dB, map p99 ([0-9.]+)"))) << out;
+  EXPECT_GT(std::stod(m[1]), 25.0);
+  EXPECT_LE(std::stod(m[2]), 0.2 + 0.01) << "map error within epsilon (0.2 then) and the offsets";
   // Every change reached a refined frame; the times are printed above.
   size_t refined = 0;
   for (size_t at = out.find("refined after"); at != std::string::npos; at = out.find("refined after", at + 1)) ++refined;
