@@ -236,7 +236,8 @@ int cmd_bench(const std::vector<std::string>& args) {
       if (v == "auto") opt.fragments = FragmentSource::Auto;
       else if (v == "gl") opt.fragments = FragmentSource::Gl;
       else if (v == "cpu") opt.fragments = FragmentSource::Cpu;
-      else throw Error("--fragments", "unknown producer '" + v + "' (auto, gl or cpu)");
+      else if (v == "cuda") opt.fragments = FragmentSource::Cuda;
+      else throw Error("--fragments", "unknown producer '" + v + "' (auto, gl, cpu or cuda)");
     } else if (a == "--error-samples") {
       opt.error_samples = parse_int(a, value());
       if (opt.error_samples < 1 || opt.error_samples > 10000000) throw Error("--error-samples", "must be within [1, 1e7]");

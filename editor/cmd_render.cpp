@@ -24,7 +24,8 @@ const char* kRenderHelp =
     "  --backend cuda|cpu|reference  deep shadow maps on a CUDA device or on the CPU, or the exact\n"
     "                           reference (shadow rays, no maps). Default: cuda when a CUDA device\n"
     "                           exists, else cpu (stderr says which and why)\n"
-    "  --fragments auto|gl|cpu  fragment producer: OpenGL rasterizer or CPU ray caster (default auto:\n"
+    "  --fragments auto|gl|cpu|cuda  fragment producer: OpenGL rasterizer, CPU ray caster, or the ray\n"
+    "                           caster on the CUDA device (with --backend cuda) (default auto:\n"
     "                           gl when an OpenGL 4.5 context can be created)\n"
     "  --eps E                  compression error bound epsilon (>= 0), overrides the scene\n"
     "  --dsm-res N              DSM resolution per side (4..8192), overrides the scene\n"
@@ -315,7 +316,8 @@ int cmd_render(const std::vector<std::string>& args) {
       if (v == "auto") opt.fragments = FragmentSource::Auto;
       else if (v == "gl") opt.fragments = FragmentSource::Gl;
       else if (v == "cpu") opt.fragments = FragmentSource::Cpu;
-      else throw Error("--fragments", "unknown producer '" + v + "' (auto, gl or cpu)");
+      else if (v == "cuda") opt.fragments = FragmentSource::Cuda;
+      else throw Error("--fragments", "unknown producer '" + v + "' (auto, gl, cpu or cuda)");
     } else if (a == "--eps") {
       eps = parse_float(a, value());
       if (eps < 0) throw Error("--eps", "must be >= 0");
@@ -377,6 +379,8 @@ int cmd_render(const std::vector<std::string>& args) {
   const BackendResolution backend = resolve_backend(opt.backend);
   if (!backend.available) throw Error("--backend cuda", backend.reason);
   opt.backend = backend.backend;
+  if (opt.fragments == FragmentSource::Cuda && opt.backend != Backend::Cuda)
+    throw Error("--fragments cuda", "the CUDA fragment producer needs the cuda backend (" + backend.reason + ")");
   if (out.size() < 4 || out.substr(out.size() - 4) != ".png") throw Error(out, "output must be a .png file");
   namespace fs = std::filesystem;
   std::error_code ec;

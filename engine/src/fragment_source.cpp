@@ -1,6 +1,7 @@
 #include "fragment_source.h"
 
 #include "cdsm/error.h"
+#include "exec/exec_backend.h"
 
 #if CDSM_HAVE_GL
 #include "gl/context.h"
@@ -45,7 +46,14 @@ void FragmentSourceSelector::choose(FragmentSource want, std::string& name, std:
   }
   want_ = want;
   use_gl_ = false;
-  if (want == FragmentSource::Cpu) {
+  use_cuda_ = false;
+  if (want == FragmentSource::Cuda) {
+    if (!dynamic_cast<exec::ExecShadowBackend*>(backend_))
+      throw Error("--fragments cuda", "the CUDA fragment producer runs on the cuda backend (--backend cuda, on a CUDA device)");
+    use_cuda_ = true;
+    name_ = "cuda";
+    reason_ = "requested (the ray caster launched on the CUDA device)";
+  } else if (want == FragmentSource::Cpu) {
     name_ = "cpu";
     reason_ = "requested (exact ray casting)";
   } else {
@@ -104,6 +112,10 @@ uint64_t FragmentSourceSelector::scene_changed(const SceneBuffers& sb, const Sce
 }
 
 FragmentProducer FragmentSourceSelector::producer(const SceneBuffers& sb) const {
+  if (use_cuda_) {
+    auto* b = static_cast<exec::ExecShadowBackend*>(backend_);
+    return [b](const PinholeView& view, ObjectMask mask, FragmentBuffers& out) { b->cast_fragments(view, mask, out); };
+  }
 #if CDSM_HAVE_GL
   if (use_gl_) {
     gl::FragmentRasterizer* r = gl_->raster.get();

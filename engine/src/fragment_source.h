@@ -26,6 +26,9 @@ class FragmentSourceSelector {
   // selector) instead of a headless context of the selector's own. Call
   // before the first choose().
   void use_context(gl::Context* context) { external_ = context; }
+  // The backend whose device casts the fragments for FragmentSource::Cuda
+  // (an exec backend; the cuda one). Call before the first choose().
+  void use_backend(ShadowBackend* backend) { backend_ = backend; }
   // Picks the producer on the first call (GL, when wanted and a context
   // can be made); later calls keep it unless `want` changes. `name` is "gl"
   // or "cpu", `reason` says why. Throws cdsm::Error when GL is requested
@@ -46,6 +49,8 @@ class FragmentSourceSelector {
   FragmentSource want_ = FragmentSource::Auto;
   std::string name_, reason_;
   gl::Context* external_ = nullptr;
+  ShadowBackend* backend_ = nullptr;
+  bool use_cuda_ = false;
   bool gl_tried_ = false;
   std::string gl_failure_;
 };

@@ -85,6 +85,7 @@ ShadowSystem::Impl::Impl(const SystemOptions& o) : options(o) {
   backend = std::move(c.backend);
   backend_name = c.name;
   backend_reason = c.reason;
+  fragments.use_backend(backend.get());
 }
 
 ShadowSystem::Impl::~Impl() = default;
@@ -306,7 +307,8 @@ void ShadowSystem::Impl::publish(FrameStats& st) {
 void ShadowSystem::Impl::build(FrameStats& st) {
   // The application's context only where the fragments are rasterized on it
   // (then on that context's thread).
-  const bool app_fragments = options.fragments != FragmentSource::Cpu && !options.private_fragment_context;
+  const bool app_fragments = (options.fragments == FragmentSource::Auto || options.fragments == FragmentSource::Gl) &&
+                             !options.private_fragment_context;
   SystemGlScope gl_scope(app_fragments ? gl.get() : nullptr, &st.warnings);
   if (changed) {
     validate_scene(scene, &st.warnings);

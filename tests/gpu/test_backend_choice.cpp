@@ -6,6 +6,7 @@
 
 #include "backend_select.h"
 #include "cdsm/error.h"
+#include "cdsm/procedural.h"
 #include "cdsm/shadow_system.h"
 
 using namespace cdsm;
@@ -64,4 +65,23 @@ TEST(BackendChoice, CudaByNameWithoutADeviceIsAnErrorWithTheReason) {
   EXPECT_THROW(ShadowSystem sys(o), Error);
   o.backend = Backend::Auto;
   EXPECT_NO_THROW(ShadowSystem sys(o));
+}
+
+// The CUDA fragment producer needs the cuda backend: on the cpu backend a
+// system refuses it by name at its first update, before any map is built.
+TEST(BackendChoice, CudaFragmentsOnTheCpuBackendAreRefused) {
+  cdsm::SystemOptions o;
+  o.fragments = cdsm::FragmentSource::Cuda;
+  cdsm::ShadowSystem sys(o);
+  cdsm::Object box;
+  box.mesh = std::make_shared<cdsm::TriangleMesh>(cdsm::make_box({1, 1, 1}));
+  sys.add_object(box);
+  sys.add_light(cdsm::Light{});
+  try {
+    sys.update();
+    ADD_FAILURE() << "CUDA fragments on the cpu backend must be refused";
+  } catch (const cdsm::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--fragments cuda"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("cuda backend"), std::string::npos) << e.what();
+  }
 }

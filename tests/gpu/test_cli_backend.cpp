@@ -80,6 +80,19 @@ TEST(CliBackend, CudaByNameWithoutDeviceFailsWithTheSameReason) {
   EXPECT_EQ(r.out.find("scene "), std::string::npos) << r.out;
 }
 
+// The CUDA fragment producer runs on the cuda backend: without a device it
+// is refused by name before anything is rendered (the library's refusal on
+// the cpu backend: test_backend_choice).
+TEST(CliBackend, CudaFragmentsNeedTheCudaBackend) {
+  const std::string png = dir() + "/cuda-fragments.png";
+  std::remove(png.c_str());
+  CliRun r = cdsm(kNoGpu, "render '" + kScene + "'" + kSmall + "-o '" + png + "' --fragments cuda");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_EQ(r.err, "cdsm: error: --fragments cuda: the CUDA fragment producer needs the cuda backend (no CUDA device: "
+                   "disabled by CDSM_CUDA_DISABLE)\n");
+  EXPECT_NE(::access(png.c_str(), F_OK), 0) << "nothing rendered";
+}
+
 TEST(CliBackend, ExplicitCpuAndReferenceSayRequested) {
   CliRun r = cdsm("", "render '" + kScene + "'" + kSmall + "-o '" + dir() + "/cpu.png' --backend cpu");
   ASSERT_EQ(r.code, 0) << r.err;

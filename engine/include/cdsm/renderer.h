@@ -31,7 +31,10 @@ struct BackendResolution {
   std::string reason;  // "requested", "NVIDIA H200 (sm_90, 141 GiB)", "no CUDA device: ..."
 };
 BackendResolution resolve_backend(Backend want);
-enum class FragmentSource { Auto, Gl, Cpu };
+// Where fragment lists come from: the OpenGL rasterizer, the CPU ray
+// caster, or the same ray caster launched on the CUDA device (needs the
+// cuda backend: Backend::Cuda).
+enum class FragmentSource { Auto, Gl, Cpu, Cuda };
 
 // Progress of a long render (the reference image of compare_reference),
 // shared with another thread: `fraction` grows from 0 to 1; setting
