@@ -95,7 +95,10 @@ int cmd_edit(const std::vector<std::string>& args) {
     std::fprintf(stderr, "cdsm edit: %s\n", context->description().c_str());
     bool running = true;
     while (running) {
-      glfwPollEvents();
+      // While maps build, the UI runs at ~50 frames a second at most (input still
+      // wakes it at once): its frames would take the worker's cores.
+      if (session.building()) glfwWaitEventsTimeout(0.02);
+      else glfwPollEvents();
       if (context->should_close() || ui.quit) break;
       session.tick();
       if (script && !script->step(session, ui)) running = false;
