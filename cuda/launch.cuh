@@ -11,8 +11,10 @@
 #include <utility>
 #include <vector>
 
+#include "backend/backend.h"
 #include "check.cuh"
 #include "exec/exec.h"
+#include "gl_interop.h"
 
 namespace cdsm::cuda {
 
@@ -40,6 +42,11 @@ class Stream {
 class CudaExec {
  public:
   static constexpr bool kHostMemory = false;
+#if defined(CDSM_HAVE_CUDA_GL)
+  static constexpr bool kGlInterop = true;  // write_gl_buffers below
+#else
+  static constexpr bool kGlInterop = false;  // built without GL headers: no cuda/gl_interop.cu
+#endif
 
   // Works on `device` (the caller checked it exists: cuda/device.h).
   explicit CudaExec(int device = 0) : device_(device) {
@@ -115,6 +122,40 @@ class CudaExec {
 
   void synchronize() { CDSM_CUDA_CHECK(cudaStreamSynchronize(stream())); }
 
+#if defined(CDSM_HAVE_CUDA_GL)
+  // CUDA-GL interop for the map buffers (engine/gl/map_buffers.h through
+  // ShadowBackend::write_gl_maps): whether the current GL context runs on
+  // this device, and the ranges copied device to device into the GL buffers,
+  // each registered once per buffer object (again when its name, size or
+  // generation changed), all mapped together on the stream for the copies.
+  bool gl_context_on_device() const { return cuda::gl_context_on_device(device_, nullptr); }
+  void write_gl_buffers(const GlMapWrite* w, int n, const void* const* src) {
+    if (n < 0 || n > kStorageArrays) throw std::invalid_argument("write_gl_buffers: at most one range per storage array");
+    GlBufferLink* links[kStorageArrays] = {};
+    for (int i = 0; i < n; ++i) {
+      const int a = int(w[i].array);
+      GlBufferLink& l = gl_links_[a];
+      if (gl_generation_[a] != w[i].gl_buffer_generation) l.reset();  // a new buffer object, maybe under an old name
+      gl_generation_[a] = w[i].gl_buffer_generation;
+      l.bind(w[i].gl_buffer, size_t(w[i].gl_buffer_bytes), GlAccess::ReadWrite);  // tails keep what is there
+      links[i] = &l;
+    }
+    GlMapScope mapped(links, n, stream());
+    for (int i = 0; i < n; ++i) {
+      size_t size = 0;
+      unsigned char* dst = static_cast<unsigned char*>(mapped.pointer(i, &size));
+      if (w[i].offset + w[i].bytes > size) throw std::out_of_range("write_gl_buffers: range past the mapped GL buffer");
+      CDSM_CUDA_CHECK(cudaMemcpyAsync(dst + w[i].offset, static_cast<const unsigned char*>(src[int(w[i].array)]) + w[i].offset,
+                                      size_t(w[i].bytes), cudaMemcpyDeviceToDevice, stream()));
+    }
+  }  // unmapped in stream order: GL work issued after this sees the bytes
+  uint64_t gl_registrations() const {
+    uint64_t r = 0;
+    for (const GlBufferLink& l : gl_links_) r += l.registrations();
+    return r;
+  }
+#endif
+
   std::vector<exec::StageTime> take_stage_times() {
     fold();
     return std::exchange(folded_, {});
@@ -153,6 +194,10 @@ class CudaExec {
   int device_;
   bool async_alloc_ = false;
   std::unique_ptr<Stream> stream_;
+#if defined(CDSM_HAVE_CUDA_GL)
+  GlBufferLink gl_links_[kStorageArrays];  // declared after stream_: unregistered before it is destroyed
+  uint64_t gl_generation_[kStorageArrays] = {};
+#endif
   std::vector<Launch> pending_;
   std::vector<exec::StageTime> folded_;
   std::vector<std::pair<cudaEvent_t, cudaEvent_t>> free_events_;

@@ -1,6 +1,7 @@
 #include "gl/map_buffers.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cstring>
 #include <string>
 
@@ -46,6 +47,7 @@ MapBuffers::MapBuffers(Context& context, uint64_t max_block_bytes) : context_(co
   for (int b = 0; b < kMapBlocks; ++b) {
     buffers_[b] = Buffer(std::string("cdsm.maps.") + block_name(MapBlock(b)));
     buffers_[b].reserve(kMinBytes);
+    renew(b);
   }
 }
 
@@ -56,22 +58,29 @@ MapBuffers::~MapBuffers() {
   }
 }
 
-void MapBuffers::sync_array(int b, const void* data, uint64_t bytes, bool full, MapUploadStats& st) {
+void MapBuffers::renew(int b) {
+  static std::atomic<uint64_t> next{1};  // unique across instances: names may be reused by GL
+  generation_[b] = next.fetch_add(1);
+}
+
+MapArrayWrite MapBuffers::prepare_array(int b, uint64_t bytes, bool full, MapUploadStats& st) {
   if (bytes > max_block_)
     throw Error(std::string("GL map buffers: ") + block_name(MapBlock(b)),
                 "the frame's maps need " + mib(bytes) + " in one storage block, more than this GL implementation's " +
                     "largest (" + mib(max_block_) + ", GL_MAX_SHADER_STORAGE_BLOCK_SIZE): lower the map resolution or " +
                     "the number of clusters, or raise epsilon");
   Buffer& buf = buffers_[b];
-  const unsigned char* src = static_cast<const unsigned char*>(data);
+  MapArrayWrite w;
+  w.block = MapBlock(b);
   if (full || bytes < used_[b]) {
     const uint64_t want = std::max(bytes, kMinBytes);
     if (want > buf.capacity() || buf.capacity() > 2 * want) {
       buf.destroy();
       buf.reserve(want);
+      renew(b);
     }
-    buf.upload(src, bytes, 0);
-    st.upload_bytes += bytes;
+    w.offset = 0;
+    w.bytes = bytes;
   } else if (bytes > used_[b]) {
     if (bytes > buf.capacity()) {  // grow, keeping the contents (a GL-side copy)
       const uint64_t grown = std::min(std::max(bytes, buf.capacity() + buf.capacity() / 2), std::max(max_block_, bytes));
@@ -82,24 +91,44 @@ void MapBuffers::sync_array(int b, const void* data, uint64_t bytes, bool full, 
         st.copy_bytes += used_[b];
       }
       buf = std::move(next);
+      renew(b);
     }
-    buf.upload(src + used_[b], bytes - used_[b], used_[b]);
-    st.upload_bytes += bytes - used_[b];
+    w.offset = used_[b];
+    w.bytes = bytes - used_[b];
   }
   used_[b] = bytes;
+  w.buffer = buf.id();
+  w.buffer_bytes = buf.capacity();
+  w.generation = generation_[b];
+  return w;
 }
 
-MapUploadStats MapBuffers::sync(const ShadowView& view, uint64_t epoch) {
+MapUploadStats MapBuffers::sync(const ShadowView& view, uint64_t epoch, const DeviceWriter& device) {
   context_.make_current();
   MapUploadStats st;
   const DsmStorage& s = view.storage;
   st.full = epoch != epoch_ || s.layout != layout_;
-  sync_array(int(MapBlock::Texels), s.texels.data(), bytes_of(s.texels), st.full, st);
-  sync_array(int(MapBlock::Nodes), s.nodes.data(), bytes_of(s.nodes), st.full, st);
-  sync_array(int(MapBlock::Chunks), s.chunks.data(), bytes_of(s.chunks), st.full, st);
-  sync_array(int(MapBlock::RgbTexels), s.rgb_texels.data(), bytes_of(s.rgb_texels), st.full, st);
-  sync_array(int(MapBlock::RgbNodes), s.rgb_nodes.data(), bytes_of(s.rgb_nodes), st.full, st);
-  sync_array(int(MapBlock::RgbChunks), s.rgb_chunks.data(), bytes_of(s.rgb_chunks), st.full, st);
+  const void* data[kMapBlocks] = {nullptr, s.texels.data(), s.nodes.data(), s.chunks.data(),
+                                  s.rgb_texels.data(), s.rgb_nodes.data(), s.rgb_chunks.data()};
+  const uint64_t bytes[kMapBlocks] = {0, bytes_of(s.texels), bytes_of(s.nodes), bytes_of(s.chunks),
+                                      bytes_of(s.rgb_texels), bytes_of(s.rgb_nodes), bytes_of(s.rgb_chunks)};
+  // The same ranges on both paths: what changed since the last sync.
+  MapArrayWrite writes[kMapBlocks];
+  int count = 0;
+  for (int b = int(MapBlock::Texels); b < kMapBlocks; ++b) {
+    const MapArrayWrite w = prepare_array(b, bytes[b], st.full, st);
+    if (w.bytes > 0) writes[count++] = w;
+  }
+  if (device) {
+    if (count > 0) device(writes, count);
+    for (int i = 0; i < count; ++i) st.device_bytes += writes[i].bytes;
+  } else {
+    for (int i = 0; i < count; ++i) {
+      const MapArrayWrite& w = writes[i];
+      buffers_[int(w.block)].upload(static_cast<const unsigned char*>(data[int(w.block)]) + w.offset, w.bytes, w.offset);
+      st.upload_bytes += w.bytes;
+    }
+  }
   epoch_ = epoch;
   layout_ = s.layout;
 

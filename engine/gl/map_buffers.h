@@ -21,6 +21,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -53,11 +54,29 @@ const char* block_name(MapBlock b);  // "CdsmFrame", ...
 
 struct MapUploadStats {
   uint64_t upload_bytes = 0;   // host -> GL bytes of this sync
+  uint64_t device_bytes = 0;   // array bytes the DeviceWriter wrote (no host traffic)
   uint64_t copy_bytes = 0;     // GL-side copies of grown buffers
   bool full = false;           // every array uploaded (new epoch or first sync)
   uint64_t allocated_bytes = 0;  // all blocks' buffers
   uint64_t used_bytes = 0;       // of which holding data
 };
+
+// One array's range for a DeviceWriter: bytes [offset, offset + bytes) of
+// the storage array `block` go to GL buffer `buffer` (`buffer_bytes` long)
+// at the same offset. `generation` changes whenever the array gets a new GL
+// buffer object (GL may hand out a deleted buffer's name again), so a writer
+// that registers buffers (CUDA-GL interop) knows when to register again.
+struct MapArrayWrite {
+  MapBlock block = MapBlock::Texels;
+  GLuint buffer = 0;
+  uint64_t buffer_bytes = 0;
+  uint64_t generation = 0;
+  uint64_t offset = 0;
+  uint64_t bytes = 0;
+};
+// Writes the ranges into the buffers (the context current); called once per
+// sync with every non-empty range, not at all when none.
+using DeviceWriter = std::function<void(const MapArrayWrite* writes, int count)>;
 
 class MapBuffers {
  public:
@@ -70,7 +89,9 @@ class MapBuffers {
 
   // Brings the buffers to `view` (its lights, maps and storage; the storage
   // of a backend at storage epoch `epoch`). The context must be current.
-  MapUploadStats sync(const ShadowView& view, uint64_t epoch);
+  // With `device`, the arrays' ranges are written by it (see above) and
+  // view.storage's spans are only read for their sizes.
+  MapUploadStats sync(const ShadowView& view, uint64_t epoch, const DeviceWriter& device = {});
 
   GLuint buffer(MapBlock b) const { return buffers_[int(b)].id(); }
   uint64_t limit_bytes() const { return max_block_; }
@@ -82,12 +103,16 @@ class MapBuffers {
   void bind(GLuint program) const;
 
  private:
-  void sync_array(int block, const void* data, uint64_t bytes, bool full, MapUploadStats& st);
+  // Sizes array `block`'s buffer for `bytes` (growing it by a GL-side copy,
+  // or re-allocating it on a full sync) and returns the range to write.
+  MapArrayWrite prepare_array(int block, uint64_t bytes, bool full, MapUploadStats& st);
+  void renew(int block);  // the array has a new buffer object
 
   Context& context_;
   uint64_t max_block_ = 0;
   Buffer buffers_[kMapBlocks];
   uint64_t used_[kMapBlocks] = {};  // bytes holding data
+  uint64_t generation_[kMapBlocks] = {};
   uint64_t epoch_ = 0;              // of the last sync (0: none yet)
   uint32_t layout_ = ~0u;
   std::vector<unsigned char> frame_;  // the frame block last uploaded

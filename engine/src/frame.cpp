@@ -180,11 +180,11 @@ void ShadowFrame::refresh_headers() {
   for (MapId id : maps) headers.push_back(backend->map_header(id));
 }
 
-ShadowView ShadowFrame::view(const ShadowSettings& s) const {
+ShadowView ShadowFrame::view(const ShadowSettings& s, bool with_storage) const {
   ShadowView v;
   v.lights = {setup.lights.data(), setup.lights.size()};
   v.maps = {headers.data(), headers.size()};
-  v.storage = backend ? backend->storage() : DsmStorage{};
+  v.storage = backend && with_storage ? backend->storage() : DsmStorage{};
   v.filtering = s.filtering;
   v.bias_constant = s.bias_constant;
   v.bias_slope = s.bias_slope;

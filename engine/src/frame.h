@@ -128,7 +128,9 @@ struct ShadowFrame {
   uint64_t fragments = 0;
   const ShadowBackend* backend = nullptr;  // holds the maps
   // The lookup over this frame's maps with the lookup settings of `s`.
-  ShadowView view(const ShadowSettings& s) const;
+  // `with_storage` false: storage left empty (its caller fetches it, or
+  // only its extent: engine/src/system_gl.h).
+  ShadowView view(const ShadowSettings& s, bool with_storage = true) const;
   void refresh_headers();
 };
 

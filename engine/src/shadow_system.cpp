@@ -88,7 +88,11 @@ ShadowSystem::Impl::Impl(const SystemOptions& o) : options(o) {
   fragments.use_backend(backend.get());
 }
 
-ShadowSystem::Impl::~Impl() = default;
+ShadowSystem::Impl::~Impl() {
+  // GL buffers a backend registered with CUDA are unregistered with the
+  // context current where it can be made so (the backend dies before `gl`).
+  if (gl) try_make_current(*gl);
+}
 
 size_t ShadowSystem::Impl::object_index(ObjectHandle h) const {
   for (size_t i = 0; i < objects.size(); ++i)
@@ -299,7 +303,7 @@ void ShadowSystem::Impl::update(FrameStats& st) {
 void ShadowSystem::Impl::publish(FrameStats& st) {
   if (!gl) return;
   SystemGlScope gl_scope(gl.get(), &st.warnings);
-  sync_gl_maps(*gl, shadow_view(), backend->storage_epoch(), st.update);
+  sync_gl_maps(*gl, frame.view(scene.shadows, /*with_storage=*/false), *backend, st.update);
   st.update.gl_readback_bytes = gl_readback_bytes;
   gl_readback_bytes = 0;
 }

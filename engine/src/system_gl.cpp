@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <stdexcept>
 #include <vector>
 
 #include "cdsm/error.h"
@@ -48,6 +49,13 @@ SystemGlPtr make_system_gl(const std::string& where) {
 
 gl::Context* system_context(SystemGl& g) { return g.context.get(); }
 
+void try_make_current(SystemGl& g) noexcept {
+  try {
+    g.context->make_current();
+  } catch (...) {
+  }
+}
+
 struct SystemGlScope::Guard {
   gl::StateGuard state;
 };
@@ -62,10 +70,32 @@ SystemGlScope::SystemGlScope(SystemGl* g, std::vector<std::string>* warnings) {
 }
 SystemGlScope::~SystemGlScope() = default;
 
-void sync_gl_maps(SystemGl& g, const ShadowView& view, uint64_t epoch, UpdateStats& st) {
+void sync_gl_maps(SystemGl& g, ShadowView view, ShadowBackend& backend, UpdateStats& st) {
   if (!g.maps) g.maps = std::make_unique<gl::MapBuffers>(*g.context, g.block_limit);
-  const gl::MapUploadStats m = g.maps->sync(view, epoch);
+  g.context->make_current();
+  gl::MapUploadStats m;
+  if (backend.can_write_gl_maps()) {
+    // The backend writes the ranges from its own memory: sizes only here.
+    view.storage = backend.storage_extent();
+    m = g.maps->sync(view, backend.storage_epoch(), [&backend](const gl::MapArrayWrite* w, int n) {
+      GlMapWrite writes[kStorageArrays];
+      if (n > kStorageArrays) throw std::logic_error("sync_gl_maps: more ranges than storage arrays");
+      for (int i = 0; i < n; ++i) {
+        writes[i].array = StorageArray(int(w[i].block) - int(gl::MapBlock::Texels));
+        writes[i].gl_buffer = w[i].buffer;
+        writes[i].gl_buffer_bytes = w[i].buffer_bytes;
+        writes[i].gl_buffer_generation = w[i].generation;
+        writes[i].offset = w[i].offset;
+        writes[i].bytes = w[i].bytes;
+      }
+      backend.write_gl_maps(writes, n);
+    });
+  } else {
+    view.storage = backend.storage();
+    m = g.maps->sync(view, backend.storage_epoch());
+  }
   st.gl_map_upload_bytes += m.upload_bytes;
+  st.gl_map_device_bytes += m.device_bytes;
   st.gl_map_copy_bytes += m.copy_bytes;
   st.gl_map_full_upload = st.gl_map_full_upload || m.full;
   st.gl_map_bytes = m.allocated_bytes;
@@ -197,10 +227,11 @@ SystemGlPtr make_system_gl(const std::string& where) {
   throw Error(where, "GlContextUse::Application needs OpenGL, and this build has none (configured with CDSM_GL=OFF)");
 }
 gl::Context* system_context(SystemGl&) { return nullptr; }
+void try_make_current(SystemGl&) noexcept {}
 struct SystemGlScope::Guard {};
 SystemGlScope::SystemGlScope(SystemGl*, std::vector<std::string>*) {}
 SystemGlScope::~SystemGlScope() = default;
-void sync_gl_maps(SystemGl&, const ShadowView&, uint64_t, UpdateStats&) {}
+void sync_gl_maps(SystemGl&, ShadowView, ShadowBackend&, UpdateStats&) {}
 GlMapBuffers gl_map_buffers(const SystemGl&) { return {}; }
 void bind_gl_maps(SystemGl&, uint32_t) {}
 std::shared_ptr<TriangleMesh> read_gl_mesh(SystemGl&, const GlMeshSource&, const std::string&, uint64_t&) { return {}; }

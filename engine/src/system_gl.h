@@ -11,6 +11,7 @@
 #include "cdsm/gl.h"
 #include "cdsm/renderer.h"
 #include "cdsm/scene.h"
+#include "backend/backend.h"
 #include "hd/lights.h"
 
 namespace cdsm {
@@ -29,6 +30,8 @@ using SystemGlPtr = std::unique_ptr<SystemGl, SystemGlDeleter>;
 // names the system) when there is none, or it is not GL 4.5 core.
 SystemGlPtr make_system_gl(const std::string& where);
 gl::Context* system_context(SystemGl& g);
+// Makes the adopted context current if it can be (no-op otherwise).
+void try_make_current(SystemGl& g) noexcept;
 
 // While alive: the adopted context is checked to be current (throws
 // otherwise) and the GL state cdsm changes is saved, restored at the end.
@@ -44,9 +47,14 @@ class SystemGlScope {
   std::unique_ptr<Guard> guard_;
 };
 
-// Uploads what changed of the frame's maps (engine/gl/map_buffers.h);
-// the figures go to `st`.
-void sync_gl_maps(SystemGl& g, const ShadowView& view, uint64_t epoch, UpdateStats& st);
+// Brings the GL map buffers to the frame's maps (engine/gl/map_buffers.h):
+// what changed since the last call. `view` is the frame's view without its
+// storage; the backend's arrays reach GL through the backend itself when it
+// can write them in place (ShadowBackend::can_write_gl_maps: the cuda
+// backend with this context on its device; counted in gl_map_device_bytes),
+// else as uploads from its storage() (gl_map_upload_bytes). The figures go
+// to `st`.
+void sync_gl_maps(SystemGl& g, ShadowView view, ShadowBackend& backend, UpdateStats& st);
 GlMapBuffers gl_map_buffers(const SystemGl& g);
 void bind_gl_maps(SystemGl& g, uint32_t program);
 // Reads a mesh from application buffers; adds the bytes read to `bytes`.

@@ -9,6 +9,8 @@
 
 #include <cstdint>
 #include <memory>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "cpu/backend.h"
@@ -23,6 +25,26 @@ struct SceneChange {
   uint32_t first_tri = 0;       // else: triangles [first_tri, first_tri + tri_count) moved
   uint32_t tri_count = 0;       //   (vertices, normals, the BVH refitted)
   bool objects = false;         // per-object data (materials, interiors, volume placement)
+};
+
+// The six arrays of DsmStorage, in its order (texels, nodes, chunks, then
+// the RGB maps' three).
+enum class StorageArray : int { Texels = 0, Nodes, Chunks, RgbTexels, RgbNodes, RgbChunks, Count };
+inline constexpr int kStorageArrays = int(StorageArray::Count);
+
+// Bytes [offset, offset + bytes) of one storage() array to be written at the
+// same offset into a GL buffer object (name `gl_buffer`, `gl_buffer_bytes`
+// long) — by the backend itself, from its own memory (write_gl_maps).
+// `gl_buffer_generation` changes whenever the array gets a new buffer object
+// (GL may reuse a deleted buffer's name): a backend that registers the
+// buffers registers again then.
+struct GlMapWrite {
+  StorageArray array = StorageArray::Texels;
+  uint32_t gl_buffer = 0;
+  uint64_t gl_buffer_bytes = 0;
+  uint64_t gl_buffer_generation = 0;
+  uint64_t offset = 0;
+  uint64_t bytes = 0;
 };
 
 // A map the backend stores; valid until free_map().
@@ -65,6 +87,26 @@ class ShadowBackend {
   // ends, so a mirror of the storage (GL buffers, engine/gl/map_buffers.h)
   // copies just the new tails: the maps built since it last looked.
   virtual uint64_t storage_epoch() const = 0;
+  // storage()'s layout and array sizes, without its bytes: every span's
+  // size() is that of storage(), its data() may be null (over device memory
+  // no host mirror is downloaded for it). For callers that only need sizes,
+  // e.g. before write_gl_maps.
+  virtual DsmStorage storage_extent() const { return storage(); }
+
+  // Whether write_gl_maps can run with the GL context current on this thread:
+  // the backend's store is in memory that context's buffers live in (the cuda
+  // backend with the context on its CUDA device). False by default (cpu
+  // backend, the exec backend on CPU threads): the caller then uploads the
+  // bytes from storage() itself (engine/gl/map_buffers.h).
+  virtual bool can_write_gl_maps() const { return false; }
+  // Writes each range of storage() into its GL buffer (current context; the
+  // buffers exist and are at least offset + bytes long). Only after
+  // can_write_gl_maps() said true; throws std::logic_error otherwise.
+  virtual void write_gl_maps(const GlMapWrite* writes, int count) {
+    (void)writes;
+    (void)count;
+    throw std::logic_error(std::string(name()) + " backend: write_gl_maps is not supported (can_write_gl_maps is false)");
+  }
 
   // Shades every pixel of the camera view into `rgb` (3 floats per pixel,
   // linear), read back to the host; fragments are sorted in place.

@@ -11,6 +11,9 @@
 //
 // An executor Ex provides:
 //   static constexpr bool kHostMemory;  // its memory is host memory (readable by the host)
+//   static constexpr bool kGlInterop;   // it can write GL buffers in place; then also
+//     bool gl_context_on_device() const;  // the current GL context shares its memory
+//     void write_gl_buffers(const GlMapWrite* w, int n, const void* const* src);  // src[array] + offset -> buffer
 //   void* allocate(size_t bytes);       // 256-byte aligned; throws on failure
 //   void release(void* p) noexcept;
 //   template <class F> void parallel_for(const char* name, uint64_t n, F f);  // f(i) for i in [0, n)

@@ -142,6 +142,50 @@ class ExecBackend final : public ExecShadowBackend {
   }
   uint64_t storage_epoch() const override { return epoch_; }
 
+  // Sizes without the mirror: over device memory the spans' data is null.
+  DsmStorage storage_extent() const override {
+    DsmStorage s = exec_storage();
+    if constexpr (!Ex::kHostMemory) {
+      s.texels.ptr = nullptr;
+      s.nodes.ptr = nullptr;
+      s.chunks.ptr = nullptr;
+      s.rgb_texels.ptr = nullptr;
+      s.rgb_nodes.ptr = nullptr;
+      s.rgb_chunks.ptr = nullptr;
+    }
+    return s;
+  }
+
+  // In place only where the executor shares memory with the current GL
+  // context (Ex::kGlInterop: CudaExec, with the context on its device).
+  bool can_write_gl_maps() const override {
+    if constexpr (Ex::kGlInterop) return ex_.gl_context_on_device();
+    else return false;
+  }
+
+  void write_gl_maps(const GlMapWrite* writes, int count) override {
+    if constexpr (Ex::kGlInterop) {
+      const DsmStorage s = exec_storage();
+      const void* src[kStorageArrays] = {s.texels.data(), s.nodes.data(), s.chunks.data(),
+                                         s.rgb_texels.data(), s.rgb_nodes.data(), s.rgb_chunks.data()};
+      const uint64_t have[kStorageArrays] = {s.texels.size() * sizeof(TexelRange), s.nodes.size() * sizeof(DsmNode),
+                                             s.chunks.size() * sizeof(ChunkNode), s.rgb_texels.size() * sizeof(TexelRange),
+                                             s.rgb_nodes.size() * sizeof(DsmNodeRgb), s.rgb_chunks.size() * sizeof(ChunkNodeRgb)};
+      bool seen[kStorageArrays] = {};
+      for (int i = 0; i < count; ++i) {
+        const int a = int(writes[i].array);
+        if (a < 0 || a >= kStorageArrays || seen[a]) throw std::invalid_argument("write_gl_maps: unknown or repeated storage array");
+        seen[a] = true;
+        if (writes[i].offset + writes[i].bytes > have[a] || writes[i].offset + writes[i].bytes > writes[i].gl_buffer_bytes)
+          throw std::out_of_range("write_gl_maps: range past the end of storage array " + std::to_string(a) +
+                                  " or of its GL buffer");
+      }
+      ex_.write_gl_buffers(writes, count, src);
+    } else {
+      ShadowBackend::write_gl_maps(writes, count);
+    }
+  }
+
   void camera_pass(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags,
                    std::vector<float>& rgb, WalkStats& walk) override {
     const uint64_t n = uint64_t(params.view.width) * uint64_t(params.view.height);

@@ -18,6 +18,7 @@ namespace cdsm::exec {
 class HostExec {
  public:
   static constexpr bool kHostMemory = true;
+  static constexpr bool kGlInterop = false;  // no GL buffers written from here (exec_backend.h)
 
   void* allocate(size_t bytes) { return ::operator new(bytes ? bytes : 1, std::align_val_t(256)); }
   void release(void* p) noexcept { ::operator delete(p, std::align_val_t(256)); }

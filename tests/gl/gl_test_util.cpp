@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "cdsm/procedural.h"
+#include "gl/gl_api.h"
 #include "hd/fragment.h"
 #include "hd/segments.h"
 
@@ -372,6 +373,44 @@ uint64_t count_unpaired_pixels(const TestScene& scene, const FragmentBuffers& li
       }
     }
   return bad;
+}
+
+std::string gl_maps_differ(const GlMapBuffers& b, const DsmStorage& s) {
+  struct Array {
+    const char* name;
+    uint32_t buffer;
+    const void* data;
+    uint64_t bytes;
+  };
+  const Array arrays[] = {
+      {"texels", b.texels, s.texels.data(), s.texels.size() * sizeof(TexelRange)},
+      {"nodes", b.nodes, s.nodes.data(), s.nodes.size() * sizeof(DsmNode)},
+      {"chunks", b.chunks, s.chunks.data(), s.chunks.size() * sizeof(ChunkNode)},
+      {"rgb_texels", b.rgb_texels, s.rgb_texels.data(), s.rgb_texels.size() * sizeof(TexelRange)},
+      {"rgb_nodes", b.rgb_nodes, s.rgb_nodes.data(), s.rgb_nodes.size() * sizeof(DsmNodeRgb)},
+      {"rgb_chunks", b.rgb_chunks, s.rgb_chunks.data(), s.rgb_chunks.size() * sizeof(ChunkNodeRgb)},
+  };
+  std::string out;
+  for (const Array& a : arrays) {
+    if (a.bytes == 0) continue;
+    GLint64 size = 0;
+    glGetNamedBufferParameteri64v(a.buffer, GL_BUFFER_SIZE, &size);
+    if (uint64_t(size) < a.bytes) {
+      out += std::string(out.empty() ? "" : "; ") + a.name + ": GL buffer of " + std::to_string(size) + " bytes < " +
+             std::to_string(a.bytes);
+      continue;
+    }
+    std::vector<unsigned char> gl(a.bytes);
+    glGetNamedBufferSubData(a.buffer, 0, GLsizeiptr(a.bytes), gl.data());
+    const unsigned char* want = static_cast<const unsigned char*>(a.data);
+    for (uint64_t i = 0; i < a.bytes; ++i)
+      if (gl[i] != want[i]) {
+        out += std::string(out.empty() ? "" : "; ") + a.name + ": first difference at byte " + std::to_string(i) + " of " +
+               std::to_string(a.bytes);
+        break;
+      }
+  }
+  return out;
 }
 
 }  // namespace cdsm::test

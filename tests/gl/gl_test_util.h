@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "backend/backend.h"
+#include "cdsm/gl.h"
 #include "cdsm/scene.h"
 #include "cpu/fragments_cpu.h"
 #include "scene_compile.h"
@@ -110,5 +112,10 @@ Comparison compare_fragments(const TestScene& scene, const PinholeView& view, co
 // order_crossings), fragments alternate entry (front), exit (back) and come
 // in pairs. Returns the pixels where not; `first` describes the first one.
 uint64_t count_unpaired_pixels(const TestScene& scene, const FragmentBuffers& lists, std::string* first);
+
+// "" when the six map arrays in GL buffers `b` (ShadowSystem::gl_buffers)
+// begin with `s`'s arrays byte for byte, else which array differs and
+// where. The context that owns the buffers must be current.
+std::string gl_maps_differ(const GlMapBuffers& b, const DsmStorage& s);
 
 }  // namespace cdsm::test

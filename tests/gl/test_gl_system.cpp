@@ -14,6 +14,8 @@
 #include "cdsm/procedural.h"
 #include "cdsm/scene_io.h"
 #include "cdsm/shadow_system.h"
+#include "exec/exec_backend.h"
+#include "exec/host_exec.h"
 #include "gl/gl_api.h"
 #include "gl_test_util.h"
 #include "shadow_system_impl.h"
@@ -449,6 +451,165 @@ TEST_F(GlSystem, MapsBeyondTheStorageBlockLimitAreRefused) {
   set_gl_map_block_limit(*sys.internals().gl, 0);
   sys.set_camera(scene.camera);
   sys.update();  // the driver's real limit (128 MiB on llvmpipe) holds them
+}
+
+// ---- Who writes the map arrays into GL (ShadowBackend::write_gl_maps) ----
+
+// A stand-in for a backend whose store lives where the GL buffers do (the
+// cuda backend with the context on its device, tests/gpu/test_gl_interop.cpp
+// on a GPU): it says it can write the map buffers, gets the ranges
+// engine/gl/map_buffers.h decided and writes them itself (here from its
+// inner cpu backend's arrays with glNamedBufferSubData). Its storage_extent()
+// has no data: nothing on the device path may read bytes through it.
+class InPlaceBackend final : public ShadowBackend {
+ public:
+  explicit InPlaceBackend(std::unique_ptr<ShadowBackend> inner) : inner_(std::move(inner)) {}
+  const char* name() const override { return "in-place test double"; }
+  void update_scene(const SceneBuffers& sb, const SceneChange& c) override { inner_->update_scene(sb, c); }
+  MapId build_map(const LightPassParams& p, FragmentLists f, const DsmLayoutParams& l, DsmBuildStats& st) override {
+    return inner_->build_map(p, f, l, st);
+  }
+  void free_map(MapId id) override { inner_->free_map(id); }
+  DsmMap map_header(MapId id) const override { return inner_->map_header(id); }
+  DsmStorage storage() const override { return inner_->storage(); }
+  uint64_t storage_epoch() const override { return inner_->storage_epoch(); }
+  DsmStorage storage_extent() const override {
+    DsmStorage s = inner_->storage();
+    s.texels.ptr = nullptr;
+    s.nodes.ptr = nullptr;
+    s.chunks.ptr = nullptr;
+    s.rgb_texels.ptr = nullptr;
+    s.rgb_nodes.ptr = nullptr;
+    s.rgb_chunks.ptr = nullptr;
+    return s;
+  }
+  void camera_pass(const ShadowView& v, const CameraPassParams& p, FragmentLists f, std::vector<float>& rgb,
+                   WalkStats& w) override {
+    inner_->camera_pass(v, p, f, rgb, w);
+  }
+  MapStoreStats map_store() const override { return inner_->map_store(); }
+
+  bool can_write_gl_maps() const override { return true; }
+  void write_gl_maps(const GlMapWrite* w, int n) override {
+    const DsmStorage s = inner_->storage();
+    const void* src[kStorageArrays] = {s.texels.data(), s.nodes.data(), s.chunks.data(),
+                                       s.rgb_texels.data(), s.rgb_nodes.data(), s.rgb_chunks.data()};
+    for (int i = 0; i < n; ++i) {
+      GLint64 size = 0;
+      glGetNamedBufferParameteri64v(w[i].gl_buffer, GL_BUFFER_SIZE, &size);
+      ASSERT_EQ(uint64_t(size), w[i].gl_buffer_bytes);
+      ASSERT_LE(w[i].offset + w[i].bytes, w[i].gl_buffer_bytes);
+      glNamedBufferSubData(w[i].gl_buffer, GLintptr(w[i].offset), GLsizeiptr(w[i].bytes),
+                           static_cast<const unsigned char*>(src[int(w[i].array)]) + w[i].offset);
+      ++writes;
+    }
+  }
+  uint64_t writes = 0;
+
+ private:
+  std::unique_ptr<ShadowBackend> inner_;
+};
+
+// The figures of one update and whether the GL buffers then equal storage().
+struct PublishStep {
+  UpdateStats u;
+  uint32_t rebuilt = 0;
+  std::string differ;
+};
+
+// First frame, an unchanged frame, a spot light added (appended: tails), the
+// omni light moved (compaction: a new epoch, every array once).
+std::vector<PublishStep> publish_steps(ShadowSystem& sys, Scene scene) {
+  std::vector<PublishStep> steps;
+  ShadowSystem::Impl& I = sys.internals();
+  const auto step = [&] {
+    FrameStats st;
+    sys.update(&st);
+    steps.push_back({st.update, st.maps_rebuilt, gl_maps_differ(sys.gl_buffers(), I.backend->storage())});
+  };
+  sync_scene(sys, scene);
+  step();
+  sys.set_camera(scene.camera);
+  step();
+  Light l = scene.lights[0];
+  l.position = l.position + Vec3{-2.0f, 0, 0};
+  sys.add_light(l);
+  step();
+  Light o = scene.lights[1];
+  o.position = o.position + Vec3{0.05f, 0, 0};
+  sys.set_light(sys.lights()[1], o);
+  step();
+  return steps;
+}
+
+// The cpu backend and the exec backend on CPU threads cannot write GL
+// buffers: their maps reach GL as host uploads, none counted as device
+// writes, and the buffers equal their storage() after every step.
+TEST_F(GlSystem, HostBackendsUploadTheirMapsFromTheHost) {
+  Scene scene = load_scene(scene_path("teapot_omni.json"));
+  scene.shadows.resolution = 96;
+  for (int exec = 0; exec < 2; ++exec) {
+    SCOPED_TRACE(exec ? "exec backend on CPU threads" : "cpu backend");
+    ShadowSystem sys(app_options(FragmentSource::Cpu));
+    ShadowSystem::Impl& I = sys.internals();
+    if (exec) {
+      I.backend = std::make_unique<exec::ExecBackend<exec::HostExec>>("exec-host");
+      I.fragments.use_backend(I.backend.get());
+    }
+    EXPECT_FALSE(I.backend->can_write_gl_maps());
+    EXPECT_THROW(I.backend->write_gl_maps(nullptr, 0), std::logic_error);
+    const std::vector<PublishStep> steps = publish_steps(sys, scene);
+    for (size_t i = 0; i < steps.size(); ++i) {
+      SCOPED_TRACE("step " + std::to_string(i));
+      EXPECT_EQ(steps[i].u.gl_map_device_bytes, 0u);
+      EXPECT_EQ(steps[i].differ, "");
+    }
+    EXPECT_GT(steps[0].u.gl_map_upload_bytes, 0u);
+    EXPECT_EQ(steps[1].u.gl_map_upload_bytes, 0u);
+  }
+}
+
+// A backend that can write the buffers gets exactly the ranges the host path
+// uploads (the same epoch and tail logic): its device-written bytes are the
+// host path's array bytes, only the frame block is still uploaded, and the
+// buffers equal storage() byte for byte after every step.
+TEST_F(GlSystem, InPlaceBackendGetsTheRangesTheHostPathUploads) {
+  Scene scene = load_scene(scene_path("teapot_omni.json"));
+  scene.shadows.resolution = 96;
+  ShadowSystem host(app_options(FragmentSource::Cpu));
+  const std::vector<PublishStep> h = publish_steps(host, scene);
+
+  ShadowSystem dev(app_options(FragmentSource::Cpu));
+  ShadowSystem::Impl& I = dev.internals();
+  auto in_place = std::make_unique<InPlaceBackend>(std::move(I.backend));
+  InPlaceBackend* ip = in_place.get();
+  I.backend = std::move(in_place);
+  I.fragments.use_backend(I.backend.get());
+  const std::vector<PublishStep> d = publish_steps(dev, scene);
+
+  ASSERT_EQ(h.size(), d.size());
+  ASSERT_EQ(d[2].rebuilt, 1u);
+  ASSERT_EQ(d[3].rebuilt, 6u);
+  EXPECT_TRUE(d[3].u.gl_map_full_upload) << "the omni light's move compacts the store";
+  for (size_t i = 0; i < d.size(); ++i) {
+    SCOPED_TRACE("step " + std::to_string(i));
+    EXPECT_EQ(d[i].rebuilt, h[i].rebuilt);
+    EXPECT_EQ(d[i].u.gl_map_full_upload, h[i].u.gl_map_full_upload);
+    EXPECT_EQ(d[i].differ, "");
+    EXPECT_EQ(h[i].differ, "");
+    EXPECT_EQ(h[i].u.gl_map_device_bytes, 0u);
+    // The host path's uploads = the frame block + the arrays' ranges; the
+    // device path uploads the same frame block and writes the same ranges.
+    EXPECT_EQ(d[i].u.gl_map_upload_bytes + d[i].u.gl_map_device_bytes, h[i].u.gl_map_upload_bytes);
+    EXPECT_EQ(d[i].u.gl_map_copy_bytes, h[i].u.gl_map_copy_bytes);
+    const uint64_t frame_block = d[i].u.gl_map_upload_bytes;
+    EXPECT_TRUE(frame_block == 0 || frame_block % 16 == 0) << "only the frame block is uploaded: " << frame_block;
+  }
+  EXPECT_GT(d[0].u.gl_map_device_bytes, 0u);
+  EXPECT_EQ(d[1].u.gl_map_device_bytes, 0u) << "nothing changed: nothing written";
+  EXPECT_GT(d[2].u.gl_map_device_bytes, 0u);
+  EXPECT_LT(d[2].u.gl_map_device_bytes, d[0].u.gl_map_device_bytes) << "a spot map appended: tails only";
+  EXPECT_GT(ip->writes, 0u);
 }
 
 }  // namespace

@@ -1,7 +1,8 @@
 // CUDA-GL interop (cuda/gl_interop.h): a GL buffer registered once, again
 // only when it changed (a pool that grew), mapped per frame, written from
-// CUDA and read by GL with no copy through the host. Needs a CUDA device
-// and a GL context on it (label gpu; skipped with the reason otherwise).
+// CUDA and read by GL with no copy through the host; the cuda backend
+// writing the engine's map buffers that way. Needs a CUDA device and a GL
+// context on it (label gpu; skipped with the reason otherwise).
 #include <gtest/gtest.h>
 
 #include <cuda_runtime.h>
@@ -9,10 +10,13 @@
 #include <cstring>
 #include <vector>
 
+#include "cdsm/scene_io.h"
+#include "cdsm/shadow_system.h"
 #include "gl/gl_api.h"
 #include "gl_interop.h"
 #include "gl_test_util.h"
 #include "gpu_test.h"
+#include "shadow_system_impl.h"
 
 using namespace cdsm;
 
@@ -59,4 +63,60 @@ TEST_F(GlInterop, RegisterOnceMapWriteRead) {
   link.reset();
   glDeleteBuffers(1, &buf);
   cudaStreamDestroy(stream);
+}
+
+// Issue 16 item 4: the cuda backend writes the engine's map SSBOs in place
+// (ShadowBackend::write_gl_maps: each buffer registered once per buffer
+// object, mapped per update, device-to-device copies of the ranges
+// engine/gl/map_buffers.h decided). After the first frame, a map added
+// (tails) and a compaction (every array), the GL buffers equal the backend's
+// storage() byte for byte, the array bytes are counted as device writes and
+// only the frame block is uploaded from the host.
+TEST_F(GlInterop, CudaBackendWritesTheMapBuffersInPlace) {
+  CDSM_REQUIRE_DEVICE();
+  std::string why;
+  if (!cuda::gl_context_on_device(cuda::probe_device().device, &why)) {
+    if (test::gpu_required()) FAIL() << why;
+    GTEST_SKIP() << why;
+  }
+  SystemOptions o;
+  o.gl_context = GlContextUse::Application;
+  o.fragments = FragmentSource::Cpu;
+  o.backend = Backend::Cuda;
+  o.source = "interop system";
+  ShadowSystem sys(o);
+  ShadowSystem::Impl& I = sys.internals();
+  ASSERT_STREQ(I.backend->name(), "cuda");
+  ASSERT_TRUE(I.backend->can_write_gl_maps());
+
+  Scene scene = load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/teapot_omni.json");
+  scene.shadows.resolution = 128;
+  sync_scene(sys, scene);
+  const auto check = [&](const char* what, bool expect_device_bytes) {
+    SCOPED_TRACE(what);
+    FrameStats st;
+    sys.update(&st);
+    EXPECT_EQ(test::gl_maps_differ(sys.gl_buffers(), I.backend->storage()), "");
+    if (expect_device_bytes) EXPECT_GT(st.update.gl_map_device_bytes, 0u);
+    else EXPECT_EQ(st.update.gl_map_device_bytes, 0u);
+    const uint64_t frame_block = 32 + 64 * kMaxLights + 96 * I.frame.headers.size();
+    EXPECT_TRUE(st.update.gl_map_upload_bytes == 0 || st.update.gl_map_upload_bytes == frame_block)
+        << "only the frame block from the host: " << st.update.gl_map_upload_bytes;
+    return st;
+  };
+  const FrameStats first = check("first frame", true);
+  EXPECT_TRUE(first.update.gl_map_full_upload);
+  sys.set_camera(scene.camera);
+  check("nothing changed", false);
+  Light l = scene.lights[0];
+  l.position = l.position + Vec3{-2.0f, 0, 0};
+  sys.add_light(l);
+  const FrameStats added = check("a spot light added", true);
+  EXPECT_FALSE(added.update.gl_map_full_upload);
+  EXPECT_LT(added.update.gl_map_device_bytes, first.update.gl_map_device_bytes) << "tails only";
+  Light omni = scene.lights[1];
+  omni.position = omni.position + Vec3{0.05f, 0, 0};
+  sys.set_light(sys.lights()[1], omni);
+  const FrameStats compacted = check("the omni light moved (compaction)", true);
+  EXPECT_TRUE(compacted.update.gl_map_full_upload);
 }

@@ -184,6 +184,9 @@ struct UpdateStats {
   // Maps in GL buffers (SystemOptions::gl_context = Application):
   uint64_t gl_map_upload_bytes = 0;  // host -> GL bytes of map data this update (new maps' nodes,
                                      // the frame block when it changed; 0 when nothing changed)
+  uint64_t gl_map_device_bytes = 0;  // map array bytes the backend wrote into the GL buffers itself, in
+                                     // device memory (the cuda backend, CUDA-GL interop; then
+                                     // gl_map_upload_bytes holds only the frame block)
   uint64_t gl_map_copy_bytes = 0;    // GL-side copies when a map buffer grew (no host traffic)
   bool gl_map_full_upload = false;   // every map array uploaded (first frame, store compacted or emptied)
   uint64_t gl_map_bytes = 0;         // GL map buffers, allocated
