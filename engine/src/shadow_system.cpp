@@ -81,7 +81,13 @@ ShadowSystem::Impl::Impl(const SystemOptions& o) : options(o) {
     gl = make_system_gl(o.source);
     if (!o.private_fragment_context) fragments.use_context(system_context(*gl));
   }
-  BackendChoice c = make_backend(o.backend);
+  // Auto takes cuda only where the GL context this system uses (if any) is
+  // on the CUDA device: the application's (current now), or the headless
+  // one the fragment rasterizer makes.
+  GlUse gl_use = GlUse::None;
+  if (o.gl_context == GlContextUse::Application) gl_use = GlUse::Current;
+  else if (o.fragments == FragmentSource::Auto || o.fragments == FragmentSource::Gl) gl_use = default_gl_use();
+  BackendChoice c = make_backend(o.backend, gl_use);
   backend = std::move(c.backend);
   backend_name = c.name;
   backend_reason = c.reason;
