@@ -9,6 +9,7 @@
 #include "cdsm/error.h"
 #include "cdsm/scene_io.h"
 #include "backend_select.h"
+#include "exec/exec_backend.h"
 #include "memory_budget.h"
 #include "reference/reference.h"
 #include "scene_compile.h"
@@ -71,6 +72,23 @@ const char* to_string(RebuildReason r) {
     case RebuildReason::Content: return "content";
   }
   return "?";
+}
+
+// The backend's kernel times since the last take (the exec backends: CUDA
+// events on the cuda backend), into `t.kernels`; the fragment producer's
+// launches ("fragments: ...", and "scan: ...", its offsets: no other pass
+// scans) add to `fragments_ms`, the others to `other_ms`.
+static void take_kernel_times(ShadowBackend& backend, StageTimes& t, double& fragments_ms, double& other_ms) {
+  auto* ex = dynamic_cast<exec::ExecShadowBackend*>(&backend);
+  if (!ex) return;
+  for (const exec::StageTime& k : ex->take_stage_times()) {
+    const bool producer = k.name.rfind("fragments", 0) == 0 || k.name.rfind("scan", 0) == 0;
+    (producer ? fragments_ms : other_ms) += k.ms;
+    auto it = std::find_if(t.kernels.begin(), t.kernels.end(), [&](const KernelTime& x) { return x.name == k.name; });
+    if (it == t.kernels.end()) it = t.kernels.insert(t.kernels.end(), KernelTime{k.name, 0.0, 0});
+    it->ms += k.ms;
+    it->launches += k.launches;
+  }
 }
 
 // ---- Impl -------------------------------------------------------------------
@@ -383,6 +401,7 @@ void ShadowSystem::Impl::build(FrameStats& st) {
   }
   st.times.fragments_ms = frame.fragments_ms;
   st.times.dsm_build_ms = frame.build_ms;
+  take_kernel_times(*backend, st.times, st.times.kernel_fragments_ms, st.times.kernel_dsm_build_ms);
   st.light_fragments = frame.fragments;
   DsmMemory& m = st.memory;
   m = DsmMemory{};
@@ -678,6 +697,7 @@ Image ShadowSystem::render(FrameStats* stats) {
   auto t0 = Clock::now();
   I.fragments.producer(I.sb)(cam.view, ObjectMask{}, I.camera_frags);
   st.times.camera_fragments_ms = ms_since(t0);
+  take_kernel_times(*I.backend, st.times, st.times.kernel_camera_fragments_ms, st.times.kernel_camera_fragments_ms);
   st.camera_fragments = I.camera_frags.total();
   Image img;
   img.width = cam.view.width;
@@ -686,6 +706,7 @@ Image ShadowSystem::render(FrameStats* stats) {
   WalkStats ws;
   I.backend->camera_pass(I.shadow_view(), cam, I.camera_frags.lists(), img.rgb, ws);
   st.times.camera_ms = ms_since(t0);
+  take_kernel_times(*I.backend, st.times, st.times.kernel_camera_ms, st.times.kernel_camera_ms);
   add_walk(st, ws);
   if (st.march_lengthened > 0)
     st.warnings.push_back(I.scene.source + ": " + std::to_string(st.march_lengthened) +

@@ -135,6 +135,24 @@ TEST(CudaBackend, RendererOnCuda) {
   EXPECT_EQ(sg.maps_rebuilt, 0u);
 }
 
+// FrameStats carries the CUDA event times per stage (issue 16 item 7).
+TEST(CudaBackend, KernelTimesInFrameStats) {
+  CDSM_REQUIRE_DEVICE();
+  Scene s = parity::load("default", 128, 160, 120);
+  RenderOptions o;
+  o.backend = Backend::Cuda;
+  o.fragments = FragmentSource::Cuda;
+  Renderer r;
+  FrameStats st;
+  r.render(s, o, &st);
+  EXPECT_GT(st.times.kernel_fragments_ms, 0.0);
+  EXPECT_GT(st.times.kernel_dsm_build_ms, 0.0);
+  EXPECT_GT(st.times.kernel_camera_fragments_ms, 0.0);
+  EXPECT_GT(st.times.kernel_camera_ms, 0.0);
+  EXPECT_FALSE(st.times.kernels.empty());
+  for (const KernelTime& k : st.times.kernels) std::printf("[ kernel   ] %-32s %9.3f ms  %llu launches\n", k.name.c_str(), k.ms, (unsigned long long)k.launches);
+}
+
 TEST(CudaBackend, StageTimesFromEvents) {
   CDSM_REQUIRE_DEVICE();
   Scene s = parity::load("default", 128, 160, 120);

@@ -55,6 +55,14 @@ struct RenderOptions {
   RenderProgress* progress = nullptr;  // optional: the reference's progress, cancellation
 };
 
+// Time inside one launch name of a backend's kernels (the cuda backend:
+// CUDA events around every launch; launch names as in docs/gpu.md).
+struct KernelTime {
+  std::string name;  // "light pass: write", "camera pass", ...
+  double ms = 0.0;
+  uint64_t launches = 0;
+};
+
 struct StageTimes {
   double compile_ms = 0.0;    // scene -> buffers + BVH
   double fragments_ms = 0.0;  // light-view fragment lists (all maps)
@@ -63,6 +71,18 @@ struct StageTimes {
   double camera_ms = 0.0;     // camera pass (lookups, shading, compositing)
   double reference_ms = 0.0;  // reference image / error evaluation
   double total_ms = 0.0;
+  // The same stages measured inside the backend's kernels: on the cuda
+  // backend CUDA events around each launch (device time, without uploads,
+  // read-backs and host work), on the exec backend over CPU threads the wall
+  // clock of each parallel_for; all 0 on the cpu backend (its stages are the
+  // host times above). The map build's launches hold sorting, segments and
+  // compression together (one per-texel function: count, reserve, write;
+  // spilled texels, layouts and store compaction included).
+  double kernel_fragments_ms = 0.0;         // the CUDA fragment producer, light views (--fragments cuda)
+  double kernel_dsm_build_ms = 0.0;         // light pass, compaction
+  double kernel_camera_fragments_ms = 0.0;  // the CUDA fragment producer, camera view
+  double kernel_camera_ms = 0.0;            // camera pass
+  std::vector<KernelTime> kernels;          // every launch name of this frame, in first-launch order
 };
 
 struct DsmMemory {
