@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -494,4 +496,38 @@ TEST(Fragments, ListsEqualAxiallyClippedHits) {
     }
   EXPECT_GT(clipped, 100u) << "the clip planes should cut the scene";
   EXPECT_GT(fb.total(), 500u);
+}
+
+namespace {
+
+uint32_t bits_of(float x) {
+  uint32_t u;
+  std::memcpy(&u, &x, 4);
+  return u;
+}
+
+}  // namespace
+
+// cdsm::fminf / fmaxf (cdsm/math.h) are the inline host versions every
+// CDSM_HD slab test, clamp and march uses: bit for bit what the C library
+// returns, NaN operands (a ray parallel to a slab: 0 * inf) and signed
+// zeros included, so inlining them changed no result.
+TEST(HostMinMax, BitIdenticalToTheCLibrary) {
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  std::vector<float> v = {0.0f, -0.0f, 1.0f, -1.0f, inf, -inf, nan, -nan, 1e-38f, -1e-45f, 3.0e38f, 0.5f};
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-10.0f, 10.0f);
+  for (int i = 0; i < 200; ++i) v.push_back(u(rng));
+  size_t checked = 0;
+  for (float a : v)
+    for (float b : v) {
+      const float lib_min = ::fminf(a, b), lib_max = ::fmaxf(a, b);
+      const float our_min = cdsm::fminf(a, b), our_max = cdsm::fmaxf(a, b);
+      if (std::isnan(lib_min)) EXPECT_TRUE(std::isnan(our_min)) << a << " " << b;
+      else EXPECT_EQ(bits_of(our_min), bits_of(lib_min)) << "fminf(" << a << ", " << b << ")";
+      if (std::isnan(lib_max)) EXPECT_TRUE(std::isnan(our_max)) << a << " " << b;
+      else EXPECT_EQ(bits_of(our_max), bits_of(lib_max)) << "fmaxf(" << a << ", " << b << ")";
+      ++checked;
+    }
+  EXPECT_EQ(checked, v.size() * v.size());
 }

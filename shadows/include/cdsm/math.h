@@ -9,6 +9,17 @@
 
 namespace cdsm {
 
+// fminf / fmaxf for host code: glibc's are out-of-line calls (GCC inlines
+// them only under -ffinite-math-only), a tenth of the light pass's time in
+// volume marches. These return what x86-64 glibc returns (minss / maxss,
+// a NaN operand ignored, the second operand of an equal pair), inline.
+// Unqualified calls inside namespace cdsm find them before ::fminf; the
+// device pass of nvcc keeps CUDA's own.
+#if !defined(__CUDA_ARCH__)
+CDSM_HD CDSM_INLINE float fminf(float a, float b) { return (a < b || b != b) ? a : b; }
+CDSM_HD CDSM_INLINE float fmaxf(float a, float b) { return (a > b || b != b) ? a : b; }
+#endif
+
 struct Vec2 {
   float x = 0, y = 0;
 };
