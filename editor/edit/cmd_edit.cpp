@@ -89,15 +89,17 @@ int cmd_edit(const std::vector<std::string>& args) {
   int rc = 0;
   {
     editor::Session session(scene_path);  // errors name the file; the window closes with them
+    session.set_wake([] { glfwPostEmptyEvent(); });  // a finished build ends the wait below at once
     editor::UiState ui;
     ui.recent = editor::load_recent();
     editor::remember_recent(ui.recent, scene_path);
     std::fprintf(stderr, "cdsm edit: %s\n", context->description().c_str());
     bool running = true;
     while (running) {
-      // While maps build, the UI runs at ~50 frames a second at most (input still
-      // wakes it at once): its frames would take the worker's cores.
-      if (session.building()) glfwWaitEventsTimeout(0.02);
+      // While maps build, the UI runs at ~10 frames a second at most (input still
+      // wakes it at once): each frame (ImGui, the window's copy to the display)
+      // would take the worker's cores.
+      if (session.building()) glfwWaitEventsTimeout(0.1);
       else glfwPollEvents();
       if (context->should_close() || ui.quit) break;
       session.tick();

@@ -9,6 +9,8 @@
 #include <fstream>
 #include <sstream>
 
+#include <sys/resource.h>
+
 namespace cdsm::editor {
 namespace {
 
@@ -39,6 +41,15 @@ void write_window_png(const std::string& path, int width, int height) {
     throw Error(path, "cannot write the screenshot");
 }
 
+namespace {
+// CPU time of the whole process (every thread: the worker's, llvmpipe's).
+double cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+}  // namespace
+
 ScriptRunner::ScriptRunner(const std::string& path) : file_(path) {
   std::ifstream f(path);
   if (!f) throw Error(path, "cannot open the script");
@@ -59,8 +70,10 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
     waiting_ = false;
     const double ms = (now_seconds() - changed_at_) * 1000.0;
     if (waiting_for_ == "refined") {
-      std::printf("  refined after %.0f ms (%d frames; last map build %.0f ms, viewport %.0f ms)\n", ms, frames_waited_,
-                  s.last_build_ms(), s.last_draw_ms());
+      const double cpu_ms = (cpu_seconds() - changed_cpu_) * 1000.0;
+      std::printf("  refined after %.0f ms (%d frames; last map build %.0f ms, viewport %.0f ms of which light grids %.0f ms;"
+                  " CPU %.0f ms, %.2f cores busy)\n",
+                  ms, frames_waited_, s.last_build_ms(), s.last_draw_ms(), s.last_light_grid_ms(), cpu_ms, cpu_ms / std::max(ms, 1e-3));
     } else if (waiting_for_ == "inspection") {
       const ShadowSystem::TexelInspection& t = s.inspection();
       if (t.found)
@@ -119,6 +132,7 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
       }
       s.apply(set_settings(s.document(), next), now);
       changed_at_ = now;
+      changed_cpu_ = cpu_seconds();
     } else if (cmd == "light") {
       const size_t li = size_t(number("light index"));
       if (li >= s.scene().lights.size()) throw Error(where, "no light " + std::to_string(li));
@@ -130,18 +144,22 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
       else throw Error(where, "unknown light field '" + field + "'");
       s.apply(set_light(s.document(), li, l), now);
       changed_at_ = now;
+      changed_cpu_ = cpu_seconds();
     } else if (cmd == "orbit") {
       const float yaw = float(number("yaw")), pitch = float(number("pitch"));
       s.orbit().orbit(-yaw / 0.3f, pitch / 0.3f);
       s.camera_changed();
       changed_at_ = now;
+      changed_cpu_ = cpu_seconds();
     } else if (cmd == "zoom") {
       s.orbit().zoom(float(number("steps")));
       s.camera_changed();
       changed_at_ = now;
+      changed_cpu_ = cpu_seconds();
     } else if (cmd == "frame") {
       s.frame_scene();
       changed_at_ = now;
+      changed_cpu_ = cpu_seconds();
     } else if (cmd == "select") {
       const std::string name = word("an object");
       s.selected_object = -1;
@@ -157,9 +175,11 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
       waiting_for_ = "inspection";
       frames_waited_ = 0;
       changed_at_ = now;
+      changed_cpu_ = cpu_seconds();
       return true;
     } else if (cmd == "view") {
       changed_at_ = now;
+      changed_cpu_ = cpu_seconds();
       const std::string what = word("clusters, map, plot or error");
       if (what == "clusters") {
         s.tint = on_off(word("on or off"), where) ? Tint::Clusters : Tint::None;
@@ -182,6 +202,7 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
         waiting_for_ = "error";
         frames_waited_ = 0;
         changed_at_ = now;
+      changed_cpu_ = cpu_seconds();
         return true;
       } else {
         throw Error(where, "unknown view '" + what + "'");
@@ -189,12 +210,15 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
     } else if (cmd == "noop") {
       s.apply(set_settings(s.document(), s.scene().shadows), now);
       changed_at_ = now;
+      changed_cpu_ = cpu_seconds();
     } else if (cmd == "undo") {
       if (!s.undo()) std::printf("  nothing to undo\n");
       changed_at_ = now;
+      changed_cpu_ = cpu_seconds();
     } else if (cmd == "redo") {
       if (!s.redo()) std::printf("  nothing to redo\n");
       changed_at_ = now;
+      changed_cpu_ = cpu_seconds();
     } else if (cmd == "wait") {
       waiting_ = true;
       waiting_for_ = "refined";

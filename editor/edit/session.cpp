@@ -26,6 +26,7 @@ Worker::Worker() {
       lock.unlock();
       job();
       busy_ = false;
+      if (on_done) on_done();
       lock.lock();
     }
   });
@@ -181,6 +182,7 @@ void Session::tick() {
       notes_.push_back("build failed: " + build_error_);
     } else {
       system_->publish(&build_stats_);
+      ++maps_version_;  // the viewport's volume light grids follow the maps
       after_publish();
     }
   }
@@ -233,8 +235,15 @@ void Session::draw_viewport(int width, int height, bool interacting) {
   const int div = interacting ? 2 : 1;
   opt.width = std::max(width / div, 1);
   opt.height = std::max(height / div, 1);
-  opt.volume_step_scale = interacting ? 2.0f : 1.0f;
-  opt.volume_lookup_every = interacting ? 8 : 4;  // 51 dB against a lookup per sample, ~1.1x faster with 4 clusters (README)
+  // Volumes march at a voxel a step (two while interacting) and read the
+  // lights' transmittance from a grid per volume and light (a texel per 2^3
+  // voxels) computed once per publish: with 4 clusters 1.4x faster than a
+  // lookup every 4th half-voxel sample, and closer to a lookup at every one
+  // (61 dB against 51 dB, README).
+  opt.volume_step_scale = interacting ? 4.0f : 2.0f;
+  opt.volume_shadows = forward::VolumeShadows::LightGrid;
+  opt.light_grid_voxels = 2;
+  opt.maps_version = maps_version_;
   opt.selected = selected_object;
   const size_t n = doc_.scene.objects.size();
   if (tint == Tint::Clusters) {
@@ -267,6 +276,7 @@ void Session::draw_viewport(int width, int height, bool interacting) {
     }
   const forward::FrameTimes t = renderer_->draw(*system_, doc_.scene, doc_.scene.camera, opt);
   last_draw_ms_ = t.draw_ms;
+  if (t.light_grids > 0) last_light_grid_ms_ = t.light_grid_ms;
   frame_ms_.push_back(float(t.draw_ms));
   while (frame_ms_.size() > 120) frame_ms_.pop_front();
   if (!interacting && published_ && !building_ && queued_.empty() && !camera_dirty_ && !system_dirty_)

@@ -59,6 +59,9 @@ class Worker {
   Worker& operator=(const Worker&) = delete;
   void run(std::function<void()> job);  // the worker must be idle
   bool busy() const { return busy_; }
+  // Called on the worker's thread after each job (set while idle): wakes
+  // a UI loop that sleeps in glfwWaitEvents.
+  std::function<void()> on_done;
 
  private:
   std::mutex mutex_;
@@ -73,6 +76,10 @@ class Session {
  public:
   // Opens `path` (JSON or glTF); the GL context must be current.
   explicit Session(const std::string& path);
+  // `wake` runs on the build thread when a build ends (before the session's
+  // destructor returns at the latest): the window's loop uses it to stop
+  // sleeping at once (glfwPostEmptyEvent).
+  void set_wake(std::function<void()> wake) { worker_->on_done = std::move(wake); }
   ~Session();
   Session(const Session&) = delete;
   Session& operator=(const Session&) = delete;
@@ -134,6 +141,7 @@ class Session {
   const std::deque<float>& frame_ms() const { return frame_ms_; }
   double last_build_ms() const { return last_build_ms_; }
   double last_draw_ms() const { return last_draw_ms_; }
+  double last_light_grid_ms() const { return last_light_grid_ms_; }  // of a draw: the volumes' light grids
   const std::vector<std::string>& notes() const { return notes_; }
 
   // ---- error view against the reference (background, cancellable) ----
@@ -180,10 +188,11 @@ class Session {
   // the camera, new maps, a view setting, its size or the interaction.
   uint64_t generation_ = 1;      // bumped by every change of what the viewport shows
   uint64_t drawn_generation_ = 0;
+  uint64_t maps_version_ = 0;    // bumped by every publish (DrawOptions::maps_version)
   std::string drawn_view_;       // view settings and size of the last frame
   bool drawn_interacting_ = false;
   std::deque<float> frame_ms_;
-  double last_build_ms_ = 0.0, last_draw_ms_ = 0.0;
+  double last_build_ms_ = 0.0, last_draw_ms_ = 0.0, last_light_grid_ms_ = 0.0;
   double build_started_ = 0.0;
   std::vector<std::string> notes_;
   std::string refusal_;

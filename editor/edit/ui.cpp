@@ -369,7 +369,8 @@ void stats_window(Session& s, UiState& ui, float x, float y, float h) {
   ImGui::SetNextWindowSize(ImVec2(kRightWidth, h));
   ImGui::Begin("Stats", &ui.show_stats, ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
   const FrameStats& st = s.build_stats();
-  ImGui::Text("viewport %.1f ms, last map build %.0f ms", s.last_draw_ms(), s.last_build_ms());
+  ImGui::Text("viewport %.1f ms (volume light grids %.1f ms), last map build %.0f ms", s.last_draw_ms(),
+              s.last_light_grid_ms(), s.last_build_ms());
   std::vector<float> ft(s.frame_ms().begin(), s.frame_ms().end());
   if (!ft.empty()) ImGui::PlotLines("##frames", ft.data(), int(ft.size()), 0, "frame ms", 0.0f, FLT_MAX, ImVec2(-1, 50));
   if (s.building()) {

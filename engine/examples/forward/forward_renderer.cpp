@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <stdexcept>
 
 #include "shaders.h"
@@ -131,6 +132,19 @@ struct ForwardRenderer::Grid {
   }
 };
 
+// A volume object's light grids: one RGBA32F 3D texture per light.
+struct ForwardRenderer::LightGrid {
+  static constexpr int kLights = 8;  // u_light_vis[8] in the march
+  const cdsm::DenseGrid* grid = nullptr;
+  cdsm::Mat4 index_to_world;
+  uint64_t version = 0;
+  int lights = 0;
+  bool valid = false;
+  int size[3] = {0, 0, 0};
+  GLuint tex[kLights] = {};
+  ~LightGrid() { glDeleteTextures(kLights, tex); }
+};
+
 namespace {
 // The largest density below which the transfer function has no extinction
 // (-inf when even the lowest has some).
@@ -153,6 +167,10 @@ ForwardRenderer::ForwardRenderer() {
   solid_program_ = mesh_program(kSolidFragment, false);
   distance_program_ = mesh_program(kDistanceFragment, false);
   display_program_ = link({compile(GL_COMPUTE_SHADER, kDisplayCompute, false)});
+  light_grid_program_ = link({compile(GL_COMPUTE_SHADER, kLightGridCompute, true)});
+  const GLint light_units[LightGrid::kLights] = {4, 5, 6, 7, 8, 9, 10, 11};
+  glProgramUniform1iv(volume_program_, glGetUniformLocation(volume_program_, "u_light_vis[0]"), LightGrid::kLights,
+                      light_units);
   line_program_ = link({compile(GL_VERTEX_SHADER, kLineVertex, false), compile(GL_FRAGMENT_SHADER, kLineFragment, false)});
   glCreateVertexArrays(1, &line_vao_);
   for (GLuint a = 0; a < 2; ++a) {
@@ -166,8 +184,9 @@ ForwardRenderer::ForwardRenderer() {
 ForwardRenderer::~ForwardRenderer() {
   meshes_.clear();
   grids_.clear();
+  light_grids_.clear();
   for (GLuint p : {surface_program_, volume_program_, pick_program_, solid_program_, line_program_, distance_program_,
-                   display_program_})
+                   display_program_, light_grid_program_})
     glDeleteProgram(p);
   resize(0, 0);
   glDeleteVertexArrays(1, &line_vao_);
@@ -267,6 +286,70 @@ void ForwardRenderer::upload(const cdsm::Scene& scene, std::vector<std::string>*
   }
   for (auto it = meshes_.begin(); it != meshes_.end();) it = it->second->used ? std::next(it) : meshes_.erase(it);
   for (auto it = grids_.begin(); it != grids_.end();) it = it->second->used ? std::next(it) : grids_.erase(it);
+  for (auto it = light_grids_.begin(); it != light_grids_.end();) {
+    const bool volume = it->first < scene.objects.size() && scene.objects[it->first].interior == cdsm::InteriorKind::Volume;
+    it = volume ? std::next(it) : light_grids_.erase(it);
+  }
+}
+
+double ForwardRenderer::prepare_light_grid(cdsm::ShadowSystem& system, size_t i, const cdsm::Scene& scene,
+                                           const DrawOptions& opt, int* computed) {
+  const cdsm::Object& o = scene.objects[i];
+  const cdsm::Volume& v = scene.volumes[size_t(o.volume)];
+  const cdsm::Mat4 index_to_world = o.transform * v.index_to_object;
+  const int lights = int(std::min<size_t>(scene.lights.size(), LightGrid::kLights));
+  const int dims[3] = {v.grid->nx, v.grid->ny, v.grid->nz};
+  int size[3];
+  const int per = std::max(opt.light_grid_voxels, 1);
+  for (int a = 0; a < 3; ++a) size[a] = std::clamp((dims[a] + per - 1) / per, 2, kMaxLightGrid);
+  std::unique_ptr<LightGrid>& slot = light_grids_[i];
+  if (!slot) slot = std::make_unique<LightGrid>();
+  LightGrid& lg = *slot;
+  const bool resized = !std::equal(size, size + 3, lg.size);
+  const bool stale = !lg.valid || resized || lg.grid != v.grid.get() || lg.version != opt.maps_version ||
+                     lg.lights != lights ||
+                     std::memcmp(&lg.index_to_world, &index_to_world, sizeof index_to_world) != 0;
+  double ms = 0.0;
+  if (stale) {
+    const auto t0 = Clock::now();
+    if (resized) {
+      glDeleteTextures(LightGrid::kLights, lg.tex);
+      for (GLuint& t : lg.tex) t = 0;
+      std::copy(size, size + 3, lg.size);
+    }
+    const GLuint p = light_grid_program_;
+    glUseProgram(p);
+    system.bind_gl(p);
+    set_mat4(p, "u_index_to_world", index_to_world);
+    glProgramUniform3f(p, glGetUniformLocation(p, "u_scale"), float(dims[0]) / float(size[0]),
+                       float(dims[1]) / float(size[1]), float(dims[2]) / float(size[2]));
+    for (int l = 0; l < lights; ++l) {
+      if (!lg.tex[l]) {
+        glCreateTextures(GL_TEXTURE_3D, 1, &lg.tex[l]);
+        glTextureStorage3D(lg.tex[l], 1, GL_RGBA32F, size[0], size[1], size[2]);
+        glTextureParameteri(lg.tex[l], GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+        glTextureParameteri(lg.tex[l], GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
+          glTextureParameteri(lg.tex[l], w, GL_CLAMP_TO_EDGE);
+      }
+      glBindImageTexture(0, lg.tex[l], 0, GL_TRUE, 0, GL_WRITE_ONLY, GL_RGBA32F);
+      glProgramUniform1i(p, glGetUniformLocation(p, "u_light"), l);
+      glDispatchCompute(GLuint((size[0] + 3) / 4), GLuint((size[1] + 3) / 4), GLuint((size[2] + 3) / 4));
+    }
+    glBindImageTexture(0, 0, 0, GL_TRUE, 0, GL_WRITE_ONLY, GL_RGBA32F);
+    glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT);
+    glFinish();  // (what the stats time)
+    check("light grid");
+    lg.grid = v.grid.get();
+    lg.index_to_world = index_to_world;
+    lg.version = opt.maps_version;
+    lg.lights = lights;
+    lg.valid = true;
+    *computed += lights;
+    ms = ms_since(t0);
+  }
+  for (int l = 0; l < LightGrid::kLights; ++l) glBindTextureUnit(GLuint(4 + l), l < lights ? lg.tex[l] : 0);
+  return ms;
 }
 
 cdsm::GlMeshSource ForwardRenderer::mesh_source(const cdsm::Scene& scene, size_t object) const {
@@ -453,6 +536,9 @@ FrameTimes ForwardRenderer::draw(cdsm::ShadowSystem& system, const cdsm::Scene& 
     if (const Grid* g = drawn_volume(o)) {
       const cdsm::Volume& v = scene.volumes[size_t(o.volume)];
       const GLuint p = volume_program_;
+      const bool grid_shadows = opt.volume_shadows == VolumeShadows::LightGrid && opt.shadows;
+      if (grid_shadows) t.light_grid_ms += prepare_light_grid(system, i, scene, opt, &t.light_grids);
+      glProgramUniform1i(p, glGetUniformLocation(p, "u_light_grid"), grid_shadows);
       glUseProgram(p);
       system.bind_gl(p);
       const cdsm::Mat4 index_to_world = o.transform * v.index_to_object;

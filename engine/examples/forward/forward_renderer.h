@@ -35,6 +35,8 @@ namespace forward {
 struct FrameTimes {
   double update_ms = 0.0;   // ShadowSystem::update (callers that update themselves leave it 0)
   double draw_ms = 0.0;     // the passes, to glFinish
+  double light_grid_ms = 0.0;  // of draw_ms: the volumes' light grids recomputed (VolumeShadows::LightGrid)
+  int light_grids = 0;         // grids (volume x light) recomputed this frame
   double total_ms = 0.0;
 };
 
@@ -43,11 +45,25 @@ struct Line {
   cdsm::Vec3 a, b, color;
 };
 
+enum class VolumeShadows { PerSample, LightGrid };
+inline constexpr int kMaxLightGrid = 128;
+
 struct DrawOptions {
   int width = 0, height = 0;         // the frame's size (0: the scene camera's)
   bool shadows = true;               // false: every light unshadowed (what the maps change)
   float volume_step_scale = 1.0f;    // > 1: coarser volume marching (the editor while interacting)
   int volume_lookup_every = 1;       // volume samples per shadow lookup (1: every sample, as cdsm render)
+  // How volume samples get the lights' transmittance: a lookup in the maps
+  // per sample (or per volume_lookup_every samples), or a trilinear fetch
+  // from a grid per volume and light (a texel per light_grid_voxels density
+  // voxels along each axis, at most kMaxLightGrid texels per axis) computed
+  // with cdsm_transmittance when `maps_version` or the volume's placement
+  // changed since it was.
+  VolumeShadows volume_shadows = VolumeShadows::PerSample;
+  int light_grid_voxels = 2;
+  // LightGrid: the caller changes this whenever the maps or the lights
+  // changed (an update() or publish() that built or uploaded anything).
+  uint64_t maps_version = 0;
   // Per object (may be empty): a colour that replaces the surface colour
   // with weight w (the editor's cluster view); w = 0: none.
   std::vector<cdsm::Vec3> tint;
@@ -104,11 +120,17 @@ class ForwardRenderer {
  private:
   struct Mesh;
   struct Grid;
+  struct LightGrid;
+  // Object i's light grids, recomputed when stale; binds them for the march.
+  double prepare_light_grid(cdsm::ShadowSystem& system, size_t i, const cdsm::Scene& scene,
+                            const DrawOptions& opt, int* computed);
   void resize(int width, int height);
   void draw_object(size_t i, const cdsm::Object& o, GLuint program, const DrawOptions& opt, bool medium = false);
 
   std::map<const cdsm::TriangleMesh*, std::unique_ptr<Mesh>> meshes_;
   std::map<const cdsm::DenseGrid*, std::unique_ptr<Grid>> grids_;
+  std::map<size_t, std::unique_ptr<LightGrid>> light_grids_;  // by object index
+  GLuint light_grid_program_ = 0;
   std::vector<std::string> noted_;
   GLuint surface_program_ = 0, volume_program_ = 0, pick_program_ = 0, solid_program_ = 0, line_program_ = 0;
   GLuint distance_program_ = 0, back_fbo_ = 0, back_distance_ = 0;

@@ -25,6 +25,9 @@ const char* const kUsage =
     "  --mask FILE.pgm       255 where only opaque surfaces were drawn\n"
     "  --no-shadows          every light unshadowed (to see what the maps change)\n"
     "  --lookup-every N      volume samples per shadow lookup (default 1: every sample)\n"
+    "  --light-grid N        volumes take the lights' transmittance from a grid per volume (a texel per\n"
+    "                        N voxels per axis), computed when the maps change, not a lookup per sample\n"
+    "  --step-scale S        volume march steps S times the scene's (default 1)\n"
     "  --window              a GLFW window instead of a headless context\n";
 
 void write_pfm(const cdsm::Image& img, const std::string& path) {
@@ -49,12 +52,20 @@ int parse_int(const std::string& opt, const std::string& v) {
   return int(n);
 }
 
+float parse_float(const std::string& opt, const std::string& v) {
+  char* end = nullptr;
+  const float x = std::strtof(v.c_str(), &end);
+  if (v.empty() || *end != '\0' || !(x >= 1.0f && x <= 16.0f)) throw cdsm::Error(opt, "needs a number in 1..16, got '" + v + "'");
+  return x;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
   std::string scene_path, out, raw, mask_path;
-  int width = 0, height = 0, frames = 1, lookup_every = 1;
+  int width = 0, height = 0, frames = 1, lookup_every = 1, light_grid = 0;
+  float step_scale = 1.0f;
   bool shadows_on = true, window = false;
   try {
     for (size_t i = 0; i < args.size(); ++i) {
@@ -71,6 +82,8 @@ int main(int argc, char** argv) {
       else if (a == "--mask") mask_path = value();
       else if (a == "--no-shadows") shadows_on = false;
       else if (a == "--lookup-every") lookup_every = parse_int(a, value());
+      else if (a == "--step-scale") step_scale = parse_float(a, value());
+      else if (a == "--light-grid") light_grid = parse_int(a, value());
       else if (a == "--window") window = true;
       else if (a == "--help" || a == "-h") {
         std::fputs(kUsage, stdout);
@@ -120,24 +133,30 @@ int main(int argc, char** argv) {
     forward::DrawOptions draw;
     draw.shadows = shadows_on;
     draw.volume_lookup_every = lookup_every;
+    draw.volume_shadows = light_grid > 0 ? forward::VolumeShadows::LightGrid : forward::VolumeShadows::PerSample;
+    draw.light_grid_voxels = std::max(light_grid, 1);
+    draw.volume_step_scale = step_scale;
     using Clock = std::chrono::steady_clock;
     double sum_total = 0.0, sum_draw = 0.0, sum_update = 0.0;
+    int later_grids = 0;  // light grids recomputed after frame 1 (none: nothing changed)
     for (int f = 0; f < frames; ++f) {
       cdsm::FrameStats st;
       const auto t0 = Clock::now();
       shadows.update(&st);  // maps reused unless something changed
+      if (st.maps_rebuilt > 0 || st.update.gl_map_upload_bytes > 0) ++draw.maps_version;  // (the light grids)
       const double update_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
       const forward::FrameTimes t = renderer.draw(shadows, scene, scene.camera, draw);
       const double total_ms = update_ms + t.draw_ms;
       if (f == 0) {
         std::printf("frame 1: %.1f ms (shadow update %.1f ms: %u maps built, %.1f KiB uploaded to GL, %.1f KiB read back "
-                    "from the application's buffers; draw %.1f ms)\n",
+                    "from the application's buffers; draw %.1f ms, of it %d light grids %.1f ms)\n",
                     total_ms, update_ms, st.maps_rebuilt, double(st.update.gl_map_upload_bytes) / 1024.0,
-                    double(st.update.gl_readback_bytes) / 1024.0, t.draw_ms);
+                    double(st.update.gl_readback_bytes) / 1024.0, t.draw_ms, t.light_grids, t.light_grid_ms);
       } else {
         sum_total += total_ms;
         sum_draw += t.draw_ms;
         sum_update += update_ms;
+        later_grids += t.light_grids;
         if (st.update.gl_map_upload_bytes != 0)
           std::printf("frame %d: %llu bytes uploaded although nothing changed\n", f + 1,
                       (unsigned long long)st.update.gl_map_upload_bytes);
@@ -145,9 +164,9 @@ int main(int argc, char** argv) {
       for (const std::string& w : st.warnings) std::fprintf(stderr, "cdsm_forward: warning: %s\n", w.c_str());
     }
     if (frames > 1)
-      std::printf("frames 2..%d: mean %.2f ms (shadow update %.3f ms, draw %.2f ms) at %dx%d\n", frames,
-                  sum_total / (frames - 1), sum_update / (frames - 1), sum_draw / (frames - 1), scene.camera.width,
-                  scene.camera.height);
+      std::printf("frames 2..%d: mean %.2f ms (shadow update %.3f ms, draw %.2f ms) at %dx%d; light grids recomputed %d\n",
+                  frames, sum_total / (frames - 1), sum_update / (frames - 1), sum_draw / (frames - 1),
+                  scene.camera.width, scene.camera.height, later_grids);
 
     const cdsm::Image img = renderer.read_color();
     cdsm::write_png(img, out);
@@ -155,7 +174,9 @@ int main(int argc, char** argv) {
     if (!mask_path.empty()) write_pgm(renderer.read_opaque_mask(), img.width, img.height, mask_path);
     if (window) {
       while (!context->should_close()) {
-        shadows.update();
+        cdsm::FrameStats st;
+        shadows.update(&st);
+        if (st.maps_rebuilt > 0 || st.update.gl_map_upload_bytes > 0) ++draw.maps_version;
         renderer.draw(shadows, scene, scene.camera, draw);
         renderer.present(0, 0, scene.camera.width, scene.camera.height);
         context->swap_buffers();

@@ -152,6 +152,8 @@ uniform sampler3D u_blocks;      // per 8^3 block: the largest value its samples
 uniform ivec3 u_block_count;
 uniform float u_empty_below;     // values below this have no extinction (the transfer function)
 uniform int u_lookup_every;      // absorbing samples per shadow lookup (1: every sample)
+uniform bool u_light_grid;       // the lights' transmittance from u_light_vis (kLightGridCompute)
+uniform sampler3D u_light_vis[8];  // per light, over the density grid's box (trilinear)
 uniform sampler2D u_scene_depth; // the opaque pass's depth
 uniform vec3 u_forward;          // the camera's view axis
 uniform vec2 u_near_far;
@@ -218,7 +220,11 @@ void main() {
     // The lights' transmittance, looked up at every u_lookup_every-th
     // absorbing sample (it varies slowly inside a medium; the lookup is the
     // march's main cost).
-    if (lookup_age >= u_lookup_every) {
+    if (u_light_grid) {
+      vec3 uvw = (idx + 0.5) / u_grid_size;
+      for (int i = 0; i < cdsm_light_count(); ++i)
+        vis_cache[i] = u_shadows ? texture(u_light_vis[i], uvw).rgb : vec3(1.0);
+    } else if (lookup_age >= u_lookup_every) {
       for (int i = 0; i < cdsm_light_count(); ++i)
         vis_cache[i] = u_shadows ? cdsm_transmittance(p, i) : vec3(1.0);
       lookup_age = 0;
@@ -237,6 +243,25 @@ void main() {
   if (T == vec3(1.0)) discard;  // nothing absorbed: leave the pixel (and its stencil) alone
   o_color = vec4(color, 1.0);
   o_pass = vec4(T, 1.0);
+}
+)";
+
+// The lights' transmittance over a volume (DrawOptions::volume_shadows =
+// LightGrid): one cdsm_transmittance per texel of a grid over the density
+// grid's box, texel centres where the march's texture coordinates put
+// them, so the march samples it with the density's coordinates.
+inline const char* const kLightGridCompute = R"(
+layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+layout(rgba32f, binding = 0) writeonly uniform image3D u_out;
+uniform mat4 u_index_to_world;
+uniform vec3 u_scale;  // density voxels per light-grid texel, per axis
+uniform int u_light;
+void main() {
+  ivec3 j = ivec3(gl_GlobalInvocationID);
+  if (any(greaterThanEqual(j, imageSize(u_out)))) return;
+  vec3 idx = (vec3(j) + 0.5) * u_scale - 0.5;
+  vec3 p = (u_index_to_world * vec4(idx, 1.0)).xyz;
+  imageStore(u_out, j, vec4(cdsm_transmittance(p, u_light), 1.0));
 }
 )";
 
