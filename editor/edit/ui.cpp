@@ -166,13 +166,36 @@ void transfer_editor(Session& s, size_t vi) {
     auto to_screen = [&](float d, float e) {
       return ImVec2(at.x + (d - lo) / (hi - lo) * size.x, at.y + size.y - e / emax * (size.y - 4.0f) - 2.0f);
     };
-    for (size_t i = 0; i < v.transfer.size(); ++i) {
-      const ImVec2 p = to_screen(v.transfer[i].density, max_channel(v.transfer[i].extinction));
+    // Each point can be dragged on the histogram: right / left moves its
+    // density (between its neighbours), up / down its extinction (all
+    // channels in proportion, as the extinction field does).
+    std::vector<TransferPoint> dragged = v.transfer;
+    bool moved = false;
+    const ImVec2 after = ImGui::GetCursorScreenPos();
+    for (size_t i = 0; i < dragged.size(); ++i) {
+      const ImVec2 p = to_screen(dragged[i].density, max_channel(dragged[i].extinction));
+      ImGui::SetCursorScreenPos(ImVec2(p.x - 6.0f, p.y - 6.0f));
+      ImGui::PushID(int(1000 + i));
+      ImGui::InvisibleButton("##point", ImVec2(12.0f, 12.0f));
+      const bool hot = ImGui::IsItemActive() || ImGui::IsItemHovered();
+      if (ImGui::IsItemActive()) {
+        const ImVec2 d = ImGui::GetIO().MouseDelta;
+        if (d.x != 0.0f || d.y != 0.0f) {
+          dragged = drag_transfer_point(dragged, i, d.x / size.x * (hi - lo), -d.y / (size.y - 4.0f) * emax);
+          moved = true;
+        }
+      }
+      ImGui::PopID();
       if (i > 0) dl->AddLine(to_screen(v.transfer[i - 1].density, max_channel(v.transfer[i - 1].extinction)), p,
                              IM_COL32(255, 160, 40, 255), 2.0f);
-      dl->AddCircleFilled(p, 4.0f, IM_COL32(255, 220, 80, 255));
+      dl->AddCircleFilled(p, hot ? 6.0f : 4.0f, IM_COL32(255, 220, 80, 255));
     }
-    ImGui::Text("values %.3g .. %.3g (log histogram)", lo, hi);
+    ImGui::SetCursorScreenPos(after);
+    ImGui::Text("values %.3g .. %.3g (log histogram; drag the points)", lo, hi);
+    if (moved) {
+      s.apply(set_transfer(s.document(), vi, dragged), now_seconds());
+      return;
+    }
   }
   std::vector<TransferPoint> next = v.transfer;
   bool changed = false;

@@ -1,5 +1,6 @@
 #include "state/edit.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -237,6 +238,18 @@ Edit set_casts_shadows(const Document& doc, size_t object, bool casts) {
   e.what = change::CastsShadows{object, bad.empty() ? doc.scene.objects[object].casts_shadows : casts, casts};
   e.key = idx("objects", object) + "/casts_shadows";
   return bad.empty() ? e : refused(e, bad);
+}
+
+std::vector<TransferPoint> drag_transfer_point(std::vector<TransferPoint> points, size_t i, float dd, float de) {
+  if (i >= points.size() || !std::isfinite(dd) || !std::isfinite(de)) return points;
+  TransferPoint& p = points[i];
+  const float lo = i > 0 ? points[i - 1].density : -3.0e38f;
+  const float hi = i + 1 < points.size() ? points[i + 1].density : 3.0e38f;
+  p.density = std::min(std::max(p.density + dd, lo), hi);
+  const float old = max_channel(p.extinction);
+  const float e = std::max(0.0f, old + de);
+  p.extinction = old > 0.0f ? p.extinction * (e / old) : vec3(e);
+  return points;
 }
 
 Edit set_transfer(const Document& doc, size_t volume, const std::vector<TransferPoint>& next) {

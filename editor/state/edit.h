@@ -89,6 +89,11 @@ Edit set_surface(const Document& doc, size_t object, const SurfaceMaterial& next
 Edit set_interior(const Document& doc, size_t object, InteriorKind kind, Vec3 sigma, int volume);
 Edit set_casts_shadows(const Document& doc, size_t object, bool casts);
 Edit set_transfer(const Document& doc, size_t volume, const std::vector<TransferPoint>& next);
+// Point `i` of `points` dragged on the transfer-function plot by (dd, de):
+// its density moves by dd, kept between its neighbours (the order stays
+// sorted); its extinction's largest channel by de, not below 0, every
+// channel scaled alike (a black point becomes grey). Returns the new points.
+std::vector<TransferPoint> drag_transfer_point(std::vector<TransferPoint> points, size_t i, float dd, float de);
 
 // The same change re-targeted at `doc` as it is now: the values before and
 // the context (caster, maps following the camera) taken from it; `refused` set when

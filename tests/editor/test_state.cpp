@@ -782,5 +782,36 @@ TEST(SystemBinding, EditsAndUndosRenderLikeAFreshSystem) {
   EXPECT_GT(hi - lo, 0.1f);
 }
 
+// Dragging a transfer-function point on the histogram plot (the editor's
+// Objects panel): density between its neighbours, extinction not below 0
+// and scaled in every channel alike; the result is a valid set_transfer.
+TEST(TransferDrag, StaysSortedAndNonNegative) {
+  const std::vector<TransferPoint> tf = {{0.0f, {0, 0, 0}, {1, 1, 1}},
+                                         {0.2f, {2, 1, 0.5f}, {1, 1, 1}},
+                                         {0.8f, {8, 8, 8}, {1, 1, 1}}};
+  std::vector<TransferPoint> d = drag_transfer_point(tf, 1, 0.1f, 2.0f);  // right and up
+  EXPECT_FLOAT_EQ(d[1].density, 0.3f);
+  EXPECT_FLOAT_EQ(d[1].extinction.x, 4.0f);  // largest channel 2 -> 4, others alike
+  EXPECT_FLOAT_EQ(d[1].extinction.y, 2.0f);
+  EXPECT_FLOAT_EQ(d[1].extinction.z, 1.0f);
+  d = drag_transfer_point(tf, 1, 5.0f, -100.0f);  // past its right neighbour, below zero
+  EXPECT_FLOAT_EQ(d[1].density, 0.8f);
+  EXPECT_FLOAT_EQ(d[1].extinction.x, 0.0f);
+  d = drag_transfer_point(tf, 1, -5.0f, 0.0f);  // past its left neighbour
+  EXPECT_FLOAT_EQ(d[1].density, 0.0f);
+  d = drag_transfer_point(tf, 0, 0.0f, 3.0f);  // a black point becomes grey
+  EXPECT_FLOAT_EQ(d[0].extinction.x, 3.0f);
+  EXPECT_FLOAT_EQ(d[0].extinction.z, 3.0f);
+  d = drag_transfer_point(tf, 2, 1.0f, 0.0f);  // the last point has no right neighbour
+  EXPECT_FLOAT_EQ(d[2].density, 1.8f);
+  EXPECT_EQ(drag_transfer_point(tf, 7, 1.0f, 1.0f)[2].density, tf[2].density);  // no such point: unchanged
+  const float nan = std::nanf("");
+  EXPECT_EQ(drag_transfer_point(tf, 1, nan, 0.0f)[1].density, tf[1].density);  // NaN deltas: unchanged
+  Document doc = test_document();
+  std::vector<TransferPoint> t = doc.scene.volumes[0].transfer;
+  for (size_t i = 0; i < t.size(); ++i) t = drag_transfer_point(t, i, 10.0f * (i % 2 ? -1.0f : 1.0f), -1.0f);
+  EXPECT_TRUE(set_transfer(doc, 0, t).refused.empty()) << "still sorted";
+}
+
 }  // namespace
 }  // namespace cdsm_test
