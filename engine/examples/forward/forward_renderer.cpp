@@ -139,6 +139,7 @@ struct ForwardRenderer::LightGrid {
   cdsm::Mat4 index_to_world;
   uint64_t version = 0;
   int lights = 0;
+  float empty_below = 0.0f;
   bool valid = false;
   int size[3] = {0, 0, 0};
   GLuint tex[kLights] = {};
@@ -293,7 +294,7 @@ void ForwardRenderer::upload(const cdsm::Scene& scene, std::vector<std::string>*
 }
 
 double ForwardRenderer::prepare_light_grid(cdsm::ShadowSystem& system, size_t i, const cdsm::Scene& scene,
-                                           const DrawOptions& opt, int* computed) {
+                                           const Grid& g, const DrawOptions& opt, int* computed) {
   const cdsm::Object& o = scene.objects[i];
   const cdsm::Volume& v = scene.volumes[size_t(o.volume)];
   const cdsm::Mat4 index_to_world = o.transform * v.index_to_object;
@@ -306,8 +307,9 @@ double ForwardRenderer::prepare_light_grid(cdsm::ShadowSystem& system, size_t i,
   if (!slot) slot = std::make_unique<LightGrid>();
   LightGrid& lg = *slot;
   const bool resized = !std::equal(size, size + 3, lg.size);
+  const float empty = empty_below(v.transfer);  // which texels get lookups
   const bool stale = !lg.valid || resized || lg.grid != v.grid.get() || lg.version != opt.maps_version ||
-                     lg.lights != lights ||
+                     lg.lights != lights || lg.empty_below != empty ||
                      std::memcmp(&lg.index_to_world, &index_to_world, sizeof index_to_world) != 0;
   double ms = 0.0;
   if (stale) {
@@ -321,6 +323,10 @@ double ForwardRenderer::prepare_light_grid(cdsm::ShadowSystem& system, size_t i,
     glUseProgram(p);
     system.bind_gl(p);
     set_mat4(p, "u_index_to_world", index_to_world);
+    glBindTextureUnit(3, g.blocks);
+    glProgramUniform1i(p, glGetUniformLocation(p, "u_blocks"), 3);
+    glProgramUniform3i(p, glGetUniformLocation(p, "u_block_count"), g.bx, g.by, g.bz);
+    glProgramUniform1f(p, glGetUniformLocation(p, "u_empty_below"), empty);
     glProgramUniform3f(p, glGetUniformLocation(p, "u_scale"), float(dims[0]) / float(size[0]),
                        float(dims[1]) / float(size[1]), float(dims[2]) / float(size[2]));
     for (int l = 0; l < lights; ++l) {
@@ -344,6 +350,7 @@ double ForwardRenderer::prepare_light_grid(cdsm::ShadowSystem& system, size_t i,
     lg.index_to_world = index_to_world;
     lg.version = opt.maps_version;
     lg.lights = lights;
+    lg.empty_below = empty;
     lg.valid = true;
     *computed += lights;
     ms = ms_since(t0);
@@ -537,7 +544,7 @@ FrameTimes ForwardRenderer::draw(cdsm::ShadowSystem& system, const cdsm::Scene& 
       const cdsm::Volume& v = scene.volumes[size_t(o.volume)];
       const GLuint p = volume_program_;
       const bool grid_shadows = opt.volume_shadows == VolumeShadows::LightGrid && opt.shadows;
-      if (grid_shadows) t.light_grid_ms += prepare_light_grid(system, i, scene, opt, &t.light_grids);
+      if (grid_shadows) t.light_grid_ms += prepare_light_grid(system, i, scene, *g, opt, &t.light_grids);
       glProgramUniform1i(p, glGetUniformLocation(p, "u_light_grid"), grid_shadows);
       glUseProgram(p);
       system.bind_gl(p);

@@ -122,7 +122,7 @@ class ForwardRenderer {
   struct Grid;
   struct LightGrid;
   // Object i's light grids, recomputed when stale; binds them for the march.
-  double prepare_light_grid(cdsm::ShadowSystem& system, size_t i, const cdsm::Scene& scene,
+  double prepare_light_grid(cdsm::ShadowSystem& system, size_t i, const cdsm::Scene& scene, const Grid& g,
                             const DrawOptions& opt, int* computed);
   void resize(int width, int height);
   void draw_object(size_t i, const cdsm::Object& o, GLuint program, const DrawOptions& opt, bool medium = false);

@@ -256,12 +256,27 @@ layout(rgba32f, binding = 0) writeonly uniform image3D u_out;
 uniform mat4 u_index_to_world;
 uniform vec3 u_scale;  // density voxels per light-grid texel, per axis
 uniform int u_light;
+uniform sampler3D u_blocks;  // the march's 8^3 block maxima
+uniform ivec3 u_block_count;
+uniform float u_empty_below;
+// Whether a march sample that reads this texel (trilinear: within one
+// texel spacing) can absorb: some block around it holds extinction. Texels
+// only empty space reads get no lookup (the march shades no sample there).
+bool needed(vec3 idx) {
+  for (int c = 0; c < 8; ++c) {
+    vec3 corner = idx + vec3((c & 1) != 0 ? 1.0 : -1.0, (c & 2) != 0 ? 1.0 : -1.0, (c & 4) != 0 ? 1.0 : -1.0) * u_scale;
+    ivec3 b = ivec3(floor(corner / 8.0));
+    if (any(lessThan(b, ivec3(0))) || any(greaterThanEqual(b, u_block_count))) return true;  // outside: the background
+    if (texelFetch(u_blocks, b, 0).r >= u_empty_below) return true;
+  }
+  return false;
+}
 void main() {
   ivec3 j = ivec3(gl_GlobalInvocationID);
   if (any(greaterThanEqual(j, imageSize(u_out)))) return;
   vec3 idx = (vec3(j) + 0.5) * u_scale - 0.5;
   vec3 p = (u_index_to_world * vec4(idx, 1.0)).xyz;
-  imageStore(u_out, j, vec4(cdsm_transmittance(p, u_light), 1.0));
+  imageStore(u_out, j, needed(idx) ? vec4(cdsm_transmittance(p, u_light), 1.0) : vec4(1.0));
 }
 )";
 
