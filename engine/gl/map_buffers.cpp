@@ -120,7 +120,12 @@ MapUploadStats MapBuffers::sync(const ShadowView& view, uint64_t epoch, const De
     if (w.bytes > 0) writes[count++] = w;
   }
   if (device) {
-    if (count > 0) device(writes, count);
+    try {
+      if (count > 0) device(writes, count);
+    } catch (...) {
+      epoch_ = 0;  // the buffers may miss these ranges: the next sync writes every array
+      throw;
+    }
     for (int i = 0; i < count; ++i) st.device_bytes += writes[i].bytes;
   } else {
     for (int i = 0; i < count; ++i) {

@@ -491,6 +491,10 @@ class InPlaceBackend final : public ShadowBackend {
 
   bool can_write_gl_maps() const override { return true; }
   void write_gl_maps(const GlMapWrite* w, int n) override {
+    if (fail_next) {
+      fail_next = false;
+      throw std::runtime_error("in-place test double: write failed");
+    }
     const DsmStorage s = inner_->storage();
     const void* src[kStorageArrays] = {s.texels.data(), s.nodes.data(), s.chunks.data(),
                                        s.rgb_texels.data(), s.rgb_nodes.data(), s.rgb_chunks.data()};
@@ -505,6 +509,7 @@ class InPlaceBackend final : public ShadowBackend {
     }
   }
   uint64_t writes = 0;
+  bool fail_next = false;
 
  private:
   std::unique_ptr<ShadowBackend> inner_;
@@ -610,6 +615,31 @@ TEST_F(GlSystem, InPlaceBackendGetsTheRangesTheHostPathUploads) {
   EXPECT_GT(d[2].u.gl_map_device_bytes, 0u);
   EXPECT_LT(d[2].u.gl_map_device_bytes, d[0].u.gl_map_device_bytes) << "a spot map appended: tails only";
   EXPECT_GT(ip->writes, 0u);
+}
+
+// A failed in-place write leaves the buffers behind: the next update writes
+// every array again (a full sync), and the buffers equal storage().
+TEST_F(GlSystem, AFailedInPlaceWriteIsRepairedByTheNextUpdate) {
+  Scene scene = load_scene(scene_path("teapot_omni.json"));
+  scene.shadows.resolution = 96;
+  ShadowSystem sys(app_options(FragmentSource::Cpu));
+  ShadowSystem::Impl& I = sys.internals();
+  auto in_place = std::make_unique<InPlaceBackend>(std::move(I.backend));
+  InPlaceBackend* ip = in_place.get();
+  I.backend = std::move(in_place);
+  I.fragments.use_backend(I.backend.get());
+  sync_scene(sys, scene);
+  sys.update();
+  Light l = scene.lights[0];
+  l.position = l.position + Vec3{-2.0f, 0, 0};
+  sys.add_light(l);
+  ip->fail_next = true;
+  EXPECT_THROW(sys.update(), std::runtime_error);
+  FrameStats st;
+  sys.set_camera(scene.camera);
+  sys.update(&st);
+  EXPECT_TRUE(st.update.gl_map_full_upload);
+  EXPECT_EQ(gl_maps_differ(sys.gl_buffers(), I.backend->storage()), "");
 }
 
 }  // namespace
