@@ -149,10 +149,24 @@ class CudaExec {
                                       size_t(w[i].bytes), cudaMemcpyDeviceToDevice, stream()));
     }
   }  // unmapped in stream order: GL work issued after this sees the bytes
+  // f(pointer) with GL buffer `name` mapped on the stream (an image target:
+  // registered write-discard once per buffer object), unmapped after.
+  template <class F>
+  void with_gl_buffer(unsigned name, uint64_t bytes, uint64_t generation, F&& f) {
+    if (image_generation_ != generation) image_link_.reset();
+    image_generation_ = generation;
+    image_link_.bind(name, size_t(bytes), GlAccess::WriteDiscard);
+    GlBufferLink* links[] = {&image_link_};
+    GlMapScope mapped(links, 1, stream());
+    size_t size = 0;
+    void* p = mapped.pointer(0, &size);
+    if (size < bytes) throw std::out_of_range("with_gl_buffer: the mapped GL buffer is smaller than said");
+    f(p);
+  }
   uint64_t gl_registrations() const {
     uint64_t r = 0;
     for (const GlBufferLink& l : gl_links_) r += l.registrations();
-    return r;
+    return r + image_link_.registrations();
   }
 #endif
 
@@ -197,6 +211,8 @@ class CudaExec {
 #if defined(CDSM_HAVE_CUDA_GL)
   GlBufferLink gl_links_[kStorageArrays];  // declared after stream_: unregistered before it is destroyed
   uint64_t gl_generation_[kStorageArrays] = {};
+  GlBufferLink image_link_;  // camera_pass_to_gl's target
+  uint64_t image_generation_ = 0;
 #endif
   std::vector<Launch> pending_;
   std::vector<exec::StageTime> folded_;

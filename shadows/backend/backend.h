@@ -113,6 +113,20 @@ class ShadowBackend {
   virtual void camera_pass(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags,
                            std::vector<float>& rgb, WalkStats& walk) = 0;
 
+  // camera_pass() writing its image (the same 3 floats per pixel, in the
+  // same order) into a GL buffer object — a pixel buffer the application
+  // then copies into a texture or reads — instead of the host: `gl_buffer`
+  // (current context) of `gl_buffer_bytes` >= width * height * 12 bytes;
+  // `gl_buffer_generation` changes whenever the application made a new
+  // buffer object under that name. Only where can_write_gl_maps() holds (the
+  // store and that context share memory); throws std::logic_error otherwise.
+  virtual void camera_pass_to_gl(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags,
+                                 uint32_t gl_buffer, uint64_t gl_buffer_bytes, uint64_t gl_buffer_generation,
+                                 WalkStats& walk) {
+    (void)shadows, (void)params, (void)frags, (void)gl_buffer, (void)gl_buffer_bytes, (void)gl_buffer_generation, (void)walk;
+    throw std::logic_error(std::string(name()) + " backend: camera_pass_to_gl is not supported (can_write_gl_maps is false)");
+  }
+
   virtual MapStoreStats map_store() const = 0;
 };
 

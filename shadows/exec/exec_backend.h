@@ -8,8 +8,9 @@
 // freed maps leave holes that are compacted on the executor once they
 // exceed a quarter of the store. storage() is the host's view: over device
 // memory, a host mirror downloaded when the maps changed since the last
-// call (the probes and the GL map buffers read it); the camera pass reads
-// the executor's copy.
+// call (the probes read it, and the GL map buffers where the executor
+// cannot write them itself); the camera pass reads the executor's copy, and
+// over CudaExec the GL map buffers are written from it (write_gl_maps).
 #pragma once
 
 #include <algorithm>
@@ -189,31 +190,28 @@ class ExecBackend final : public ExecShadowBackend {
   void camera_pass(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags,
                    std::vector<float>& rgb, WalkStats& walk) override {
     const uint64_t n = uint64_t(params.view.width) * uint64_t(params.view.height);
-    cam_offsets_.assign(frags.offsets.data(), frags.offsets.size());
-    cam_fragments_.assign(frags.fragments.data(), frags.fragments.size());
-    cam_inside_.assign(params.inside.data(), params.inside.size());
-    cam_lights_.assign(shadows.lights.data(), shadows.lights.size());
-    cam_maps_.assign(shadows.maps.data(), shadows.maps.size());
     cam_rgb_.resize_discard(n * 3);
-    cam_walk_.resize_discard(4);
-    ex_.fill_zero(cam_walk_.data(), cam_walk_.bytes());
-    FragmentLists ef = frags;
-    ef.offsets = cam_offsets_.cspan();
-    ef.fragments = cam_fragments_.span();
-    ShadowView sv = shadows;
-    sv.lights = cam_lights_.cspan();
-    sv.maps = cam_maps_.cspan();
-    sv.storage = exec_storage();
-    CameraPassParams cp = params;
-    cp.inside = cam_inside_.cspan();
-    shade_pixels(ex_, scene_view(), sv, cp, ef, cam_rgb_.data(), cam_walk_.data());
+    shade(shadows, params, frags, cam_rgb_.data(), walk);
     cam_rgb_.read(rgb);
-    uint32_t w[4];
-    ex_.download(w, cam_walk_.data(), sizeof w);
-    walk.enclosing_overflow += w[0];
-    walk.match_overflow += w[1];
-    walk.unmatched += w[2];
-    walk.march_lengthened += w[3];
+  }
+
+  // The same pass shading straight into the mapped GL buffer (CUDA-GL
+  // interop): no image in executor memory, no read-back.
+  void camera_pass_to_gl(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags,
+                         uint32_t gl_buffer, uint64_t gl_buffer_bytes, uint64_t gl_buffer_generation,
+                         WalkStats& walk) override {
+    if constexpr (Ex::kGlInterop) {
+      if (!ex_.gl_context_on_device())
+        throw std::logic_error(std::string(name_) + " backend: camera_pass_to_gl needs the current GL context on its device");
+      const uint64_t bytes = uint64_t(params.view.width) * uint64_t(params.view.height) * 3 * sizeof(float);
+      if (gl_buffer_bytes < bytes)
+        throw std::invalid_argument("camera_pass_to_gl: GL buffer of " + std::to_string(gl_buffer_bytes) +
+                                    " bytes, the image needs " + std::to_string(bytes));
+      ex_.with_gl_buffer(gl_buffer, gl_buffer_bytes, gl_buffer_generation,
+                         [&](void* p) { shade(shadows, params, frags, static_cast<float*>(p), walk); });
+    } else {
+      ShadowBackend::camera_pass_to_gl(shadows, params, frags, gl_buffer, gl_buffer_bytes, gl_buffer_generation, walk);
+    }
   }
 
   MapStoreStats map_store() const override {
@@ -248,6 +246,34 @@ class ExecBackend final : public ExecShadowBackend {
   }
 
  private:
+  // The camera pass into `out` (executor memory: 3 floats per pixel).
+  void shade(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags, float* out,
+             WalkStats& walk) {
+    cam_offsets_.assign(frags.offsets.data(), frags.offsets.size());
+    cam_fragments_.assign(frags.fragments.data(), frags.fragments.size());
+    cam_inside_.assign(params.inside.data(), params.inside.size());
+    cam_lights_.assign(shadows.lights.data(), shadows.lights.size());
+    cam_maps_.assign(shadows.maps.data(), shadows.maps.size());
+    cam_walk_.resize_discard(4);
+    ex_.fill_zero(cam_walk_.data(), cam_walk_.bytes());
+    FragmentLists ef = frags;
+    ef.offsets = cam_offsets_.cspan();
+    ef.fragments = cam_fragments_.span();
+    ShadowView sv = shadows;
+    sv.lights = cam_lights_.cspan();
+    sv.maps = cam_maps_.cspan();
+    sv.storage = exec_storage();
+    CameraPassParams cp = params;
+    cp.inside = cam_inside_.cspan();
+    shade_pixels(ex_, scene_view(), sv, cp, ef, out, cam_walk_.data());
+    uint32_t w[4];
+    ex_.download(w, cam_walk_.data(), sizeof w);
+    walk.enclosing_overflow += w[0];
+    walk.match_overflow += w[1];
+    walk.unmatched += w[2];
+    walk.march_lengthened += w[3];
+  }
+
   static bool same_layout(const DsmLayoutParams& a, const DsmLayoutParams& b) {
     if (a.layout != b.layout) return false;
     if (a.layout == kDsmFixed) return a.fixed_layers == b.fixed_layers;

@@ -319,3 +319,17 @@ TEST(ExecBackend, KernelTimesReachFrameStats) {
   EXPECT_EQ(again.times.kernel_dsm_build_ms, 0.0);
   EXPECT_GT(again.times.kernel_camera_ms, 0.0);
 }
+
+// The camera pass into a GL pixel buffer needs CUDA-GL interop: the cpu
+// backend and the exec backend on CPU threads refuse it (the frame reads
+// their image on the host).
+TEST(ExecBackend, CameraPassToGlNeedsInterop) {
+  HostBackend ex("exec");
+  std::unique_ptr<ShadowBackend> cpu = make_cpu_backend();
+  WalkStats w;
+  for (ShadowBackend* b : {static_cast<ShadowBackend*>(&ex), cpu.get()}) {
+    EXPECT_FALSE(b->can_write_gl_maps()) << b->name();
+    EXPECT_THROW(b->camera_pass_to_gl(ShadowView{}, CameraPassParams{}, FragmentLists{}, 1u, 16u, 1u, w), std::logic_error)
+        << b->name();
+  }
+}

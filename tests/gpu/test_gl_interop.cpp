@@ -120,3 +120,38 @@ TEST_F(GlInterop, CudaBackendWritesTheMapBuffersInPlace) {
   const FrameStats compacted = check("the omni light moved (compaction)", true);
   EXPECT_TRUE(compacted.update.gl_map_full_upload);
 }
+
+// The cuda camera pass shading straight into a GL pixel buffer (mapped
+// write-discard, registered once per buffer object): the same floats as
+// the pass read back to the host.
+TEST_F(GlInterop, CudaCameraPassWritesAPixelBuffer) {
+  CDSM_REQUIRE_DEVICE();
+  std::string why;
+  if (!cuda::gl_context_on_device(cuda::probe_device().device, &why)) {
+    if (test::gpu_required()) FAIL() << why;
+    GTEST_SKIP() << why;
+  }
+  SystemOptions o;
+  o.gl_context = GlContextUse::Application;
+  o.fragments = FragmentSource::Cpu;
+  o.backend = Backend::Cuda;
+  ShadowSystem sys(o);
+  Scene scene = load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/teapot_omni.json");
+  scene.shadows.resolution = 128;
+  sync_scene(sys, scene);
+  const Image img = sys.render();
+  ShadowSystem::Impl& I = sys.internals();
+  const uint64_t bytes = img.rgb.size() * sizeof(float);
+  ASSERT_GT(bytes, 0u);
+  GLuint pbo = 0;
+  glCreateBuffers(1, &pbo);
+  glNamedBufferData(pbo, GLsizeiptr(bytes), nullptr, GL_STREAM_DRAW);
+  for (int pass = 0; pass < 2; ++pass) {
+    WalkStats ws;
+    I.backend->camera_pass_to_gl(I.shadow_view(), I.cam, I.camera_frags.lists(), pbo, bytes, 1, ws);
+    std::vector<float> back(img.rgb.size());
+    glGetNamedBufferSubData(pbo, 0, GLsizeiptr(bytes), back.data());
+    EXPECT_EQ(std::memcmp(back.data(), img.rgb.data(), bytes), 0) << "pass " << pass;
+  }
+  glDeleteBuffers(1, &pbo);
+}
