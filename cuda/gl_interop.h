@@ -6,10 +6,12 @@
 // through the host. Plain C++ (GL names are unsigned ints; the CUDA types
 // stay in gl_interop.cu).
 //
-// Status: built and linked in every CUDA build; exercised only where a GPU
-// and a GL context on it exist (tests/gpu/test_gl_interop.cpp). The engine's
-// GL map buffers (engine/gl/map_buffers.h) are not mapped through it yet:
-// the cuda backend's maps reach GL through storage()'s host mirror.
+// Status: built and linked in every CUDA build (with GL headers); exercised
+// only where a GPU and a GL context on it exist (tests/gpu/
+// test_gl_interop.cpp). Used by the cuda backend to write the engine's GL map
+// buffers (engine/gl/map_buffers.h, ShadowBackend::write_gl_maps) and a
+// camera image into a pixel buffer (camera_pass_to_gl), through CudaExec in
+// cuda/launch.cuh. The rasterizer's fragment buffers are not mapped yet.
 #pragma once
 
 #include <cstddef>
