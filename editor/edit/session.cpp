@@ -109,10 +109,11 @@ bool Session::save(const std::string& path, bool overwrite_opened, std::string* 
 
 void Session::apply(Edit e, double now) {
   const bool refused = !e.refused.empty();
+  const bool through_maps = maps_only(e);  // then the publish decides whether the viewport redraws
   const bool changed = history_.apply(doc_, std::move(e), now);  // false: refused, or nothing changes
   for (Edit& p : history_.take_pending()) queued_.push_back(std::move(p));
   refusal_ = refused ? history_.last_refusal() : std::string();
-  if (changed) ++generation_;
+  if (changed && !through_maps) ++generation_;
 }
 
 bool Session::undo() {
@@ -159,8 +160,16 @@ void Session::start_build() {
   });
 }
 
+// Shadow settings reach the viewport only through the maps and the frame
+// block the system publishes; the ambient light is the renderer's own.
+bool Session::maps_only(const Edit& e) {
+  const auto* st = std::get_if<change::Settings>(&e.what);
+  if (!st) return false;
+  const Vec3 a = st->before.ambient_light, b = st->after.ambient_light;
+  return a.x == b.x && a.y == b.y && a.z == b.z;
+}
+
 void Session::after_publish() {
-  ++generation_;
   maps_ = system_->maps();
   published_ = true;
   full_res_since_publish_ = false;
@@ -182,7 +191,15 @@ void Session::tick() {
       notes_.push_back("build failed: " + build_error_);
     } else {
       system_->publish(&build_stats_);
-      ++maps_version_;  // the viewport's volume light grids follow the maps
+      // What the viewport reads changed only if a map was built or freed or
+      // bytes reached the GL buffers (the frame block included): a d0 that
+      // leaves the clusters as they were redraws nothing.
+      const UpdateStats& u = build_stats_.update;
+      if (build_stats_.maps_rebuilt > 0 || u.maps_freed > 0 || u.gl_map_upload_bytes > 0 || u.gl_map_device_bytes > 0 ||
+          u.gl_map_copy_bytes > 0 || u.gl_map_full_upload) {
+        ++maps_version_;  // the viewport's volume light grids follow the maps
+        ++generation_;
+      }
       after_publish();
     }
   }
@@ -276,6 +293,7 @@ void Session::draw_viewport(int width, int height, bool interacting) {
     }
   const forward::FrameTimes t = renderer_->draw(*system_, doc_.scene, doc_.scene.camera, opt);
   last_draw_ms_ = t.draw_ms;
+  ++draws_;
   if (t.light_grids > 0) last_light_grid_ms_ = t.light_grid_ms;
   frame_ms_.push_back(float(t.draw_ms));
   while (frame_ms_.size() > 120) frame_ms_.pop_front();

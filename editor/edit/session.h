@@ -142,6 +142,8 @@ class Session {
   double last_build_ms() const { return last_build_ms_; }
   double last_draw_ms() const { return last_draw_ms_; }
   double last_light_grid_ms() const { return last_light_grid_ms_; }  // of a draw: the volumes' light grids
+  uint64_t viewport_draws() const { return draws_; }                  // frames drawn since the session began
+  uint32_t last_maps_rebuilt() const { return build_stats_.maps_rebuilt; }
   const std::vector<std::string>& notes() const { return notes_; }
 
   // ---- error view against the reference (background, cancellable) ----
@@ -157,6 +159,7 @@ class Session {
   void rebuild_system();
   void start_build();
   void after_publish();
+  static bool maps_only(const Edit& e);
 
   Document doc_;
   History history_;
@@ -188,7 +191,8 @@ class Session {
   // the camera, new maps, a view setting, its size or the interaction.
   uint64_t generation_ = 1;      // bumped by every change of what the viewport shows
   uint64_t drawn_generation_ = 0;
-  uint64_t maps_version_ = 0;    // bumped by every publish (DrawOptions::maps_version)
+  uint64_t maps_version_ = 0;    // bumped by every publish that changed the maps (DrawOptions::maps_version)
+  uint64_t draws_ = 0;
   std::string drawn_view_;       // view settings and size of the last frame
   bool drawn_interacting_ = false;
   std::deque<float> frame_ms_;

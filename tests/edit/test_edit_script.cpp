@@ -108,6 +108,7 @@ TEST(EditScript, ParametersChangeTheViewportAndItMatchesTheLibrary) {
          << "screenshot " << s << "noop.png\n"
          << "set clusters 4\nset d0 0.02\nwait\n"
          << "screenshot " << s << "m4.png\n"
+         << "set d0 0.1\nwait\nset d0 0.2\nwait\n"  // the same four clusters at both (default scene)
          << "set d0 0.3\nwait\n"
          << "screenshot " << s << "d03.png\n"
          << "view clusters on\nwait\n"
@@ -176,6 +177,20 @@ TEST(EditScript, ParametersChangeTheViewportAndItMatchesTheLibrary) {
   ASSERT_TRUE(std::regex_search(out, m, std::regex("error view: PSNR ([0-9.]+) dB, map p99 ([0-9.]+)"))) << out;
   EXPECT_GT(std::stod(m[1]), 25.0);
   EXPECT_LE(std::stod(m[2]), 0.2 + 0.01) << "map error within epsilon (0.2 then) and the offsets";
+  // A d0 that leaves the clusters as they were rebuilds no map and draws
+  // no frame: the viewport's frame count stands still.
+  {
+    const std::regex wait_line("maps rebuilt ([0-9]+), viewport draws ([0-9]+)");
+    const size_t at01 = out.find("script: set d0 0.1"), at02 = out.find("script: set d0 0.2");
+    ASSERT_NE(at01, std::string::npos);
+    ASSERT_NE(at02, std::string::npos);
+    std::smatch m01, m02;
+    const std::string after01 = out.substr(at01, at02 - at01), after02 = out.substr(at02);
+    ASSERT_TRUE(std::regex_search(after01, m01, wait_line)) << after01;
+    ASSERT_TRUE(std::regex_search(after02, m02, wait_line)) << after02;
+    EXPECT_EQ(m02[1].str(), "0") << "d0 0.1 -> 0.2 keeps the default scene's four clusters";
+    EXPECT_EQ(m02[2].str(), m01[2].str()) << "no map changed: no frame drawn";
+  }
   // Every change reached a refined frame; the times are printed above.
   size_t refined = 0;
   for (size_t at = out.find("refined after"); at != std::string::npos; at = out.find("refined after", at + 1)) ++refined;
