@@ -376,7 +376,7 @@ int cmd_render(const std::vector<std::string>& args) {
   if (out.empty()) throw Error("cdsm render", "needs -o OUT.png");
   // Which backend, and why: no CUDA device means the cpu backend, unless
   // cuda was asked for by name (then the same reason is an error).
-  const BackendResolution backend = resolve_backend(opt.backend);
+  const BackendResolution backend = resolve_backend(opt.backend, opt.fragments);  // (no GL with the ray caster)
   if (!backend.available) throw Error("--backend cuda", backend.reason);
   opt.backend = backend.backend;
   if (opt.fragments == FragmentSource::Cuda && opt.backend != Backend::Cuda)

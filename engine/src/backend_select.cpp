@@ -126,7 +126,22 @@ GlUse default_gl_use() {
 #endif
 }
 
+GlUse gl_use_of(FragmentSource fragments) {
+  switch (fragments) {
+    case FragmentSource::Cpu:
+    case FragmentSource::Cuda:
+      return GlUse::None;
+    case FragmentSource::Gl:
+    case FragmentSource::Auto:
+      break;
+  }
+  return default_gl_use();
+}
+
 BackendResolution resolve_backend(Backend want) { return resolve_backend(want, default_gl_use()); }
+BackendResolution resolve_backend(Backend want, FragmentSource fragments) {
+  return resolve_backend(want, gl_use_of(fragments));
+}
 
 BackendResolution resolve_backend(Backend want, GlUse gl) {
   BackendResolution r;

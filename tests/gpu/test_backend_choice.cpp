@@ -97,6 +97,19 @@ TEST(BackendChoice, AutoNeedsTheGlContextOnTheDevice) {
 
 // Without a device (CI) no GL probe runs and every GL use resolves to cpu
 // with the device's reason; cuda by name stays an error.
+// cdsm render --fragments cpu|cuda makes no GL context: Auto then asks only
+// for the device (decide_auto_backend with no GL); gl and auto rasterize.
+TEST(BackendChoice, TheFragmentSourceSaysWhetherTheFrameUsesGl) {
+  EXPECT_EQ(gl_use_of(FragmentSource::Cpu), GlUse::None);
+  EXPECT_EQ(gl_use_of(FragmentSource::Cuda), GlUse::None);
+  EXPECT_EQ(gl_use_of(FragmentSource::Gl), default_gl_use());
+  EXPECT_EQ(gl_use_of(FragmentSource::Auto), default_gl_use());
+  const BackendResolution by_source = resolve_backend(Backend::Auto, FragmentSource::Cpu);
+  const BackendResolution by_use = resolve_backend(Backend::Auto, GlUse::None);
+  EXPECT_EQ(by_source.name, by_use.name);
+  EXPECT_EQ(by_source.reason, by_use.reason);
+}
+
 TEST(BackendChoice, EveryGlUseFallsBackWithoutADevice) {
   if (device_here()) GTEST_SKIP() << "a CUDA device is present: " << resolve_backend(Backend::Cuda).reason;
   for (GlUse g : {GlUse::None, GlUse::Current, GlUse::Headless}) {

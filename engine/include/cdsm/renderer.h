@@ -35,6 +35,10 @@ BackendResolution resolve_backend(Backend want);
 // caster, or the same ray caster launched on the CUDA device (needs the
 // cuda backend: Backend::Cuda).
 enum class FragmentSource { Auto, Gl, Cpu, Cuda };
+// resolve_backend for a frame whose fragments come from `fragments`: with
+// the ray caster (Cpu, Cuda) the frame makes no GL context, so Auto needs
+// only the device; with GL (Gl, Auto) the context must run on it too.
+BackendResolution resolve_backend(Backend want, FragmentSource fragments);
 
 // Progress of a long render (the reference image of compare_reference),
 // shared with another thread: `fraction` grows from 0 to 1; setting
