@@ -11,8 +11,9 @@ namespace cdsm {
 
 // fminf / fmaxf for host code: glibc's are out-of-line calls (GCC inlines
 // them only under -ffinite-math-only), a tenth of the light pass's time in
-// volume marches. These return what x86-64 glibc returns (minss / maxss,
-// a NaN operand ignored, the second operand of an equal pair), inline.
+// volume marches. These return what glibc's functions return (x86-64:
+// minss / maxss, a NaN operand ignored, the second operand of an equal pair
+// such as 0 and -0), inline.
 // Unqualified calls inside namespace cdsm find them before ::fminf; the
 // device pass of nvcc keeps CUDA's own.
 #if !defined(__CUDA_ARCH__)
