@@ -63,15 +63,15 @@ void MapBuffers::renew(int b) {
   generation_[b] = next.fetch_add(1);
 }
 
-MapArrayWrite MapBuffers::prepare_array(int b, uint64_t bytes, bool full, MapUploadStats& st) {
+GlMapWrite MapBuffers::prepare_array(int b, uint64_t bytes, bool full, MapUploadStats& st) {
   if (bytes > max_block_)
     throw Error(std::string("GL map buffers: ") + block_name(MapBlock(b)),
                 "the frame's maps need " + mib(bytes) + " in one storage block, more than this GL implementation's " +
                     "largest (" + mib(max_block_) + ", GL_MAX_SHADER_STORAGE_BLOCK_SIZE): lower the map resolution or " +
                     "the number of clusters, or raise epsilon");
   Buffer& buf = buffers_[b];
-  MapArrayWrite w;
-  w.block = MapBlock(b);
+  GlMapWrite w;
+  w.array = StorageArray(b - int(MapBlock::Texels));  // the blocks after the frame block, in storage order
   if (full || bytes < used_[b]) {
     const uint64_t want = std::max(bytes, kMinBytes);
     if (want > buf.capacity() || buf.capacity() > 2 * want) {
@@ -97,9 +97,9 @@ MapArrayWrite MapBuffers::prepare_array(int b, uint64_t bytes, bool full, MapUpl
     w.bytes = bytes - used_[b];
   }
   used_[b] = bytes;
-  w.buffer = buf.id();
-  w.buffer_bytes = buf.capacity();
-  w.generation = generation_[b];
+  w.gl_buffer = buf.id();
+  w.gl_buffer_bytes = buf.capacity();
+  w.gl_buffer_generation = generation_[b];
   return w;
 }
 
@@ -113,10 +113,10 @@ MapUploadStats MapBuffers::sync(const ShadowView& view, uint64_t epoch, const De
   const uint64_t bytes[kMapBlocks] = {0, bytes_of(s.texels), bytes_of(s.nodes), bytes_of(s.chunks),
                                       bytes_of(s.rgb_texels), bytes_of(s.rgb_nodes), bytes_of(s.rgb_chunks)};
   // The same ranges on both paths: what changed since the last sync.
-  MapArrayWrite writes[kMapBlocks];
+  GlMapWrite writes[kMapBlocks];
   int count = 0;
   for (int b = int(MapBlock::Texels); b < kMapBlocks; ++b) {
-    const MapArrayWrite w = prepare_array(b, bytes[b], st.full, st);
+    const GlMapWrite w = prepare_array(b, bytes[b], st.full, st);
     if (w.bytes > 0) writes[count++] = w;
   }
   if (device) {
@@ -129,8 +129,9 @@ MapUploadStats MapBuffers::sync(const ShadowView& view, uint64_t epoch, const De
     for (int i = 0; i < count; ++i) st.device_bytes += writes[i].bytes;
   } else {
     for (int i = 0; i < count; ++i) {
-      const MapArrayWrite& w = writes[i];
-      buffers_[int(w.block)].upload(static_cast<const unsigned char*>(data[int(w.block)]) + w.offset, w.bytes, w.offset);
+      const GlMapWrite& w = writes[i];
+      const int b = int(w.array) + int(MapBlock::Texels);
+      buffers_[b].upload(static_cast<const unsigned char*>(data[b]) + w.offset, w.bytes, w.offset);
       st.upload_bytes += w.bytes;
     }
   }

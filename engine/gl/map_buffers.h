@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "backend/backend.h"
 #include "gl/gl_objects.h"
 #include "hd/lights.h"
 
@@ -50,6 +51,7 @@ static_assert(sizeof(FrameBlockHeader) % 16 == 0, "DsmMap (16-byte aligned in st
 // The blocks of cdsm.glsl, in binding order from CDSM_BINDING_BASE.
 enum class MapBlock : int { Frame = 0, Texels, Nodes, Chunks, RgbTexels, RgbNodes, RgbChunks, Count };
 inline constexpr int kMapBlocks = int(MapBlock::Count);
+static_assert(kMapBlocks == 1 + kStorageArrays, "the frame block, then the storage arrays in their order");
 const char* block_name(MapBlock b);  // "CdsmFrame", ...
 
 struct MapUploadStats {
@@ -61,22 +63,10 @@ struct MapUploadStats {
   uint64_t used_bytes = 0;       // of which holding data
 };
 
-// One array's range for a DeviceWriter: bytes [offset, offset + bytes) of
-// the storage array `block` go to GL buffer `buffer` (`buffer_bytes` long)
-// at the same offset. `generation` changes whenever the array gets a new GL
-// buffer object (GL may hand out a deleted buffer's name again), so a writer
-// that registers buffers (CUDA-GL interop) knows when to register again.
-struct MapArrayWrite {
-  MapBlock block = MapBlock::Texels;
-  GLuint buffer = 0;
-  uint64_t buffer_bytes = 0;
-  uint64_t generation = 0;
-  uint64_t offset = 0;
-  uint64_t bytes = 0;
-};
-// Writes the ranges into the buffers (the context current); called once per
-// sync with every non-empty range, not at all when none.
-using DeviceWriter = std::function<void(const MapArrayWrite* writes, int count)>;
+// The ranges of one sync for a DeviceWriter (backend/backend.h GlMapWrite:
+// bytes [offset, offset + bytes) of a storage array into its GL buffer at
+// the same offset; the generation changes with every new buffer object).
+using DeviceWriter = std::function<void(const GlMapWrite* writes, int count)>;
 
 class MapBuffers {
  public:
@@ -105,7 +95,7 @@ class MapBuffers {
  private:
   // Sizes array `block`'s buffer for `bytes` (growing it by a GL-side copy,
   // or re-allocating it on a full sync) and returns the range to write.
-  MapArrayWrite prepare_array(int block, uint64_t bytes, bool full, MapUploadStats& st);
+  GlMapWrite prepare_array(int block, uint64_t bytes, bool full, MapUploadStats& st);
   void renew(int block);  // the array has a new buffer object
 
   Context& context_;

@@ -77,19 +77,8 @@ void sync_gl_maps(SystemGl& g, ShadowView view, ShadowBackend& backend, UpdateSt
   if (backend.can_write_gl_maps()) {
     // The backend writes the ranges from its own memory: sizes only here.
     view.storage = backend.storage_extent();
-    m = g.maps->sync(view, backend.storage_epoch(), [&backend](const gl::MapArrayWrite* w, int n) {
-      GlMapWrite writes[kStorageArrays];
-      if (n > kStorageArrays) throw std::logic_error("sync_gl_maps: more ranges than storage arrays");
-      for (int i = 0; i < n; ++i) {
-        writes[i].array = StorageArray(int(w[i].block) - int(gl::MapBlock::Texels));
-        writes[i].gl_buffer = w[i].buffer;
-        writes[i].gl_buffer_bytes = w[i].buffer_bytes;
-        writes[i].gl_buffer_generation = w[i].generation;
-        writes[i].offset = w[i].offset;
-        writes[i].bytes = w[i].bytes;
-      }
-      backend.write_gl_maps(writes, n);
-    });
+    m = g.maps->sync(view, backend.storage_epoch(),
+                     [&backend](const GlMapWrite* w, int n) { backend.write_gl_maps(w, n); });
   } else {
     view.storage = backend.storage();
     m = g.maps->sync(view, backend.storage_epoch());

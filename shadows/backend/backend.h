@@ -47,6 +47,18 @@ struct GlMapWrite {
   uint64_t bytes = 0;
 };
 
+// `s` with every array's data pointer null (the sizes only): what
+// storage_extent() returns over memory the host cannot read.
+inline DsmStorage storage_sizes(DsmStorage s) {
+  s.texels.ptr = nullptr;
+  s.nodes.ptr = nullptr;
+  s.chunks.ptr = nullptr;
+  s.rgb_texels.ptr = nullptr;
+  s.rgb_nodes.ptr = nullptr;
+  s.rgb_chunks.ptr = nullptr;
+  return s;
+}
+
 // A map the backend stores; valid until free_map().
 using MapId = uint32_t;
 

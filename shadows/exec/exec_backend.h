@@ -145,16 +145,8 @@ class ExecBackend final : public ExecShadowBackend {
 
   // Sizes without the mirror: over device memory the spans' data is null.
   DsmStorage storage_extent() const override {
-    DsmStorage s = exec_storage();
-    if constexpr (!Ex::kHostMemory) {
-      s.texels.ptr = nullptr;
-      s.nodes.ptr = nullptr;
-      s.chunks.ptr = nullptr;
-      s.rgb_texels.ptr = nullptr;
-      s.rgb_nodes.ptr = nullptr;
-      s.rgb_chunks.ptr = nullptr;
-    }
-    return s;
+    if constexpr (!Ex::kHostMemory) return storage_sizes(exec_storage());
+    return exec_storage();
   }
 
   // In place only where the executor shares memory with the current GL

@@ -473,16 +473,7 @@ class InPlaceBackend final : public ShadowBackend {
   DsmMap map_header(MapId id) const override { return inner_->map_header(id); }
   DsmStorage storage() const override { return inner_->storage(); }
   uint64_t storage_epoch() const override { return inner_->storage_epoch(); }
-  DsmStorage storage_extent() const override {
-    DsmStorage s = inner_->storage();
-    s.texels.ptr = nullptr;
-    s.nodes.ptr = nullptr;
-    s.chunks.ptr = nullptr;
-    s.rgb_texels.ptr = nullptr;
-    s.rgb_nodes.ptr = nullptr;
-    s.rgb_chunks.ptr = nullptr;
-    return s;
-  }
+  DsmStorage storage_extent() const override { return storage_sizes(inner_->storage()); }
   void camera_pass(const ShadowView& v, const CameraPassParams& p, FragmentLists f, std::vector<float>& rgb,
                    WalkStats& w) override {
     inner_->camera_pass(v, p, f, rgb, w);
