@@ -27,6 +27,16 @@
 // (the spot cone's smooth falloff, 1 for point lights) — the Phong model of
 // shadows/hd/shading.h multiplies radiance, spot factor and transmittance.
 //
+// Shader variants: `#define CDSM_LAYOUT n` before the include (0 packed,
+// 1 fixed, 2 chunked: cdsm::GlMapBuffers::layout) compiles the lookups of
+// that node layout only; recompile when the buffers' layout changes. A
+// variant reading buffers of another layout returns the magenta tint.
+// Without it every layout's code is compiled and the frame block picks one
+// at run time, which is right everywhere but costs a GPU that runs both
+// sides of a branch under a mask (Mesa's llvmpipe) every layout's code at
+// every tap (the forward example's frame there, four clusters at 620x757:
+// 448 ms with every layout's code, 410 ms with the packed variant).
+//
 // Bindings: seven shader storage blocks at CDSM_BINDING_BASE .. +6 (default
 // 8; #define it before the include to move them). bind_gl() reads the
 // bindings back from the linked program, so any base works.
@@ -115,6 +125,15 @@ layout(std430, binding = CDSM_BINDING_BASE + 3) readonly buffer CdsmChunks { Cds
 layout(std430, binding = CDSM_BINDING_BASE + 4) readonly buffer CdsmRgbTexels { uvec2 cdsm_rgb_texels[]; };
 layout(std430, binding = CDSM_BINDING_BASE + 5) readonly buffer CdsmRgbNodes { vec4 cdsm_rgb_nodes[]; };
 layout(std430, binding = CDSM_BINDING_BASE + 6) readonly buffer CdsmRgbChunks { CdsmChunkRgb cdsm_rgb_chunks[]; };
+
+#ifdef CDSM_LAYOUT
+#if CDSM_LAYOUT < 0 || CDSM_LAYOUT > 2
+#error "CDSM_LAYOUT: 0 packed, 1 fixed or 2 chunked"
+#endif
+#define CDSM_LAYOUT_IS(n) (CDSM_LAYOUT == n)
+#else
+#define CDSM_LAYOUT_IS(n) (cdsm_layout == uint(n))
+#endif
 
 // shadows/hd/lights.h constants.
 const float CDSM_PLANE_REACH_TEXELS = 50.0;
@@ -234,18 +253,17 @@ vec3 cdsm_alpha_chunked_rgb(uvec2 head, float z) {
 }
 
 // α(z) of texel (tx, ty) of map m per channel (a grey map: its value in every channel).
+// The packed and fixed layouts share one search: a texel's nodes start at
+// its header's offset, or at a fixed stride.
 vec3 cdsm_texel_alpha(CdsmMap m, int tx, int ty, float z) {
   uint t = m.texel_offset + uint(ty) * m.res + uint(tx);
-  if (m.rgb == 0u) {
-    float a;
-    if (cdsm_layout == 1u) a = cdsm_alpha_nodes(t * cdsm_layers, cdsm_layers, z);
-    else if (cdsm_layout == 2u) a = cdsm_alpha_chunked(cdsm_texels[t], z);
-    else a = cdsm_alpha_nodes(cdsm_texels[t].x, cdsm_texels[t].y, z);
-    return vec3(a);
+  if (CDSM_LAYOUT_IS(2)) {
+    if (m.rgb == 0u) return vec3(cdsm_alpha_chunked(cdsm_texels[t], z));
+    return cdsm_alpha_chunked_rgb(cdsm_rgb_texels[t], z);
   }
-  if (cdsm_layout == 1u) return cdsm_alpha_nodes_rgb(t * cdsm_layers, cdsm_layers, z);
-  if (cdsm_layout == 2u) return cdsm_alpha_chunked_rgb(cdsm_rgb_texels[t], z);
-  return cdsm_alpha_nodes_rgb(cdsm_rgb_texels[t].x, cdsm_rgb_texels[t].y, z);
+  uvec2 span = CDSM_LAYOUT_IS(1) ? uvec2(t * cdsm_layers, cdsm_layers) : m.rgb == 0u ? cdsm_texels[t] : cdsm_rgb_texels[t];
+  if (m.rgb == 0u) return vec3(cdsm_alpha_nodes(span.x, span.y, z));
+  return cdsm_alpha_nodes_rgb(span.x, span.y, z);
 }
 
 // ---- receivers (shadows/hd/lights.h) ----------------------------------------
@@ -282,14 +300,12 @@ float cdsm_receiver_offset(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, ve
 vec3 cdsm_map_alpha(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, bool caster) {
   float offset = cdsm_receiver_offset(L, m, pr, p, plane, caster);
   int res = int(m.res);
-  if (cdsm_filtering == 0u) {
-    int tx = int(floor(pr.u)), ty = int(floor(pr.v));
-    if (tx < 0 || ty < 0 || tx >= res || ty >= res) return vec3(0.0);
-    return cdsm_texel_alpha(m, tx, ty, cdsm_tap_depth(m, pr, p, plane, tx, ty) - offset);
-  }
-  float lx = pr.u - 0.5, ly = pr.v - 0.5;
+  // Without filtering the first tap is the texel holding the point, with
+  // weight 1, and the other three weigh 0 (one copy of the tap code).
+  bool filtered = cdsm_filtering != 0u;
+  float lx = filtered ? pr.u - 0.5 : pr.u, ly = filtered ? pr.v - 0.5 : pr.v;
   float fx = floor(lx), fy = floor(ly);
-  float wx = lx - fx, wy = ly - fy;
+  float wx = filtered ? lx - fx : 0.0, wy = filtered ? ly - fy : 0.0;
   int x0 = int(fx), y0 = int(fy);
   vec3 a = vec3(0.0);
   for (int k = 0; k < 4; ++k) {
@@ -356,6 +372,9 @@ float cdsm_spot_factor(int light, vec3 p) {
 
 vec3 cdsm_surface_transmittance(vec3 world_pos, vec3 plane_normal, bool caster, int light) {
   if (light < 0 || light >= int(cdsm_light_total)) return vec3(1.0, 0.0, 1.0);
+#ifdef CDSM_LAYOUT
+  if (cdsm_layout != uint(CDSM_LAYOUT)) return vec3(1.0, 0.0, 1.0);  // compiled for another layout
+#endif
   return vec3(1.0) - cdsm_shadow_alpha(cdsm_lights[light], world_pos, plane_normal, caster);
 }
 

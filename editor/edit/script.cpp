@@ -71,10 +71,12 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
     const double ms = (now_seconds() - changed_at_) * 1000.0;
     if (waiting_for_ == "refined") {
       const double cpu_ms = (cpu_seconds() - changed_cpu_) * 1000.0;
-      std::printf("  refined after %.0f ms (%d frames; last map build %.0f ms, viewport %.0f ms of which light grids %.0f ms;"
-                  " CPU %.0f ms, %.2f cores busy; maps rebuilt %u, viewport draws %llu)\n",
-                  ms, frames_waited_, s.last_build_ms(), s.last_draw_ms(), s.last_light_grid_ms(), cpu_ms,
-                  cpu_ms / std::max(ms, 1e-3), s.last_maps_rebuilt(), (unsigned long long)s.viewport_draws());
+      const StageTimes& st = s.build_stats().times;
+      std::printf("  refined after %.0f ms (%d frames; last map build %.0f ms: fragments %.0f, light pass %.0f; viewport %.0f ms"
+                  " of which light grids %.0f ms; CPU %.0f ms, %.2f cores busy; maps rebuilt %u, viewport draws %llu)\n",
+                  ms, frames_waited_, s.last_build_ms(), st.fragments_ms, st.dsm_build_ms, s.last_draw_ms(),
+                  s.last_light_grid_ms(), cpu_ms, cpu_ms / std::max(ms, 1e-3), s.last_maps_rebuilt(),
+                  (unsigned long long)s.viewport_draws());
     } else if (waiting_for_ == "inspection") {
       const ShadowSystem::TexelInspection& t = s.inspection();
       if (t.found)

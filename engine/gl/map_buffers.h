@@ -91,6 +91,8 @@ class MapBuffers {
   // that does not use cdsm.glsl's lookup, or whose compiler dropped it) or
   // two blocks sharing a binding.
   void bind(GLuint program) const;
+  // The layout of the last sync's storage (kDsmPacked before any).
+  uint32_t layout() const { return layout_ == ~0u ? 0u : layout_; }
 
  private:
   // Sizes array `block`'s buffer for `bytes` (growing it by a GL-side copy,

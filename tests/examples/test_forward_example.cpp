@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -165,6 +166,35 @@ TEST(ForwardExample, VolumeLightGridsMatchLookupsPerSample) {
   const ExampleRun flat = run_example("'" + kScene + "' -o '" + kOut + ".flat.png' --raw '" + kOut + ".flat.pfm' --no-shadows" + size);
   ASSERT_EQ(flat.status, 0) << flat.output;
   EXPECT_LT(cdsm::compare_images(read_pfm(kOut + ".flat.pfm"), a).psnr, psnr - 15.0);
+}
+
+// The renderer compiles its lookups for the buffers' node layout
+// (cdsm.glsl's CDSM_LAYOUT variants): chunked maps hold the packed maps'
+// nodes, so the image is the same to the bit.
+TEST(ForwardExample, EveryLayoutDrawsTheSameImage) {
+  std::ifstream in(kScene);
+  std::string json((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t at = json.find("\"shadows\": {");
+  ASSERT_NE(at, std::string::npos);
+  const std::string size = " --width 160 --height 120";
+  const ExampleRun packed = run_example("'" + kScene + "' -o '" + kOut + ".packed.png' --raw '" + kOut + ".packed.pfm'" + size);
+  if (packed.status != 0 && packed.output.find("no 4.5 context") != std::string::npos && !gl_required())
+    GTEST_SKIP() << packed.output;
+  ASSERT_EQ(packed.status, 0) << packed.output;
+  const cdsm::Image a = read_pfm(kOut + ".packed.pfm");
+  for (const char* layout : {"chunked", "fixed"}) {
+    std::string variant = json;
+    variant.insert(at + std::strlen("\"shadows\": {"), std::string("\"layout\": \"") + layout + "\", ");
+    const std::string path = kOut + "." + layout + ".json";
+    std::ofstream(path) << variant;
+    const ExampleRun run = run_example("'" + path + "' -o '" + kOut + "." + layout + ".png' --raw '" + kOut + "." + layout + ".pfm'" + size);
+    ASSERT_EQ(run.status, 0) << run.output;
+    const cdsm::Image b = read_pfm(kOut + "." + layout + ".pfm");
+    ASSERT_EQ(a.rgb.size(), b.rgb.size());
+    size_t differ = 0;
+    for (size_t i = 0; i < a.rgb.size(); ++i) differ += a.rgb[i] != b.rgb[i];
+    EXPECT_EQ(differ, 0u) << layout << " maps: " << differ << " values differ from the packed maps' image";
+  }
 }
 
 TEST(ForwardExample, BadInputIsAClearError) {

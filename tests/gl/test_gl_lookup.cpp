@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <random>
 #include <string>
 #include <vector>
@@ -67,8 +68,10 @@ std::vector<LookupPoint> sample_points(const SceneBuffers& sb, int surface, int 
   return pts;
 }
 
-GLuint compile_compute(const std::string& body) {
-  const std::string src = "#version 450\nlayout(local_size_x = 64) in;\n" + glsl_include() + body;
+// `variant`: the CDSM_LAYOUT the include is compiled for, -1 none (every layout).
+GLuint compile_compute(const std::string& body, int variant) {
+  const std::string define = variant >= 0 ? "#define CDSM_LAYOUT " + std::to_string(variant) + "\n" : std::string();
+  const std::string src = "#version 450\nlayout(local_size_x = 64) in;\n" + define + glsl_include() + body;
   const GLuint sh = glCreateShader(GL_COMPUTE_SHADER);
   const char* text = src.c_str();
   glShaderSource(sh, 1, &text, nullptr);
@@ -106,9 +109,11 @@ void main() {
 
 class GlLookup : public GlTest {
  protected:
-  // The GLSL transmittances of `pts` for light `light` of `sys`.
-  std::vector<Vec3> glsl_lookups(ShadowSystem& sys, const std::vector<LookupPoint>& pts, int light) {
-    if (!program_) program_ = compile_compute(kLookupShader);
+  // The GLSL transmittances of `pts` for light `light` of `sys`, from the
+  // include compiled for every layout or for layout `variant` only.
+  std::vector<Vec3> glsl_lookups(ShadowSystem& sys, const std::vector<LookupPoint>& pts, int light, int variant = -1) {
+    GLuint& program_ = programs_[variant];
+    if (!program_) program_ = compile_compute(kLookupShader, variant);
     std::vector<float> p4, n4;
     for (const LookupPoint& q : pts) {
       p4.insert(p4.end(), {q.p.x, q.p.y, q.p.z, q.surface ? (q.caster ? 1.0f : 2.0f) : 0.0f});
@@ -139,11 +144,12 @@ class GlLookup : public GlTest {
   }
 
   void TearDown() override {
-    if (program_) glDeleteProgram(program_);
+    for (const auto& [variant, program] : programs_) glDeleteProgram(program);
   }
 
-  // Every light of `scene` at `pts`: GLSL against C++ within 1e-5.
-  void expect_agreement(const Scene& scene, int surface, int volume, int free, const char* what) {
+  // Every light of `scene` at `pts`: GLSL against C++ within 1e-5; with
+  // `variant` also the include compiled for the buffers' layout only.
+  void expect_agreement(const Scene& scene, int surface, int volume, int free, const char* what, bool variant = false) {
     SystemOptions o;
     o.gl_context = GlContextUse::Application;
     o.source = scene.source;
@@ -156,8 +162,10 @@ class GlLookup : public GlTest {
     const ShadowView sv = I.shadow_view();
     uint32_t rgb_maps = 0;
     for (const DsmMap& m : sv.maps) rgb_maps += m.rgb;
+    EXPECT_EQ(sys.gl_buffers().layout, uint32_t(scene.shadows.layout)) << what;
+    for (int run = 0; run < (variant ? 2 : 1); ++run)
     for (int l = 0; l < int(sv.lights.size()); ++l) {
-      const std::vector<Vec3> g = glsl_lookups(sys, pts, l);
+      const std::vector<Vec3> g = glsl_lookups(sys, pts, l, run == 0 ? -1 : int(sys.gl_buffers().layout));
       double worst = 0.0;
       size_t identical = 0, shadowed = 0, worst_at = 0;
       for (size_t i = 0; i < pts.size(); ++i) {
@@ -170,14 +178,15 @@ class GlLookup : public GlTest {
         identical += d == 0.0;
         shadowed += min_channel(c) < 0.999f;
       }
-      std::printf("[ lookup   ] %s light %d: %zu points (%zu shadowed), %u RGB of %zu maps, max |dT| %.3g, %.2f%% bit-identical\n",
-                  what, l, pts.size(), shadowed, rgb_maps, sv.maps.size(), worst, 100.0 * double(identical) / double(pts.size()));
+      std::printf("[ lookup   ] %s%s light %d: %zu points (%zu shadowed), %u RGB of %zu maps, max |dT| %.3g, %.2f%% bit-identical\n",
+                  what, run ? " (CDSM_LAYOUT variant)" : "", l, pts.size(), shadowed, rgb_maps, sv.maps.size(), worst,
+                  100.0 * double(identical) / double(pts.size()));
       EXPECT_LE(worst, 1e-5) << what << " light " << l << " at point " << worst_at;
       EXPECT_GT(shadowed, pts.size() / 20) << what << ": the points must probe shadows, not only lit space";
     }
   }
 
-  GLuint program_ = 0;
+  std::map<int, GLuint> programs_;  // by variant
 };
 
 TEST_F(GlLookup, DefaultSceneAllLayouts) {
@@ -186,7 +195,7 @@ TEST_F(GlLookup, DefaultSceneAllLayouts) {
     scene.shadows.layout = layout;
     scene.shadows.resolution = 256;
     const char* names[] = {"default packed", "default fixed", "default chunked"};
-    expect_agreement(scene, 70000, 25000, 10000, names[int(layout)]);
+    expect_agreement(scene, 70000, 25000, 10000, names[int(layout)], true);
   }
 }
 
@@ -206,7 +215,7 @@ TEST_F(GlLookup, OmniCubeFacesAndSlopeBias) {
   Scene scene = load_scene(scene_path("teapot_omni.json"));
   scene.shadows.receiver = ReceiverLookup::SlopeBias;
   scene.shadows.filtering = false;
-  expect_agreement(scene, 30000, 10000, 5000, "teapot omni, slope bias, nearest");
+  expect_agreement(scene, 30000, 10000, 5000, "teapot omni, slope bias, nearest", true);
 }
 
 // An index outside the lights shows magenta rather than a plausible value.
@@ -224,6 +233,15 @@ TEST_F(GlLookup, UnknownLightIndexIsMagenta) {
       EXPECT_EQ(t.x, 1.0f);
       EXPECT_EQ(t.y, 0.0f);
       EXPECT_EQ(t.z, 1.0f);
+    }
+  }
+  // So does an include compiled for a layout the buffers do not hold.
+  for (int variant : {1, 2}) {
+    const std::vector<Vec3> g = glsl_lookups(sys, pts, 0, variant);
+    for (const Vec3& t : g) {
+      EXPECT_EQ(t.x, 1.0f) << "CDSM_LAYOUT " << variant << " reading packed maps";
+      EXPECT_EQ(t.y, 0.0f) << "CDSM_LAYOUT " << variant << " reading packed maps";
+      EXPECT_EQ(t.z, 1.0f) << "CDSM_LAYOUT " << variant << " reading packed maps";
     }
   }
   EXPECT_THROW(sys.gl_light_index(LightHandle{12345}), Error);

@@ -24,8 +24,13 @@ void check(const char* what) {
   }
 }
 
-GLuint compile(GLenum stage, const std::string& body, bool with_cdsm) {
-  const std::string src = "#version 450\n" + (with_cdsm ? cdsm::glsl_include() : std::string()) + body;
+// A shader stage; with cdsm.glsl's lookups compiled for node layout
+// `cdsm_layout` (GlMapBuffers::layout) when that is not kNoCdsm.
+constexpr int kNoCdsm = -1;
+GLuint compile(GLenum stage, const std::string& body, int cdsm_layout) {
+  std::string src = "#version 450\n";
+  if (cdsm_layout != kNoCdsm) src += "#define CDSM_LAYOUT " + std::to_string(cdsm_layout) + "\n" + cdsm::glsl_include();
+  src += body;
   GLuint sh = glCreateShader(stage);
   const char* text = src.c_str();
   glShaderSource(sh, 1, &text, nullptr);
@@ -155,24 +160,37 @@ float empty_below(const std::vector<cdsm::TransferPoint>& tf) {
     if (cdsm::max_channel(tf[k].extinction) > 0.0f) return tf[k - 1].density;
   return 3.0e38f;  // none anywhere
 }
+
+// The vertex and geometry stages every mesh program shares, and `fragment`.
+GLuint mesh_program(const std::string& fragment, int cdsm_layout) {
+  return link({compile(GL_VERTEX_SHADER, kMeshVertex, kNoCdsm), compile(GL_GEOMETRY_SHADER, kMeshGeometry, kNoCdsm),
+               compile(GL_FRAGMENT_SHADER, std::string(kMeshFragmentCommon) + fragment, cdsm_layout)});
+}
 }  // namespace
 
-ForwardRenderer::ForwardRenderer() {
-  auto mesh_program = [](const char* fragment, bool with_cdsm) {
-    return link({compile(GL_VERTEX_SHADER, kMeshVertex, false), compile(GL_GEOMETRY_SHADER, kMeshGeometry, false),
-                 compile(GL_FRAGMENT_SHADER, std::string(kMeshFragmentCommon) + fragment, with_cdsm)});
-  };
-  surface_program_ = mesh_program(kSurfaceFragment, true);
-  volume_program_ = mesh_program(kVolumeFragment, true);
-  pick_program_ = mesh_program(kPickFragment, false);
-  solid_program_ = mesh_program(kSolidFragment, false);
-  distance_program_ = mesh_program(kDistanceFragment, false);
-  display_program_ = link({compile(GL_COMPUTE_SHADER, kDisplayCompute, false)});
-  light_grid_program_ = link({compile(GL_COMPUTE_SHADER, kLightGridCompute, true)});
+// The programs that look the maps up, compiled for the layout the map
+// buffers hold (cdsm.glsl's shader variants): at the first draw, and again
+// only when it changes.
+void ForwardRenderer::use_layout(uint32_t layout) {
+  if (layout == cdsm_layout_) return;
+  for (GLuint p : {surface_program_, volume_programs_[0], volume_programs_[1], light_grid_program_}) glDeleteProgram(p);
+  const int l = int(layout);
+  surface_program_ = mesh_program(kSurfaceFragment, l);
+  volume_programs_[0] = mesh_program(kVolumeFragment, l);
+  volume_programs_[1] = mesh_program(std::string("#define LIGHT_GRID 1\n") + kVolumeFragment, l);
+  light_grid_program_ = link({compile(GL_COMPUTE_SHADER, kLightGridCompute, l)});
   const GLint light_units[LightGrid::kLights] = {4, 5, 6, 7, 8, 9, 10, 11};
-  glProgramUniform1iv(volume_program_, glGetUniformLocation(volume_program_, "u_light_vis[0]"), LightGrid::kLights,
+  glProgramUniform1iv(volume_programs_[1], glGetUniformLocation(volume_programs_[1], "u_light_vis[0]"), LightGrid::kLights,
                       light_units);
-  line_program_ = link({compile(GL_VERTEX_SHADER, kLineVertex, false), compile(GL_FRAGMENT_SHADER, kLineFragment, false)});
+  cdsm_layout_ = layout;
+}
+
+ForwardRenderer::ForwardRenderer() {
+  pick_program_ = mesh_program(kPickFragment, kNoCdsm);
+  solid_program_ = mesh_program(kSolidFragment, kNoCdsm);
+  distance_program_ = mesh_program(kDistanceFragment, kNoCdsm);
+  display_program_ = link({compile(GL_COMPUTE_SHADER, kDisplayCompute, kNoCdsm)});
+  line_program_ = link({compile(GL_VERTEX_SHADER, kLineVertex, kNoCdsm), compile(GL_FRAGMENT_SHADER, kLineFragment, kNoCdsm)});
   glCreateVertexArrays(1, &line_vao_);
   for (GLuint a = 0; a < 2; ++a) {
     glEnableVertexArrayAttrib(line_vao_, a);
@@ -186,8 +204,8 @@ ForwardRenderer::~ForwardRenderer() {
   meshes_.clear();
   grids_.clear();
   light_grids_.clear();
-  for (GLuint p : {surface_program_, volume_program_, pick_program_, solid_program_, line_program_, distance_program_,
-                   display_program_, light_grid_program_})
+  for (GLuint p : {surface_program_, volume_programs_[0], volume_programs_[1], pick_program_, solid_program_, line_program_,
+                   distance_program_, display_program_, light_grid_program_})
     glDeleteProgram(p);
   resize(0, 0);
   glDeleteVertexArrays(1, &line_vao_);
@@ -466,13 +484,14 @@ FrameTimes ForwardRenderer::draw(cdsm::ShadowSystem& system, const cdsm::Scene& 
   if (opt.width > 0) cam.width = opt.width;
   if (opt.height > 0) cam.height = opt.height;
   resize(cam.width, cam.height);
+  use_layout(system.gl_buffers().layout);
   const cdsm::Mat4 vp = view_projection(cam);
   glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
   glViewport(0, 0, width_, height_);
   const float bg[4] = {scene.background.x, scene.background.y, scene.background.z, 1.0f};
   glClearNamedFramebufferfv(fbo_, GL_COLOR, 0, bg);
   glClearNamedFramebufferfi(fbo_, GL_DEPTH_STENCIL, 0, 1.0f, 0);
-  for (GLuint p : {surface_program_, volume_program_, solid_program_, line_program_}) {
+  for (GLuint p : {surface_program_, volume_programs_[0], volume_programs_[1], solid_program_, line_program_}) {
     set_mat4(p, "u_view_proj", vp);
     set_vec3(p, "u_eye", cam.position);
     set_vec3(p, "u_ambient", scene.shadows.ambient_light);
@@ -533,19 +552,20 @@ FrameTimes ForwardRenderer::draw(cdsm::ShadowSystem& system, const cdsm::Scene& 
   glStencilFunc(GL_ALWAYS, 2, 0xff);
   glEnable(GL_CULL_FACE);
   const cdsm::Vec3 forward = cdsm::normalize(cam.target - cam.position);
-  set_vec3(volume_program_, "u_forward", forward);
-  glProgramUniform2f(volume_program_, glGetUniformLocation(volume_program_, "u_near_far"), cam.near, cam.far);
   glBindTextureUnit(1, depth_copy_);
-  glProgramUniform1i(volume_program_, glGetUniformLocation(volume_program_, "u_scene_depth"), 1);
-  glProgramUniform1i(volume_program_, glGetUniformLocation(volume_program_, "u_density"), 0);
+  for (GLuint p : volume_programs_) {
+    set_vec3(p, "u_forward", forward);
+    glProgramUniform2f(p, glGetUniformLocation(p, "u_near_far"), cam.near, cam.far);
+    glProgramUniform1i(p, glGetUniformLocation(p, "u_scene_depth"), 1);
+    glProgramUniform1i(p, glGetUniformLocation(p, "u_density"), 0);
+  }
   for (const auto& [dist, i] : order) {
     const cdsm::Object& o = scene.objects[i];
     if (const Grid* g = drawn_volume(o)) {
       const cdsm::Volume& v = scene.volumes[size_t(o.volume)];
-      const GLuint p = volume_program_;
       const bool grid_shadows = opt.volume_shadows == VolumeShadows::LightGrid && opt.shadows;
       if (grid_shadows) t.light_grid_ms += prepare_light_grid(system, i, scene, *g, opt, &t.light_grids);
-      glProgramUniform1i(p, glGetUniformLocation(p, "u_light_grid"), grid_shadows);
+      const GLuint p = volume_programs_[grid_shadows ? 1 : 0];
       glUseProgram(p);
       system.bind_gl(p);
       const cdsm::Mat4 index_to_world = o.transform * v.index_to_object;

@@ -125,6 +125,9 @@ class ForwardRenderer {
   double prepare_light_grid(cdsm::ShadowSystem& system, size_t i, const cdsm::Scene& scene, const Grid& g,
                             const DrawOptions& opt, int* computed);
   void resize(int width, int height);
+  // (Re)compiles the programs that include cdsm.glsl for the map buffers'
+  // node layout (GlMapBuffers::layout) when it differs from theirs.
+  void use_layout(uint32_t layout);
   void draw_object(size_t i, const cdsm::Object& o, GLuint program, const DrawOptions& opt, bool medium = false);
 
   std::map<const cdsm::TriangleMesh*, std::unique_ptr<Mesh>> meshes_;
@@ -132,7 +135,13 @@ class ForwardRenderer {
   std::map<size_t, std::unique_ptr<LightGrid>> light_grids_;  // by object index
   GLuint light_grid_program_ = 0;
   std::vector<std::string> noted_;
-  GLuint surface_program_ = 0, volume_program_ = 0, pick_program_ = 0, solid_program_ = 0, line_program_ = 0;
+  GLuint surface_program_ = 0, pick_program_ = 0, solid_program_ = 0, line_program_ = 0;
+  // The volume march compiled twice: [0] a shadow lookup per sample, [1]
+  // the light grids. Two programs, not a uniform branch: a GPU that runs
+  // every branch under a mask (llvmpipe) would pay for the lookup code at
+  // every sample even when the grid answers.
+  GLuint volume_programs_[2] = {0, 0};
+  uint32_t cdsm_layout_ = ~0u;  // the layout those programs, the surface's and the light grid's, read
   GLuint distance_program_ = 0, back_fbo_ = 0, back_distance_ = 0;
   GLuint display_program_ = 0, display_ = 0;
   GLuint fbo_ = 0, color_ = 0, depth_ = 0, depth_copy_fbo_ = 0, depth_copy_ = 0;

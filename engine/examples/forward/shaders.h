@@ -152,8 +152,9 @@ uniform sampler3D u_blocks;      // per 8^3 block: the largest value its samples
 uniform ivec3 u_block_count;
 uniform float u_empty_below;     // values below this have no extinction (the transfer function)
 uniform int u_lookup_every;      // absorbing samples per shadow lookup (1: every sample)
-uniform bool u_light_grid;       // the lights' transmittance from u_light_vis (kLightGridCompute)
+#ifdef LIGHT_GRID  // the lights' transmittance from u_light_vis (kLightGridCompute)
 uniform sampler3D u_light_vis[8];  // per light, over the density grid's box (trilinear)
+#endif
 uniform sampler2D u_scene_depth; // the opaque pass's depth
 uniform vec3 u_forward;          // the camera's view axis
 uniform vec2 u_near_far;
@@ -220,16 +221,18 @@ void main() {
     // The lights' transmittance, looked up at every u_lookup_every-th
     // absorbing sample (it varies slowly inside a medium; the lookup is the
     // march's main cost).
-    if (u_light_grid) {
-      vec3 uvw = (idx + 0.5) / u_grid_size;
-      for (int i = 0; i < cdsm_light_count(); ++i)
-        vis_cache[i] = u_shadows ? texture(u_light_vis[i], uvw).rgb : vec3(1.0);
-    } else if (lookup_age >= u_lookup_every) {
+#ifdef LIGHT_GRID
+    vec3 uvw = (idx + 0.5) / u_grid_size;
+    for (int i = 0; i < cdsm_light_count(); ++i)
+      vis_cache[i] = u_shadows ? texture(u_light_vis[i], uvw).rgb : vec3(1.0);
+#else
+    if (lookup_age >= u_lookup_every) {
       for (int i = 0; i < cdsm_light_count(); ++i)
         vis_cache[i] = u_shadows ? cdsm_transmittance(p, i) : vec3(1.0);
       lookup_age = 0;
     }
     ++lookup_age;
+#endif
     vec3 c = albedo * u_ambient;
     for (int i = 0; i < cdsm_light_count(); ++i) {
       float cone = cdsm_spot_factor(i, p);

@@ -82,6 +82,11 @@ struct GlMapBuffers {
   uint32_t rgb_nodes = 0;   // CdsmRgbNodes: {z, r, g, b}
   uint32_t rgb_chunks = 0;  // CdsmRgbChunks
   int default_binding_base = 8;  // CDSM_BINDING_BASE when the shader does not define it
+  // The node layout of the maps in these buffers (cdsm_layout: 0 packed,
+  // 1 fixed, 2 chunked; the settings' DsmLayout). A shader compiled with
+  // `#define CDSM_LAYOUT n` before the include reads only that layout, and
+  // needs recompiling when this changes (cdsm.glsl, "Shader variants").
+  uint32_t layout = 0;
 };
 
 // The text of content/shaders/cdsm.glsl as this library was built with it
