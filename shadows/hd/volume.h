@@ -53,19 +53,24 @@ inline constexpr float kIndexLimit = 1.0e9f;
 
 CDSM_HD CDSM_INLINE float clamp_index(float x) { return fminf(fmaxf(x, -kIndexLimit), kIndexLimit); }
 
-// Trilinear interpolation of the 8 voxels around q; fetch(i, j, k) reads one.
-template <class Fetch>
-CDSM_HD CDSM_INLINE float trilinear(Vec3 q, Fetch&& fetch) {
+// Trilinear interpolation of the 8 voxels around q; corners(i, j, k, c)
+// reads voxels (i..i+1, j..j+1, k..k+1) into c, x fastest, then y, then z.
+template <class Corners>
+CDSM_HD CDSM_INLINE float trilinear(Vec3 q, Corners&& corners) {
   float fx = floorf(clamp_index(q.x)), fy = floorf(clamp_index(q.y)), fz = floorf(clamp_index(q.z));
   int i = int(fx), j = int(fy), k = int(fz);
   float tx = q.x - fx, ty = q.y - fy, tz = q.z - fz;
-  float c000 = fetch(i, j, k), c100 = fetch(i + 1, j, k);
-  float c010 = fetch(i, j + 1, k), c110 = fetch(i + 1, j + 1, k);
-  float c001 = fetch(i, j, k + 1), c101 = fetch(i + 1, j, k + 1);
-  float c011 = fetch(i, j + 1, k + 1), c111 = fetch(i + 1, j + 1, k + 1);
-  float c00 = lerpf(c000, c100, tx), c10 = lerpf(c010, c110, tx);
-  float c01 = lerpf(c001, c101, tx), c11 = lerpf(c011, c111, tx);
+  float c[8];
+  corners(i, j, k, c);
+  float c00 = lerpf(c[0], c[1], tx), c10 = lerpf(c[2], c[3], tx);
+  float c01 = lerpf(c[4], c[5], tx), c11 = lerpf(c[6], c[7], tx);
   return lerpf(lerpf(c00, c10, ty), lerpf(c01, c11, ty), tz);
+}
+
+// The 8 corners from one voxel at a time.
+template <class Fetch>
+CDSM_HD CDSM_INLINE void corners_by_voxel(int i, int j, int k, float* c, Fetch&& fetch) {
+  for (int n = 0; n < 8; ++n) c[n] = fetch(i + (n & 1), j + ((n >> 1) & 1), k + (n >> 2));
 }
 
 #if CDSM_HAVE_NANOVDB
@@ -84,12 +89,24 @@ CDSM_HD CDSM_INLINE float density_at_index(const SceneView& s, const VolumeData&
       // The accessor caches the path to the last leaf: the 8 taps mostly
       // share one leaf. Unstored voxels read the tile or background value.
       auto acc = nano_grid(s, v)->getAccessor();
-      return trilinear(q, [&](int i, int j, int k) { return acc.getValue(nanovdb::Coord(i, j, k)); });
+      return trilinear(q, [&](int i, int j, int k, float* c) {
+        corners_by_voxel(i, j, k, c, [&](int x, int y, int z) { return acc.getValue(nanovdb::Coord(x, y, z)); });
+      });
     }
 #endif
     case kGridDense:
     default:
-      return trilinear(q, [&](int i, int j, int k) { return voxel_at(s, v, i, j, k); });
+      return trilinear(q, [&](int i, int j, int k, float* c) {
+        if (i >= 0 && j >= 0 && k >= 0 && i + 1 < v.nx && j + 1 < v.ny && k + 1 < v.nz) {
+          // All 8 inside the grid (most samples): two rows of two planes.
+          const uint64_t row = uint64_t(v.nx), plane = row * uint64_t(v.ny);
+          const float* p = &s.voxels[v.voxel_offset + uint64_t(k) * plane + uint64_t(j) * row + uint64_t(i)];
+          c[0] = p[0], c[1] = p[1], c[2] = p[row], c[3] = p[row + 1];
+          c[4] = p[plane], c[5] = p[plane + 1], c[6] = p[plane + row], c[7] = p[plane + row + 1];
+          return;
+        }
+        corners_by_voxel(i, j, k, c, [&](int x, int y, int z) { return voxel_at(s, v, x, y, z); });
+      });
   }
 }
 

@@ -206,6 +206,14 @@ TEST_F(GlLookup, DefaultSceneClustered) {
   expect_agreement(scene, 70000, 25000, 10000, "default 4 clusters");
 }
 
+// Parallel splits: the finest split whose window holds the point, only it.
+TEST_F(GlLookup, DefaultSceneParallelSplits) {
+  Scene scene = load_scene(scene_path("default.json"));
+  scene.shadows.parallel_splits = 3;
+  scene.shadows.resolution = 256;
+  expect_agreement(scene, 70000, 25000, 10000, "default 3 parallel splits");
+}
+
 TEST_F(GlLookup, StainedGlass) {
   Scene scene = load_scene(scene_path("stained_glass.json"));
   expect_agreement(scene, 70000, 25000, 10000, "stained glass");
