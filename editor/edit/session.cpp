@@ -79,6 +79,7 @@ void Session::rebuild_system() {
   SystemOptions o;
   o.gl_context = GlContextUse::Application;  // the window's context: maps in its GL buffers
   o.private_fragment_context = true;         // GL fragments on the worker's own context: builds off this thread
+  o.keep_fragment_lists = true;              // an epsilon or layout edit rebuilds without rasterizing
   o.source = doc_.scene.source;
   system_ = std::make_unique<ShadowSystem>(o);
   worker_ = std::make_unique<Worker>();

@@ -402,7 +402,8 @@ void stats_window(Session& s, UiState& ui, float x, float y, float h) {
   }
   ImGui::Text("fragments %.1f ms | DSM build %.1f ms | clusters %.1f ms", st.times.fragments_ms, st.times.dsm_build_ms,
               st.cluster_ms);
-  ImGui::Text("maps rebuilt %u, reused %u", st.maps_rebuilt, st.maps_reused);
+  ImGui::Text("maps rebuilt %u (%u from kept fragment lists, %.1f MiB kept), reused %u", st.maps_rebuilt,
+              st.update.fragment_lists_reused, double(st.update.fragment_cache_bytes) / 1048576.0, st.maps_reused);
   for (const MapRebuild& r : st.update.rebuilds) ImGui::BulletText("light %u map %u: %s", r.light, r.map, to_string(r.reason));
   ImGui::Text("nodes/texel avg %.2f, max %u", st.memory.avg_nodes_per_texel, st.memory.max_nodes_per_texel);
   ImGui::Text("memory: index %.2f MiB, nodes %.2f MiB, slack %.2f MiB", double(st.memory.index_bytes) / 1048576.0,

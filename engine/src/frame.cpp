@@ -341,6 +341,19 @@ uint64_t map_key(const MapPlan& plan, const FrameInputs& in, uint64_t settings) 
   return h.h;
 }
 
+// What a map's fragment lists are produced from: its view, its members'
+// identities and generations, everything else the producer reads.
+uint64_t fragment_key(const MapPlan& plan, const FrameInputs& in) {
+  Hasher h;
+  h.pod(plan.view);
+  for (uint32_t o : plan.members) {
+    h.pod(in.object_ids[o]);
+    h.pod(in.object_generations[o]);
+  }
+  h.pod(in.geometry_epoch);
+  return h.h;
+}
+
 RebuildReason rebuild_reason(const MapCache::Entry* before, const MapCache::Entry& now) {
   if (!before) return RebuildReason::New;
   if (before->settings_hash != now.settings_hash) return RebuildReason::Settings;
@@ -358,6 +371,7 @@ void MapCache::clear(ShadowBackend& backend) {
   entries.clear();
   retired.clear();
   lights.clear();
+  fragments.clear();
 }
 
 void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, ShadowBackend& backend,
@@ -443,19 +457,34 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
     }
   }
   FragmentBuffers fb;
+  std::vector<MapCache::KeptFragments> kept;  // the next frame's MapCache::fragments
   if (in.maps_built) in.maps_built->store(0);
   if (in.maps_to_build) in.maps_to_build->store(uint32_t(n - size_t(std::count(found.begin(), found.end(), 1))));
   for (size_t k = 0; k < n; ++k) {
     MapCache::Entry& e = next[k];
     const MapPlan& plan = frame.setup.maps[k];
+    MapCache::KeptFragments* cached = nullptr;
+    const uint64_t fkey = in.keep_fragments ? fragment_key(plan, in) : 0;
+    if (in.keep_fragments)
+      for (MapCache::KeptFragments& c : cache.fragments)
+        if (!c.taken && c.key == fkey) cached = &c;
+    if (cached) cached->taken = true;  // (kept for the next frame below, where it is free again)
     if (found[k]) {
       frame.map_rebuilt.push_back(0);
       ++frame.reused;
+      if (cached) kept.push_back(std::move(*cached));
     } else {
       std::vector<uint32_t> words = mask_words(plan.members, sb.objects.size());
       ObjectMask mask{{words.data(), words.size()}};
       auto t0 = std::chrono::steady_clock::now();
-      produce(plan.view, mask, fb);
+      if (cached) {
+        fb = cached->lists;  // a copy: the light pass sorts its lists in place
+        kept.push_back(std::move(*cached));
+        ++frame.fragment_lists_reused;
+      } else {
+        produce(plan.view, mask, fb);
+        if (in.keep_fragments) kept.push_back({fkey, fb, false});
+      }
       frame.fragments_ms += ms_since(t0);
       frame.fragments += fb.total();
       t0 = std::chrono::steady_clock::now();
@@ -476,6 +505,10 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
     frame.map_stats.push_back(e.stats);
   }
   frame.refresh_headers();
+  for (MapCache::KeptFragments& c : kept) c.taken = false;
+  cache.fragments = std::move(kept);
+  for (const MapCache::KeptFragments& c : cache.fragments)
+    frame.fragment_cache_bytes += c.lists.offsets.capacity() * sizeof(uint32_t) + c.lists.fragments.capacity() * sizeof(Fragment);
   cache.entries = std::move(next);
   cache.lights = std::move(lights);
   cache.layout = layout;

@@ -80,6 +80,13 @@ struct FrameInputs {
   Camera camera;
   ShadowSettings settings;
   bool keep_previous = false;  // keep the last frame's replaced maps alive one frame (popping probe)
+  // Keep the light-view fragment lists of this frame's maps for the next
+  // frame: a map rebuilt from the same view, members and geometry (an ε or
+  // layout edit) takes them instead of producing them again.
+  // `geometry_epoch` changes whenever anything the producer reads may
+  // have changed (any compiled content, the producer itself).
+  bool keep_fragments = false;
+  uint64_t geometry_epoch = 0;
   // Optional progress of the builds (read by other threads): maps to build
   // this frame, and built so far.
   std::atomic<uint32_t>* maps_to_build = nullptr;
@@ -108,6 +115,13 @@ struct MapCache {
   };
   std::unordered_map<uint64_t, LightState> lights;  // by light identity
   DsmLayoutParams layout;  // of the stored maps
+  // Unsorted fragment lists of the last frame's maps (keep_fragments).
+  struct KeptFragments {
+    uint64_t key = 0;  // view, members and their generations, geometry epoch
+    FragmentBuffers lists;
+    bool taken = false;
+  };
+  std::vector<KeptFragments> fragments;
   // Frees every map (the backend's memory) and forgets the clusters.
   void clear(ShadowBackend& backend);
 };
@@ -123,6 +137,8 @@ struct ShadowFrame {
   uint32_t rebuilt = 0, reused = 0, freed = 0;
   bool previous_kept = false;           // the last frame's maps are all still stored (popping probe)
   double fragments_ms = 0.0;
+  uint32_t fragment_lists_reused = 0;  // rebuilt maps whose lists came from MapCache::fragments
+  uint64_t fragment_cache_bytes = 0;   // MapCache::fragments after this frame
   double build_ms = 0.0;
   double cluster_ms = 0.0;
   uint64_t fragments = 0;

@@ -296,7 +296,12 @@ void ShadowSystem::Impl::refresh_surfaces() {
 
 void ShadowSystem::Impl::compile(FrameStats& st) {
   fragments.choose(options.fragments, fragment_name, fragment_reason);
+  if (fragment_name != epoch_fragment_name) {
+    epoch_fragment_name = fragment_name;
+    ++geometry_epoch;
+  }
   if (!compile_pending) return;
+  ++geometry_epoch;
   auto t0 = Clock::now();
   std::vector<SceneChange> uploads;
   compile_volumes(st);
@@ -353,6 +358,8 @@ void ShadowSystem::Impl::build(FrameStats& st) {
     in.camera = scene.camera;
     in.settings = scene.shadows;
     in.keep_previous = keep_previous;
+    in.keep_fragments = options.keep_fragment_lists;
+    in.geometry_epoch = geometry_epoch;
     in.maps_built = &progress_built;
     in.maps_to_build = &progress_total;
     build_shadow_frame(in, fragments.producer(sb), *backend, cache, frame);
@@ -372,6 +379,7 @@ void ShadowSystem::Impl::build(FrameStats& st) {
     frame.reused = uint32_t(frame.maps.size());
     frame.fragments_ms = frame.build_ms = frame.cluster_ms = 0.0;
     frame.fragments = 0;
+    frame.fragment_lists_reused = 0;
   }
   st.fragment_source = fragment_name;
   st.fragment_source_reason = fragment_reason;
@@ -379,6 +387,8 @@ void ShadowSystem::Impl::build(FrameStats& st) {
   st.maps_rebuilt = frame.rebuilt;
   st.maps_reused = frame.reused;
   st.update.maps_freed = frame.freed;
+  st.update.fragment_lists_reused = frame.fragment_lists_reused;
+  st.update.fragment_cache_bytes = frame.fragment_cache_bytes;
   st.update.rebuilds = frame.rebuilds;
   for (const MapRebuild& r : frame.rebuilds) ++st.update.rebuilt_by_reason[int(r.reason)];
   st.cluster_ms = frame.cluster_ms;

@@ -56,6 +56,11 @@ struct ShadowSystem::Impl {
   uint64_t gl_readback_bytes = 0;  // read_gl_mesh() bytes since the last update
   FragmentSourceSelector fragments;
   std::string fragment_name, fragment_reason;
+  // Changes whenever compiled content or the fragment producer changes:
+  // kept fragment lists (SystemOptions::keep_fragment_lists) of an older
+  // epoch are never used.
+  uint64_t geometry_epoch = 0;
+  std::string epoch_fragment_name;
   std::unique_ptr<ShadowBackend> backend;
   std::string backend_name, backend_reason;  // which backend and why (backend_select.h)
   MapCache cache;

@@ -206,6 +206,60 @@ TEST(ShadowSystem, EpsilonChangeRebuildsEveryMapButCompilesNoGeometry) {
   EXPECT_EQ(st.maps_rebuilt, 0u);
 }
 
+// SystemOptions::keep_fragment_lists: an epsilon edit rebuilds every map
+// from the kept light-view lists, a content edit drops them; both render
+// what a fresh system renders.
+TEST(ShadowSystem, KeptFragmentListsServeEpsilonEditsAndNeverOutliveAContentEdit) {
+  Scene s = shipped("default");
+  s.shadows.max_clusters = 4;
+  SystemOptions o;
+  o.keep_fragment_lists = true;
+  ShadowSystem sys(o);
+  add_scene(sys, s);
+  FrameStats st;
+  sys.render(&st);
+  const uint32_t maps = st.maps_rebuilt;
+  ASSERT_GE(maps, 2u);
+  EXPECT_EQ(st.update.fragment_lists_reused, 0u);
+  EXPECT_GT(st.update.fragment_cache_bytes, 0u);
+  auto fresh = [](const Scene& scene) {
+    ShadowSystem f;
+    add_scene(f, scene);
+    FrameStats fs;
+    Image img = f.render(&fs);
+    EXPECT_EQ(fs.update.fragment_cache_bytes, 0u) << "kept only when asked";
+    return img;
+  };
+
+  s.shadows.epsilon = 0.05f;
+  sys.set_settings(s.shadows);
+  Image a = sys.render(&st);
+  EXPECT_EQ(st.maps_rebuilt, maps);
+  EXPECT_EQ(st.update.fragment_lists_reused, maps);
+  EXPECT_TRUE(same_pixels(a, fresh(s))) << "maps from kept lists";
+
+  // A settings edit that rebuilds nothing keeps them too.
+  s.shadows.filtering = false;
+  sys.set_settings(s.shadows);
+  sys.render(&st);
+  EXPECT_EQ(st.maps_rebuilt, 0u);
+  EXPECT_GT(st.update.fragment_cache_bytes, 0u);
+  s.shadows.epsilon = 0.02f;
+  sys.set_settings(s.shadows);
+  sys.render(&st);
+  EXPECT_EQ(st.update.fragment_lists_reused, maps);
+
+  // A content edit (an object moved) drops them: every list is rasterized again.
+  const size_t ball = index_of(s, "ball");
+  s.objects[ball].transform.m[0][3] += 0.05f;
+  sys.set_transform(sys.objects()[ball], s.objects[ball].transform);
+  s.shadows.epsilon = 0.01f;
+  sys.set_settings(s.shadows);
+  a = sys.render(&st);
+  EXPECT_EQ(st.update.fragment_lists_reused, 0u);
+  EXPECT_TRUE(same_pixels(a, fresh(s))) << "after a move";
+}
+
 TEST(ShadowSystem, MovedLightRebuildsOnlyItsMaps) {
   ShadowSystem sys;
   Scene s = shipped("teapot_omni");

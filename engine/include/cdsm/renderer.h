@@ -199,6 +199,8 @@ struct UpdateStats {
   uint32_t bvh_rebuilds = 0;      // BVH built (full compiles, or a refit that degraded the tree)
   uint64_t gl_upload_bytes = 0;   // bytes uploaded to GL buffers (scene geometry)
   uint32_t maps_freed = 0;        // maps whose memory was released
+  uint32_t fragment_lists_reused = 0;  // maps rebuilt from kept fragment lists (SystemOptions::keep_fragment_lists)
+  uint64_t fragment_cache_bytes = 0;   // the kept fragment lists, allocated
   uint32_t rebuilt_by_reason[kRebuildReasons] = {};  // maps_rebuilt split by RebuildReason
   std::vector<MapRebuild> rebuilds;                  // every rebuilt map and why
   uint64_t map_store_bytes = 0;   // the backend's map store, allocated (holes included)
