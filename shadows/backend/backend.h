@@ -62,6 +62,13 @@ inline DsmStorage storage_sizes(DsmStorage s) {
 // A map the backend stores; valid until free_map().
 using MapId = uint32_t;
 
+// The store compaction rule of the backends: the bytes of freed maps still
+// in the store (`stored` bytes of maps appended since the last compaction,
+// `live` of them in maps in use) are reclaimed once they exceed a quarter
+// of it. Counted in map bytes, not in the arrays' capacity: growth slack
+// of the arrays is not a hole.
+inline bool store_needs_compaction(uint64_t stored, uint64_t live) { return stored - live > stored / 4; }
+
 // Bytes a backend holds for maps: `live` in maps still in use, `allocated`
 // including the holes freed maps left (reclaimed by compaction).
 struct MapStoreStats {

@@ -86,6 +86,7 @@ class CpuBackend final : public ShadowBackend {
     if (params.rgb) place(rgb_arrays(store_), true);
     else place(grey_arrays(store_), true);
     live_bytes_ += m.bytes();
+    stored_bytes_ += m.bytes();
     MapId id;
     if (!free_ids_.empty()) {
       id = free_ids_.back();
@@ -106,7 +107,7 @@ class CpuBackend final : public ShadowBackend {
     free_ids_.push_back(id);
     if (live_maps() == 0) {
       reset_store();
-    } else if (allocated_bytes() - live_bytes_ > allocated_bytes() / 4) {
+    } else if (store_needs_compaction(stored_bytes_, live_bytes_)) {
       compact();
     }
   }
@@ -148,7 +149,7 @@ class CpuBackend final : public ShadowBackend {
     ++epoch_;
     maps_.clear();
     free_ids_.clear();
-    live_bytes_ = 0;
+    live_bytes_ = stored_bytes_ = 0;
   }
 
   // Copies the live maps into fresh arrays, exactly sized, re-basing their
@@ -178,6 +179,7 @@ class CpuBackend final : public ShadowBackend {
       compacted_bytes_ += m.bytes();
     }
     store_ = std::move(next);
+    stored_bytes_ = live_bytes_;
     ++compactions_;
     ++epoch_;
   }
@@ -187,6 +189,7 @@ class CpuBackend final : public ShadowBackend {
   std::vector<StoredMap> maps_;     // by MapId
   std::vector<MapId> free_ids_;
   uint64_t live_bytes_ = 0;
+  uint64_t stored_bytes_ = 0;  // of maps appended since the last compaction or reset (live + holes)
   uint64_t compactions_ = 0, compacted_bytes_ = 0;
   uint64_t epoch_ = 1;  // storage_epoch()
 };

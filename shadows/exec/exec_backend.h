@@ -97,6 +97,7 @@ class ExecBackend final : public ExecShadowBackend {
     if (params.rgb) m = build_kind(ep, ef, layout, rgb_, stats);
     else m = build_kind(ep, ef, layout, grey_, stats);
     live_bytes_ += m.bytes();
+    stored_bytes_ += m.bytes();
     mirror_dirty_ = true;
     MapId id;
     if (!free_ids_.empty()) {
@@ -116,7 +117,7 @@ class ExecBackend final : public ExecShadowBackend {
     maps_[id].live = false;
     free_ids_.push_back(id);
     if (live_maps() == 0) reset_store();
-    else if (allocated_bytes() - live_bytes_ > allocated_bytes() / 4) compact();
+    else if (store_needs_compaction(stored_bytes_, live_bytes_)) compact();
   }
 
   DsmMap map_header(MapId id) const override {
@@ -344,7 +345,7 @@ class ExecBackend final : public ExecShadowBackend {
     release(rgb_);
     maps_.clear();
     free_ids_.clear();
-    live_bytes_ = 0;
+    live_bytes_ = stored_bytes_ = 0;
     stored_any_ = false;
     mirror_dirty_ = true;
     ++epoch_;
@@ -361,6 +362,7 @@ class ExecBackend final : public ExecShadowBackend {
     }
     grey_ = std::move(grey);
     rgb_ = std::move(rgb);
+    stored_bytes_ = live_bytes_;
     ++compactions_;
     ++epoch_;
     mirror_dirty_ = true;
@@ -398,6 +400,7 @@ class ExecBackend final : public ExecShadowBackend {
   std::vector<ExecStoredMap> maps_;
   std::vector<MapId> free_ids_;
   uint64_t live_bytes_ = 0;
+  uint64_t stored_bytes_ = 0;  // of maps appended since the last compaction or reset (live + holes)
   uint64_t compactions_ = 0, compacted_bytes_ = 0;
   uint64_t epoch_ = 1;
   mutable DsmBuffers mirror_;  // storage() over device memory

@@ -216,6 +216,33 @@ TEST(ExecBackend, FreeAndCompactKeepTheOtherMaps) {
   }
 }
 
+// Compaction follows the freed maps' bytes, not the arrays' growth slack:
+// five equal maps (the arrays grown by doubling hold room for eight), one
+// freed is a fifth of the store and stays; two freed are compacted away.
+TEST(ExecBackend, CompactionFollowsHolesNotArrayCapacity) {
+  Scene s = parity::load("depth", 32, 32, 24);
+  OneView v(s, 0.005f);
+  std::unique_ptr<ShadowBackend> cpu = make_cpu_backend();
+  HostBackend ex("exec");
+  for (ShadowBackend* b : {cpu.get(), static_cast<ShadowBackend*>(&ex)}) {
+    b->update_scene(v.sb, SceneChange{true, 0, 0, true});
+    std::vector<MapId> ids;
+    for (int i = 0; i < 5; ++i) {
+      DsmBuildStats st;
+      FragmentBuffers f = v.frags;
+      ids.push_back(b->build_map(v.params, f.lists(), layout_params(kDsmPacked), st));
+    }
+    const uint64_t one = b->map_store().live_bytes / 5;
+    EXPECT_GT(b->map_store().allocated_bytes, b->map_store().live_bytes) << b->name() << ": growth slack to ignore";
+    b->free_map(ids[0]);
+    EXPECT_EQ(b->map_store().compactions, 0u) << b->name() << ": a fifth of the store freed";
+    EXPECT_EQ(b->map_store().live_bytes, 4 * one);
+    b->free_map(ids[1]);
+    EXPECT_EQ(b->map_store().compactions, 1u) << b->name() << ": two fifths freed";
+    EXPECT_EQ(b->map_store().allocated_bytes, 3 * one) << b->name() << ": compacted exactly";
+  }
+}
+
 TEST(ExecBackend, FragmentsEqualTheCpuRayCaster) {
   for (const char* name : kScenes) {
     Scene s = parity::load(name, 64, 96, 64);
