@@ -62,12 +62,48 @@ inline DsmStorage storage_sizes(DsmStorage s) {
 // A map the backend stores; valid until free_map().
 using MapId = uint32_t;
 
-// The store compaction rule of the backends: the bytes of freed maps still
-// in the store (`stored` bytes of maps appended since the last compaction,
-// `live` of them in maps in use) are reclaimed once they exceed a quarter
-// of it. Counted in map bytes, not in the arrays' capacity: growth slack
-// of the arrays is not a hole.
-inline bool store_needs_compaction(uint64_t stored, uint64_t live) { return stored - live > stored / 4; }
+// The map ids of a backend that appends maps to one store: a slot per id
+// (freed ids are given again), and the bytes in live maps and in the store
+// since its last compaction. `Stored` has `bool live` and `uint64_t
+// bytes()`. The compaction rule: the bytes of freed maps still in the
+// store are reclaimed once they exceed a quarter of it — counted in map
+// bytes, not in the arrays' capacity (growth slack is not a hole).
+template <class Stored>
+struct MapSlots {
+  std::vector<Stored> maps;  // by MapId
+  std::vector<MapId> free_ids;
+  uint64_t live_bytes = 0;
+  uint64_t stored_bytes = 0;  // of maps appended since the last compaction or reset (live + holes)
+
+  uint32_t live() const { return uint32_t(maps.size() - free_ids.size()); }
+  MapId add(const Stored& m) {
+    live_bytes += m.bytes();
+    stored_bytes += m.bytes();
+    if (free_ids.empty()) {
+      maps.push_back(m);
+      return MapId(maps.size() - 1);
+    }
+    const MapId id = free_ids.back();
+    free_ids.pop_back();
+    maps[id] = m;
+    return id;
+  }
+  // Map `id`; throws std::logic_error naming `what` when it is not stored.
+  const Stored& at(MapId id, const char* what) const {
+    if (id >= maps.size() || !maps[id].live)
+      throw std::logic_error(std::string(what) + ": map " + std::to_string(id) + " is not stored");
+    return maps[id];
+  }
+  void free(MapId id) {
+    at(id, "free_map");
+    live_bytes -= maps[id].bytes();
+    maps[id].live = false;
+    free_ids.push_back(id);
+  }
+  bool needs_compaction() const { return stored_bytes - live_bytes > stored_bytes / 4; }
+  void compacted() { stored_bytes = live_bytes; }
+  void clear() { *this = MapSlots{}; }
+};
 
 // Bytes a backend holds for maps: `live` in maps still in use, `allocated`
 // including the holes freed maps left (reclaimed by compaction).

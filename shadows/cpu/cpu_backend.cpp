@@ -67,7 +67,7 @@ class CpuBackend final : public ShadowBackend {
 
   MapId build_map(const LightPassParams& params, FragmentLists frags, const DsmLayoutParams& layout,
                   DsmBuildStats& stats) override {
-    if (live_maps() == 0) reset_store();
+    if (slots_.live() == 0) reset_store();
     StoredMap m;
     const auto place = [&](auto kind, bool end) {
       (end ? m.texel_end : m.texel_begin) = kind.texels.size();
@@ -79,42 +79,23 @@ class CpuBackend final : public ShadowBackend {
     stats = build_dsm(scene_, params, frags, store_, layout);
     m.live = true;
     m.map = store_.maps.back();
-    // The store's own map list is unused (maps_ holds the maps); one entry
+    // The store's own map list is unused (slots_ holds the maps); one entry
     // stays so the store keeps its layout (build_dsm adopts a layout only
     // when the list is empty).
     store_.maps.assign(1, DsmMap{});
     if (params.rgb) place(rgb_arrays(store_), true);
     else place(grey_arrays(store_), true);
-    live_bytes_ += m.bytes();
-    stored_bytes_ += m.bytes();
-    MapId id;
-    if (!free_ids_.empty()) {
-      id = free_ids_.back();
-      free_ids_.pop_back();
-      maps_[id] = m;
-    } else {
-      id = MapId(maps_.size());
-      maps_.push_back(m);
-    }
-    return id;
+    return slots_.add(m);
   }
 
   void free_map(MapId id) override {
-    if (id >= maps_.size() || !maps_[id].live) throw std::logic_error("free_map: map " + std::to_string(id) + " is not stored");
-    StoredMap& m = maps_[id];
-    live_bytes_ -= m.bytes();
-    m.live = false;
-    free_ids_.push_back(id);
-    if (live_maps() == 0) {
-      reset_store();
-    } else if (store_needs_compaction(stored_bytes_, live_bytes_)) {
-      compact();
-    }
+    slots_.free(id);
+    if (slots_.live() == 0) reset_store();
+    else if (slots_.needs_compaction()) compact();
   }
 
   DsmMap map_header(MapId id) const override {
-    if (id >= maps_.size() || !maps_[id].live) throw std::logic_error("map_header: map " + std::to_string(id) + " is not stored");
-    return maps_[id].map;
+    return slots_.at(id, "map_header").map;
   }
 
   DsmStorage storage() const override { return store_.storage(); }
@@ -127,17 +108,15 @@ class CpuBackend final : public ShadowBackend {
 
   MapStoreStats map_store() const override {
     MapStoreStats s;
-    s.live_bytes = live_bytes_;
+    s.live_bytes = slots_.live_bytes;
     s.allocated_bytes = allocated_bytes();
     s.compactions = compactions_;
     s.compacted_bytes = compacted_bytes_;
-    s.maps = live_maps();
+    s.maps = slots_.live();
     return s;
   }
 
  private:
-  uint32_t live_maps() const { return uint32_t(maps_.size() - free_ids_.size()); }
-
   uint64_t allocated_bytes() const {
     return store_.texels.capacity() * sizeof(TexelRange) + store_.nodes.capacity() * sizeof(DsmNode) +
            store_.chunks.capacity() * sizeof(ChunkNode) + store_.rgb.texels.capacity() * sizeof(TexelRange) +
@@ -147,9 +126,7 @@ class CpuBackend final : public ShadowBackend {
   void reset_store() {
     store_ = DsmBuffers{};  // frees the arrays (clear() would keep their capacity)
     ++epoch_;
-    maps_.clear();
-    free_ids_.clear();
-    live_bytes_ = stored_bytes_ = 0;
+    slots_.clear();
   }
 
   // Copies the live maps into fresh arrays, exactly sized, re-basing their
@@ -159,7 +136,7 @@ class CpuBackend final : public ShadowBackend {
     next.layout = store_.layout;
     next.maps.push_back(DsmMap{});
     size_t texels[2] = {0, 0}, nodes[2] = {0, 0}, chunks[2] = {0, 0};
-    for (const StoredMap& m : maps_)
+    for (const StoredMap& m : slots_.maps)
       if (m.live) {
         const int k = m.map.rgb ? 1 : 0;
         texels[k] += m.texel_end - m.texel_begin;
@@ -172,24 +149,21 @@ class CpuBackend final : public ShadowBackend {
     next.rgb.texels.reserve(texels[1]);
     next.rgb.nodes.reserve(nodes[1]);
     next.rgb.chunks.reserve(chunks[1]);
-    for (StoredMap& m : maps_) {
+    for (StoredMap& m : slots_.maps) {
       if (!m.live) continue;
       m = m.map.rgb ? move_map(m, store_.layout.layout, rgb_arrays(store_), rgb_arrays(next))
                     : move_map(m, store_.layout.layout, grey_arrays(store_), grey_arrays(next));
       compacted_bytes_ += m.bytes();
     }
     store_ = std::move(next);
-    stored_bytes_ = live_bytes_;
+    slots_.compacted();
     ++compactions_;
     ++epoch_;
   }
 
   SceneView scene_{};
   DsmBuffers store_;                // every stored map's texels and nodes, in one layout
-  std::vector<StoredMap> maps_;     // by MapId
-  std::vector<MapId> free_ids_;
-  uint64_t live_bytes_ = 0;
-  uint64_t stored_bytes_ = 0;  // of maps appended since the last compaction or reset (live + holes)
+  MapSlots<StoredMap> slots_;
   uint64_t compactions_ = 0, compacted_bytes_ = 0;
   uint64_t epoch_ = 1;  // storage_epoch()
 };

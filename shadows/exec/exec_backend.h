@@ -77,7 +77,7 @@ class ExecBackend final : public ExecShadowBackend {
                   DsmBuildStats& stats) override {
     check_layout(layout);
     if (params.rgb && params.method != kMethodDsm) throw std::invalid_argument("build_map: the baselines are grey (no RGB maps)");
-    if (live_maps() == 0) reset_store();
+    if (slots_.live() == 0) reset_store();
     if (stored_any_ && !same_layout(layout_, layout))
       throw std::logic_error("exec backend: maps of different layouts cannot share the store");
     layout_ = layout;
@@ -96,33 +96,19 @@ class ExecBackend final : public ExecShadowBackend {
     m.live = true;
     if (params.rgb) m = build_kind(ep, ef, layout, rgb_, stats);
     else m = build_kind(ep, ef, layout, grey_, stats);
-    live_bytes_ += m.bytes();
-    stored_bytes_ += m.bytes();
     mirror_dirty_ = true;
-    MapId id;
-    if (!free_ids_.empty()) {
-      id = free_ids_.back();
-      free_ids_.pop_back();
-      maps_[id] = m;
-    } else {
-      id = MapId(maps_.size());
-      maps_.push_back(m);
-    }
+    const MapId id = slots_.add(m);
     return id;
   }
 
   void free_map(MapId id) override {
-    if (id >= maps_.size() || !maps_[id].live) throw std::logic_error("free_map: map " + std::to_string(id) + " is not stored");
-    live_bytes_ -= maps_[id].bytes();
-    maps_[id].live = false;
-    free_ids_.push_back(id);
-    if (live_maps() == 0) reset_store();
-    else if (store_needs_compaction(stored_bytes_, live_bytes_)) compact();
+    slots_.free(id);
+    if (slots_.live() == 0) reset_store();
+    else if (slots_.needs_compaction()) compact();
   }
 
   DsmMap map_header(MapId id) const override {
-    if (id >= maps_.size() || !maps_[id].live) throw std::logic_error("map_header: map " + std::to_string(id) + " is not stored");
-    return maps_[id].map;
+    return slots_.at(id, "map_header").map;
   }
 
   DsmStorage storage() const override {
@@ -209,11 +195,11 @@ class ExecBackend final : public ExecShadowBackend {
 
   MapStoreStats map_store() const override {
     MapStoreStats s;
-    s.live_bytes = live_bytes_;
+    s.live_bytes = slots_.live_bytes;
     s.allocated_bytes = allocated_bytes();
     s.compactions = compactions_;
     s.compacted_bytes = compacted_bytes_;
-    s.maps = live_maps();
+    s.maps = slots_.live();
     return s;
   }
 
@@ -324,7 +310,6 @@ class ExecBackend final : public ExecShadowBackend {
     return s;
   }
 
-  uint32_t live_maps() const { return uint32_t(maps_.size() - free_ids_.size()); }
 
   uint64_t allocated_bytes() const {
     return grey_.texels.capacity() * sizeof(TexelRange) + grey_.nodes.capacity() * sizeof(DsmNode) +
@@ -343,9 +328,7 @@ class ExecBackend final : public ExecShadowBackend {
   void reset_store() {
     release(grey_);
     release(rgb_);
-    maps_.clear();
-    free_ids_.clear();
-    live_bytes_ = stored_bytes_ = 0;
+    slots_.clear();
     stored_any_ = false;
     mirror_dirty_ = true;
     ++epoch_;
@@ -355,14 +338,14 @@ class ExecBackend final : public ExecShadowBackend {
   void compact() {
     KindStore<DsmNode, Ex> grey(ex_);
     KindStore<DsmNodeRgb, Ex> rgb(ex_);
-    for (ExecStoredMap& m : maps_) {
+    for (ExecStoredMap& m : slots_.maps) {
       if (!m.live) continue;
       m = m.map.rgb ? move_map_exec(ex_, m, layout_.layout, rgb_, rgb) : move_map_exec(ex_, m, layout_.layout, grey_, grey);
       compacted_bytes_ += m.bytes();
     }
     grey_ = std::move(grey);
     rgb_ = std::move(rgb);
-    stored_bytes_ = live_bytes_;
+    slots_.compacted();
     ++compactions_;
     ++epoch_;
     mirror_dirty_ = true;
@@ -397,10 +380,7 @@ class ExecBackend final : public ExecShadowBackend {
   LightPassOptions options_;
   DsmLayoutParams layout_;
   bool stored_any_ = false;
-  std::vector<ExecStoredMap> maps_;
-  std::vector<MapId> free_ids_;
-  uint64_t live_bytes_ = 0;
-  uint64_t stored_bytes_ = 0;  // of maps appended since the last compaction or reset (live + holes)
+  MapSlots<ExecStoredMap> slots_;
   uint64_t compactions_ = 0, compacted_bytes_ = 0;
   uint64_t epoch_ = 1;
   mutable DsmBuffers mirror_;  // storage() over device memory
