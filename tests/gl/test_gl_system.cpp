@@ -506,6 +506,17 @@ class InPlaceBackend final : public ShadowBackend {
   std::unique_ptr<ShadowBackend> inner_;
 };
 
+// `sys`'s backend wrapped in an InPlaceBackend (its fragment producer
+// follows); the wrapper, owned by the system.
+InPlaceBackend* use_in_place_backend(ShadowSystem& sys) {
+  ShadowSystem::Impl& I = sys.internals();
+  auto in_place = std::make_unique<InPlaceBackend>(std::move(I.backend));
+  InPlaceBackend* ip = in_place.get();
+  I.backend = std::move(in_place);
+  I.fragments.use_backend(I.backend.get());
+  return ip;
+}
+
 // The figures of one update and whether the GL buffers then equal storage().
 struct PublishStep {
   UpdateStats u;
@@ -576,11 +587,7 @@ TEST_F(GlSystem, InPlaceBackendGetsTheRangesTheHostPathUploads) {
   const std::vector<PublishStep> h = publish_steps(host, scene);
 
   ShadowSystem dev(app_options(FragmentSource::Cpu));
-  ShadowSystem::Impl& I = dev.internals();
-  auto in_place = std::make_unique<InPlaceBackend>(std::move(I.backend));
-  InPlaceBackend* ip = in_place.get();
-  I.backend = std::move(in_place);
-  I.fragments.use_backend(I.backend.get());
+  InPlaceBackend* ip = use_in_place_backend(dev);
   const std::vector<PublishStep> d = publish_steps(dev, scene);
 
   ASSERT_EQ(h.size(), d.size());
@@ -614,11 +621,8 @@ TEST_F(GlSystem, AFailedInPlaceWriteIsRepairedByTheNextUpdate) {
   Scene scene = load_scene(scene_path("teapot_omni.json"));
   scene.shadows.resolution = 96;
   ShadowSystem sys(app_options(FragmentSource::Cpu));
+  InPlaceBackend* ip = use_in_place_backend(sys);
   ShadowSystem::Impl& I = sys.internals();
-  auto in_place = std::make_unique<InPlaceBackend>(std::move(I.backend));
-  InPlaceBackend* ip = in_place.get();
-  I.backend = std::move(in_place);
-  I.fragments.use_backend(I.backend.get());
   sync_scene(sys, scene);
   sys.update();
   Light l = scene.lights[0];

@@ -28,3 +28,15 @@ inline bool gpu_required() {
       GTEST_SKIP() << cdsm_device_.description;                                      \
     }                                                                                \
   } while (0)
+
+// First statement of a GPU test that also needs the GL context on the CUDA
+// device (CUDA-GL interop; include gl_interop.h).
+#define CDSM_REQUIRE_GL_ON_DEVICE()                                                  \
+  do {                                                                               \
+    CDSM_REQUIRE_DEVICE();                                                           \
+    std::string cdsm_why_;                                                           \
+    if (!::cdsm::cuda::gl_context_on_device(::cdsm::cuda::probe_device().device, &cdsm_why_)) { \
+      if (::cdsm::test::gpu_required()) FAIL() << cdsm_why_;                         \
+      GTEST_SKIP() << cdsm_why_;                                                     \
+    }                                                                                \
+  } while (0)

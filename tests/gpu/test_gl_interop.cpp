@@ -22,13 +22,18 @@ using namespace cdsm;
 
 class GlInterop : public test::GlTest {};
 
+// A system on the test's GL context with the cuda backend (CPU fragments).
+SystemOptions cuda_on_app_context() {
+  SystemOptions o;
+  o.gl_context = GlContextUse::Application;
+  o.fragments = FragmentSource::Cpu;
+  o.backend = Backend::Cuda;
+  o.source = "interop system";
+  return o;
+}
+
 TEST_F(GlInterop, RegisterOnceMapWriteRead) {
-  CDSM_REQUIRE_DEVICE();
-  std::string why;
-  if (!cuda::gl_context_on_device(cuda::probe_device().device, &why)) {
-    if (test::gpu_required()) FAIL() << why;
-    GTEST_SKIP() << why;
-  }
+  CDSM_REQUIRE_GL_ON_DEVICE();
   GLuint buf = 0;
   glCreateBuffers(1, &buf);
   std::vector<uint32_t> zeros(1024, 0u);
@@ -73,18 +78,8 @@ TEST_F(GlInterop, RegisterOnceMapWriteRead) {
 // storage() byte for byte, the array bytes are counted as device writes and
 // only the frame block is uploaded from the host.
 TEST_F(GlInterop, CudaBackendWritesTheMapBuffersInPlace) {
-  CDSM_REQUIRE_DEVICE();
-  std::string why;
-  if (!cuda::gl_context_on_device(cuda::probe_device().device, &why)) {
-    if (test::gpu_required()) FAIL() << why;
-    GTEST_SKIP() << why;
-  }
-  SystemOptions o;
-  o.gl_context = GlContextUse::Application;
-  o.fragments = FragmentSource::Cpu;
-  o.backend = Backend::Cuda;
-  o.source = "interop system";
-  ShadowSystem sys(o);
+  CDSM_REQUIRE_GL_ON_DEVICE();
+  ShadowSystem sys(cuda_on_app_context());
   ShadowSystem::Impl& I = sys.internals();
   ASSERT_STREQ(I.backend->name(), "cuda");
   ASSERT_TRUE(I.backend->can_write_gl_maps());
@@ -125,17 +120,8 @@ TEST_F(GlInterop, CudaBackendWritesTheMapBuffersInPlace) {
 // write-discard, registered once per buffer object): the same floats as
 // the pass read back to the host.
 TEST_F(GlInterop, CudaCameraPassWritesAPixelBuffer) {
-  CDSM_REQUIRE_DEVICE();
-  std::string why;
-  if (!cuda::gl_context_on_device(cuda::probe_device().device, &why)) {
-    if (test::gpu_required()) FAIL() << why;
-    GTEST_SKIP() << why;
-  }
-  SystemOptions o;
-  o.gl_context = GlContextUse::Application;
-  o.fragments = FragmentSource::Cpu;
-  o.backend = Backend::Cuda;
-  ShadowSystem sys(o);
+  CDSM_REQUIRE_GL_ON_DEVICE();
+  ShadowSystem sys(cuda_on_app_context());
   Scene scene = load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/teapot_omni.json");
   scene.shadows.resolution = 128;
   sync_scene(sys, scene);
