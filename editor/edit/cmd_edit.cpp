@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cdsm/error.h"
@@ -71,8 +72,11 @@ int cmd_edit(const std::vector<std::string>& args) {
   }
   if (width < 640 || height < 400 || width > 8192 || height > 8192)
     throw Error("--width/--height", "the window must be 640x400 .. 8192x8192");
+  // Bad input fails before any window: a missing or broken scene file (the
+  // error names it and the place in it), then a missing script.
+  editor::Document document = editor::open_document(scene_path);
   std::unique_ptr<editor::ScriptRunner> script;
-  if (!script_path.empty()) script = std::make_unique<editor::ScriptRunner>(script_path);  // a bad path fails first
+  if (!script_path.empty()) script = std::make_unique<editor::ScriptRunner>(script_path);
 
   std::string why;
   auto context = GlContext::create_window(width, height, "cdsm edit - " + scene_path, !hidden, &why);
@@ -88,7 +92,7 @@ int cmd_edit(const std::vector<std::string>& args) {
   ImGui_ImplOpenGL3_Init("#version 450");
   int rc = 0;
   {
-    editor::Session session(scene_path);  // errors name the file; the window closes with them
+    editor::Session session(std::move(document));
     session.set_wake([] { glfwPostEmptyEvent(); });  // a finished build ends the wait below at once
     editor::UiState ui;
     ui.recent = editor::load_recent();

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <utility>
 
 namespace cdsm::editor {
 
@@ -57,7 +58,7 @@ Vec3 Session::cluster_color(int slot) {
   return palette[size_t(std::max(slot, 0)) % 8];
 }
 
-Session::Session(const std::string& path) : doc_(open_document(path)) {
+Session::Session(Document doc) : doc_(std::move(doc)) {
   renderer_ = std::make_unique<forward::ForwardRenderer>();
   orbit_ = OrbitCamera::from(doc_.scene.camera);
   rebuild_system();

@@ -74,8 +74,9 @@ class Worker {
 
 class Session {
  public:
-  // Opens `path` (JSON or glTF); the GL context must be current.
-  explicit Session(const std::string& path);
+  // Takes an opened document (open_document: the scene file is read and
+  // checked before any window exists); the GL context must be current.
+  explicit Session(Document doc);
   // `wake` runs on the build thread when a build ends (before the session's
   // destructor returns at the latest): the window's loop uses it to stop
   // sleeping at once (glfwPostEmptyEvent).
