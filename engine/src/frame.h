@@ -143,6 +143,9 @@ struct ShadowFrame {
   double cluster_ms = 0.0;
   uint64_t fragments = 0;
   const ShadowBackend* backend = nullptr;  // holds the maps
+  // What the user should hear about this frame's maps (one line each, at
+  // most one per light): e.g. a map whose casters are all smaller than a texel.
+  std::vector<std::string> warnings;
   // The lookup over this frame's maps with the lookup settings of `s`.
   // `with_storage` false: storage left empty (its caller fetches it, or
   // only its extent: engine/src/system_gl.h).
