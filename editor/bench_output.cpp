@@ -78,7 +78,7 @@ void write_csv(const std::vector<Result>& results, const std::string& path) {
       "backend", "fragment_source", "runs", "fragments_ms_median", "build_ms_median", "build_ms_min",
       "build_ms_max", "build_ms_q1", "build_ms_q3", "camera_ms_median", "camera_ms_min", "camera_ms_max",
       "camera_ms_q1", "camera_ms_q3", "frame_ms_median", "time_ms", "maps", "texels", "nodes", "index_bytes",
-      "node_bytes", "slack_bytes", "memory_bytes", "avg_nodes_per_texel", "max_nodes_per_texel",
+      "node_bytes", "slack_bytes", "tag_bytes", "memory_bytes", "avg_nodes_per_texel", "max_nodes_per_texel",
       "overflow_texels", "overflow_extra_error", "rgb_maps", "rgb_map_bytes", "grey_map_bytes", "t_points",
       "t_mean", "t_p99", "t_max", "t_rmse", "t_mean_r", "t_mean_g", "t_mean_b",
       "map_err_mean", "map_err_p99", "map_err_max", "res_err_mean", "res_err_p99", "res_err_max",
@@ -138,6 +138,7 @@ void write_csv(const std::vector<Result>& results, const std::string& path) {
       v["index_bytes"] = std::to_string(m.index_bytes);
       v["node_bytes"] = std::to_string(m.node_bytes);
       v["slack_bytes"] = std::to_string(m.slack_bytes);
+      v["tag_bytes"] = std::to_string(m.tag_bytes);
       v["memory_bytes"] = num(r.memory_bytes(), "%.0f");
       v["avg_nodes_per_texel"] = num(m.avg_nodes_per_texel);
       v["max_nodes_per_texel"] = std::to_string(m.max_nodes_per_texel);

@@ -121,6 +121,7 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
   m["texels"] = s.memory.texels;
   m["nodes"] = s.memory.nodes;
   m["index_bytes"] = s.memory.index_bytes;
+  m["tag_bytes"] = s.memory.tag_bytes;
   m["node_bytes"] = s.memory.node_bytes;
   m["slack_bytes"] = s.memory.slack_bytes;
   m["avg_nodes_per_texel"] = s.memory.avg_nodes_per_texel;
@@ -196,9 +197,9 @@ void print_summary(const FrameStats& s, const Scene& scene, bool reference_backe
   }
   std::printf("rebuilds     %u maps built, %u reused\n", s.maps_rebuilt, s.maps_reused);
   const char* layouts[] = {"packed", "fixed", "chunked"};
-  std::printf("DSM memory   %s layout, %llu maps, index %.2f MiB, nodes %.2f MiB, slack %.2f MiB\n",
-              layouts[int(scene.shadows.layout)], (unsigned long long)s.memory.maps, s.memory.index_bytes / 1048576.0, s.memory.node_bytes / 1048576.0,
-              s.memory.slack_bytes / 1048576.0);
+  std::printf("DSM memory   %s layout, %llu maps, index %.2f MiB, nodes %.2f MiB, tags %.2f MiB, slack %.2f MiB\n",
+              layouts[int(scene.shadows.layout)], (unsigned long long)s.memory.maps, s.memory.index_bytes / 1048576.0,
+              s.memory.node_bytes / 1048576.0, s.memory.tag_bytes / 1048576.0, s.memory.slack_bytes / 1048576.0);
   std::printf("nodes/texel  avg %.2f, max %u (overflowed texels %llu)\n", s.memory.avg_nodes_per_texel,
               s.memory.max_nodes_per_texel, (unsigned long long)s.memory.overflow_texels);
   if (s.memory.rgb_maps > 0)

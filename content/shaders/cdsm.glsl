@@ -4,7 +4,7 @@
 // (fragment and compute shaders always can), then bind the buffers with
 // cdsm::ShadowSystem::bind_gl(program) after each update().
 //
-//   vec3 cdsm_surface_transmittance(vec3 world_pos, vec3 plane_normal, bool caster, int light)
+//   vec3 cdsm_surface_transmittance(vec3 world_pos, vec3 plane_normal, uint object, int light)
 //   vec3 cdsm_transmittance(vec3 world_pos, int light)
 //
 // return the light's transmittance to the point per colour channel (1 - α of
@@ -13,9 +13,12 @@
 // node search, offsets and cluster combination, thesis eq. 3.12, 4.18-4.19):
 //   - surfaces pass their triangle's geometric normal (unit, either side;
 //     not the interpolated shading normal) as `plane_normal`: each tap reads
-//     its texel where its own light ray crosses that plane; `caster` is true
-//     when the object casts shadows (its own surface is in the maps and the
-//     lookup stops just short of it), false for receive-only surfaces;
+//     its texel where its own light ray crosses that plane; `object` is the
+//     object's id when it casts shadows (cdsm::ShadowSystem::gl_object_id:
+//     its own surface is in the maps, and the lookup leaves out exactly its
+//     own step, found by identity), CDSM_NO_OBJECT for receive-only surfaces
+//     (every surface in front of the point counts; one coplanar with it, a
+//     decal, is in front of it);
 //   - volume samples (and any point without a surface) use
 //     cdsm_transmittance: every tap at the point's own depth.
 // `light` is the light's index (cdsm::ShadowSystem::gl_light_index). An
@@ -37,16 +40,18 @@
 // every tap (the forward example's frame there, four clusters at 620x757:
 // 448 ms with every layout's code, 410 ms with the packed variant).
 //
-// Bindings: seven shader storage blocks at CDSM_BINDING_BASE .. +6 (default
+// Bindings: nine shader storage blocks at CDSM_BINDING_BASE .. +8 (default
 // 8; #define it before the include to move them). bind_gl() reads the
 // bindings back from the linked program, so any base works.
 //
 // Layout (std430, the bytes the CDSM_HD code reads, static_asserted there):
 // CdsmFrame holds the lookup settings, the lights and the map headers
 // (engine/gl/map_buffers.h FrameBlockHeader, shadows/hd/dsm.h DsmMap); the
-// other six are DsmStorage's arrays: texel headers {offset, count}, scalar
-// nodes {z, α}, chunk slots {z, α, next}, and the same for RGB maps
-// ({z, r, g, b}). Depths are radial distances from the light.
+// other eight are DsmStorage's arrays: texel headers {offset, count}, scalar
+// nodes {z, α}, chunk slots {z, α, next}, the same for RGB maps
+// ({z, r, g, b}), then each pool's surface tags (16 bits per node or chunk
+// slot, two to a uint, the lower half first). Depths are radial distances
+// from the light.
 
 #ifndef CDSM_GLSL_INCLUDED
 #define CDSM_GLSL_INCLUDED
@@ -125,6 +130,11 @@ layout(std430, binding = CDSM_BINDING_BASE + 3) readonly buffer CdsmChunks { Cds
 layout(std430, binding = CDSM_BINDING_BASE + 4) readonly buffer CdsmRgbTexels { uvec2 cdsm_rgb_texels[]; };
 layout(std430, binding = CDSM_BINDING_BASE + 5) readonly buffer CdsmRgbNodes { vec4 cdsm_rgb_nodes[]; };
 layout(std430, binding = CDSM_BINDING_BASE + 6) readonly buffer CdsmRgbChunks { CdsmChunkRgb cdsm_rgb_chunks[]; };
+layout(std430, binding = CDSM_BINDING_BASE + 7) readonly buffer CdsmTags { uint cdsm_tags[]; };
+layout(std430, binding = CDSM_BINDING_BASE + 8) readonly buffer CdsmRgbTags { uint cdsm_rgb_tags[]; };
+
+// The object id of a receive-only surface (and of no surface).
+const uint CDSM_NO_OBJECT = 0xffffffffu;
 
 #ifdef CDSM_LAYOUT
 #if CDSM_LAYOUT < 0 || CDSM_LAYOUT > 2
@@ -284,21 +294,170 @@ float cdsm_tap_depth(CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, int tx, i
   return t;
 }
 
-float cdsm_receiver_offset(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, bool caster) {
-  float footprint = cdsm_texel_footprint(m, pr.axial);
-  if (cdsm_receiver == 1u) {
-    if (!(cdsm_dot(plane, plane) > 0.0)) return 0.0;
-    float ndl = abs(cdsm_dot(plane, cdsm_normalize(L.position - p)));
-    float tan_inc = sqrt(max(0.0, 1.0 - ndl * ndl)) / max(ndl, 0.02);
-    return CDSM_SLOPE_BIAS_CONSTANT + CDSM_SLOPE_BIAS_TEXELS * footprint * tan_inc;
-  }
-  return caster ? cdsm_bias_constant + cdsm_bias_slope * footprint + CDSM_RELATIVE_DEPTH_OFFSET * pr.depth : 0.0;
+// ---- what a surface receives: its own step left out (shadows/hd/dsm.h) ------
+
+// Slot i's surface tag in the grey or the RGB pool.
+uint cdsm_tag(bool rgb, uint i) {
+  uint w = rgb ? cdsm_rgb_tags[i >> 1u] : cdsm_tags[i >> 1u];
+  return (w >> ((i & 1u) * 16u)) & 0xffffu;
 }
 
-// One map's α at the receiver: its bilinear taps (thesis eq. 4.18-4.19), each
-// at its own depth less the offset; taps outside the map count as 0.
-vec3 cdsm_map_alpha(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, bool caster) {
-  float offset = cdsm_receiver_offset(L, m, pr, p, plane, caster);
+// Slot i of the grey or RGB pool of the current layout: depth, alpha per
+// channel (grey: its one value in each), the chunked layout's link.
+void cdsm_slot(bool rgb, uint i, out float z, out vec3 a, out uint next) {
+  next = 0u;
+  if (CDSM_LAYOUT_IS(2)) {
+    if (rgb) {
+      CdsmChunkRgb c = cdsm_rgb_chunks[i];
+      z = c.z;
+      a = vec3(c.r, c.g, c.b);
+      next = c.next;
+    } else {
+      CdsmChunk c = cdsm_chunks[i];
+      z = c.z;
+      a = vec3(c.alpha);
+      next = c.next;
+    }
+  } else if (rgb) {
+    vec4 n = cdsm_rgb_nodes[i];
+    z = n.x;
+    a = n.yzw;
+  } else {
+    vec2 n = cdsm_nodes[i];
+    z = n.x;
+    a = vec3(n.y);
+  }
+}
+
+vec3 cdsm_layer_between(vec3 prev, vec3 a) {
+  vec3 r;
+  for (int k = 0; k < 3; ++k) r[k] = 1.0 - prev[k] > 0.0 ? 1.0 - (1.0 - a[k]) / (1.0 - prev[k]) : 0.0;
+  return r;
+}
+vec3 cdsm_over_layer(vec3 alpha, vec3 a) {
+  return vec3(alpha.x + a.x * (1.0 - alpha.x), alpha.y + a.y * (1.0 - alpha.y), alpha.z + a.z * (1.0 - alpha.z));
+}
+
+// The first node a read visits (packed, fixed: one before the first at or
+// after `from_z`; chunked: the head), the texel's node count, and whether
+// the nodes are linked (chunked) or consecutive.
+void cdsm_read_start(CdsmMap m, uint t, float from_z, out uint slot, out uint i, out uint count) {
+  bool rgb = m.rgb != 0u;
+  i = 0u;
+  if (CDSM_LAYOUT_IS(2)) {
+    uvec2 head = rgb ? cdsm_rgb_texels[t] : cdsm_texels[t];
+    slot = head.x;
+    count = head.y;
+    return;
+  }
+  uvec2 span = CDSM_LAYOUT_IS(1) ? uvec2(t * cdsm_layers, cdsm_layers) : rgb ? cdsm_rgb_texels[t] : cdsm_texels[t];
+  uint lo = 0u, hi = span.y;
+  while (lo < hi) {
+    uint mid = (lo + hi) >> 1;
+    float z;
+    vec3 a;
+    uint nx;
+    cdsm_slot(rgb, span.x + mid, z, a, nx);
+    if (z < from_z) lo = mid + 1u;
+    else hi = mid;
+  }
+  i = lo > 0u ? lo - 1u : 0u;
+  slot = span.x + i;
+  count = span.y;
+}
+
+// What a receiver reads from texel t of map m (hd/dsm.h TexelRead,
+// OwnStepSearch and ReceiverScan): its own step (object bits `own`, 0:
+// none) nearest to `depth` within +-window left out, every node before
+// depth - coplanar counted, steps within +-coplanar by rank, nothing behind.
+vec3 cdsm_texel_receive(CdsmMap m, uint t, float depth, float window, float coplanar, uint own) {
+  bool rgb = m.rgb != 0u;
+  float from_z = min(depth - window, depth - coplanar);
+  uint slot0, i0, count;
+  cdsm_read_start(m, t, from_z, slot0, i0, count);
+  // Pass 1: the own step.
+  uint own_index = 0xffffffffu, own_rank = 2u, seen = 0u;
+  float own_z = 0.0, best = 0.0;
+  if (own != 0u) {
+    uint slot = slot0;
+    for (uint i = i0; i < count; ++i) {
+      float z;
+      vec3 a;
+      uint next;
+      cdsm_slot(rgb, slot, z, a, next);
+      if (z > depth + window) break;
+      uint tag = cdsm_tag(rgb, slot);
+      if ((tag & 0x3fffu) == own && z >= depth - window && (own_index == 0xffffffffu || abs(z - depth) < best)) {
+        own_index = seen;
+        own_z = z;
+        best = abs(z - depth);
+        own_rank = tag >> 14;
+      }
+      ++seen;
+      slot = CDSM_LAYOUT_IS(2) ? next : slot + 1u;
+    }
+  }
+  // Pass 2: what counts.
+  float lo = depth - coplanar, hi = depth + coplanar;
+  float prefix_end = own_index != 0xffffffffu ? min(lo, own_z) : lo;
+  float pz = 0.0;
+  vec3 pa = vec3(0.0), alpha = vec3(0.0);
+  bool have_prev = false;
+  uint slot = slot0;
+  seen = 0u;
+  for (uint i = i0; i < count; ++i) {
+    float z;
+    vec3 a;
+    uint next;
+    cdsm_slot(rgb, slot, z, a, next);
+    uint tag = cdsm_tag(rgb, slot);
+    uint idx = seen++;
+    if (z > hi) {
+      if (have_prev && pz < hi) {
+        float w = (hi - pz) / (z - pz);
+        vec3 at_hi = vec3(cdsm_lerp(pa.x, a.x, w), cdsm_lerp(pa.y, a.y, w), cdsm_lerp(pa.z, a.z, w));
+        alpha = cdsm_over_layer(alpha, cdsm_layer_between(pa, at_hi));
+      }
+      break;
+    }
+    if (z < prefix_end) {
+      alpha = a;
+    } else {
+      bool counts;
+      if (idx == own_index) counts = false;
+      else if (tag != 0u && z >= lo) counts = (tag & 0x3fffu) != own && (tag >> 14) < own_rank;
+      else counts = true;
+      if (counts) alpha = cdsm_over_layer(alpha, cdsm_layer_between(have_prev ? pa : vec3(0.0), a));
+    }
+    pz = z;
+    pa = a;
+    have_prev = true;
+    slot = CDSM_LAYOUT_IS(2) ? next : slot + 1u;
+  }
+  return alpha;
+}
+
+// hd/compress.h tag_object: the object bits of a receiver's tags (0: none).
+uint cdsm_tag_object(uint object) { return object == CDSM_NO_OBJECT ? 0u : object % 16383u + 1u; }
+
+// The slope-bias baseline's offset (hd/lights.h slope_bias_offset).
+float cdsm_slope_bias_offset(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane) {
+  if (!(cdsm_dot(plane, plane) > 0.0)) return 0.0;
+  float ndl = abs(cdsm_dot(plane, cdsm_normalize(L.position - p)));
+  float tan_inc = sqrt(max(0.0, 1.0 - ndl * ndl)) / max(ndl, 0.02);
+  return CDSM_SLOPE_BIAS_CONSTANT + CDSM_SLOPE_BIAS_TEXELS * cdsm_texel_footprint(m, pr.axial) * tan_inc;
+}
+
+// One map's α at the receiver (hd/lights.h map_alpha_rgb): its bilinear taps
+// (thesis eq. 4.18-4.19), volume samples each at the point's depth, surfaces
+// each at its plane depth with their own step left out; taps outside the map
+// count as 0.
+vec3 cdsm_map_alpha(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, uint object) {
+  bool surface = cdsm_dot(plane, plane) > 0.0;
+  bool at_point = cdsm_receiver == 1u || !surface;
+  float point_z = pr.depth - (cdsm_receiver == 1u ? cdsm_slope_bias_offset(L, m, pr, p, plane) : 0.0);
+  uint own = cdsm_tag_object(object);
+  float footprint = cdsm_texel_footprint(m, pr.axial);
   int res = int(m.res);
   // Without filtering the first tap is the texel holding the point, with
   // weight 1, and the other three weigh 0 (one copy of the tap code).
@@ -312,7 +471,15 @@ vec3 cdsm_map_alpha(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plan
     int tx = x0 + (k & 1), ty = y0 + (k >> 1);
     float w = ((k & 1) != 0 ? wx : 1.0 - wx) * ((k >> 1) != 0 ? wy : 1.0 - wy);
     if (w <= 0.0 || tx < 0 || ty < 0 || tx >= res || ty >= res) continue;
-    vec3 t = cdsm_texel_alpha(m, tx, ty, cdsm_tap_depth(m, pr, p, plane, tx, ty) - offset);
+    vec3 t;
+    if (at_point) {
+      t = cdsm_texel_alpha(m, tx, ty, point_z);
+    } else {
+      float depth = cdsm_tap_depth(m, pr, p, plane, tx, ty);
+      float coplanar = CDSM_RELATIVE_DEPTH_OFFSET * depth;
+      float window = cdsm_bias_constant + cdsm_bias_slope * footprint + coplanar;
+      t = cdsm_texel_receive(m, m.texel_offset + uint(ty) * m.res + uint(tx), depth, window, coplanar, own);
+    }
     if (m.rgb == 0u) a.x += w * t.x;  // grey maps accumulate one scalar, as the C++ does
     else a = a + t * w;
   }
@@ -328,7 +495,7 @@ int cdsm_cube_face(vec3 d) {
 
 // α per channel between light L and the receiver over the light's maps:
 // clusters combined (eq. 3.12), the one cube face, or the first split holding it.
-vec3 cdsm_shadow_alpha(CdsmLight L, vec3 p, vec3 plane, bool caster) {
+vec3 cdsm_shadow_alpha(CdsmLight L, vec3 p, vec3 plane, uint object) {
   vec3 alpha = vec3(0.0);
   uint first = L.first_map, count = L.map_count;
   if (L.map_mode == 1u && count == 6u) {
@@ -348,7 +515,7 @@ vec3 cdsm_shadow_alpha(CdsmLight L, vec3 p, vec3 plane, bool caster) {
       if (k + 1u < count && (pr.u < lo || pr.v < lo || pr.u > hi || pr.v > hi)) continue;
       count = k + 1u;
     }
-    alpha = cdsm_over(alpha, cdsm_map_alpha(L, m, pr, p, plane, caster));
+    alpha = cdsm_over(alpha, cdsm_map_alpha(L, m, pr, p, plane, object));
   }
   return alpha;
 }
@@ -370,16 +537,16 @@ float cdsm_spot_factor(int light, vec3 p) {
   return t * t * (3.0 - 2.0 * t);
 }
 
-vec3 cdsm_surface_transmittance(vec3 world_pos, vec3 plane_normal, bool caster, int light) {
+vec3 cdsm_surface_transmittance(vec3 world_pos, vec3 plane_normal, uint object, int light) {
   if (light < 0 || light >= int(cdsm_light_total)) return vec3(1.0, 0.0, 1.0);
 #ifdef CDSM_LAYOUT
   if (cdsm_layout != uint(CDSM_LAYOUT)) return vec3(1.0, 0.0, 1.0);  // compiled for another layout
 #endif
-  return vec3(1.0) - cdsm_shadow_alpha(cdsm_lights[light], world_pos, plane_normal, caster);
+  return vec3(1.0) - cdsm_shadow_alpha(cdsm_lights[light], world_pos, plane_normal, object);
 }
 
 vec3 cdsm_transmittance(vec3 world_pos, int light) {
-  return cdsm_surface_transmittance(world_pos, vec3(0.0), false, light);
+  return cdsm_surface_transmittance(world_pos, vec3(0.0), CDSM_NO_OBJECT, light);
 }
 
 #endif  // CDSM_GLSL_INCLUDED

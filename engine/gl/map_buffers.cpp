@@ -36,6 +36,8 @@ const char* block_name(MapBlock b) {
     case MapBlock::RgbTexels: return "CdsmRgbTexels";
     case MapBlock::RgbNodes: return "CdsmRgbNodes";
     case MapBlock::RgbChunks: return "CdsmRgbChunks";
+    case MapBlock::Tags: return "CdsmTags";
+    case MapBlock::RgbTags: return "CdsmRgbTags";
     case MapBlock::Count: break;
   }
   return "?";
@@ -73,7 +75,7 @@ GlMapWrite MapBuffers::prepare_array(int b, uint64_t bytes, bool full, MapUpload
   GlMapWrite w;
   w.array = StorageArray(b - int(MapBlock::Texels));  // the blocks after the frame block, in storage order
   if (full || bytes < used_[b]) {
-    const uint64_t want = std::max(bytes, kMinBytes);
+    const uint64_t want = (std::max(bytes, kMinBytes) + 3) & ~uint64_t(3);  // whole words
     if (want > buf.capacity() || buf.capacity() > 2 * want) {
       buf.destroy();
       buf.reserve(want);
@@ -83,7 +85,8 @@ GlMapWrite MapBuffers::prepare_array(int b, uint64_t bytes, bool full, MapUpload
     w.bytes = bytes;
   } else if (bytes > used_[b]) {
     if (bytes > buf.capacity()) {  // grow, keeping the contents (a GL-side copy)
-      const uint64_t grown = std::min(std::max(bytes, buf.capacity() + buf.capacity() / 2), std::max(max_block_, bytes));
+      const uint64_t grown =
+          (std::min(std::max(bytes, buf.capacity() + buf.capacity() / 2), std::max(max_block_, bytes)) + 3) & ~uint64_t(3);
       Buffer next(buf.label());
       next.reserve(grown);
       if (used_[b] > 0) {
@@ -108,10 +111,18 @@ MapUploadStats MapBuffers::sync(const ShadowView& view, uint64_t epoch, const De
   MapUploadStats st;
   const DsmStorage& s = view.storage;
   st.full = epoch != epoch_ || s.layout != layout_;
-  const void* data[kMapBlocks] = {nullptr, s.texels.data(), s.nodes.data(), s.chunks.data(),
-                                  s.rgb_texels.data(), s.rgb_nodes.data(), s.rgb_chunks.data()};
-  const uint64_t bytes[kMapBlocks] = {0, bytes_of(s.texels), bytes_of(s.nodes), bytes_of(s.chunks),
-                                      bytes_of(s.rgb_texels), bytes_of(s.rgb_nodes), bytes_of(s.rgb_chunks)};
+  const void* data[kMapBlocks] = {nullptr,           s.texels.data(),     s.nodes.data(),     s.chunks.data(),
+                                  s.rgb_texels.data(), s.rgb_nodes.data(), s.rgb_chunks.data(), s.tags.data(),
+                                  s.rgb_tags.data()};
+  const uint64_t bytes[kMapBlocks] = {0,
+                                      bytes_of(s.texels),
+                                      bytes_of(s.nodes),
+                                      bytes_of(s.chunks),
+                                      bytes_of(s.rgb_texels),
+                                      bytes_of(s.rgb_nodes),
+                                      bytes_of(s.rgb_chunks),
+                                      bytes_of(s.tags),
+                                      bytes_of(s.rgb_tags)};
   // The same ranges on both paths: what changed since the last sync.
   GlMapWrite writes[kMapBlocks];
   int count = 0;

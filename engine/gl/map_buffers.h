@@ -1,9 +1,10 @@
 // The deep shadow maps of a frame in GL shader storage buffers, in the
 // std430 layout content/shaders/cdsm.glsl reads (DESIGN.md §8): one block of
-// frame data (lookup settings, lights, map headers) and the six arrays of
+// frame data (lookup settings, lights, map headers) and the eight arrays of
 // the backend's storage (DsmStorage: texel headers, nodes and chunk slots,
-// grey and RGB), byte for byte, so the GLSL lookup reads the offsets the
-// CDSM_HD lookup reads.
+// grey and RGB, and the two pools' surface tags), byte for byte, so the
+// GLSL lookup reads the offsets the CDSM_HD lookup reads. Buffers are sized
+// in whole 4-byte words (the tags are read two to a uint).
 //
 // Uploads follow the backend's storage_epoch(): while it stays the same the
 // arrays only grew at their ends (maps built since), and only those tails
@@ -49,7 +50,7 @@ static_assert(sizeof(FrameBlockHeader) == 32 + 64 * kMaxLights, "CdsmFrame heade
 static_assert(sizeof(FrameBlockHeader) % 16 == 0, "DsmMap (16-byte aligned in std430) follows the header");
 
 // The blocks of cdsm.glsl, in binding order from CDSM_BINDING_BASE.
-enum class MapBlock : int { Frame = 0, Texels, Nodes, Chunks, RgbTexels, RgbNodes, RgbChunks, Count };
+enum class MapBlock : int { Frame = 0, Texels, Nodes, Chunks, RgbTexels, RgbNodes, RgbChunks, Tags, RgbTags, Count };
 inline constexpr int kMapBlocks = int(MapBlock::Count);
 static_assert(kMapBlocks == 1 + kStorageArrays, "the frame block, then the storage arrays in their order");
 const char* block_name(MapBlock b);  // "CdsmFrame", ...

@@ -163,7 +163,7 @@ ShadowSystem::TexelInspection ShadowSystem::inspect_texel(int light, Vec3 p) con
     const DsmMap& m = f.headers[k];
     const ViewProjection pr = project(m.view, p);
     if (pr.axial <= 0.0f || pr.u < 0.0f || pr.v < 0.0f || pr.u >= float(m.res) || pr.v >= float(m.res)) continue;
-    const float a = grey_of(map_alpha_rgb(sv, L, m, pr, Receiver{p, Vec3{0, 0, 0}, false}));
+    const float a = grey_of(map_alpha_rgb(sv, L, m, pr, Receiver{p, Vec3{0, 0, 0}, kNoObject}));
     if (a > best) {
       best = a;
       r.map = int(k);

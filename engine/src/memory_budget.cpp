@@ -75,11 +75,11 @@ std::vector<MemoryItem> estimate_frame_memory(const Scene& scene, const RenderOp
     else maps += double(std::max(1, sh.max_clusters));
   }
   const double texels = double(sh.resolution) * double(sh.resolution) * maps;
-  double per_texel = 0.0;  // the map's own buffers, and the frame's copy of them
+  double per_texel = 0.0;  // the map's own buffers, and the frame's copy of them (nodes with their 2-byte tags)
   switch (sh.layout) {
-    case DsmLayout::Fixed: per_texel = 2.0 * double(sh.fixed_layers) * 8.0; break;
-    case DsmLayout::Chunked: per_texel = 2.0 * (8.0 + 4.0 * 12.0); break;
-    default: per_texel = 2.0 * (8.0 + 4.0 * 8.0);
+    case DsmLayout::Fixed: per_texel = 2.0 * double(sh.fixed_layers) * 10.0; break;
+    case DsmLayout::Chunked: per_texel = 2.0 * (8.0 + 4.0 * 14.0); break;
+    default: per_texel = 2.0 * (8.0 + 4.0 * 10.0);
   }
   const std::string map_setting = sh.layout == DsmLayout::Fixed ? "/shadows/fixed_layers" : "/shadows/resolution";
   items.push_back({format_number(maps) + " shadow maps of " + std::to_string(sh.resolution) + "^2 texels" +
@@ -89,7 +89,7 @@ std::vector<MemoryItem> estimate_frame_memory(const Scene& scene, const RenderOp
                    double(sh.resolution) * double(sh.resolution) * 24.0});
   // Per-thread node buffers of the light pass (K = 1024 nodes per texel of a tile).
   const double threads = std::max(1u, std::thread::hardware_concurrency());
-  items.push_back({"per-thread texel buffers", "/shadows/resolution", threads * 64.0 * 1024.0 * 28.0});
+  items.push_back({"per-thread texel buffers", "/shadows/resolution", threads * 64.0 * 1024.0 * 30.0});
   // The camera: fragment lists, image, the reference when compared.
   const double pixels = double(scene.camera.width) * double(scene.camera.height);
   items.push_back({"the camera view (" + std::to_string(scene.camera.width) + "x" + std::to_string(scene.camera.height) + ")",

@@ -229,21 +229,25 @@ struct Renderer::Impl {
       // each tap's texel exact through its map's members, per channel.
       const Vec3 alpha_f = combine_maps(shv, L, l.at.p, [&](uint32_t k, const DsmMap& m, const ViewProjection& pr) {
         const ObjectMask members{{member_words[k].data(), member_words[k].size()}};
-        // The receiver's own surface by identity: its hits within the
-        // lookup's offset before the tap point (what the lookup skips too).
-        const float own_window = receiver_offset(exact_taps, L, m, pr, l.at);
         Vec3 a{0, 0, 0};
         for_each_tap(m, pr.u, pr.v, shv.filtering, [&](int tx, int ty, float w) {
           const Vec3 d = normalize(view_direction(m.view, float(tx) + 0.5f, float(ty) + 0.5f));
-          const Vec3 q = m.view.eye + d * tap_depth(exact_taps, m, pr, l.at, tx, ty);
-          const Vec3 te = ref.transmittance_segment_rgb(L.position, q, members, l.at.object, own_window);
+          const float depth = tap_depth(exact_taps, m, pr, l.at, tx, ty);
+          const Vec3 q = m.view.eye + d * depth;
+          // The receiver's own surface by identity, searched as the lookup
+          // searches its own step (hd/lights.h receiver_read_at).
+          ReferenceRenderer::End end;
+          end.surface = dot(l.at.plane, l.at.plane) > 0.0f;
+          end.own = l.at.object;
+          end.own_window = receiver_read_at(exact_taps, m, pr, l.at, depth).window;
+          const Vec3 te = ref.transmittance_segment_rgb(L.position, q, members, end);
           tap_lo = vmin(tap_lo, te);
           tap_hi = vmax(tap_hi, te);
           a = a + one_minus(te) * w;
         });
         return a;
       });
-      const Vec3 t_f = one_minus(alpha_f), t_exact = ref.transmittance_rgb(l.light, l.at.p);
+      const Vec3 t_f = one_minus(alpha_f), t_exact = ref.transmittance_rgb(l.light, l.at);
       // Edge: the taps' exact transmittances, and the point's own, differ by
       // more than 0.05 in some channel (the point's own: a feature finer
       // than a texel, which all taps miss or all taps see).
@@ -258,11 +262,11 @@ struct Renderer::Impl {
     if (const char* dump = std::getenv("CDSM_PROBE_DUMP")) {
       FILE* fo = std::fopen(dump, "w");
       if (!fo) throw Error(dump, "cannot write the probe dump (CDSM_PROBE_DUMP)");
-      std::fprintf(fo, "# x y z  plane_x plane_y plane_z own_step  T_dsm map_error resolution_error total_error edge\n");
+      std::fprintf(fo, "# x y z  plane_x plane_y plane_z object  T_dsm map_error resolution_error total_error edge\n");
       for (size_t i = 0; i < lookups.size(); ++i) {
         const RecordedLookup& l = lookups[i];
         std::fprintf(fo, "%g %g %g  %g %g %g %d  %g %g %g %g %d\n", l.at.p.x, l.at.p.y, l.at.p.z, l.at.plane.x,
-                     l.at.plane.y, l.at.plane.z, int(l.at.own_step), grey_of(l.transmittance),
+                     l.at.plane.y, l.at.plane.z, l.at.object == kNoObject ? -1 : int(l.at.object), grey_of(l.transmittance),
                      errors[i].channel[0].map, errors[i].channel[0].resolution, errors[i].channel[0].total,
                      int(errors[i].channel[0].edge));
       }
@@ -281,23 +285,22 @@ struct Renderer::Impl {
   }
 
   // Surface points of the camera view on a coarse grid (receivers for the
-  // popping probe; their plane from the shading normal, looked up as casters).
+  // popping probe: the first surface receiver each pixel's camera pass asks
+  // a light about, with its plane and identity).
   std::vector<Receiver> sample_receivers(ShadowSystem::Impl& f) {
     SceneView sv = f.sb.view();
     struct FirstSurface {
-      Receiver r{};
-      bool found = false;
-      void shaded(Vec3 q, Vec3 n, bool surface, float) {
-        if (surface && !found) {
-          r = Receiver{q, n, true};
-          found = true;
+      Receiver* r;
+      bool* found;
+      Vec3 operator()(int, const Receiver& rc) const {
+        if (!*found && dot(rc.plane, rc.plane) > 0.0f) {
+          *r = rc;
+          *found = true;
         }
+        return vec3(1.0f);
       }
     };
-    struct NoShadow {
-      Vec3 operator()(int, const Receiver&) const { return vec3(1.0f); }
-    } vis;
-    std::vector<LightData> none;
+    const ShadowView shv = f.shadow_view();
     std::vector<Receiver> out;
     const int w = f.cam.view.width, h = f.cam.view.height;
     const int g = 48;
@@ -305,10 +308,13 @@ struct Renderer::Impl {
     for (int gy = 0; gy < g; ++gy)
       for (int gx = 0; gx < g; ++gx) {
         int px = std::min(w - 1, (2 * gx + 1) * w / (2 * g)), py = std::min(h - 1, (2 * gy + 1) * h / (2 * g));
-        FirstSurface rec;
+        Receiver r{};
+        bool found = false;
+        FirstSurface vis{&r, &found};
+        NoRecorder rec;
         WalkStats ws;
-        shade_pixel(sv, Span<const LightData>{none.data(), 0}, vis, f.cam, lists.pixel(px, py), px, py, rec, ws);
-        if (rec.found) out.push_back(rec.r);
+        shade_pixel(sv, shv.lights, vis, f.cam, lists.pixel(px, py), px, py, rec, ws);
+        if (found) out.push_back(r);
       }
     return out;
   }

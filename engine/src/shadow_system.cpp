@@ -384,6 +384,7 @@ void ShadowSystem::Impl::build(FrameStats& st) {
   st.fragment_source = fragment_name;
   st.fragment_source_reason = fragment_reason;
   st.warnings.insert(st.warnings.end(), sb.warnings.begin(), sb.warnings.end());
+  st.warnings.insert(st.warnings.end(), frame.warnings.begin(), frame.warnings.end());
   st.maps_rebuilt = frame.rebuilt;
   st.maps_reused = frame.reused;
   st.update.maps_freed = frame.freed;
@@ -422,10 +423,11 @@ void ShadowSystem::Impl::build(FrameStats& st) {
     m.index_bytes += b.index_bytes;
     m.node_bytes += b.node_bytes_used;
     m.slack_bytes += b.slack_bytes;
+    m.tag_bytes += b.tag_bytes;
     m.max_nodes_per_texel = std::max(m.max_nodes_per_texel, b.max_nodes);
     m.overflow_texels += b.overflow_texels;
     m.max_extra_error = std::max(m.max_extra_error, b.max_extra_error);
-    const uint64_t bytes = b.index_bytes + b.node_bytes_allocated;
+    const uint64_t bytes = b.index_bytes + b.node_bytes_allocated + b.tag_bytes;
     if (b.rgb) {
       ++m.rgb_maps;
       m.rgb_bytes += bytes;
@@ -682,6 +684,11 @@ void ShadowSystem::bind_gl(uint32_t program) {
 }
 
 int ShadowSystem::gl_light_index(LightHandle light) const { return int(impl_->light_index(light)); }
+
+uint32_t ShadowSystem::gl_object_id(ObjectHandle object) const {
+  const size_t i = impl_->object_index(object);
+  return impl_->scene.objects[i].casts_shadows ? uint32_t(i) : kNoObject;
+}
 
 void ShadowSystem::reset_maps() {
   impl_->cache.clear(*impl_->backend);

@@ -100,6 +100,8 @@ GlMapBuffers gl_map_buffers(const SystemGl& g) {
   b.rgb_texels = g.maps->buffer(gl::MapBlock::RgbTexels);
   b.rgb_nodes = g.maps->buffer(gl::MapBlock::RgbNodes);
   b.rgb_chunks = g.maps->buffer(gl::MapBlock::RgbChunks);
+  b.tags = g.maps->buffer(gl::MapBlock::Tags);
+  b.rgb_tags = g.maps->buffer(gl::MapBlock::RgbTags);
   b.layout = g.maps->layout();
   return b;
 }

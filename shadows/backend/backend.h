@@ -27,9 +27,9 @@ struct SceneChange {
   bool objects = false;         // per-object data (materials, interiors, volume placement)
 };
 
-// The six arrays of DsmStorage, in its order (texels, nodes, chunks, then
-// the RGB maps' three).
-enum class StorageArray : int { Texels = 0, Nodes, Chunks, RgbTexels, RgbNodes, RgbChunks, Count };
+// The eight arrays of DsmStorage, in its order (texels, nodes, chunks, the
+// RGB maps' three, then the grey and the RGB maps' surface tags).
+enum class StorageArray : int { Texels = 0, Nodes, Chunks, RgbTexels, RgbNodes, RgbChunks, Tags, RgbTags, Count };
 inline constexpr int kStorageArrays = int(StorageArray::Count);
 
 // Bytes [offset, offset + bytes) of one storage() array to be written at the
@@ -56,6 +56,8 @@ inline DsmStorage storage_sizes(DsmStorage s) {
   s.rgb_texels.ptr = nullptr;
   s.rgb_nodes.ptr = nullptr;
   s.rgb_chunks.ptr = nullptr;
+  s.tags.ptr = nullptr;
+  s.rgb_tags.ptr = nullptr;
   return s;
 }
 

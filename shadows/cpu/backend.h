@@ -27,11 +27,13 @@ struct DsmArrays {
   std::vector<TexelRange> texels;  // packed, chunked: headers of this kind's maps, map by map
   std::vector<Node> nodes;         // packed: exactly the nodes used; fixed: L slots per texel
   std::vector<Chunk> chunks;       // chunked: the chunk pool, C slots per chunk
+  std::vector<SurfaceTag> tags;    // per slot of `nodes` (packed, fixed) or `chunks` (chunked)
   uint64_t texel_count = 0;        // this kind's texels (fixed keeps no headers)
   void clear() {
     texels.clear();
     nodes.clear();
     chunks.clear();
+    tags.clear();
     texel_count = 0;
   }
 };
@@ -45,6 +47,7 @@ struct DsmBuffers {
   std::vector<TexelRange> texels;  // packed, chunked: grey maps' headers, map by map
   std::vector<DsmNode> nodes;      // packed: exactly the nodes used; fixed: L slots per texel
   std::vector<ChunkNode> chunks;   // chunked: the chunk pool, C slots per chunk
+  std::vector<SurfaceTag> tags;    // per slot of `nodes` (packed, fixed) or `chunks` (chunked)
   uint64_t texel_count = 0;        // grey maps' texels (fixed keeps no headers)
   DsmArrays<DsmNodeRgb, ChunkNodeRgb> rgb;
 
@@ -56,6 +59,8 @@ struct DsmBuffers {
     s.rgb_texels = {rgb.texels.data(), rgb.texels.size()};
     s.rgb_nodes = {rgb.nodes.data(), rgb.nodes.size()};
     s.rgb_chunks = {rgb.chunks.data(), rgb.chunks.size()};
+    s.tags = {tags.data(), tags.size()};
+    s.rgb_tags = {rgb.tags.data(), rgb.tags.size()};
     s.layout = layout.layout;
     s.layers = layout.layout == kDsmFixed ? uint32_t(layout.fixed_layers) : 0u;
     return s;
@@ -67,6 +72,7 @@ struct DsmBuffers {
     texels.clear();
     nodes.clear();
     chunks.clear();
+    tags.clear();
     texel_count = 0;
     rgb.clear();
   }
@@ -79,11 +85,14 @@ struct DsmArraysRef {
   std::vector<TexelRange>& texels;
   std::vector<Node>& nodes;
   std::vector<Chunk>& chunks;
+  std::vector<SurfaceTag>& tags;
   uint64_t& texel_count;
 };
-inline DsmArraysRef<DsmNode, ChunkNode> grey_arrays(DsmBuffers& b) { return {b.texels, b.nodes, b.chunks, b.texel_count}; }
+inline DsmArraysRef<DsmNode, ChunkNode> grey_arrays(DsmBuffers& b) {
+  return {b.texels, b.nodes, b.chunks, b.tags, b.texel_count};
+}
 inline DsmArraysRef<DsmNodeRgb, ChunkNodeRgb> rgb_arrays(DsmBuffers& b) {
-  return {b.rgb.texels, b.rgb.nodes, b.rgb.chunks, b.rgb.texel_count};
+  return {b.rgb.texels, b.rgb.nodes, b.rgb.chunks, b.rgb.tags, b.rgb.texel_count};
 }
 
 // What building one map cost, in its layout. Bytes: index = per-texel
@@ -103,6 +112,7 @@ struct DsmBuildStats {
   uint64_t node_bytes_allocated = 0;
   uint64_t node_bytes_used = 0;
   uint64_t slack_bytes = 0;
+  uint64_t tag_bytes = 0;             // the nodes' SurfaceTags (2 bytes per allocated node slot)
   uint64_t chunks = 0;                // chunked: chunks allocated
   uint64_t pool_retries = 0;          // node-pool grow-and-redo passes (packed, chunked)
   WalkStats walk;

@@ -20,8 +20,8 @@ struct StoredMap {
   uint64_t bytes() const {
     const bool rgb = map.rgb != 0u;
     return (texel_end - texel_begin) * sizeof(TexelRange) +
-           (node_end - node_begin) * (rgb ? sizeof(DsmNodeRgb) : sizeof(DsmNode)) +
-           (chunk_end - chunk_begin) * (rgb ? sizeof(ChunkNodeRgb) : sizeof(ChunkNode));
+           (node_end - node_begin) * ((rgb ? sizeof(DsmNodeRgb) : sizeof(DsmNode)) + sizeof(SurfaceTag)) +
+           (chunk_end - chunk_begin) * ((rgb ? sizeof(ChunkNodeRgb) : sizeof(ChunkNode)) + sizeof(SurfaceTag));
   }
 };
 
@@ -48,6 +48,10 @@ StoredMap move_map(const StoredMap& m, uint32_t layout, DsmArraysRef<Node, Chunk
     to.texels.push_back(r);
   }
   to.nodes.insert(to.nodes.end(), from.nodes.begin() + ptrdiff_t(m.node_begin), from.nodes.begin() + ptrdiff_t(m.node_end));
+  // Tags go with the node slots (packed, fixed) or the chunk slots (chunked).
+  const uint64_t tag_begin = layout == kDsmChunked ? m.chunk_begin : m.node_begin;
+  const uint64_t tag_end = layout == kDsmChunked ? m.chunk_end : m.node_end;
+  to.tags.insert(to.tags.end(), from.tags.begin() + ptrdiff_t(tag_begin), from.tags.begin() + ptrdiff_t(tag_end));
   for (uint64_t c = m.chunk_begin; c < m.chunk_end; ++c) {
     Chunk cn = from.chunks[c];
     if (cn.next != kChunkEnd) cn.next = uint32_t(int64_t(cn.next) + chunk_shift);
@@ -120,7 +124,8 @@ class CpuBackend final : public ShadowBackend {
   uint64_t allocated_bytes() const {
     return store_.texels.capacity() * sizeof(TexelRange) + store_.nodes.capacity() * sizeof(DsmNode) +
            store_.chunks.capacity() * sizeof(ChunkNode) + store_.rgb.texels.capacity() * sizeof(TexelRange) +
-           store_.rgb.nodes.capacity() * sizeof(DsmNodeRgb) + store_.rgb.chunks.capacity() * sizeof(ChunkNodeRgb);
+           store_.rgb.nodes.capacity() * sizeof(DsmNodeRgb) + store_.rgb.chunks.capacity() * sizeof(ChunkNodeRgb) +
+           (store_.tags.capacity() + store_.rgb.tags.capacity()) * sizeof(SurfaceTag);
   }
 
   void reset_store() {
@@ -149,6 +154,9 @@ class CpuBackend final : public ShadowBackend {
     next.rgb.texels.reserve(texels[1]);
     next.rgb.nodes.reserve(nodes[1]);
     next.rgb.chunks.reserve(chunks[1]);
+    const bool chunked = store_.layout.layout == kDsmChunked;
+    next.tags.reserve(chunked ? chunks[0] : nodes[0]);
+    next.rgb.tags.reserve(chunked ? chunks[1] : nodes[1]);
     for (StoredMap& m : slots_.maps) {
       if (!m.live) continue;
       m = m.map.rgb ? move_map(m, store_.layout.layout, rgb_arrays(store_), rgb_arrays(next))

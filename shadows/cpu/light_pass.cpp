@@ -50,6 +50,7 @@ void check_u32(uint64_t v, const char* what) {
 struct Scratch {
   std::vector<DsmNode> nodes;       // kDsmTile^2 buffers of K nodes
   std::vector<DsmNodeRgb> rgb;      // the same for RGB maps (allocated when one is built)
+  std::vector<SurfaceTag> tags;     // the buffers' node tags (K per texel)
   std::vector<uint32_t> counts;     // nodes per texel, tile order
   std::vector<TexelRange> heads;    // chunked: headers, tile order
   std::vector<uint32_t> rm_words;   // 4 K: prev, next, heap, heap position
@@ -62,12 +63,16 @@ struct Scratch {
   NodeBuffer buffer(int k, int cap, DsmNode*) {
     NodeBuffer b{nodes.data() + size_t(k) * cap, cap};
     b.scratch = removal(cap);
+    b.tags = tags_of(k, cap);
     return b;
   }
   RgbNodeBuffer buffer(int k, int cap, DsmNodeRgb*) {
     if (rgb.empty()) rgb.resize(size_t(kDsmTile) * kDsmTile * size_t(cap));
-    return RgbNodeBuffer{rgb.data() + size_t(k) * cap, cap};
+    RgbNodeBuffer b{rgb.data() + size_t(k) * cap, cap};
+    b.tags = tags_of(k, cap);
+    return b;
   }
+  SurfaceTag* tags_of(int k, int cap) { return tags.data() + size_t(k) * cap; }
   DsmNode* nodes_of(int k, int cap, DsmNode*) { return nodes.data() + size_t(k) * cap; }
   DsmNodeRgb* nodes_of(int k, int cap, DsmNodeRgb*) { return rgb.data() + size_t(k) * cap; }
 };
@@ -76,9 +81,10 @@ struct Scratch {
 // Appends one kind's arrays of src to dst (headers, links re-based).
 template <class Node, class Chunk>
 void append_arrays(const DsmLayoutParams& layout, const std::vector<TexelRange>& src_texels,
-                   const std::vector<Node>& src_nodes, const std::vector<Chunk>& src_chunks, uint64_t src_texel_count,
-                   DsmArraysRef<Node, Chunk> dst) {
+                   const std::vector<Node>& src_nodes, const std::vector<Chunk>& src_chunks,
+                   const std::vector<SurfaceTag>& src_tags, uint64_t src_texel_count, DsmArraysRef<Node, Chunk> dst) {
   dst.texel_count += src_texel_count;
+  dst.tags.insert(dst.tags.end(), src_tags.begin(), src_tags.end());
   switch (layout.layout) {
     case kDsmFixed:
       dst.nodes.insert(dst.nodes.end(), src_nodes.begin(), src_nodes.end());
@@ -119,8 +125,9 @@ void DsmBuffers::append(const DsmBuffers& src) {
     m.texel_offset += m.rgb ? rgb.texel_count : texel_count;
     maps.push_back(m);
   }
-  append_arrays(layout, src.texels, src.nodes, src.chunks, src.texel_count, grey_arrays(*this));
-  append_arrays(layout, src.rgb.texels, src.rgb.nodes, src.rgb.chunks, src.rgb.texel_count, rgb_arrays(*this));
+  append_arrays(layout, src.texels, src.nodes, src.chunks, src.tags, src.texel_count, grey_arrays(*this));
+  append_arrays(layout, src.rgb.texels, src.rgb.nodes, src.rgb.chunks, src.rgb.tags, src.rgb.texel_count,
+                rgb_arrays(*this));
 }
 
 namespace {
@@ -149,9 +156,12 @@ DsmBuildStats build_kind(const SceneView& scene, const LightPassParams& params, 
     headers = out.texels.data() + map.texel_offset;
   }
   Node* fixed_slots = nullptr;
+  SurfaceTag* fixed_tags = nullptr;
   if (kind == kDsmFixed) {
     out.nodes.resize(out.nodes.size() + n_texels * L);
+    out.tags.resize(out.nodes.size());
     fixed_slots = out.nodes.data() + map.texel_offset * L;
+    fixed_tags = out.tags.data() + map.texel_offset * L;
   }
 
   // The pool of packed nodes or chunked slots: a first guess of a few nodes
@@ -169,6 +179,7 @@ DsmBuildStats build_kind(const SceneView& scene, const LightPassParams& params, 
   tbb::enumerable_thread_specific<Scratch> scratch([&] {
     Scratch s;
     if (!params.rgb) s.nodes.resize(size_t(kDsmTile) * kDsmTile * size_t(node_capacity));
+    s.tags.resize(size_t(kDsmTile) * kDsmTile * size_t(node_capacity));
     s.counts.resize(size_t(kDsmTile) * kDsmTile);
     s.heads.resize(size_t(kDsmTile) * kDsmTile);
     s.rm_words.resize(4 * size_t(node_capacity));
@@ -177,10 +188,14 @@ DsmBuildStats build_kind(const SceneView& scene, const LightPassParams& params, 
   });
 
   for (;;) {
-    if (kind == kDsmPacked) out.nodes.resize(pool_base + capacity);
+    if (kind == kDsmPacked) {
+      out.nodes.resize(pool_base + capacity);
+      out.tags.resize(pool_base + capacity);
+    }
     if (kind == kDsmChunked) {
       check_u32(uint64_t(pool_base + capacity) * C, "chunk slots");
       out.chunks.resize((pool_base + capacity) * C, empty_chunk<Chunk>());
+      out.tags.resize((pool_base + capacity) * C, kNoSurface);
     }
     std::atomic<uint64_t> used{0};  // packed: nodes; chunked: chunks (the thesis's g_c)
     tbb::combinable<DsmBuildStats> partial;
@@ -201,8 +216,9 @@ DsmBuildStats build_kind(const SceneView& scene, const LightPassParams& params, 
           bool recompressed = buf.removed > 0;
           uint32_t count = uint32_t(buf.count);
           if (kind == kDsmFixed) {
-            FixedFit fit = write_fixed_texel(Span<const Node>{buf.nodes, uint64_t(buf.count)}, params.epsilon,
-                                             fixed_slots + (size_t(ty) * res + tx) * L, int(L));
+            const size_t slot = (size_t(ty) * res + tx) * L;
+            FixedFit fit = write_fixed_texel(Span<const Node>{buf.nodes, uint64_t(buf.count)}, buf.tags, params.epsilon,
+                                             fixed_slots + slot, fixed_tags + slot, int(L));
             count = uint32_t(fit.count);
             if (fit.recompressed) {
               ++st.layout_overflow_texels;
@@ -229,7 +245,10 @@ DsmBuildStats build_kind(const SceneView& scene, const LightPassParams& params, 
             TexelRange& hdr = headers[size_t(ty) * res + tx];
             hdr.offset = uint32_t(pool_base + at);
             hdr.count = s.counts[k];
-            if (at + s.counts[k] <= capacity) std::copy_n(nodes_of(k), s.counts[k], out.nodes.data() + pool_base + at);
+            if (at + s.counts[k] <= capacity) {
+              std::copy_n(nodes_of(k), s.counts[k], out.nodes.data() + pool_base + at);
+              std::copy_n(s.tags_of(k, node_capacity), s.counts[k], out.tags.data() + pool_base + at);
+            }
             at += s.counts[k];
           }
         } else if (kind == kDsmChunked) {
@@ -237,8 +256,9 @@ DsmBuildStats build_kind(const SceneView& scene, const LightPassParams& params, 
           uint32_t chunks = tile_chunks(tile_total, C);
           uint64_t first = used.fetch_add(chunks);
           if (first + chunks > capacity) continue;  // short pool: only counted, redone
-          write_chunked_tile(s.counts.data(), kDsmTile * kDsmTile, nodes_of, uint32_t((pool_base + first) * C), C,
-                             out.chunks.data(), s.heads.data());
+          write_chunked_tile(
+              s.counts.data(), kDsmTile * kDsmTile, nodes_of, [&](int k) { return s.tags_of(k, node_capacity); },
+              uint32_t((pool_base + first) * C), C, out.chunks.data(), out.tags.data(), s.heads.data());
           for (int k = 0; k < kDsmTile * kDsmTile; ++k) {
             const int tx = x0 + k % kDsmTile, ty = y0 + k / kDsmTile;
             if (tx < res && ty < height) headers[size_t(ty) * res + tx] = s.heads[k];
@@ -251,8 +271,12 @@ DsmBuildStats build_kind(const SceneView& scene, const LightPassParams& params, 
       if (kind == kDsmPacked) {
         check_u32(pool_base + total, "nodes");
         out.nodes.resize(pool_base + total);  // exact: no slack
+        out.tags.resize(pool_base + total);
       }
-      if (kind == kDsmChunked) out.chunks.resize((pool_base + total) * C);
+      if (kind == kDsmChunked) {
+        out.chunks.resize((pool_base + total) * C);
+        out.tags.resize((pool_base + total) * C);
+      }
       partial.combine_each([&](const DsmBuildStats& p) {
         stats.nodes += p.nodes;
         stats.max_nodes = std::max(stats.max_nodes, p.max_nodes);
@@ -274,16 +298,19 @@ DsmBuildStats build_kind(const SceneView& scene, const LightPassParams& params, 
       stats.index_bytes = 0;
       stats.node_bytes_allocated = uint64_t(n_texels) * L * sizeof(Node);
       stats.node_bytes_used = stats.nodes * sizeof(Node);
+      stats.tag_bytes = uint64_t(n_texels) * L * sizeof(SurfaceTag);
       break;
     case kDsmChunked:
       stats.index_bytes = uint64_t(n_texels) * sizeof(TexelRange);
       stats.node_bytes_allocated = stats.chunks * C * sizeof(Chunk);
       stats.node_bytes_used = stats.nodes * sizeof(Chunk);
+      stats.tag_bytes = stats.chunks * C * sizeof(SurfaceTag);
       break;
     default:
       stats.index_bytes = uint64_t(n_texels) * sizeof(TexelRange);
       stats.node_bytes_allocated = stats.nodes * sizeof(Node);
       stats.node_bytes_used = stats.nodes * sizeof(Node);
+      stats.tag_bytes = stats.nodes * sizeof(SurfaceTag);
   }
   stats.slack_bytes = stats.node_bytes_allocated - stats.node_bytes_used;
   stats.rgb = params.rgb;

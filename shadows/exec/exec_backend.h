@@ -122,6 +122,8 @@ class ExecBackend final : public ExecShadowBackend {
         rgb_.texels.read(mirror_.rgb.texels);
         rgb_.nodes.read(mirror_.rgb.nodes);
         rgb_.chunks.read(mirror_.rgb.chunks);
+        grey_.tags.read(mirror_.tags);
+        rgb_.tags.read(mirror_.rgb.tags);
         mirror_.layout = layout_;
         mirror_dirty_ = false;
       }
@@ -146,11 +148,12 @@ class ExecBackend final : public ExecShadowBackend {
   void write_gl_maps(const GlMapWrite* writes, int count) override {
     if constexpr (Ex::kGlInterop) {
       const DsmStorage s = exec_storage();
-      const void* src[kStorageArrays] = {s.texels.data(), s.nodes.data(), s.chunks.data(),
-                                         s.rgb_texels.data(), s.rgb_nodes.data(), s.rgb_chunks.data()};
+      const void* src[kStorageArrays] = {s.texels.data(),     s.nodes.data(),     s.chunks.data(), s.rgb_texels.data(),
+                                         s.rgb_nodes.data(), s.rgb_chunks.data(), s.tags.data(),   s.rgb_tags.data()};
       const uint64_t have[kStorageArrays] = {s.texels.size() * sizeof(TexelRange), s.nodes.size() * sizeof(DsmNode),
                                              s.chunks.size() * sizeof(ChunkNode), s.rgb_texels.size() * sizeof(TexelRange),
-                                             s.rgb_nodes.size() * sizeof(DsmNodeRgb), s.rgb_chunks.size() * sizeof(ChunkNodeRgb)};
+                                             s.rgb_nodes.size() * sizeof(DsmNodeRgb), s.rgb_chunks.size() * sizeof(ChunkNodeRgb),
+                                             s.tags.size() * sizeof(SurfaceTag), s.rgb_tags.size() * sizeof(SurfaceTag)};
       bool seen[kStorageArrays] = {};
       for (int i = 0; i < count; ++i) {
         const int a = int(writes[i].array);
@@ -305,6 +308,8 @@ class ExecBackend final : public ExecShadowBackend {
     s.rgb_texels = rgb_.texels.cspan();
     s.rgb_nodes = rgb_.nodes.cspan();
     s.rgb_chunks = rgb_.chunks.cspan();
+    s.tags = grey_.tags.cspan();
+    s.rgb_tags = rgb_.tags.cspan();
     s.layout = layout_.layout;
     s.layers = layout_.layout == kDsmFixed ? uint32_t(layout_.fixed_layers) : 0u;
     return s;
@@ -314,7 +319,8 @@ class ExecBackend final : public ExecShadowBackend {
   uint64_t allocated_bytes() const {
     return grey_.texels.capacity() * sizeof(TexelRange) + grey_.nodes.capacity() * sizeof(DsmNode) +
            grey_.chunks.capacity() * sizeof(ChunkNode) + rgb_.texels.capacity() * sizeof(TexelRange) +
-           rgb_.nodes.capacity() * sizeof(DsmNodeRgb) + rgb_.chunks.capacity() * sizeof(ChunkNodeRgb);
+           rgb_.nodes.capacity() * sizeof(DsmNodeRgb) + rgb_.chunks.capacity() * sizeof(ChunkNodeRgb) +
+           (grey_.tags.capacity() + rgb_.tags.capacity()) * sizeof(SurfaceTag);
   }
 
   template <class Node>
@@ -322,6 +328,7 @@ class ExecBackend final : public ExecShadowBackend {
     k.texels.reset();
     k.nodes.reset();
     k.chunks.reset();
+    k.tags.reset();
     k.texel_count = 0;
   }
 

@@ -71,20 +71,29 @@ struct LightPassOptions {
 // Per node kind: the chunk slot, the bounded buffer and its memory.
 template <class Node>
 struct NodeKind;
+// A bounded buffer of K nodes in executor memory: the nodes, (scalar
+// nodes, with `heap`) the removal heap's six arrays, then the nodes' tags;
+// buffer_bytes() long, a multiple of 16 so buffers can follow each other.
 template <>
 struct NodeKind<DsmNode> {
   using Chunk = ChunkNode;
   using Buffer = NodeBuffer;
   using Visitor = DsmVisitor;
-  // K nodes and the removal heap's six arrays (the cpu backend's buffer).
-  static constexpr size_t bytes_per_slot = sizeof(DsmNode) + 4 * sizeof(uint32_t) + 2 * sizeof(float);
+  static constexpr size_t heap_bytes_per_slot = 4 * sizeof(uint32_t) + 2 * sizeof(float);
+  static CDSM_HD uint64_t buffer_bytes(int k, bool heap) {
+    const uint64_t b = uint64_t(k) * (sizeof(DsmNode) + (heap ? heap_bytes_per_slot : 0) + sizeof(SurfaceTag));
+    return (b + 15) & ~uint64_t(15);
+  }
   static CDSM_HD NodeBuffer buffer(unsigned char* p, int k, bool heap) {
     NodeBuffer b{reinterpret_cast<DsmNode*>(p), k};
+    unsigned char* after = p + size_t(k) * sizeof(DsmNode);
     if (heap) {
-      uint32_t* w = reinterpret_cast<uint32_t*>(p + size_t(k) * sizeof(DsmNode));
+      uint32_t* w = reinterpret_cast<uint32_t*>(after);
       float* f = reinterpret_cast<float*>(w + 4 * size_t(k));
       b.scratch = RemovalScratch{w, w + k, w + 2 * k, w + 3 * k, f, f + k};
+      after += size_t(k) * heap_bytes_per_slot;
     }
+    b.tags = reinterpret_cast<SurfaceTag*>(after);
     return b;
   }
 };
@@ -93,9 +102,14 @@ struct NodeKind<DsmNodeRgb> {
   using Chunk = ChunkNodeRgb;
   using Buffer = RgbNodeBuffer;
   using Visitor = DsmVisitorRgb;
-  static constexpr size_t bytes_per_slot = sizeof(DsmNodeRgb);
+  static CDSM_HD uint64_t buffer_bytes(int k, bool) {
+    const uint64_t b = uint64_t(k) * (sizeof(DsmNodeRgb) + sizeof(SurfaceTag));
+    return (b + 15) & ~uint64_t(15);
+  }
   static CDSM_HD RgbNodeBuffer buffer(unsigned char* p, int k, bool) {
-    return RgbNodeBuffer{reinterpret_cast<DsmNodeRgb*>(p), k};
+    RgbNodeBuffer b{reinterpret_cast<DsmNodeRgb*>(p), k};
+    b.tags = reinterpret_cast<SurfaceTag*>(p + size_t(k) * sizeof(DsmNodeRgb));
+    return b;
   }
 };
 
@@ -103,10 +117,11 @@ struct NodeKind<DsmNodeRgb> {
 template <class Node, class Ex>
 struct KindStore {
   using Chunk = typename NodeKind<Node>::Chunk;
-  explicit KindStore(Ex& ex) : texels(ex), nodes(ex), chunks(ex) {}
+  explicit KindStore(Ex& ex) : texels(ex), nodes(ex), chunks(ex), tags(ex) {}
   ExecArray<TexelRange, Ex> texels;  // packed, chunked: headers, map by map
   ExecArray<Node, Ex> nodes;         // packed: exact pool; fixed: L slots per texel
   ExecArray<Chunk, Ex> chunks;       // chunked: the slot pool
+  ExecArray<SurfaceTag, Ex> tags;    // per slot of `nodes` (packed, fixed) or of `chunks` (chunked)
   uint64_t texel_count = 0;          // this kind's texels (fixed keeps no headers)
 };
 
@@ -114,14 +129,15 @@ struct KindStore {
 template <class Ex>
 struct LightPassScratch {
   explicit LightPassScratch(Ex& ex)
-      : counts(ex), overflow(ex), extra(ex), heads(ex), tile_first(ex), staging(ex), staged(ex), spill(ex),
-        spill_texels(ex), counters(ex), offsets(ex), fragments(ex), inside(ex) {}
+      : counts(ex), overflow(ex), extra(ex), heads(ex), tile_first(ex), staging(ex), staging_tags(ex), staged(ex),
+        spill(ex), spill_texels(ex), counters(ex), offsets(ex), fragments(ex), inside(ex) {}
   ExecArray<uint32_t, Ex> counts;      // per texel: nodes it stores before the layout
   ExecArray<uint32_t, Ex> overflow;    // per texel: 0, or re-compressed (staged: 1; two-pass: spill slot + 1)
   ExecArray<float, Ex> extra;          // per texel: error the per-texel bound added
   ExecArray<TexelRange, Ex> heads;     // fixed, chunked: each texel's nodes in `staging`
   ExecArray<uint32_t, Ex> tile_first;  // chunked: each tile's first chunk (relative to the map's)
   ExecArray<unsigned char, Ex> staging;  // fixed, chunked: the packed nodes the layout is written from
+  ExecArray<SurfaceTag, Ex> staging_tags;  // their tags
   ExecArray<unsigned char, Ex> staged;   // staged mode: node_capacity nodes per texel
   ExecArray<unsigned char, Ex> spill;    // two-pass: a K-node buffer per spilled texel
   ExecArray<uint32_t, Ex> spill_texels;  // two-pass: the spilled texels, by spill slot
@@ -189,6 +205,7 @@ struct TexelWork {
   BuildCounters* ctr = nullptr;
   const TexelRange* heads = nullptr;
   Node* target = nullptr;          // the packed nodes (the store's, or the staging array)
+  SurfaceTag* target_tags = nullptr;  // their tags
   unsigned char* bounded = nullptr;  // Staged: K nodes per texel; Spilled: one buffer per spill slot
   uint64_t slot_bytes = 0;
   const uint32_t* spill_texels = nullptr;
@@ -210,7 +227,8 @@ struct TexelWork {
     if (write && overflow[i] != 0u) return;  // spilled: its own step
     const int tx = int(i % uint64_t(res)), ty = int(i / uint64_t(res));
     const TexelRange h = write ? heads[i] : TexelRange{0u, 0u};
-    FixedSlotSink<Node> sink(write ? target + h.offset : nullptr, write ? int(h.count) : 0);
+    FixedSlotSink<Node> sink(write ? target + h.offset : nullptr, write ? int(h.count) : 0,
+                             write ? target_tags + h.offset : nullptr);
     WalkStats st;
     build_texel_into(scene, params, frags.pixel(tx, ty), tx, ty, sink, st);
     const uint32_t n = uint32_t(sink.count);
@@ -245,7 +263,10 @@ struct TexelWork {
     const TexelRange h = heads[i];
     if (uint32_t(buf.count) != h.count) atomic_add(&ctr->mismatches, 1u);
     const uint32_t n = uint32_t(buf.count) < h.count ? uint32_t(buf.count) : h.count;
-    for (uint32_t j = 0; j < n; ++j) target[h.offset + j] = buf.nodes[j];
+    for (uint32_t j = 0; j < n; ++j) {
+      target[h.offset + j] = buf.nodes[j];
+      target_tags[h.offset + j] = buf.tags[j];
+    }
     extra[i] = buf.extra_error;
     account_texel(ctr, layout_counts, true, h.count, buf.extra_error);
   }
@@ -285,8 +306,9 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
   ex.fill_zero(s.overflow.data(), s.overflow.bytes());
   ex.fill_zero(s.extra.data(), s.extra.bytes());
   ex.fill_zero(s.counters.data(), s.counters.bytes());
+  const uint64_t staged_bytes = Kind::buffer_bytes(K, false);  // per texel
   if (staged) {
-    const uint64_t bytes = n_texels * uint64_t(K) * sizeof(Node);
+    const uint64_t bytes = n_texels * staged_bytes;
     if (bytes > (uint64_t(4) << 30))
       throw std::length_error("light pass: " + std::to_string(bytes >> 20) + " MiB of per-texel buffers (" +
                               std::to_string(K) + " nodes per texel); lower the resolution or the method's parameter");
@@ -315,7 +337,7 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
   if (staged) {
     work.step = TexelStep::Staged;
     work.bounded = staged_mem;
-    work.slot_bytes = uint64_t(K) * sizeof(Node);
+    work.slot_bytes = staged_bytes;
     ex.parallel_for("light pass: build (staged)", n_texels, work);
   } else {
     work.step = TexelStep::Count;
@@ -365,26 +387,35 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
 
   // 3. write: the nodes into the packed pool (fixed, chunked: the staging array).
   Node* target;
+  SurfaceTag* target_tags;
   if (kind == kDsmPacked) {
     out.nodes.resize(pool_base + total);
+    out.tags.resize(pool_base + total);
     target = out.nodes.data();
+    target_tags = out.tags.data();
   } else {
     s.staging.resize_discard(total * sizeof(Node));
+    s.staging_tags.resize_discard(total);
     target = reinterpret_cast<Node*>(s.staging.data());
+    target_tags = s.staging_tags.data();
   }
-  const uint64_t slot_bytes = uint64_t(K) * Kind::bytes_per_slot;
+  const uint64_t slot_bytes = Kind::buffer_bytes(K, sizeof(Node) == sizeof(DsmNode));
   if (!staged) s.spill.resize_discard(uint64_t(c.spill_texels) * slot_bytes);
   const bool count_here = kind != kDsmFixed;
   if (staged) {
     ex.parallel_for("light pass: copy (staged)", n_texels, CDSM_LAMBDA(uint64_t i) {
       const TexelRange h = heads[i];
-      const Node* src = reinterpret_cast<const Node*>(staged_mem + i * uint64_t(K) * sizeof(Node));
-      for (uint32_t j = 0; j < h.count; ++j) target[h.offset + j] = src[j];
+      const auto buf = Kind::buffer(staged_mem + i * staged_bytes, K, false);
+      for (uint32_t j = 0; j < h.count; ++j) {
+        target[h.offset + j] = buf.nodes[j];
+        target_tags[h.offset + j] = buf.tags[j];
+      }
       account_texel(ctr, count_here, overflow[i] != 0u, h.count, extra[i]);
     });
   } else {
     work.heads = heads;
     work.target = target;
+    work.target_tags = target_tags;
     work.step = TexelStep::Write;
     ex.parallel_for("light pass: write", n_texels, work);
     // Texels over node_limit(K): the cpu backend's bounded buffer (K nodes,
@@ -400,12 +431,16 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
   const uint64_t chunk_base = kind == kDsmChunked ? out.chunks.size() : 0;  // slots
   if (kind == kDsmFixed) {
     out.nodes.resize(out.nodes.size() + n_texels * L);
+    out.tags.resize(out.nodes.size());
     Node* slots = out.nodes.data() + map.texel_offset * L;
+    SurfaceTag* slot_tags = out.tags.data() + map.texel_offset * L;
     const float eps = params.epsilon;
     const Node* staging = target;
+    const SurfaceTag* staging_tags = target_tags;
     ex.parallel_for("light pass: fixed layout", n_texels, CDSM_LAMBDA(uint64_t i) {
       const TexelRange h = heads[i];
-      FixedFit fit = write_fixed_texel(Span<const Node>{staging + h.offset, h.count}, eps, slots + i * L, int(L));
+      FixedFit fit = write_fixed_texel(Span<const Node>{staging + h.offset, h.count}, staging_tags + h.offset, eps,
+                                       slots + i * L, slot_tags + i * L, int(L));
       atomic_add(&ctr->stored, (unsigned long long)fit.count);
       atomic_max(&ctr->max_nodes, uint32_t(fit.count));
       if (fit.recompressed) atomic_add(&ctr->layout_overflow_texels, 1u);
@@ -416,9 +451,12 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
     });
   } else if (kind == kDsmChunked) {
     out.chunks.resize(chunk_base + c.chunks * C);
+    out.tags.resize(out.chunks.size());
     Chunk* pool = out.chunks.data();
+    SurfaceTag* pool_tags = out.tags.data();
     TexelRange* store_heads = out.texels.data() + map.texel_offset;
     const Node* staging = target;
+    const SurfaceTag* staging_tags = target_tags;
     ex.parallel_for("light pass: chunked layout", n_tiles, CDSM_LAMBDA(uint64_t tile) {
       const int x0 = int(tile % uint64_t(tiles_x)) * kDsmTile, y0 = int(tile / uint64_t(tiles_x)) * kDsmTile;
       uint32_t tile_counts[kChunkTileTexels];
@@ -432,7 +470,8 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
       }
       write_chunked_tile(
           tile_counts, kChunkTileTexels, [&](int k) { return staging + heads[texel[k]].offset; },
-          uint32_t(chunk_base + uint64_t(tile_first[tile]) * C), C, pool, tile_heads);
+          [&](int k) { return staging_tags + heads[texel[k]].offset; },
+          uint32_t(chunk_base + uint64_t(tile_first[tile]) * C), C, pool, pool_tags, tile_heads);
       for (int k = 0; k < kChunkTileTexels; ++k) {
         const int tx = x0 + k % kDsmTile, ty = y0 + k / kDsmTile;
         if (tx < res && ty < height) store_heads[texel[k]] = tile_heads[k];
@@ -463,17 +502,20 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
     case kDsmFixed:
       stats.node_bytes_allocated = n_texels * L * sizeof(Node);
       stats.node_bytes_used = stats.nodes * sizeof(Node);
+      stats.tag_bytes = n_texels * L * sizeof(SurfaceTag);
       break;
     case kDsmChunked:
       stats.chunks = c.chunks;
       stats.index_bytes = n_texels * sizeof(TexelRange);
       stats.node_bytes_allocated = stats.chunks * C * sizeof(Chunk);
       stats.node_bytes_used = stats.nodes * sizeof(Chunk);
+      stats.tag_bytes = stats.chunks * C * sizeof(SurfaceTag);
       break;
     default:
       stats.index_bytes = n_texels * sizeof(TexelRange);
       stats.node_bytes_allocated = stats.nodes * sizeof(Node);
       stats.node_bytes_used = stats.nodes * sizeof(Node);
+      stats.tag_bytes = stats.nodes * sizeof(SurfaceTag);
   }
   stats.slack_bytes = stats.node_bytes_allocated - stats.node_bytes_used;
   return stats;

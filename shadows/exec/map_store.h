@@ -18,8 +18,8 @@ struct ExecStoredMap {
   uint64_t bytes() const {
     const bool rgb = map.rgb != 0u;
     return (texel_end - texel_begin) * sizeof(TexelRange) +
-           (node_end - node_begin) * (rgb ? sizeof(DsmNodeRgb) : sizeof(DsmNode)) +
-           (chunk_end - chunk_begin) * (rgb ? sizeof(ChunkNodeRgb) : sizeof(ChunkNode));
+           (node_end - node_begin) * ((rgb ? sizeof(DsmNodeRgb) : sizeof(DsmNode)) + sizeof(SurfaceTag)) +
+           (chunk_end - chunk_begin) * ((rgb ? sizeof(ChunkNodeRgb) : sizeof(ChunkNode)) + sizeof(SurfaceTag));
   }
 };
 
@@ -55,6 +55,13 @@ ExecStoredMap move_map_exec(Ex& ex, const ExecStoredMap& m, uint32_t layout, con
   const uint64_t nodes = m.node_end - m.node_begin;
   to.nodes.resize(n.node_begin + nodes);
   if (nodes) ex.copy(to.nodes.data() + n.node_begin, from.nodes.data() + m.node_begin, nodes * sizeof(Node));
+
+  // Tags go with the node slots (packed, fixed) or the chunk slots (chunked).
+  const uint64_t tag_begin = chunked ? m.chunk_begin : m.node_begin;
+  const uint64_t tags = chunked ? m.chunk_end - m.chunk_begin : nodes;
+  const uint64_t to_tag = to.tags.size();
+  to.tags.resize(to_tag + tags);
+  if (tags) ex.copy(to.tags.data() + to_tag, from.tags.data() + tag_begin, tags * sizeof(SurfaceTag));
 
   const uint64_t chunks = m.chunk_end - m.chunk_begin;
   to.chunks.resize(n.chunk_begin + chunks);

@@ -42,7 +42,7 @@ inline constexpr float kBaselineChordError = 1e-4f;
 
 // Walks the exact opacity along a light ray and reports it to a builder as
 // surfaces and exponential pieces:
-//   bool surface(float z, float opacity, float before, float after)
+//   bool surface(float z, float opacity, float before, float after, SurfaceTag tag)
 //   bool piece(float z0, float z1, float a0, float a1, float sigma)
 //        alpha(z) = 1 - (1 - a0) exp(-sigma (z - z0)) on [z0, z1], a1 at z1
 //        (sigma = 0: an empty stretch, alpha constant)
@@ -60,12 +60,14 @@ struct ExactAlphaVisitor {
 
   CDSM_HD bool saturated() const { return alpha >= kSaturatedAlpha; }
 
-  CDSM_HD bool surface(float t, uint32_t tri, bool /*front*/) {
-    float op = grey_of(s.objects[s.tri_object[tri]].absorb);  // baselines are grey: channel mean
+  CDSM_HD bool surface(float t, uint32_t tri, bool front) {
+    const uint32_t o = s.tri_object[tri];
+    float op = grey_of(s.objects[o].absorb);  // baselines are grey: channel mean
     if (op <= 0.0f) return true;
     float before = alpha;
     alpha = alpha + op * (1.0f - alpha);
-    return b.surface(t, op, before, alpha) && !saturated();
+    const SurfaceTag tag = surface_tag(o, surface_rank((s.objects[o].flags & kObjClosed) != 0u, front));
+    return b.surface(t, op, before, alpha, tag) && !saturated();
   }
 
   CDSM_HD bool piece(float z0, float z1, float sigma) {
@@ -103,13 +105,14 @@ struct ShadowMapBuilder {
   float threshold;         // opacity that counts as opaque, (0, 1]
   float media_T = 1.0f;    // transmittance of the media crossed so far
 
-  CDSM_HD void opaque_at(float z) {
+  // tag: the surface that turned the ray opaque (kNoSurface: media).
+  CDSM_HD void opaque_at(float z, SurfaceTag tag) {
     buf.emit(z, 0.0f);
-    buf.emit(z, 1.0f);
+    buf.emit(z, 1.0f, tag);
   }
-  CDSM_HD bool surface(float z, float opacity, float, float) {
+  CDSM_HD bool surface(float z, float opacity, float, float, SurfaceTag tag) {
     if (opacity < threshold) return true;
-    opaque_at(z);
+    opaque_at(z, tag);
     return false;
   }
   CDSM_HD bool piece(float z0, float z1, float, float, float sigma) {
@@ -121,7 +124,7 @@ struct ShadowMapBuilder {
     }
     // Where the media's opacity reaches the threshold: T(z) = 1 - threshold.
     float zc = z0 + logf(media_T / fmaxf(1.0f - threshold, 1e-30f)) / sigma;
-    opaque_at(clampf(zc, z0, z1));
+    opaque_at(clampf(zc, z0, z1), kNoSurface);
     return false;
   }
   CDSM_HD void finish() {}
@@ -143,7 +146,7 @@ struct OpacitySliceBuilder {
   CDSM_HD void flat_until(float z) {
     while (next <= slices && boundary(next) < z) buf.emit(boundary(next++), alpha);
   }
-  CDSM_HD bool surface(float z, float, float, float after) {
+  CDSM_HD bool surface(float z, float, float, float after, SurfaceTag) {
     flat_until(z);
     alpha = after;
     return true;
@@ -174,11 +177,12 @@ struct FixedNodeBuilder {
   CDSM_HD static float removal_area(DsmNode a, DsmNode b, DsmNode c) {
     return 0.5f * fabsf((b.z - a.z) * (c.alpha - a.alpha) - (b.alpha - a.alpha) * (c.z - a.z));
   }
-  CDSM_HD void add(float z, float a) {
+  CDSM_HD void add(float z, float a, SurfaceTag tag = kNoSurface) {
     if (buf.count > 0) {
       DsmNode last = buf.nodes[buf.count - 1];
       if (last.z == z && last.alpha == a) return;
     }
+    if (buf.tags) buf.tags[buf.count] = tag;
     buf.nodes[buf.count++] = DsmNode{z, a};
     if (buf.count <= max_nodes) return;
     int best = 1;
@@ -191,11 +195,13 @@ struct FixedNodeBuilder {
       }
     }
     for (int i = best; i + 1 < buf.count; ++i) buf.nodes[i] = buf.nodes[i + 1];
+    if (buf.tags)
+      for (int i = best; i + 1 < buf.count; ++i) buf.tags[i] = buf.tags[i + 1];
     --buf.count;
   }
-  CDSM_HD bool surface(float z, float, float before, float after) {
+  CDSM_HD bool surface(float z, float, float before, float after, SurfaceTag tag) {
     add(z, before);
-    add(z, after);
+    add(z, after, tag);
     return true;
   }
   CDSM_HD bool piece(float z0, float z1, float a0, float a1, float) {

@@ -54,7 +54,7 @@ struct NoRecorder {
 };
 
 // Visibility = DSM lookups at the receiver (hd/lights.h): surfaces by their
-// plane (casters stop short of their own step), volume samples at their depth.
+// plane (casters leave out their own step), volume samples at their depth.
 struct DsmVisibility {
   const ShadowView& sv;
   CDSM_HD Vec3 operator()(int light, const Receiver& r) const {
@@ -93,8 +93,7 @@ struct CameraVisitor {
     in.shininess = o.shininess;
     in.has_normal = true;
     in.plane = geometric_normal(s, tri);
-    in.own_step_in_maps = (o.flags & kObjCastsShadows) != 0u;
-    in.object = s.tri_object[tri];
+    in.object = (o.flags & kObjCastsShadows) != 0u ? s.tri_object[tri] : kNoObject;
     Vec3 c = shade_point(in, lights, ambient, visibility);
     const Vec3 w = T * o.opacity;
     rec.shaded(in.p, in.n, true, max_channel(w));
@@ -130,7 +129,6 @@ struct CameraVisitor {
             in.shininess = 1.0f;
             in.has_normal = false;
             in.plane = Vec3{0, 0, 0};
-            in.own_step_in_maps = false;
             in.object = kNoObject;
             in.n = Vec3{0, 0, 0};
             if (v.shading == 1u) {  // phong: normal from the density gradient

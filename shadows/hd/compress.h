@@ -6,6 +6,7 @@
 #pragma once
 
 #include "cdsm/math.h"
+#include "hd/fragment.h"
 #include "hd/span.h"
 
 namespace cdsm {
@@ -17,6 +18,26 @@ struct DsmNode {
   float alpha;  // accumulated opacity 1 - V(z), in [0, 1]
 };
 static_assert(sizeof(DsmNode) == 8, "DsmNode is 8 bytes");
+
+// Which surface a step belongs to (DESIGN.md §8: receivers leave out their
+// own surface by identity). Kept per node beside the nodes (one 16-bit tag
+// per node slot, in a parallel array): a step's upper node carries the tag
+// of the surface that made it, every other node kNoSurface. A tag holds
+//   bits 0-13   the object: its index modulo 16383, plus 1 (0: no surface);
+//   bits 14-15  how the light ray crossed it (hd/fragment.h surface_rank):
+//               leaving a closed object, an open surface, or entering one.
+// Up to 16383 casters no two objects share a tag; beyond, two objects 16383
+// apart do, which matters only where both have a step within a receiver's
+// search window of its plane in one texel.
+using SurfaceTag = uint16_t;
+inline constexpr SurfaceTag kNoSurface = 0u;
+inline constexpr uint32_t kTagObjectBits = 0x3fffu;
+CDSM_HD CDSM_INLINE uint32_t tag_object(uint32_t object) { return object % kTagObjectBits + 1u; }
+CDSM_HD CDSM_INLINE SurfaceTag surface_tag(uint32_t object, uint32_t rank) {
+  return SurfaceTag((rank << 14) | tag_object(object));
+}
+CDSM_HD CDSM_INLINE uint32_t tag_object_of(SurfaceTag t) { return uint32_t(t) & kTagObjectBits; }
+CDSM_HD CDSM_INLINE uint32_t tag_rank_of(SurfaceTag t) { return uint32_t(t) >> 14; }
 
 // Working memory of a node buffer that overflows (NodeBuffer): per slot a
 // linked list (prev, next), a min-heap of removal costs (heap, pos, cost) and
@@ -62,23 +83,30 @@ struct NodeBuffer {
   int removed = 0;           // nodes removed to fit
   float eps = 0.0f;          // tolerance of the compressor feeding it
   RemovalScratch scratch;
+  SurfaceTag* tags = nullptr;  // per slot, the node's SurfaceTag (capacity entries); null: not kept
+  SurfaceTag last_tag_ = kNoSurface;  // the last node's tag (kept also without `tags`)
   // Overflow state (with scratch): nodes are linked over slots [0, count).
   bool linked = false;
   int alive = 0;             // nodes of the function when linked
   uint32_t heap_size = 0;
 
-  CDSM_HD inline void emit(float z, float a);
+  CDSM_HD inline void emit(float z, float a, SurfaceTag tag = kNoSurface);
   CDSM_HD int size() const { return linked ? alive : count; }  // nodes of the function
   CDSM_HD DsmNode& last() { return nodes[count - 1]; }           // the last node is always slot count - 1
+  CDSM_HD SurfaceTag last_tag() const { return last_tag_; }
   CDSM_HD DsmNode& before_last() { return nodes[linked ? scratch.prev[count - 1] : uint32_t(count - 2)]; }
   CDSM_HD inline void raise_last(float a);  // a coincident surface raises the last node
   CDSM_HD inline void compact();            // the function's nodes into slots [0, size()), in order
 };
 
 // The clamped wedge. Feed samples in non-decreasing z with push(); a surface
-// is push(z, before) followed by step(z, after); finish() closes the
-// function. Sink: emit(z, a), size(), last(), before_last(), raise_last(a)
-// (NodeBuffer, or hd/dsm_fixed.h's FixedSlotSink).
+// is push(z, before) followed by step(z, after, tag); finish() closes the
+// function. Sink: emit(z, a, tag), size(), last(), last_tag(), before_last(),
+// raise_last(a) (NodeBuffer, or hd/dsm_fixed.h's FixedSlotSink). A step's
+// upper node carries its surface's tag; coincident steps of one object
+// share their upper node (with the first one's tag: an edge or silhouette
+// crossed twice), those of different objects each keep their own (so a
+// receiver can leave out exactly its own, DESIGN.md §8).
 template <class Sink>
 struct Wedge {
   float eps = 0.0f;
@@ -90,8 +118,8 @@ struct Wedge {
 
   CDSM_HD explicit Wedge(float e) : eps(e) {}
 
-  CDSM_HD void set_origin(Sink& buf, float z, float a) {
-    buf.emit(z, a);
+  CDSM_HD void set_origin(Sink& buf, float z, float a, SurfaceTag tag = kNoSurface) {
+    buf.emit(z, a, tag);
     z0 = z;
     a0 = buf.last().alpha;
     pending = false;
@@ -152,8 +180,9 @@ struct Wedge {
     restart(z, a);
   }
 
-  // A surface at depth z raises alpha to `after` (push(z, before) came first).
-  CDSM_HD void step(Sink& buf, float z, float after) {
+  // A surface (tag: which one) at depth z raises alpha to `after`
+  // (push(z, before) came first).
+  CDSM_HD void step(Sink& buf, float z, float after, SurfaceTag tag = kNoSurface) {
     after = clampf(after, 0.0f, 1.0f);
     if (!has_origin) {
       has_origin = true;
@@ -161,13 +190,15 @@ struct Wedge {
     }
     if (pending) set_origin(buf, zl, line_end());
     after = fmaxf(after, a0);  // monotone
-    // Coincident surfaces: raise the step's upper node instead of adding one.
-    if (buf.size() >= 2 && buf.last().z == z && buf.before_last().z == z) {
+    // Coincident crossings of one surface: raise the step's upper node
+    // instead of adding one.
+    if (buf.size() >= 2 && buf.last().z == z && buf.before_last().z == z &&
+        tag_object_of(buf.last_tag()) == tag_object_of(tag)) {
       buf.raise_last(after);
       a0 = after;
       return;
     }
-    set_origin(buf, z, after);
+    set_origin(buf, z, after, tag);
   }
 
   CDSM_HD void finish(Sink& buf) {
@@ -205,7 +236,8 @@ CDSM_HD CDSM_INLINE bool cheaper(RemovalCost x, RemovalCost y) {
 // Either node kind (removal_cost_of is overloaded for RGB nodes: the
 // largest channel's cost, hd/compress_rgb.h).
 template <class Node>
-CDSM_HD inline void remove_cheapest_scan(Node* n, int& count, Node incoming, float& extra_error) {
+CDSM_HD inline void remove_cheapest_scan(Node* n, int& count, Node incoming, float& extra_error,
+                                         SurfaceTag* tags = nullptr) {
   int best = 1;
   RemovalCost best_cost{3.0e38f, 3.0e38f};
   for (int i = 1; i < count; ++i) {
@@ -216,6 +248,8 @@ CDSM_HD inline void remove_cheapest_scan(Node* n, int& count, Node incoming, flo
     }
   }
   for (int i = best; i + 1 < count; ++i) n[i] = n[i + 1];
+  if (tags)
+    for (int i = best; i + 1 < count; ++i) tags[i] = tags[i + 1];
   --count;
   extra_error += best_cost.change;
 }
@@ -325,6 +359,7 @@ CDSM_HD inline void NodeBuffer::compact() {
   int out = 0;
   for (uint32_t i = 0; i != node_heap::kNone; i = w.next[i]) {
     nodes[out] = nodes[i];  // out <= i: in place
+    if (tags) tags[out] = tags[i];
     w.span_error[out] = w.span_error[i];
     ++out;
   }
@@ -343,17 +378,22 @@ CDSM_HD inline void NodeBuffer::raise_last(float a) {
 // scan version keeps the same limit, so both choose the same nodes.
 CDSM_HD CDSM_INLINE int node_limit(int capacity) { return capacity - (capacity / 8 > 1 ? capacity / 8 : 1); }
 
-CDSM_HD inline void NodeBuffer::emit(float z, float a) {
+CDSM_HD inline void NodeBuffer::emit(float z, float a, SurfaceTag tag) {
   const int limit = node_limit(capacity);
+  last_tag_ = tag;
   if (scratch.empty()) {
     if (count >= limit && count >= 2) {
-      remove_cheapest_scan(nodes, count, DsmNode{z, a}, extra_error);
+      remove_cheapest_scan(nodes, count, DsmNode{z, a}, extra_error, tags);
       ++removed;
     }
-    if (count < capacity) nodes[count++] = DsmNode{z, a};
+    if (count < capacity) {
+      if (tags) tags[count] = tag;
+      nodes[count++] = DsmNode{z, a};
+    }
     return;
   }
   if (!linked && count < limit) {
+    if (tags) tags[count] = tag;
     nodes[count++] = DsmNode{z, a};
     return;
   }
@@ -364,6 +404,7 @@ CDSM_HD inline void NodeBuffer::emit(float z, float a) {
   }
   const uint32_t t = uint32_t(count);
   nodes[t] = DsmNode{z, a};
+  if (tags) tags[t] = tag;
   scratch.prev[t] = t - 1;
   scratch.next[t] = node_heap::kNone;
   scratch.next[t - 1] = t;

@@ -40,8 +40,8 @@ struct WedgeRgb {
 
   CDSM_HD explicit WedgeRgb(float e) : eps(e) {}
 
-  CDSM_HD void set_origin(Sink& buf, float z, Vec3 a) {
-    buf.emit(z, a);
+  CDSM_HD void set_origin(Sink& buf, float z, Vec3 a, SurfaceTag tag = kNoSurface) {
+    buf.emit(z, a, tag);
     z0 = z;
     a0 = rgb_of(buf.last());
     pending = false;
@@ -118,8 +118,9 @@ struct WedgeRgb {
     restart(z, a);
   }
 
-  // A surface at depth z raises alpha to `after` (push(z, before) came first).
-  CDSM_HD void step(Sink& buf, float z, Vec3 after) {
+  // A surface (tag: which one) at depth z raises alpha to `after`
+  // (push(z, before) came first).
+  CDSM_HD void step(Sink& buf, float z, Vec3 after, SurfaceTag tag = kNoSurface) {
     after = clamp01(after);
     if (!has_origin) {
       has_origin = true;
@@ -127,13 +128,15 @@ struct WedgeRgb {
     }
     if (pending) set_origin(buf, zl, line_end());
     after = vmax(after, a0);  // monotone per channel
-    // Coincident surfaces: raise the step's upper node instead of adding one.
-    if (buf.size() >= 2 && buf.last().z == z && buf.before_last().z == z) {
+    // Coincident crossings of one surface: raise the step's upper node
+    // instead of adding one (hd/compress.h Wedge::step).
+    if (buf.size() >= 2 && buf.last().z == z && buf.before_last().z == z &&
+        tag_object_of(buf.last_tag()) == tag_object_of(tag)) {
       buf.raise_last(after);
       a0 = after;
       return;
     }
-    set_origin(buf, z, after);
+    set_origin(buf, z, after, tag);
   }
 
   CDSM_HD void finish(Sink& buf) {
@@ -172,15 +175,20 @@ struct RgbNodeBuffer {
   float extra_error = 0.0f;
   int removed = 0;
   float eps = 0.0f;  // tolerance of the compressor feeding it
-  CDSM_HD void emit(float z, Vec3 a) {
+  SurfaceTag* tags = nullptr;         // per slot, the node's SurfaceTag; null: not kept
+  SurfaceTag last_tag_ = kNoSurface;  // the last node's tag
+  CDSM_HD void emit(float z, Vec3 a, SurfaceTag tag = kNoSurface) {
     const DsmNodeRgb incoming{z, a.x, a.y, a.z};
     if (count >= node_limit(capacity) && count >= 2) {
-      remove_cheapest_scan(nodes, count, incoming, extra_error);
+      remove_cheapest_scan(nodes, count, incoming, extra_error, tags);
       ++removed;
     }
+    if (tags) tags[count] = tag;
+    last_tag_ = tag;
     nodes[count++] = incoming;
   }
   CDSM_HD int size() const { return count; }
+  CDSM_HD SurfaceTag last_tag() const { return last_tag_; }
   CDSM_HD DsmNodeRgb& last() { return nodes[count - 1]; }
   CDSM_HD DsmNodeRgb& before_last() { return nodes[count - 2]; }
   CDSM_HD void raise_last(Vec3 a) {

@@ -94,9 +94,19 @@ struct DsmStorage {
   Span<const TexelRange> rgb_texels;
   Span<const DsmNodeRgb> rgb_nodes;
   Span<const ChunkNodeRgb> rgb_chunks;
+  // Per node slot (of `nodes` in the packed and fixed layouts, of `chunks`
+  // in the chunked one), the SurfaceTag of the surface whose step ends
+  // there (hd/compress.h); then the same for the RGB maps. Empty: no tags.
+  Span<const SurfaceTag> tags;
+  Span<const SurfaceTag> rgb_tags;
   uint32_t layout = kDsmPacked;   // kDsmPacked / kDsmFixed / kDsmChunked
   uint32_t layers = 0;            // fixed: L, node slots per texel
 };
+
+// Slot i's tag (kNoSurface where the storage keeps none).
+CDSM_HD CDSM_INLINE SurfaceTag tag_of(Span<const SurfaceTag> tags, uint64_t i) {
+  return i < tags.size() ? tags[i] : kNoSurface;
+}
 
 // ---- one texel's node list -------------------------------------------------
 
@@ -203,6 +213,158 @@ CDSM_HD CDSM_INLINE auto lookup_alpha_chunked(Span<const Chunk> pool, TexelRange
   return node_alpha(prev);  // beyond the last node; 0 for an empty texel
 }
 
+// ---- what a surface receives: its own step left out, by identity ------------
+//
+// DESIGN.md §8. A receiver on a surface reads a texel at depth `depth`
+// (where the tap's light ray crosses its plane):
+//   - its own step is the step of its object (`own`: tag_object() of it, 0
+//     for none) nearest to `depth` within +-`window`, which covers the facets
+//     of a curved surface and the producers' depth differences
+//     (ShadowSettings' bias_constant and bias_slope size this search and
+//     skip nothing else); it is left out;
+//   - every other node before depth - coplanar counts (whatever the gap);
+//   - within +-coplanar of depth (surfaces that touch it), another object's
+//     step counts when its rank is below the receiver's (hd/compress.h
+//     SurfaceRank: its own step's, an entry without one): a glass's exit
+//     face resting on a slab, a decal on the ground are in front of them;
+//     two coplanar tops side by side are not; media there count;
+//   - nothing behind depth + coplanar counts (a medium's stretch crossing
+//     it, up to it).
+// The nodes that count are composited by their own layers, 1 - (1 -
+// alpha_j) / (1 - alpha_{j-1}), over the alpha of the last node before
+// the band or the own step (taken as it is): with nothing else at the
+// receiver, exactly the alpha just before its own step.
+struct TexelRead {
+  float depth;     // the receiver's plane along the tap's ray
+  float window;    // its own step is searched within +-window of depth
+  float coplanar;  // surfaces within +-coplanar of depth touch it (<= window)
+  uint32_t own;    // tag_object() of its object; 0: no step of its own (receive-only)
+};
+
+// The opacity of one more layer between alpha_prev and alpha (the node
+// before and the node), per channel; 0 where nothing is left to absorb.
+CDSM_HD CDSM_INLINE float layer_between(float prev, float a) {
+  return 1.0f - prev > 0.0f ? 1.0f - (1.0f - a) / (1.0f - prev) : 0.0f;
+}
+CDSM_HD CDSM_INLINE Vec3 layer_between(Vec3 prev, Vec3 a) {
+  return {layer_between(prev.x, a.x), layer_between(prev.y, a.y), layer_between(prev.z, a.z)};
+}
+CDSM_HD CDSM_INLINE float over_layer(float alpha, float a) { return alpha + a * (1.0f - alpha); }
+CDSM_HD CDSM_INLINE Vec3 over_layer(Vec3 alpha, Vec3 a) {
+  return {over_layer(alpha.x, a.x), over_layer(alpha.y, a.y), over_layer(alpha.z, a.z)};
+}
+
+// Pass 1 of a read, fed the texel's nodes in depth order from any node at
+// or before depth - window: the receiver's own step.
+struct OwnStepSearch {
+  TexelRead r;
+  uint32_t index = 0xffffffffu;  // the own step's upper node (count from the first node fed)
+  float z = 0.0f, best = 0.0f;
+  uint32_t rank = kRankEntry;    // the receiver's: its own step's, an entry without one
+  uint32_t seen = 0;
+  CDSM_HD explicit OwnStepSearch(const TexelRead& tr) : r(tr) {}
+  // false once past depth + window.
+  CDSM_HD bool visit(float nz, SurfaceTag tag) {
+    if (nz > r.depth + r.window) return false;
+    if (r.own != 0u && tag_object_of(tag) == r.own && nz >= r.depth - r.window &&
+        (index == 0xffffffffu || fabsf(nz - r.depth) < best)) {
+      index = seen;
+      z = nz;
+      best = fabsf(nz - r.depth);
+      rank = tag_rank_of(tag);
+    }
+    ++seen;
+    return true;
+  }
+};
+
+// Pass 2, fed the same nodes from the same first one.
+template <class Node>
+struct ReceiverScan {
+  using Alpha = decltype(node_alpha(Node{}));
+  TexelRead r;
+  OwnStepSearch own;
+  float lo, hi;        // the band of surfaces touching the receiver
+  float prefix_end;    // nodes before this are taken whole
+  Node prev{};
+  bool have_prev = false;
+  Alpha alpha{};
+  uint32_t seen = 0;
+
+  CDSM_HD ReceiverScan(const TexelRead& tr, const OwnStepSearch& o) : r(tr), own(o) {
+    lo = tr.depth - tr.coplanar;
+    hi = tr.depth + tr.coplanar;
+    prefix_end = own.index != 0xffffffffu ? fminf(lo, own.z) : lo;
+  }
+
+  CDSM_HD bool visit(const Node& n, SurfaceTag tag) {
+    const uint32_t i = seen++;
+    const Alpha a = node_alpha(n);
+    bool counts;
+    if (n.z > hi) {  // past the band: a stretch crossing its end counts up to it
+      if (have_prev && prev.z < hi) alpha = over_layer(alpha, layer_between(node_alpha(prev), Alpha(alpha_between(prev, n, hi))));
+      return false;
+    }
+    if (n.z < prefix_end) {  // in front of everything the rules below decide: the value itself
+      alpha = a;
+      prev = n;
+      have_prev = true;
+      return true;
+    }
+    if (i == own.index) {
+      counts = false;
+    } else if (tag != kNoSurface && n.z >= lo) {  // a step touching the receiver
+      counts = tag_object_of(tag) != r.own && tag_rank_of(tag) < own.rank;
+    } else {
+      counts = true;
+    }
+    if (counts) alpha = over_layer(alpha, layer_between(have_prev ? node_alpha(prev) : Alpha{}, a));
+    prev = n;
+    have_prev = true;
+    return true;
+  }
+};
+
+// A read over a contiguous node list (packed, fixed) with its tags at
+// slots first_slot + i.
+template <class Node>
+CDSM_HD inline auto receiver_read(Span<const Node> n, Span<const SurfaceTag> tags, uint64_t first_slot,
+                                  const TexelRead& tr) {
+  uint32_t from = lower_bound_z(n, fminf(tr.depth - tr.window, tr.depth - tr.coplanar));
+  from = from > 0 ? from - 1 : 0;
+  OwnStepSearch own(tr);
+  if (tr.own != 0u)
+    for (uint32_t i = from; i < n.size(); ++i)
+      if (!own.visit(n[i].z, tag_of(tags, first_slot + i))) break;
+  ReceiverScan<Node> scan(tr, own);
+  for (uint32_t i = from; i < n.size(); ++i)
+    if (!scan.visit(n[i], tag_of(tags, first_slot + i))) break;
+  return scan.alpha;
+}
+
+// The same along a chunked texel's links.
+template <class Chunk>
+CDSM_HD inline auto receiver_read_chunked(Span<const Chunk> pool, Span<const SurfaceTag> tags, TexelRange head,
+                                          const TexelRead& tr) {
+  using Node = decltype(node_of(pool[0]));
+  OwnStepSearch own(tr);
+  uint32_t slot = head.offset;
+  if (tr.own != 0u)
+    for (uint32_t i = 0; i < head.count; ++i) {
+      const Chunk c = pool[slot];
+      if (!own.visit(c.z, tag_of(tags, slot))) break;
+      slot = c.next;
+    }
+  ReceiverScan<Node> scan(tr, own);
+  slot = head.offset;
+  for (uint32_t i = 0; i < head.count; ++i) {
+    const Chunk c = pool[slot];
+    if (!scan.visit(node_of(c), tag_of(tags, slot))) break;
+    slot = c.next;
+  }
+  return scan.alpha;
+}
+
 // ---- a texel of a map, any layout -------------------------------------------
 
 CDSM_HD CDSM_INLINE uint64_t texel_index(const DsmMap& m, int tx, int ty) {
@@ -240,10 +402,26 @@ CDSM_HD CDSM_INLINE float texel_alpha(const DsmStorage& st, const DsmMap& m, int
   }
 }
 
+// What receiver read `tr` gives from texel (tx, ty) of a grey map.
+CDSM_HD CDSM_INLINE float texel_receive(const DsmStorage& st, const DsmMap& m, int tx, int ty, const TexelRead& tr) {
+  uint64_t t = texel_index(m, tx, ty);
+  switch (st.layout) {
+    case kDsmFixed:
+      return receiver_read(fixed_slots(st, t), st.tags, t * st.layers, tr);
+    case kDsmChunked:
+      return receiver_read_chunked(st.chunks, st.tags, st.texels[t], tr);
+    default: {
+      TexelRange r = st.texels[t];
+      return receiver_read(st.nodes.subspan(r.offset, r.count), st.tags, r.offset, tr);
+    }
+  }
+}
+
 // Copies texel (tx, ty)'s nodes (pads excluded) to out[0 .. min(count, cap))
-// and returns the texel's node count, in any layout (tests, CPU/GPU parity).
+// and their tags to out_tags (when not null), and returns the texel's node
+// count, in any layout (tests, inspection, CPU/GPU parity).
 CDSM_HD inline uint32_t read_texel(const DsmStorage& st, const DsmMap& m, int tx, int ty, DsmNode* out,
-                                   uint32_t cap) {
+                                   uint32_t cap, SurfaceTag* out_tags = nullptr) {
   uint64_t t = texel_index(m, tx, ty);
   if (st.layout == kDsmChunked) {
     TexelRange h = st.texels[t];
@@ -251,13 +429,18 @@ CDSM_HD inline uint32_t read_texel(const DsmStorage& st, const DsmMap& m, int tx
     for (uint32_t i = 0; i < h.count; ++i) {
       ChunkNode c = st.chunks[slot];
       if (i < cap) out[i] = DsmNode{c.z, c.alpha};
+      if (i < cap && out_tags) out_tags[i] = tag_of(st.tags, slot);
       slot = c.next;
     }
     return h.count;
   }
   Span<const DsmNode> n = texel_nodes(st, m, tx, ty);
   uint32_t count = st.layout == kDsmFixed ? lower_bound_z(n, kFixedPadZ) : uint32_t(n.size());
-  for (uint32_t i = 0; i < count && i < cap; ++i) out[i] = n[i];
+  const uint64_t first = st.layout == kDsmFixed ? t * st.layers : uint64_t(st.texels[t].offset);
+  for (uint32_t i = 0; i < count && i < cap; ++i) {
+    out[i] = n[i];
+    if (out_tags) out_tags[i] = tag_of(st.tags, first + i);
+  }
   return count;
 }
 
@@ -349,9 +532,26 @@ CDSM_HD CDSM_INLINE Vec3 texel_alpha_rgb(const DsmStorage& st, const DsmMap& m, 
   }
 }
 
+// What receiver read `tr` gives from texel (tx, ty) of map m per channel
+// (a grey map: its one value in every channel).
+CDSM_HD CDSM_INLINE Vec3 texel_receive_rgb(const DsmStorage& st, const DsmMap& m, int tx, int ty, const TexelRead& tr) {
+  if (m.rgb == 0u) return vec3(texel_receive(st, m, tx, ty, tr));
+  const uint64_t t = texel_index(m, tx, ty);
+  switch (st.layout) {
+    case kDsmFixed:
+      return receiver_read(st.rgb_nodes.subspan(t * st.layers, st.layers), st.rgb_tags, t * st.layers, tr);
+    case kDsmChunked:
+      return receiver_read_chunked(st.rgb_chunks, st.rgb_tags, st.rgb_texels[t], tr);
+    default: {
+      const TexelRange r = st.rgb_texels[t];
+      return receiver_read(st.rgb_nodes.subspan(r.offset, r.count), st.rgb_tags, r.offset, tr);
+    }
+  }
+}
+
 // Copies texel (tx, ty)'s nodes of an RGB map (pads excluded) like read_texel.
 CDSM_HD inline uint32_t read_texel_rgb(const DsmStorage& st, const DsmMap& m, int tx, int ty, DsmNodeRgb* out,
-                                       uint32_t cap) {
+                                       uint32_t cap, SurfaceTag* out_tags = nullptr) {
   const uint64_t t = texel_index(m, tx, ty);
   if (st.layout == kDsmChunked) {
     const TexelRange h = st.rgb_texels[t];
@@ -359,21 +559,28 @@ CDSM_HD inline uint32_t read_texel_rgb(const DsmStorage& st, const DsmMap& m, in
     for (uint32_t i = 0; i < h.count; ++i) {
       const ChunkNodeRgb c = st.rgb_chunks[slot];
       if (i < cap) out[i] = node_of(c);
+      if (i < cap && out_tags) out_tags[i] = tag_of(st.rgb_tags, slot);
       slot = c.next;
     }
     return h.count;
   }
   Span<const DsmNodeRgb> n;
   uint32_t count;
+  uint64_t first;
   if (st.layout == kDsmFixed) {
     n = st.rgb_nodes.subspan(t * st.layers, st.layers);
     count = lower_bound_z(n, kFixedPadZ);
+    first = t * st.layers;
   } else {
     const TexelRange r = st.rgb_texels[t];
     n = st.rgb_nodes.subspan(r.offset, r.count);
     count = r.count;
+    first = r.offset;
   }
-  for (uint32_t i = 0; i < count && i < cap; ++i) out[i] = n[i];
+  for (uint32_t i = 0; i < count && i < cap; ++i) {
+    out[i] = n[i];
+    if (out_tags) out_tags[i] = tag_of(st.rgb_tags, first + i);
+  }
   return count;
 }
 

@@ -44,12 +44,14 @@ CDSM_HD CDSM_INLINE Chunk empty_chunk() {
 // `first_slot` (= first chunk * C) and were reserved for the tile's total;
 // the free slots of the last chunk are cleared. counts[k]: nodes of tile
 // texel k (k < texels <= 64; 0 for texels outside the map); nodes_of(k): a
-// pointer to them. heads[k] receives texel k's header. Returns the slots
-// used (the tile's node total).
+// pointer to them, tags_of(k) to their SurfaceTags (or null). heads[k]
+// receives texel k's header; pool_tags (per slot, or null) the tags.
+// Returns the slots used (the tile's node total).
 // Scalar (ChunkNode) or RGB (ChunkNodeRgb) pools alike.
-template <class NodesOf, class Chunk>
-CDSM_HD uint32_t write_chunked_tile(const uint32_t* counts, int texels, NodesOf nodes_of, uint32_t first_slot,
-                                    uint32_t chunk_nodes, Chunk* pool, TexelRange* heads) {
+template <class NodesOf, class TagsOf, class Chunk>
+CDSM_HD uint32_t write_chunked_tile(const uint32_t* counts, int texels, NodesOf nodes_of, TagsOf tags_of,
+                                    uint32_t first_slot, uint32_t chunk_nodes, Chunk* pool, SurfaceTag* pool_tags,
+                                    TexelRange* heads) {
   CDSM_HD_ASSERT(texels <= kChunkTileTexels);
   uint32_t prev[kChunkTileTexels];  // slot of each texel's last written node
   uint32_t layers = 0;
@@ -63,13 +65,20 @@ CDSM_HD uint32_t write_chunked_tile(const uint32_t* counts, int texels, NodesOf 
       if (counts[k] <= layer) continue;
       uint32_t slot = first_slot + bl++;
       pool[slot] = chunk_of(nodes_of(k)[layer], kChunkEnd);
+      if (pool_tags) {
+        const SurfaceTag* t = tags_of(k);
+        pool_tags[slot] = t ? t[layer] : kNoSurface;
+      }
       if (layer == 0) heads[k].offset = slot;
       else pool[prev[k]].next = slot;
       prev[k] = slot;
     }
   }
   uint32_t end = first_slot + tile_chunks(bl, chunk_nodes) * chunk_nodes;
-  for (uint32_t slot = first_slot + bl; slot < end; ++slot) pool[slot] = empty_chunk<Chunk>();
+  for (uint32_t slot = first_slot + bl; slot < end; ++slot) {
+    pool[slot] = empty_chunk<Chunk>();
+    if (pool_tags) pool_tags[slot] = kNoSurface;
+  }
   return bl;
 }
 

@@ -37,14 +37,21 @@ struct FixedSlotSink {
   };
   Node* slots;
   int cap;
+  SurfaceTag* tags;  // per slot (cap entries), or null: the tags are not kept
   int count = 0;
   Node spill[2];
+  SurfaceTag last_tag_ = kNoSurface;
   Nodes nodes;
 
-  CDSM_HD FixedSlotSink(Node* sl, int c) : slots(sl), cap(c), spill{}, nodes{this} {}
+  CDSM_HD FixedSlotSink(Node* sl, int c, SurfaceTag* t = nullptr) : slots(sl), cap(c), tags(t), spill{}, nodes{this} {}
   FixedSlotSink(const FixedSlotSink&) = delete;
   FixedSlotSink& operator=(const FixedSlotSink&) = delete;
-  CDSM_HD void emit(float z, Alpha a) { nodes[count++] = make_node(z, a); }
+  CDSM_HD void emit(float z, Alpha a, SurfaceTag tag = kNoSurface) {
+    if (tags && count < cap) tags[count] = tag;
+    last_tag_ = tag;
+    nodes[count++] = make_node(z, a);
+  }
+  CDSM_HD SurfaceTag last_tag() const { return last_tag_; }
   CDSM_HD int size() const { return count; }
   CDSM_HD Node& last() { return nodes[count - 1]; }
   CDSM_HD Node& before_last() { return nodes[count - 2]; }
@@ -52,15 +59,19 @@ struct FixedSlotSink {
   CDSM_HD void compact() {}
 };
 
-// Re-compresses a node list with tolerance e into `out` (steps stay steps);
-// every input node stays within e (+ float rounding) of the output.
+// The tag of node i of a list whose tags may be absent (null: none kept).
+CDSM_HD CDSM_INLINE SurfaceTag tag_at(const SurfaceTag* tags, uint64_t i) { return tags ? tags[i] : kNoSurface; }
+
+// Re-compresses a node list (tags: per node, or null) with tolerance e into
+// `out` (steps stay steps, with their surfaces' tags); every input node
+// stays within e (+ float rounding) of the output.
 template <class Node, class Sink>
-CDSM_HD void rewedge_nodes(Span<const Node> in, float e, Sink& out) {
+CDSM_HD void rewedge_nodes(Span<const Node> in, const SurfaceTag* tags, float e, Sink& out) {
   typename WedgeOf<Node, Sink>::type c(e);
   for (uint64_t i = 0; i < in.size(); ++i) {
     const Node nd = in[i];
-    if (i > 0 && nd.z == in[i - 1].z && rises(node_alpha(nd), node_alpha(in[i - 1])))
-      c.step(out, nd.z, node_alpha(nd));
+    if (i > 0 && nd.z == in[i - 1].z && (rises(node_alpha(nd), node_alpha(in[i - 1])) || tag_at(tags, i) != kNoSurface))
+      c.step(out, nd.z, node_alpha(nd), tag_at(tags, i));
     else
       c.push(out, nd.z, node_alpha(nd));
   }
@@ -88,12 +99,14 @@ CDSM_HD CDSM_INLINE float removal_cost(const DsmNodeRgb& a, const DsmNodeRgb& m,
 // costs (each removal changes alpha by at most its cost, so the sum bounds
 // the total change); `count` receives the nodes kept.
 template <class Node>
-CDSM_HD inline float greedy_fit_nodes(Span<const Node> in, Node* slots, int L, int& count) {
+CDSM_HD inline float greedy_fit_nodes(Span<const Node> in, const SurfaceTag* in_tags, Node* slots,
+                                      SurfaceTag* slot_tags, int L, int& count) {
   int n = 0;
   float err = 0.0f;
   for (uint64_t i = 0; i < in.size(); ++i) {
     const Node x = in[i];
     if (n < L) {
+      if (slot_tags) slot_tags[n] = tag_at(in_tags, i);
       slots[n++] = x;
       continue;
     }
@@ -108,6 +121,10 @@ CDSM_HD inline float greedy_fit_nodes(Span<const Node> in, Node* slots, int L, i
     }
     for (int k = best; k + 1 < L; ++k) slots[k] = slots[k + 1];
     slots[L - 1] = x;
+    if (slot_tags) {
+      for (int k = best; k + 1 < L; ++k) slot_tags[k] = slot_tags[k + 1];
+      slot_tags[L - 1] = tag_at(in_tags, i);
+    }
     err += best_cost;
   }
   count = n;
@@ -124,28 +141,33 @@ struct FixedFit {
 // Stage 1 for tolerance e: writes into the slots, returns the node count
 // (the slots hold a valid result only when it is <= L).
 template <class Node>
-CDSM_HD CDSM_INLINE int fixed_rewedge(Span<const Node> in, float e, Node* slots, int L) {
-  FixedSlotSink<Node> sink(slots, L);
-  rewedge_nodes(in, e, sink);
+CDSM_HD CDSM_INLINE int fixed_rewedge(Span<const Node> in, const SurfaceTag* in_tags, float e, Node* slots,
+                                      SurfaceTag* slot_tags, int L) {
+  FixedSlotSink<Node> sink(slots, L, slot_tags);
+  rewedge_nodes(in, in_tags, e, sink);
   return sink.count;
 }
 
 // Writes a texel's nodes `in` (eps: the tolerance they were built with) into
 // its L slots, re-compressing them when there are more than L, and pads the
-// rest. L >= 2. Scalar or RGB nodes.
+// rest; their tags (in_tags: per node, or null) into slot_tags (L entries,
+// or null: not kept; pads kNoSurface). L >= 2. Scalar or RGB nodes.
 template <class Node>
-CDSM_HD inline FixedFit write_fixed_texel(Span<const Node> in, float eps, Node* slots, int L) {
+CDSM_HD inline FixedFit write_fixed_texel(Span<const Node> in, const SurfaceTag* in_tags, float eps, Node* slots,
+                                          SurfaceTag* slot_tags, int L) {
   CDSM_HD_ASSERT(L >= 2);
   FixedFit r;
   if (in.size() <= uint64_t(L)) {
     for (uint64_t i = 0; i < in.size(); ++i) slots[i] = in[i];
+    if (slot_tags)
+      for (uint64_t i = 0; i < in.size(); ++i) slot_tags[i] = tag_at(in_tags, i);
     r.count = int(in.size());
   } else {
     r.recompressed = true;
     // Doubling: the first tolerance that fits, as compress.h's recompress.
     float lo = 0.0f, hi = -1.0f;
     for (float e = fmaxf(2.0f * eps, 1e-3f); e < 2.0f; e *= 2.0f) {
-      if (fixed_rewedge(in, e, slots, L) <= L) {
+      if (fixed_rewedge(in, in_tags, e, slots, slot_tags, L) <= L) {
         hi = e;
         break;
       }
@@ -155,18 +177,19 @@ CDSM_HD inline FixedFit write_fixed_texel(Span<const Node> in, float eps, Node* 
       // A few bisection steps towards the smallest tolerance that fits.
       for (int it = 0; it < 4 && lo > 0.0f; ++it) {
         float mid = 0.5f * (lo + hi);
-        if (fixed_rewedge(in, mid, slots, L) <= L) hi = mid;
+        if (fixed_rewedge(in, in_tags, mid, slots, slot_tags, L) <= L) hi = mid;
         else lo = mid;
       }
-      r.count = fixed_rewedge(in, hi, slots, L);  // the slots hold the last trial: redo the one that fits
+      r.count = fixed_rewedge(in, in_tags, hi, slots, slot_tags, L);  // the slots hold the last trial: redo the one that fits
     }
-    if (hi <= 0.0f || r.count > L) greedy_fit_nodes(in, slots, L, r.count);
+    if (hi <= 0.0f || r.count > L) greedy_fit_nodes(in, in_tags, slots, slot_tags, L, r.count);
   }
   if (r.recompressed) r.extra_error = max_change(in, Span<const Node>{slots, uint64_t(r.count)});  // the true change
   const Node last = r.count > 0 ? slots[r.count - 1] : Node{};
   for (int k = r.count; k < L; ++k) {
     slots[k] = last;
     slots[k].z = kFixedPadZ;
+    if (slot_tags) slot_tags[k] = kNoSurface;
   }
   return r;
 }

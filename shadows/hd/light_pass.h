@@ -37,14 +37,15 @@ struct DsmVisitorOf {
 
   CDSM_HD bool saturated() const { return alpha >= kSaturatedAlpha; }
 
-  CDSM_HD bool surface(float t, uint32_t tri, bool /*front*/) {
+  CDSM_HD bool surface(float t, uint32_t tri, bool front) {
     // Grey casters: every channel equal, the value itself (a coloured one in
     // a scalar map: its channel mean, ShadowSettings::rgb_maps).
-    float op = grey_of(s.objects[s.tri_object[tri]].absorb);
+    const uint32_t o = s.tri_object[tri];
+    float op = grey_of(s.objects[o].absorb);
     if (op <= 0.0f) return true;
     c.push(buf, t, alpha);
     alpha = alpha + op * (1.0f - alpha);
-    c.step(buf, t, alpha);
+    c.step(buf, t, alpha, surface_tag(o, surface_rank((s.objects[o].flags & kObjClosed) != 0u, front)));
     return !saturated();
   }
 
@@ -91,12 +92,13 @@ struct DsmVisitorRgbOf {
   // alpha_k + a_k (1 - alpha_k): one more layer, per channel.
   CDSM_HD void add_layer(Vec3 a) { alpha = alpha + a * one_minus(alpha); }
 
-  CDSM_HD bool surface(float t, uint32_t tri, bool /*front*/) {
-    const ObjectData& o = s.objects[s.tri_object[tri]];
+  CDSM_HD bool surface(float t, uint32_t tri, bool front) {
+    const uint32_t obj = s.tri_object[tri];
+    const ObjectData& o = s.objects[obj];
     if (passes_all(o)) return true;
     c.push(buf, t, alpha);
     add_layer(o.absorb);
-    c.step(buf, t, alpha);
+    c.step(buf, t, alpha, surface_tag(obj, surface_rank((o.flags & kObjClosed) != 0u, front)));
     return !saturated();
   }
 

@@ -32,8 +32,8 @@ struct ShadowView {
   Span<const DsmMap> maps;
   DsmStorage storage;
   bool filtering;
-  float bias_constant;  // casters' offset from their own plane: world units
-  float bias_slope;     // + this many texel footprints at the point
+  float bias_constant;  // a surface's own step is searched this far around its plane: world units
+  float bias_slope;     // + this many texel footprints at the point (+ kRelativeDepthOffset of the depth)
   uint32_t receiver;    // kReceiverPlane / kReceiverSlopeBias (cdsm::ReceiverLookup)
 };
 
@@ -46,10 +46,6 @@ inline constexpr float kSlopeBiasTexels = 1.5f;
 // How far (in texel footprints) a tap's plane depth may lie from the
 // point's depth: rays nearly parallel to the receiver's plane.
 inline constexpr float kPlaneReachTexels = 50.0f;
-// Casters' offset from their own plane relative to the depth: about twice
-// the largest relative depth difference measured between the GL and the
-// CPU fragment producers (8.9e-6, tests/gl) plus float rounding.
-inline constexpr float kRelativeDepthOffset = 2e-5f;
 
 // Spot falloff between the outer and inner cone (1 for point lights).
 CDSM_HD CDSM_INLINE float cone_factor(const LightData& L, Vec3 p) {
@@ -78,25 +74,38 @@ CDSM_HD CDSM_INLINE int cube_face_of(Vec3 d) {
 // (every bilinear tap, or the one texel without filtering) reads its texel
 // at the depth where the tap's texel-centre light ray crosses the receiver's
 // plane (a receiver-plane depth, exact for planar receivers: the tap sees
-// what lies in front of the receiver along its own ray). A caster's surface
-// is in the maps itself: its lookup stops `caster_offset` short of the
-// plane, which covers float depth resolution and the facets of curved
-// meshes, not the slope. Volume samples have no plane: every tap at the
-// sample's own depth.
+// what lies in front of the receiver along its own ray). A surface in the
+// maps leaves out its own step by identity (hd/dsm.h TexelRead): the step
+// its object's tag marks nearest to that depth, searched within
+// `bias_constant` + `bias_slope` texel footprints + kRelativeDepthOffset of
+// the depth (the facets of curved meshes, the producers' depth
+// differences), and nothing else: every other surface in front of it
+// counts, down to float resolution; of surfaces touching it (within
+// kRelativeDepthOffset of the depth) those the light leaves or crosses open
+// before entering it count (a glass resting on it, a decal), two coplanar
+// tops side by side do not (hd/compress.h SurfaceRank). Volume samples have
+// no plane: every tap at the sample's own depth.
 //
-// Measured against the slope-scaled bias this replaced (constant 0.5 mm +
-// 1.5 texel footprints x tan incidence, tan capped at 50), default scene at
-// 720x480, 512^2, eps 0.01: see the issue note; a translucent box 1 mm above
-// a casting slab, stacked sheets 1 mm apart and grazing light all need the
-// per-tap plane (tests/unit/test_receivers.cpp). Cost: one normalize and a
-// dot product per tap; node size unchanged (no identity tags needed).
+// Cost: one normalize and a dot product per tap, and for a surface in the
+// maps a scan of the nodes within the search window (usually the two of its
+// own step); 2 bytes of tag per node (hd/compress.h SurfaceTag).
 inline constexpr uint32_t kNoObject = 0xffffffffu;
 
+template <class T> struct enable_if_bool {};
+template <> struct enable_if_bool<bool> { using type = void; };
+
 struct Receiver {
-  Vec3 p;
-  Vec3 plane;      // unit geometric normal of its surface (either side); 0: a volume sample
-  bool own_step;   // its surface is in the maps (a caster's): stop short of its own step
-  uint32_t object = kNoObject;  // the surface's object (the error probe's own-surface identity)
+  Vec3 p{0, 0, 0};
+  Vec3 plane{0, 0, 0};          // unit geometric normal of its surface (either side); 0: a volume sample
+  uint32_t object = kNoObject;  // the surface's object: its own step is left out (kNoObject: none in the maps)
+
+  Receiver() = default;
+  CDSM_HD Receiver(Vec3 at, Vec3 plane_normal, uint32_t surface_object)
+      : p(at), plane(plane_normal), object(surface_object) {}
+  // The receiver once said whether its step was in the maps; it now says
+  // which object's step is its own (a bool there is a mistake).
+  template <class B, class = typename enable_if_bool<B>::type>
+  Receiver(Vec3, Vec3, B) = delete;
 };
 
 // The depth at which texel (tx, ty)'s centre ray crosses the plane through p
@@ -123,17 +132,26 @@ CDSM_HD CDSM_INLINE float tap_depth(const ShadowView& sv, const DsmMap& m, const
                               kPlaneReachTexels * texel_footprint(m, pr.axial));
 }
 
-// How far short of tap_depth() receiver r's taps read in map m.
-CDSM_HD CDSM_INLINE float receiver_offset(const ShadowView& sv, const LightData& L, const DsmMap& m,
-                                          const ViewProjection& pr, const Receiver& r) {
-  const float footprint = texel_footprint(m, pr.axial);
-  if (sv.receiver == kReceiverSlopeBias) {  // every surface: constant + slope-scaled
-    if (!(dot(r.plane, r.plane) > 0.0f)) return 0.0f;
-    const float ndl = fabsf(dot(r.plane, normalize(L.position - r.p)));
-    const float tan_inc = sqrtf(fmaxf(0.0f, 1.0f - ndl * ndl)) / fmaxf(ndl, 0.02f);
-    return kSlopeBiasConstant + kSlopeBiasTexels * footprint * tan_inc;
-  }
-  return r.own_step ? sv.bias_constant + sv.bias_slope * footprint + kRelativeDepthOffset * pr.depth : 0.0f;
+// The slope-bias baseline's offset: how far short of the point's depth
+// every tap of a surface reads (constant + slope-scaled).
+CDSM_HD CDSM_INLINE float slope_bias_offset(const LightData& L, const DsmMap& m, const ViewProjection& pr,
+                                            const Receiver& r) {
+  if (!(dot(r.plane, r.plane) > 0.0f)) return 0.0f;
+  const float ndl = fabsf(dot(r.plane, normalize(L.position - r.p)));
+  const float tan_inc = sqrtf(fmaxf(0.0f, 1.0f - ndl * ndl)) / fmaxf(ndl, 0.02f);
+  return kSlopeBiasConstant + kSlopeBiasTexels * texel_footprint(m, pr.axial) * tan_inc;
+}
+
+// How receiver r reads a tap of map m whose ray crosses its plane at
+// `depth` (DESIGN.md §8, hd/dsm.h TexelRead).
+CDSM_HD CDSM_INLINE TexelRead receiver_read_at(const ShadowView& sv, const DsmMap& m, const ViewProjection& pr,
+                                               const Receiver& r, float depth) {
+  TexelRead tr;
+  tr.depth = depth;
+  tr.coplanar = kRelativeDepthOffset * depth;
+  tr.window = sv.bias_constant + sv.bias_slope * texel_footprint(m, pr.axial) + tr.coplanar;
+  tr.own = r.object == kNoObject ? 0u : tag_object(r.object);
+  return tr;
 }
 
 // One more layer of opacity, thesis eq. 3.12: alpha + a (1 - alpha), per channel.
@@ -170,22 +188,36 @@ CDSM_HD CDSM_INLINE auto combine_maps(const ShadowView& sv, const LightData& L, 
   return alpha;
 }
 
-// Opacity between light L and receiver r from one map (its taps, each at
-// its receiver-plane depth less the receiver's offset), per channel. A grey
-// map's value is computed as scalar and given to every channel.
+// Opacity between light L and receiver r from one map, per channel (a grey
+// map's value is computed as scalar and given to every channel): its taps,
+// volume samples each at the point's depth, surfaces each at its plane
+// depth with their own step left out (receiver_read_at); the slope-bias
+// baseline at the point's depth less its offset.
 CDSM_HD inline Vec3 map_alpha_rgb(const ShadowView& sv, const LightData& L, const DsmMap& m, const ViewProjection& pr,
                                   const Receiver& r) {
-  const float offset = receiver_offset(sv, L, m, pr, r);
+  const bool surface = dot(r.plane, r.plane) > 0.0f;
+  if (sv.receiver == kReceiverSlopeBias || !surface) {
+    const float z = pr.depth - (sv.receiver == kReceiverSlopeBias ? slope_bias_offset(L, m, pr, r) : 0.0f);
+    if (m.rgb == 0u) {
+      float a = 0.0f;
+      for_each_tap(m, pr.u, pr.v, sv.filtering, [&](int tx, int ty, float w) { a += w * texel_alpha(sv.storage, m, tx, ty, z); });
+      return vec3(a);
+    }
+    Vec3 a{0, 0, 0};
+    for_each_tap(m, pr.u, pr.v, sv.filtering,
+                 [&](int tx, int ty, float w) { a = a + texel_alpha_rgb(sv.storage, m, tx, ty, z) * w; });
+    return a;
+  }
   if (m.rgb == 0u) {
     float a = 0.0f;
     for_each_tap(m, pr.u, pr.v, sv.filtering, [&](int tx, int ty, float w) {
-      a += w * texel_alpha(sv.storage, m, tx, ty, tap_depth(sv, m, pr, r, tx, ty) - offset);
+      a += w * texel_receive(sv.storage, m, tx, ty, receiver_read_at(sv, m, pr, r, tap_depth(sv, m, pr, r, tx, ty)));
     });
     return vec3(a);
   }
   Vec3 a{0, 0, 0};
   for_each_tap(m, pr.u, pr.v, sv.filtering, [&](int tx, int ty, float w) {
-    a = a + texel_alpha_rgb(sv.storage, m, tx, ty, tap_depth(sv, m, pr, r, tx, ty) - offset) * w;
+    a = a + texel_receive_rgb(sv.storage, m, tx, ty, receiver_read_at(sv, m, pr, r, tap_depth(sv, m, pr, r, tx, ty))) * w;
   });
   return a;
 }
@@ -205,10 +237,10 @@ CDSM_HD inline float shadow_alpha(const ShadowView& sv, const LightData& L, cons
 
 // A point lookup at p's own depth (volume samples, probes).
 CDSM_HD CDSM_INLINE float shadow_alpha(const ShadowView& sv, const LightData& L, Vec3 p) {
-  return shadow_alpha(sv, L, Receiver{p, Vec3{0, 0, 0}, false});
+  return shadow_alpha(sv, L, Receiver{p, Vec3{0, 0, 0}, kNoObject});
 }
 CDSM_HD CDSM_INLINE Vec3 shadow_alpha_rgb(const ShadowView& sv, const LightData& L, Vec3 p) {
-  return shadow_alpha_rgb(sv, L, Receiver{p, Vec3{0, 0, 0}, false});
+  return shadow_alpha_rgb(sv, L, Receiver{p, Vec3{0, 0, 0}, kNoObject});
 }
 
 }  // namespace cdsm

@@ -131,6 +131,49 @@ CDSM_HD inline void order_crossings(const SceneView& s, Span<Fragment> f) {
   }
 }
 
+// After sorting: surfaces of different objects that touch (fragments within
+// kRelativeDepthOffset of the first of a run) are put in the order of
+// their ranks (hd/fragment.h surface_rank: leaving, open, entering), each
+// object's own fragments keeping their order, and take the run's first
+// depth. So a glass resting on an opaque slab, or a decal on it, comes
+// before the slab's surface whatever the float ties, in the maps (which
+// end at an opaque step) and in the camera pass (which shades the decal
+// over the ground). Runs of one object are left as they are.
+CDSM_HD inline void order_touching(const SceneView& s, Span<Fragment> f) {
+  const uint64_t n = f.size();
+  const auto rank = [&](Fragment x) {
+    const uint32_t o = s.tri_object[frag_prim(x)];
+    return surface_rank((s.objects[o].flags & kObjClosed) != 0u, frag_front(x));
+  };
+  uint64_t i = 0;
+  while (i + 1 < n) {
+    const float limit = f[i].depth + kRelativeDepthOffset * fabsf(f[i].depth);
+    uint64_t j = i + 1;
+    bool mixed = false;
+    const uint32_t first = s.tri_object[frag_prim(f[i])];
+    while (j < n && f[j].depth <= limit) {
+      mixed = mixed || s.tri_object[frag_prim(f[j])] != first;
+      ++j;
+    }
+    if (mixed) {
+      const float depth = f[i].depth;
+      // Adjacent swaps across objects only (runs are a few fragments).
+      for (bool swapped = true; swapped;) {
+        swapped = false;
+        for (uint64_t k = i; k + 1 < j; ++k) {
+          if (s.tri_object[frag_prim(f[k])] == s.tri_object[frag_prim(f[k + 1])] || rank(f[k + 1]) >= rank(f[k])) continue;
+          const Fragment t = f[k];
+          f[k] = f[k + 1];
+          f[k + 1] = t;
+          swapped = true;
+        }
+      }
+      for (uint64_t k = i; k < j; ++k) f[k].depth = depth;
+    }
+    i = j;
+  }
+}
+
 // Marks (kFragScratchBit) every front-facing fragment that has a matching
 // back-facing fragment of the same object later on the ray; unmatched
 // entries (open meshes, one-ulp silhouette ties) are then ignored. Objects
@@ -222,6 +265,7 @@ CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint3
                       float t_start, float t_end, Visitor& vis, WalkStats& st) {
   sort_fragments(frags);
   order_crossings(s, frags);
+  order_touching(s, frags);
   mark_matched_entries(s, frags, st);
   EnclosingSet set;
   uint32_t dropped = 0;  // entries the full set dropped: their exits are expected, not unmatched

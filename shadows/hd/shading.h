@@ -18,10 +18,10 @@ struct ShadeInput {
   // for shadow lookups, hd/lights.h Receiver); 0 for volume samples, Phong
   // ones too (their gradient normal is for shading only: no plane, no offset).
   Vec3 plane;
-  // The surface is in the shadow maps (a caster's): the lookup stops short
-  // of its own step. False for receive-only surfaces and volume samples.
-  bool own_step_in_maps;
-  uint32_t object;  // the surface's object, kNoObject for volume samples
+  // The surface's object when it is in the shadow maps (a caster's): its
+  // lookups leave out its own step (hd/lights.h Receiver). kNoObject for
+  // receive-only surfaces and volume samples.
+  uint32_t object;
 };
 
 // Visibility callback form: Vec3 vis(int light_index, const Receiver& r)
@@ -39,7 +39,7 @@ CDSM_HD Vec3 shade_point(const ShadeInput& in, Span<const LightData> lights, Vec
     float dist = length(to_l);
     if (dist <= 0.0f) continue;
     Vec3 l = to_l * (1.0f / dist);
-    const Receiver rc{in.p, in.plane, in.own_step_in_maps, in.object};
+    const Receiver rc{in.p, in.plane, in.object};
     if (!in.has_normal) {
       const Vec3 vis = visibility(int(i), rc);
       c += in.color * L.radiance * (vis * cone);

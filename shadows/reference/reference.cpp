@@ -83,7 +83,9 @@ void ReferenceRenderer::hits_along(Vec3 org, Vec3 dir, float tmax, ObjectMask ma
                                    std::vector<Hit>& out) const {
   out.clear();
   for_each_hit(scene_, mask, org, dir, 0.0f, tmax, [&](uint32_t tri, const TriHit& h) {
-    out.push_back({h.t, scene_.tri_object[tri]});
+    const uint32_t o = scene_.tri_object[tri];
+    const bool front = dot(geometric_normal(scene_, tri), dir) < 0.0f;
+    out.push_back({h.t, o, surface_rank((scene_.objects[o].flags & kObjClosed) != 0u, front)});
   });
   std::sort(out.begin(), out.end(), [](const Hit& a, const Hit& b) {
     return a.t != b.t ? a.t < b.t : a.object < b.object;
@@ -158,24 +160,40 @@ void for_each_inside_interval(const std::vector<float>& ts, float t_end, F&& f) 
 }  // namespace
 
 Vec3 ReferenceRenderer::transmittance_segment_rgb(Vec3 a, Vec3 b) const {
-  return transmittance_segment_rgb(a, b, ObjectMask{});
+  return transmittance_segment_rgb(a, b, ObjectMask{}, End{});
 }
 
-Vec3 ReferenceRenderer::transmittance_segment_rgb(Vec3 a, Vec3 b, ObjectMask members, uint32_t own_object,
-                                                  float own_window) const {
+ReferenceRenderer::End ReferenceRenderer::end_of(const Receiver& r, float dist) {
+  End e;
+  e.surface = dot(r.plane, r.plane) > 0.0f;
+  e.own = r.object;
+  e.own_window = 1e-3f * dist;
+  return e;
+}
+
+Vec3 ReferenceRenderer::transmittance_segment_rgb(Vec3 a, Vec3 b, ObjectMask members, const End& end) const {
   Vec3 d = b - a;
   float dist = length(d);
   if (dist <= 0.0f) return vec3(1.0f);
   Vec3 dir = d * (1.0f / dist);
   thread_local std::vector<Hit> hits;
   hits_along(a, dir, 3.0e38f, ObjectMask{{caster_words_.data(), caster_words_.size()}}, hits);
-  float own = dist * (1.0f - 1e-5f) - 1e-6f;  // the point's own surface does not count
+  // The receiver's own surface: the hit of its object nearest to b.
+  const Hit* own = nullptr;
+  if (end.surface && end.own != kNoObject)
+    for (const Hit& h : hits)
+      if (h.object == end.own && std::fabs(h.t - dist) <= end.own_window &&
+          (!own || std::fabs(h.t - dist) < std::fabs(own->t - dist)))
+        own = &h;
+  const uint32_t rank = own ? own->rank : kRankEntry;
+  const float touch = end.surface ? kRelativeDepthOffset * dist : 0.0f;
   double T[3] = {1.0, 1.0, 1.0};
-  // Surfaces crossed before the point, each passing 1 - absorb_k per channel.
+  // Surfaces crossed in front of the point, each passing 1 - absorb_k per
+  // channel; of those touching it, another object's of lower rank.
   for (const Hit& h : hits) {
-    if (h.t >= own) break;
-    if (h.object == own_object && h.t >= dist - own_window) continue;
-    if (!members.contains(h.object)) continue;
+    if (end.surface ? h.t > dist + touch : h.t >= dist) break;
+    if (&h == own || !members.contains(h.object)) continue;
+    if (end.surface && h.t >= dist - touch && (h.object == end.own || h.rank >= rank)) continue;
     const Vec3 ab = scene_.objects[h.object].absorb;
     for (int k = 0; k < 3; ++k) T[k] *= 1.0 - double(ab[k]);
   }
@@ -211,12 +229,17 @@ Vec3 ReferenceRenderer::transmittance_rgb(int light, Vec3 p) const {
   return transmittance_segment_rgb(lights_[size_t(light)].position, p);
 }
 
+Vec3 ReferenceRenderer::transmittance_rgb(int light, const Receiver& r) const {
+  const Vec3 a = lights_[size_t(light)].position;
+  return transmittance_segment_rgb(a, r.p, ObjectMask{}, end_of(r, length(r.p - a)));
+}
+
 void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float>& rgb) const {
   const PinholeView& view = params.view;
   const int w = view.width, h = view.height;
   rgb.assign(size_t(w) * h * 3, 0.0f);
   Span<const LightData> lights{lights_.data(), lights_.size()};
-  auto visibility = [&](int light, const Receiver& r) { return transmittance_rgb(light, r.p); };
+  auto visibility = [&](int light, const Receiver& r) { return transmittance_rgb(light, r); };
   std::atomic<uint32_t> rows_started{0};
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     std::vector<Hit> hits;
@@ -305,7 +328,6 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
               in.shininess = 1.0f;
               in.has_normal = false;
               in.plane = Vec3{0, 0, 0};
-              in.own_step_in_maps = false;
               in.object = kNoObject;
               in.n = Vec3{0, 0, 0};
               if (v.shading == 1u) {
@@ -362,8 +384,7 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
           in.ks = od.ks;
           in.shininess = od.shininess;
           in.has_normal = true;
-          in.plane = Vec3{0, 0, 0};
-          in.own_step_in_maps = false;  // exact shadow rays exclude the own surface by distance
+          in.plane = geometric_normal(scene_, tri_found);  // a surface: its own hit is left out by identity
           in.object = hh.object;
           Vec3 col = shade_point(in, lights, params.ambient, visibility);
           for (int k = 0; k < 3; ++k) {

@@ -29,22 +29,39 @@ class ReferenceRenderer {
  public:
   ReferenceRenderer(const SceneView& scene, std::vector<LightData> lights, ReferenceOptions opt = {});
 
-  // Transmittance per colour channel from light `light` to p through shadow
-  // casters; p's own surface (hits within a relative 1e-5 of p) does not
-  // shadow it. The float forms give the grey value (grey_of: exact for grey
-  // casters, the channel mean otherwise).
+  // How a shadow ray treats what it meets at its end b (DESIGN.md §8, the
+  // rule the maps' lookups follow, hd/dsm.h TexelRead):
+  //   a point (a volume sample): every hit before b counts;
+  //   a surface: its own surface is left out — the hit of object `own`
+  //   nearest to b within `own_window` of it (kNoObject: none) — and
+  //   nothing else: every hit before b by more than kRelativeDepthOffset of
+  //   the distance counts, and of the hits touching b (within it) those of
+  //   another object whose rank (hd/compress.h SurfaceRank) is below the
+  //   receiver's (its own hit's; an entry without one).
+  struct End {
+    bool surface = false;
+    uint32_t own = kNoObject;
+    float own_window = 0.0f;
+  };
+  // The End of a shaded receiver at distance `dist` from the light: its own
+  // hit lies at b up to float rounding (1e-3 of the distance is searched;
+  // the nearest own hit is the one left out).
+  static End end_of(const Receiver& r, float dist);
+
+  // Transmittance per colour channel from light `light` to receiver r
+  // through shadow casters (the float forms: grey_of, exact for grey casters,
+  // the channel mean otherwise). The Vec3 forms: a point (no surface).
+  Vec3 transmittance_rgb(int light, const Receiver& r) const;
   Vec3 transmittance_rgb(int light, Vec3 p) const;
+  float transmittance(int light, const Receiver& r) const { return grey_of(transmittance_rgb(light, r)); }
   float transmittance(int light, Vec3 p) const { return grey_of(transmittance_rgb(light, p)); }
 
-  // Transmittance along an arbitrary segment a -> b (casters only); the
-  // point b's own surface (hits within a relative 1e-5 of b) does not count.
+  // Transmittance along an arbitrary segment a -> b (casters only), b a point.
   Vec3 transmittance_segment_rgb(Vec3 a, Vec3 b) const;
   float transmittance_segment(Vec3 a, Vec3 b) const { return grey_of(transmittance_segment_rgb(a, b)); }
-  // The same through the casters in `members` only (a cluster's objects);
-  // hits of object `own` within `own_window` before b are b's own surface
-  // too (the error probe's taps: its own surface by identity).
-  Vec3 transmittance_segment_rgb(Vec3 a, Vec3 b, ObjectMask members, uint32_t own = kNoObject,
-                                 float own_window = 0.0f) const;
+  // The same through the casters in `members` only (a cluster's objects),
+  // with b's End (the error probe's taps: each on its receiver's plane).
+  Vec3 transmittance_segment_rgb(Vec3 a, Vec3 b, ObjectMask members, const End& end) const;
 
   // Renders the camera view into rgb (3 floats per pixel).
   void render(const CameraPassParams& params, std::vector<float>& rgb) const;
@@ -55,6 +72,7 @@ class ReferenceRenderer {
   struct Hit {
     float t;
     uint32_t object;
+    uint32_t rank;  // SurfaceRank of the crossing
   };
   void hits_along(Vec3 org, Vec3 dir, float tmax, ObjectMask mask, std::vector<Hit>& out) const;
   // Optical depth per channel (double: the sum of many Simpson panels).

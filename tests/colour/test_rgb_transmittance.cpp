@@ -214,7 +214,8 @@ TEST(RgbMaps, OnlyWhereAMapHoldsColour) {
   }
   EXPECT_GE(rgb, 1u);
   EXPECT_EQ(st.memory.rgb_maps, rgb);
-  EXPECT_EQ(st.memory.grey_bytes + st.memory.rgb_bytes, st.memory.index_bytes + st.memory.node_bytes + st.memory.slack_bytes);
+  EXPECT_EQ(st.memory.grey_bytes + st.memory.rgb_bytes,
+            st.memory.index_bytes + st.memory.node_bytes + st.memory.slack_bytes + st.memory.tag_bytes);
   s.shadows.rgb_maps = false;
   sync_scene(sys, s);
   sys.update(&st);
@@ -297,7 +298,7 @@ TEST(DefaultScene, TintedShadowsMatchReferencePerChannel) {
   const Vec3 dir = normalize(c - L.position);
   const float t = -L.position.y / dir.y;  // where the light ray through the pane's centre meets the ground
   const Vec3 ground = L.position + dir * t;
-  const Vec3 T = one_minus(shadow_alpha_rgb(sv, L, Receiver{ground, {0, 1, 0}, false}));
+  const Vec3 T = one_minus(shadow_alpha_rgb(sv, L, Receiver{ground, {0, 1, 0}, kNoObject}));
   std::printf("under the amber pane: T = (%.3f, %.3f, %.3f)\n", T.x, T.y, T.z);
   // The pane is a thin box: the light crosses two faces, each passing
   // (1 - 0.5) f, f = (1, 0.6, 0.12).

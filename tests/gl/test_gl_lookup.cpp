@@ -9,17 +9,20 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "cdsm/error.h"
+#include "cdsm/procedural.h"
 #include "cdsm/gl.h"
 #include "cdsm/scene_io.h"
 #include "cdsm/shadow_system.h"
 #include "gl/gl_api.h"
 #include "gl_test_util.h"
+#include "reference/reference.h"
 #include "shadow_system_impl.h"
 
 namespace cdsm::test {
@@ -28,11 +31,11 @@ namespace {
 std::string scene_path(const std::string& name) { return std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/" + name; }
 
 // One lookup: a point, the receiver's plane (0: a volume sample / free
-// point) and whether its surface is in the maps.
+// point) and its object when its surface is in the maps (kNoObject else).
 struct LookupPoint {
   Vec3 p;
   Vec3 plane;
-  bool caster;
+  uint32_t object;
   bool surface;
 };
 
@@ -52,7 +55,7 @@ std::vector<LookupPoint> sample_points(const SceneBuffers& sb, int surface, int 
     const Vec3 p = a + (b - a) * r1 + (c - a) * r2;
     const Vec3 n = normalize(cross(b - a, c - a));
     const ObjectData& o = sb.objects[sb.tri_object[t]];
-    pts.push_back({p, n, (o.flags & kObjCastsShadows) != 0u, true});
+    pts.push_back({p, n, (o.flags & kObjCastsShadows) != 0u ? sb.tri_object[t] : kNoObject, true});
   }
   std::vector<Box3> media;
   for (size_t i = 0; i < sb.objects.size(); ++i)
@@ -60,11 +63,11 @@ std::vector<LookupPoint> sample_points(const SceneBuffers& sb, int surface, int 
   for (int i = 0; i < volume && !media.empty(); ++i) {
     const Box3& b = media[size_t(u01(rng) * float(media.size())) % media.size()];
     const Vec3 e = b.extent();
-    pts.push_back({b.lo + Vec3{e.x * u01(rng), e.y * u01(rng), e.z * u01(rng)}, {0, 0, 0}, false, false});
+    pts.push_back({b.lo + Vec3{e.x * u01(rng), e.y * u01(rng), e.z * u01(rng)}, {0, 0, 0}, kNoObject, false});
   }
   const Vec3 e = sb.bounds.extent();
   for (int i = 0; i < free; ++i)
-    pts.push_back({sb.bounds.lo + Vec3{e.x * u01(rng), e.y * u01(rng), e.z * u01(rng)}, {0, 0, 0}, false, false});
+    pts.push_back({sb.bounds.lo + Vec3{e.x * u01(rng), e.y * u01(rng), e.z * u01(rng)}, {0, 0, 0}, kNoObject, false});
   return pts;
 }
 
@@ -92,8 +95,8 @@ GLuint compile_compute(const std::string& body, int variant) {
 
 // Per point and light the transmittance from cdsm.glsl.
 const char* const kLookupShader = R"(
-layout(std430, binding = 0) readonly buffer Points { vec4 pts[]; };   // xyz, w: 1 surface caster, 2 receive-only surface, 0 none
-layout(std430, binding = 1) readonly buffer Planes { vec4 planes[]; };
+layout(std430, binding = 0) readonly buffer Points { vec4 pts[]; };   // xyz, w: 1 a surface, 0 none
+layout(std430, binding = 1) readonly buffer Planes { uvec4 planes[]; };  // xyz: the plane's bits, w: the object
 layout(std430, binding = 2) writeonly buffer Result { vec4 result[]; };
 uniform int u_count;
 uniform int u_light;
@@ -101,7 +104,7 @@ void main() {
   int i = int(gl_GlobalInvocationID.x);
   if (i >= u_count) return;
   vec4 p = pts[i];
-  vec3 t = p.w > 0.5 ? cdsm_surface_transmittance(p.xyz, planes[i].xyz, p.w < 1.5, u_light)
+  vec3 t = p.w > 0.5 ? cdsm_surface_transmittance(p.xyz, uintBitsToFloat(planes[i].xyz), planes[i].w, u_light)
                      : cdsm_transmittance(p.xyz, u_light);
   result[i] = vec4(t, 0.0);
 }
@@ -114,10 +117,16 @@ class GlLookup : public GlTest {
   std::vector<Vec3> glsl_lookups(ShadowSystem& sys, const std::vector<LookupPoint>& pts, int light, int variant = -1) {
     GLuint& program_ = programs_[variant];
     if (!program_) program_ = compile_compute(kLookupShader, variant);
-    std::vector<float> p4, n4;
+    std::vector<float> p4;
+    std::vector<uint32_t> n4;
+    const auto bits = [](float f) {
+      uint32_t u;
+      std::memcpy(&u, &f, 4);
+      return u;
+    };
     for (const LookupPoint& q : pts) {
-      p4.insert(p4.end(), {q.p.x, q.p.y, q.p.z, q.surface ? (q.caster ? 1.0f : 2.0f) : 0.0f});
-      n4.insert(n4.end(), {q.plane.x, q.plane.y, q.plane.z, 0.0f});
+      p4.insert(p4.end(), {q.p.x, q.p.y, q.p.z, q.surface ? 1.0f : 0.0f});
+      n4.insert(n4.end(), {bits(q.plane.x), bits(q.plane.y), bits(q.plane.z), q.object});
     }
     GLuint bufs[3];
     glCreateBuffers(3, bufs);
@@ -149,7 +158,8 @@ class GlLookup : public GlTest {
 
   // Every light of `scene` at `pts`: GLSL against C++ within 1e-5; with
   // `variant` also the include compiled for the buffers' layout only.
-  void expect_agreement(const Scene& scene, int surface, int volume, int free, const char* what, bool variant = false) {
+  void expect_agreement(const Scene& scene, int surface, int volume, int free, const char* what, bool variant = false,
+                        const std::vector<LookupPoint>& extra = {}) {
     SystemOptions o;
     o.gl_context = GlContextUse::Application;
     o.source = scene.source;
@@ -157,8 +167,9 @@ class GlLookup : public GlTest {
     sync_scene(sys, scene);
     sys.update();
     ShadowSystem::Impl& I = sys.internals();
-    const std::vector<LookupPoint> pts = sample_points(I.sb, surface, volume, free, 7);
+    std::vector<LookupPoint> pts = sample_points(I.sb, surface, volume, free, 7);
     ASSERT_GE(pts.size(), size_t(surface + free));
+    pts.insert(pts.end(), extra.begin(), extra.end());
     const ShadowView sv = I.shadow_view();
     uint32_t rgb_maps = 0;
     for (const DsmMap& m : sv.maps) rgb_maps += m.rgb;
@@ -170,7 +181,7 @@ class GlLookup : public GlTest {
       size_t identical = 0, shadowed = 0, worst_at = 0;
       for (size_t i = 0; i < pts.size(); ++i) {
         const LookupPoint& q = pts[i];
-        const Receiver r{q.p, q.surface ? q.plane : Vec3{0, 0, 0}, q.surface && q.caster};
+        const Receiver r{q.p, q.surface ? q.plane : Vec3{0, 0, 0}, q.surface ? q.object : kNoObject};
         const Vec3 c = one_minus(shadow_alpha_rgb(sv, sv.lights[uint32_t(l)], r));
         double d = 0.0;
         for (int k = 0; k < 3; ++k) d = std::max(d, double(std::fabs(c[k] - g[i][k])));
@@ -214,6 +225,108 @@ TEST_F(GlLookup, DefaultSceneParallelSplits) {
   expect_agreement(scene, 70000, 25000, 10000, "default 3 parallel splits");
 }
 
+// Surfaces in contact (DESIGN.md §8): a casting slab under a glass box
+// resting 1 mm above it, a pillar with a medium standing through it, a
+// decal in its plane, a tinted slab lying on it (RGB maps) — the receiver
+// rule (own step by identity, touching surfaces by rank) in GLSL, bit for
+// bit, every layout; extra points on the slab under each of them.
+TEST_F(GlLookup, SurfacesInContact) {
+  for (DsmLayout layout : {DsmLayout::Packed, DsmLayout::Fixed, DsmLayout::Chunked})
+    for (bool tinted : {false, true}) {
+      Scene scene;
+      scene.source = "contact";
+      scene.camera.position = {0, 6, 8};
+      scene.camera.target = {0, 0, 0};
+      const auto object = [&](const char* name, TriangleMesh mesh, Vec3 at, float opacity) {
+        Object o;
+        o.name = name;
+        o.mesh = std::make_shared<const TriangleMesh>(std::move(mesh));
+        o.transform = make_transform(at, {0, 0, 0}, {1, 1, 1});
+        o.surface.opacity = opacity;
+        scene.objects.push_back(o);
+        return uint32_t(scene.objects.size() - 1);
+      };
+      const uint32_t slab = object("slab", make_ground(8, 8, 0.3f), {0, 0, 0}, 1.0f);
+      object("glass", make_box({1, 1, 1}), {-2, 0.501f, -2}, 0.45f);
+      const uint32_t pillar = object("pillar", make_box({1, 1, 1}), {2, 0.0008f - 0.5f, -2}, 0.45f);
+      scene.objects[pillar].interior = InteriorKind::Constant;
+      scene.objects[pillar].sigma = vec3(0.6f);
+      object("decal", make_quad(1, 1), {-2, 0, 2}, 0.5f);
+      const uint32_t lying = object("lying slab", make_box({1, 0.1f, 1}), {2, 0.05f, 2}, 0.3f);
+      if (tinted) scene.objects[lying].surface.transmission_color = {1.0f, 0.5f, 0.2f};
+      Light light;
+      light.position = {0.5f, 9, 0.4f};
+      light.direction = normalize(Vec3{-0.5f, -9, -0.4f});
+      light.outer_cone_deg = 35;
+      light.inner_cone_deg = 32;
+      scene.lights.push_back(light);
+      scene.shadows.layout = layout;
+      scene.shadows.resolution = 256;
+      std::vector<LookupPoint> extra;
+      for (Vec3 c : {Vec3{-2, 0, -2}, Vec3{2, 0, -2}, Vec3{-2, 0, 2}, Vec3{2, 0, 2}})
+        for (int i = 0; i < 20; ++i)
+          for (int j = 0; j < 20; ++j)
+            extra.push_back({c + Vec3{-0.6f + 1.2f * (i + 0.5f) / 20, 0, -0.6f + 1.2f * (j + 0.5f) / 20}, {0, 1, 0}, slab, true});
+      const std::string what = std::string("contact ") + (tinted ? "RGB " : "grey ") +
+                               (layout == DsmLayout::Packed ? "packed" : layout == DsmLayout::Fixed ? "fixed" : "chunked");
+      expect_agreement(scene, 20000, 2000, 2000, what.c_str(), true, extra);
+    }
+}
+
+// The same contact with the GL rasterizer's fragments (depths up to ~1e-5
+// relative off the exact ones): the slab under the glass box resting 1 mm
+// above it and under the pillar's cap 0.8 mm above it receives what the
+// reference gives, within epsilon + 0.005, and the lit slab is unshadowed.
+TEST_F(GlLookup, SurfacesInContactWithGlFragments) {
+  Scene scene;
+  scene.source = "contact";
+  const auto object = [&](const char* name, TriangleMesh mesh, Vec3 at, float opacity) {
+    Object o;
+    o.name = name;
+    o.mesh = std::make_shared<const TriangleMesh>(std::move(mesh));
+    o.transform = make_transform(at, {0, 0, 0}, {1, 1, 1});
+    o.surface.opacity = opacity;
+    scene.objects.push_back(o);
+    return uint32_t(scene.objects.size() - 1);
+  };
+  const uint32_t slab = object("slab", make_ground(16, 16, 0.3f), {8, 0, 8}, 1.0f);
+  object("pillar", make_box({1, 1, 1}), {5, 0.0008f - 0.5f, 5}, 0.45f);
+  object("glass", make_box({1, 1, 1}), {11, 0.501f, 11}, 0.45f);
+  Light light;
+  light.position = {8, 12, 8};
+  light.direction = {0, -1, 0};
+  light.outer_cone_deg = 40;
+  light.inner_cone_deg = 36;
+  scene.lights.push_back(light);
+  scene.shadows.resolution = 512;
+  SystemOptions o;
+  o.gl_context = GlContextUse::Application;
+  o.fragments = FragmentSource::Gl;
+  ShadowSystem sys(o);
+  sync_scene(sys, scene);
+  sys.update();
+  ShadowSystem::Impl& I = sys.internals();
+  const ShadowView sv = I.shadow_view();
+  DsmVisibility vis{sv};
+  ReferenceRenderer ref(I.sb.view(), I.frame.setup.lights);
+  double worst = 0.0, lit = 0.0;
+  int n = 0;
+  for (Vec3 c : {Vec3{5, 0, 5}, Vec3{11, 0, 11}})
+    for (int i = 0; i < 16; ++i)
+      for (int j = 0; j < 16; ++j) {
+        const Vec3 p = c + Vec3{-0.35f + 0.7f * (i + 0.5f) / 16, 0, -0.35f + 0.7f * (j + 0.5f) / 16};
+        const Receiver r{p, {0, 1, 0}, slab};
+        worst = std::max(worst, std::fabs(double(grey_of(vis(0, r))) - ref.transmittance(0, r)));
+        ++n;
+      }
+  for (float x = 6.5f; x <= 9.5f; x += 0.25f)
+    for (float z = 6.5f; z <= 9.5f; z += 0.25f) lit = std::max(lit, 1.0 - grey_of(vis(0, Receiver{{x, 0, z}, {0, 1, 0}, slab})));
+  std::printf("[ contact  ] GL fragments: slab under the cap and the glass, %d points, max |dT| %.4f; lit slab max %.5f\n",
+              n, worst, lit);
+  EXPECT_LE(worst, 0.01 + 0.005);
+  EXPECT_LE(lit, 1e-3);
+}
+
 TEST_F(GlLookup, StainedGlass) {
   Scene scene = load_scene(scene_path("stained_glass.json"));
   expect_agreement(scene, 70000, 25000, 10000, "stained glass");
@@ -234,7 +347,8 @@ TEST_F(GlLookup, UnknownLightIndexIsMagenta) {
   ShadowSystem sys(o);
   sync_scene(sys, scene);
   sys.update();
-  const std::vector<LookupPoint> pts = {{{0, 0.01f, 0}, {0, 1, 0}, false, true}, {{0, 1, 0}, {0, 0, 0}, false, false}};
+  const std::vector<LookupPoint> pts = {{{0, 0.01f, 0}, {0, 1, 0}, kNoObject, true},
+                                        {{0, 1, 0}, {0, 0, 0}, kNoObject, false}};
   for (int light : {-1, int(scene.lights.size()), 99}) {
     const std::vector<Vec3> g = glsl_lookups(sys, pts, light);
     for (const Vec3& t : g) {

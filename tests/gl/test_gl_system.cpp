@@ -184,7 +184,8 @@ TEST_F(GlSystem, UploadsOnlyWhatChanged) {
   ShadowSystem::Impl& I = sys.internals();
   const DsmStorage s0 = I.backend->storage();
   const uint64_t arrays0 = (s0.texels.size() + s0.rgb_texels.size()) * 8 + s0.nodes.size() * 8 +
-                           s0.rgb_nodes.size() * 16 + s0.chunks.size() * 12 + s0.rgb_chunks.size() * 20;
+                           s0.rgb_nodes.size() * 16 + s0.chunks.size() * 12 + s0.rgb_chunks.size() * 20 +
+                           (s0.tags.size() + s0.rgb_tags.size()) * 2;
   const uint64_t frame_block = 32 + 64 * kMaxLights + 96 * I.frame.headers.size();
   EXPECT_TRUE(first.update.gl_map_full_upload);
   EXPECT_EQ(first.update.gl_map_upload_bytes, arrays0 + frame_block);
@@ -198,7 +199,7 @@ TEST_F(GlSystem, UploadsOnlyWhatChanged) {
 
   const auto array_bytes = [](const DsmStorage& d) {
     return (d.texels.size() + d.rgb_texels.size()) * 8 + d.nodes.size() * 8 + d.rgb_nodes.size() * 16 +
-           d.chunks.size() * 12 + d.rgb_chunks.size() * 20;
+           d.chunks.size() * 12 + d.rgb_chunks.size() * 20 + (d.tags.size() + d.rgb_tags.size()) * 2;
   };
   // A spot light is added: its map is appended to the buffers.
   ASSERT_EQ(scene.lights[0].type, LightType::Spot);
@@ -487,8 +488,9 @@ class InPlaceBackend final : public ShadowBackend {
       throw std::runtime_error("in-place test double: write failed");
     }
     const DsmStorage s = inner_->storage();
-    const void* src[kStorageArrays] = {s.texels.data(), s.nodes.data(), s.chunks.data(),
-                                       s.rgb_texels.data(), s.rgb_nodes.data(), s.rgb_chunks.data()};
+    const void* src[kStorageArrays] = {s.texels.data(),     s.nodes.data(),     s.chunks.data(), s.rgb_texels.data(),
+                                       s.rgb_nodes.data(), s.rgb_chunks.data(), s.tags.data(),   s.rgb_tags.data()};
+    static_assert(kStorageArrays == 8, "one source per storage array");
     for (int i = 0; i < n; ++i) {
       GLint64 size = 0;
       glGetNamedBufferParameteri64v(w[i].gl_buffer, GL_BUFFER_SIZE, &size);

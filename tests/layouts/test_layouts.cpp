@@ -239,6 +239,8 @@ TEST(Layouts, PackedHasNoSlack) {
   EXPECT_EQ(st.node_bytes_used, sum * sizeof(DsmNode));
   EXPECT_EQ(st.node_bytes_allocated, st.node_bytes_used);
   EXPECT_EQ(st.slack_bytes, 0u);
+  EXPECT_EQ(p.tags.size(), sum) << "one surface tag per node";
+  EXPECT_EQ(st.tag_bytes, sum * sizeof(SurfaceTag));
   // Tiles reserve exactly: the headers tile the pool without gaps or overlaps.
   std::vector<TexelRange> r(p.texels.begin(), p.texels.end());
   std::sort(r.begin(), r.end(), [](TexelRange a, TexelRange b) { return a.offset < b.offset; });
@@ -276,6 +278,8 @@ TEST(Layouts, FixedWasteMatchesHandCount) {
   EXPECT_EQ(st.node_bytes_used, used * sizeof(DsmNode));
   EXPECT_EQ(st.slack_bytes, (slots - used) * sizeof(DsmNode));
   EXPECT_GT(st.slack_bytes, st.node_bytes_used) << "most of a fixed map is waste here";
+  EXPECT_EQ(x.tags.size(), slots) << "one surface tag per slot";
+  EXPECT_EQ(st.tag_bytes, slots * sizeof(SurfaceTag));
 }
 
 TEST(Layouts, ChunkedSlackMatchesHandCount) {
@@ -302,6 +306,8 @@ TEST(Layouts, ChunkedSlackMatchesHandCount) {
     EXPECT_EQ(st.node_bytes_allocated, chunks * C * sizeof(ChunkNode));
     EXPECT_EQ(st.node_bytes_used, used * sizeof(ChunkNode));
     EXPECT_EQ(st.slack_bytes, (chunks * C - used) * sizeof(ChunkNode));
+    EXPECT_EQ(c.tags.size(), chunks * C) << "one surface tag per slot";
+    EXPECT_EQ(st.tag_bytes, chunks * C * sizeof(SurfaceTag));
     // The slots no texel list reaches are exactly the slack.
     std::vector<uint8_t> reached(c.chunks.size(), 0);
     for (const TexelRange& h : c.texels) {
@@ -367,8 +373,9 @@ TEST(Layouts, ChunkedTileWriterLinksThreeChunks) {
   const uint32_t C = 64, chunks = tile_chunks(total, C), first = 3 * C;  // the tile's chunks start at chunk 3
   std::vector<ChunkNode> pool((3 + chunks) * C, ChunkNode{-1.0f, -1.0f, 12345u});
   std::vector<TexelRange> heads(64);
-  uint32_t used = write_chunked_tile(counts.data(), 64, [&](int k) { return texel[size_t(k)].data(); }, first, C,
-                                     pool.data(), heads.data());
+  uint32_t used = write_chunked_tile(
+      counts.data(), 64, [&](int k) { return texel[size_t(k)].data(); },
+      [](int) { return static_cast<const SurfaceTag*>(nullptr); }, first, C, pool.data(), nullptr, heads.data());
   EXPECT_EQ(used, total);
   for (uint32_t s = 0; s < first; ++s) EXPECT_EQ(pool[s].next, 12345u) << "wrote outside the tile's chunks";
   for (uint32_t s = first + total; s < pool.size(); ++s) EXPECT_EQ(pool[s].next, kChunkEnd) << "slack not cleared";
@@ -430,7 +437,7 @@ TEST(Layouts, FixedRecompressesSmoothTexel) {
     in.push_back({z, 1.0f - std::exp(-(z - 1.0f))});
   }
   std::vector<DsmNode> slots(8);
-  FixedFit fit = write_fixed_texel({in.data(), in.size()}, 0.001f, slots.data(), 8);
+  FixedFit fit = write_fixed_texel({in.data(), in.size()}, nullptr, 0.001f, slots.data(), nullptr, 8);
   EXPECT_TRUE(fit.recompressed);
   EXPECT_LE(fit.count, 8);
   EXPECT_GT(fit.extra_error, 0.0f);
@@ -457,7 +464,7 @@ TEST(Layouts, FixedRecompressesStepsGreedily) {
     in.push_back({z, a});
   }
   std::vector<DsmNode> slots(6);
-  FixedFit fit = write_fixed_texel({in.data(), in.size()}, 0.01f, slots.data(), 6);
+  FixedFit fit = write_fixed_texel({in.data(), in.size()}, nullptr, 0.01f, slots.data(), nullptr, 6);
   EXPECT_TRUE(fit.recompressed);
   EXPECT_EQ(fit.count, 6);
   Span<const DsmNode> out{slots.data(), 6};

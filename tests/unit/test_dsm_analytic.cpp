@@ -88,7 +88,7 @@ TEST(SelfShadowing, LitPlaneUpTo80Degrees) {
       int tested = 0;
       for (Vec3 p : plane_points(h, 80.0f)) {
         if (cone_factor(sv.lights[0], p) <= 0.0f) continue;
-        float T = surface_visibility(sv, 0, p, {0, 1, 0});
+        float T = surface_visibility(sv, 0, p, {0, 1, 0}, 0u);
         w.add(std::fabs(1.0 - T), p);
         ++tested;
       }
@@ -132,12 +132,12 @@ TEST(SelfShadowing, TranslucentQuadLitOnItself) {
     Worst on, below, beside;
     for (int i = 0; i < 3000; ++i) {
       float x = u(rng), z = u(rng);
-      on.add(std::fabs(1.0 - surface_visibility(sv, 0, {x, 1.0f, z}, {0, 1, 0})), {x, 1.0f, z});
+      on.add(std::fabs(1.0 - surface_visibility(sv, 0, {x, 1.0f, z}, {0, 1, 0}, 0u)), {x, 1.0f, z});
       // Below: a receiver facing up at y = 0.5 (the quad's shadow spans +-1.1 there).
-      below.add(std::fabs(0.5 - surface_visibility(sv, 0, {x, 0.5f, z}, {0, 1, 0})), {x, 0.5f, z});
+      below.add(std::fabs(0.5 - surface_visibility(sv, 0, {x, 0.5f, z}, {0, 1, 0}, kNoObject)), {x, 0.5f, z});
       below.add(std::fabs(0.5 - sample_visibility(sv, 0, {x, 0.3f, z})), {x, 0.3f, z});
       Vec3 side{1.6f + 0.3f * u(rng), 0.5f, z};
-      beside.add(std::fabs(1.0 - surface_visibility(sv, 0, side, {0, 1, 0})), side);
+      beside.add(std::fabs(1.0 - surface_visibility(sv, 0, side, {0, 1, 0}, kNoObject)), side);
     }
     EXPECT_LE(on.err, 1e-3) << "filtering " << filtering << ": on the quad " << on;
     EXPECT_LE(below.err, 1e-3) << "filtering " << filtering << ": below the quad " << below;

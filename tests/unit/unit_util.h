@@ -147,11 +147,12 @@ struct ShadowFixture {
   const PinholeView& map_view(size_t i) const { return frame.headers[i].view; }
 };
 
-// What the camera pass uses for a caster's surface point on a plane with
-// normal n: 1 - alpha with each tap at the plane's depth along its own ray,
-// stopped short of the own step (hd/lights.h Receiver, hd/camera_pass.h).
-inline float surface_visibility(const ShadowView& sv, int light, Vec3 p, Vec3 n) {
-  return grey_of(DsmVisibility{sv}(light, Receiver{p, n, true}));
+// What the camera pass uses for a surface point of object `object` (a
+// caster's: its own step is left out; kNoObject: a receive-only surface) on
+// a plane with normal n: 1 - alpha with each tap at the plane's depth along
+// its own ray (hd/lights.h Receiver, hd/camera_pass.h).
+inline float surface_visibility(const ShadowView& sv, int light, Vec3 p, Vec3 n, uint32_t object) {
+  return grey_of(DsmVisibility{sv}(light, Receiver{p, n, object}));
 }
 
 // A volume sample's visibility: looked up at its own depth.

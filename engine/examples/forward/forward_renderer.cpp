@@ -466,7 +466,7 @@ void ForwardRenderer::draw_object(size_t i, const cdsm::Object& o, GLuint p, con
   glProgramUniform1f(p, glGetUniformLocation(p, "u_opacity"), s.opacity);
   set_vec3(p, "u_transmission", s.transmission_color);
   glProgramUniform4f(p, glGetUniformLocation(p, "u_phong"), s.ambient, s.diffuse, s.specular, s.shininess);
-  glProgramUniform1i(p, glGetUniformLocation(p, "u_caster"), o.casts_shadows);
+  glProgramUniform1ui(p, glGetUniformLocation(p, "u_object"), o.casts_shadows ? GLuint(i) : 0xffffffffu);
   glProgramUniform1i(p, glGetUniformLocation(p, "u_has_normals"), m.has_normals);
   glProgramUniform1i(p, glGetUniformLocation(p, "u_shadows"), opt.shadows);
   glProgramUniform1ui(p, glGetUniformLocation(p, "u_id"), GLuint(i + 1));

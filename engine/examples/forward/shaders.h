@@ -80,7 +80,7 @@ uniform vec4 u_tint;         // rgb replaces the colour with weight a (the edito
 uniform float u_opacity;
 uniform vec3 u_transmission;
 uniform vec4 u_phong;        // ka, kd, ks, shininess
-uniform bool u_caster;       // the object casts shadows: its surface is in the maps
+uniform uint u_object;       // ShadowSystem::gl_object_id: its own step in the maps (CDSM_NO_OBJECT: receive-only)
 uniform bool u_has_normals;  // else the geometric normal shades
 uniform bool u_shadows;      // false: every light unshadowed (to see what the maps do)
 // A constant medium behind a front face: what it absorbs between this face
@@ -108,7 +108,7 @@ void main() {
     vec3 l = to_l / dist;
     float ndl = dot(n, l);
     if (ndl <= 0.0) continue;
-    vec3 vis = u_shadows ? cdsm_surface_transmittance(g_world, g_plane, u_caster, i) : vec3(1.0);
+    vec3 vis = u_shadows ? cdsm_surface_transmittance(g_world, g_plane, u_object, i) : vec3(1.0);
     if (max(vis.r, max(vis.g, vis.b)) <= 0.0) continue;
     vec3 r = n * (2.0 * ndl) - l;
     float rv = max(0.0, dot(r, v));

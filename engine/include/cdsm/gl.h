@@ -81,6 +81,8 @@ struct GlMapBuffers {
   uint32_t rgb_texels = 0;  // CdsmRgbTexels
   uint32_t rgb_nodes = 0;   // CdsmRgbNodes: {z, r, g, b}
   uint32_t rgb_chunks = 0;  // CdsmRgbChunks
+  uint32_t tags = 0;        // CdsmTags: the grey pool's surface tags, 16 bits per slot
+  uint32_t rgb_tags = 0;    // CdsmRgbTags
   int default_binding_base = 8;  // CDSM_BINDING_BASE when the shader does not define it
   // The node layout of the maps in these buffers (cdsm_layout: 0 packed,
   // 1 fixed, 2 chunked; the settings' DsmLayout). A shader compiled with

@@ -96,6 +96,7 @@ struct DsmMemory {
   uint64_t index_bytes = 0;  // per-texel headers
   uint64_t node_bytes = 0;   // nodes used
   uint64_t slack_bytes = 0;  // allocated but unused node memory
+  uint64_t tag_bytes = 0;    // the node slots' surface tags (2 bytes each: which surface made a step)
   double avg_nodes_per_texel = 0.0;
   uint32_t max_nodes_per_texel = 0;
   uint64_t overflow_texels = 0;   // re-compressed to fit the per-texel buffer
@@ -103,7 +104,7 @@ struct DsmMemory {
   // Per map kind: grey maps store scalar nodes (8 bytes; chunked slots 12),
   // RGB maps (a coloured caster among their members) 16 bytes (chunked 20).
   uint64_t rgb_maps = 0;
-  uint64_t grey_bytes = 0;        // index + node + slack bytes of the grey maps
+  uint64_t grey_bytes = 0;        // index + node + slack + tag bytes of the grey maps
   uint64_t rgb_bytes = 0;         // the same of the RGB maps
   uint64_t rgb_nodes = 0;         // nodes in RGB maps (of `nodes`)
 };

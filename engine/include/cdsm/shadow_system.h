@@ -218,6 +218,12 @@ class ShadowSystem {
   // among the system's lights (handle order; it changes when an earlier
   // light is removed). Throws cdsm::Error for an unknown handle. Cheap.
   int gl_light_index(LightHandle light) const;
+  // The `object` argument of cdsm_surface_transmittance() for an object's
+  // surfaces: its index among the system's objects (handle order) when it
+  // casts shadows (its lookups leave out exactly its own step in the maps),
+  // 0xffffffff (CDSM_NO_OBJECT) when it only receives. It changes when an
+  // earlier object is removed. Throws cdsm::Error for an unknown handle. Cheap.
+  uint32_t gl_object_id(ObjectHandle object) const;
 
   // ---- inspection of the last update()'s maps (the editor's views) --------
   struct MapInfo {

@@ -78,14 +78,15 @@ float grey_at(const cdsm::Image& img, Pixel px) {
 constexpr float kTranslucentOpacity = 0.3f;
 constexpr float kExpectedT = (1.0f - kTranslucentOpacity) * (1.0f - kTranslucentOpacity);
 
-void build_scene(cdsm::ShadowSystem& system, cdsm::Camera& camera) {
+// Returns the ground's handle.
+cdsm::ObjectHandle build_scene(cdsm::ShadowSystem& system, cdsm::Camera& camera) {
   cdsm::Object ground;
   ground.name = "ground";
   ground.mesh = std::make_shared<cdsm::TriangleMesh>(cdsm::make_ground(12.0f, 12.0f));
   ground.casts_shadows = false;
   ground.surface.color = {0.8f, 0.8f, 0.8f};
   ground.surface.specular = 0.0f;
-  system.add_object(ground);
+  const cdsm::ObjectHandle ground_handle = system.add_object(ground);
 
   auto cube = std::make_shared<cdsm::TriangleMesh>(cdsm::make_box({1.0f, 1.0f, 1.0f}));
   cdsm::Object opaque;
@@ -122,6 +123,7 @@ void build_scene(cdsm::ShadowSystem& system, cdsm::Camera& camera) {
   settings.epsilon = 0.01f;
   settings.resolution = 256;
   system.set_settings(settings);
+  return ground_handle;
 }
 
 void check_shadows(const std::string& out_dir) {
@@ -189,17 +191,18 @@ void check_gl_lookups() {
   options.source = "package consumer (GL)";
   cdsm::ShadowSystem system(options);
   cdsm::Camera camera;
-  build_scene(system, camera);
+  const cdsm::ObjectHandle ground = build_scene(system, camera);
   cdsm::FrameStats stats;
   system.update(&stats);
   check(stats.update.gl_map_upload_bytes > 0, "maps uploaded to GL buffers");
 
   const std::string src = "#version 450\nlayout(local_size_x = 4) in;\n" + include + R"(
 layout(std430, binding = 0) buffer Out { vec4 t[]; };
+uniform uint u_ground;  // ShadowSystem::gl_object_id of the ground
 void main() {
   const vec3 p[3] = vec3[3](vec3(0.0, 0.0, 1.0), vec3(1.8, 0.0, 0.4), vec3(-1.8, 0.0, 0.4));
   uint i = gl_GlobalInvocationID.x;
-  if (i < 3u) t[i] = vec4(cdsm_surface_transmittance(p[i], vec3(0.0, 1.0, 0.0), false, 0), 0.0);
+  if (i < 3u) t[i] = vec4(cdsm_surface_transmittance(p[i], vec3(0.0, 1.0, 0.0), u_ground, 0), 0.0);
 }
 )";
   const char* text = src.c_str();
@@ -218,6 +221,8 @@ void main() {
   glNamedBufferStorage(out, 3 * 16, nullptr, 0);
   glUseProgram(prog);
   system.bind_gl(prog);
+  check(system.gl_object_id(ground) == 0xffffffffu, "a receive-only object's gl_object_id is CDSM_NO_OBJECT");
+  glUniform1ui(glGetUniformLocation(prog, "u_ground"), system.gl_object_id(ground));
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, out);
   glDispatchCompute(1, 1, 1);
   glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
