@@ -1,4 +1,4 @@
-// The cuda backend (DESIGN.md §5): the exec backend (shadows/exec/
+// The cuda backend (DESIGN.md §5): the exec backend (shadows/backend/
 // exec_backend.h) over the CUDA executor (cuda/launch.cuh) — the same
 // CDSM_HD kernels as the cpu backend, launched on a device. Plain C++:
 // the engine includes it without nvcc (engine/src/backend_select.cpp).
@@ -6,7 +6,7 @@
 
 #include <memory>
 
-#include "exec/exec_backend.h"
+#include "backend/exec_backend.h"
 
 namespace cdsm::cuda {
 

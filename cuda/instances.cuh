@@ -4,7 +4,7 @@
 // these declarations.
 #pragma once
 
-#include "exec/exec_backend.h"
+#include "backend/exec_backend.h"
 #include "launch.cuh"
 
 namespace cdsm::exec {

@@ -42,6 +42,7 @@ class Stream {
 class CudaExec {
  public:
   static constexpr bool kHostMemory = false;
+  static constexpr uint64_t kLightPassBatchBytes = uint64_t(1) << 30;  // exec/light_pass.h: batches that fill the device
 #if defined(CDSM_HAVE_CUDA_GL)
   static constexpr bool kGlInterop = true;  // write_gl_buffers below
 #else

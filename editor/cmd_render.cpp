@@ -114,6 +114,11 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
   t["camera_pass"] = s.times.camera_ms;
   t["reference"] = s.times.reference_ms;
   t["total_frame"] = s.times.total_ms;
+  // The backend's launches (the wall clock of each parallel_for on CPU
+  // threads, CUDA events on a GPU), by name.
+  auto& kt = t["kernels"];
+  kt = nlohmann::json::object();
+  for (const KernelTime& k : s.times.kernels) kt[k.name] = {{"ms", k.ms}, {"launches", k.launches}};
   auto& m = j["dsm_memory"];
   m["layout"] = std::vector<std::string>{"packed", "fixed", "chunked"}[size_t(scene.shadows.layout)];
   j["receiver_lookup"] = scene.shadows.receiver == ReceiverLookup::Plane ? "plane" : "slope_bias";

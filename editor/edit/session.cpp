@@ -178,7 +178,7 @@ void Session::after_publish() {
   map_image_for_ = -2;  // the map viewer reads the new maps
   if (map_view >= int(maps_.size())) map_view = maps_.empty() ? -1 : 0;
   if (inspect_pending_) {
-    inspection_ = system_->inspect_texel(inspect_light, last_pick_.position);
+    inspection_ = system_->inspect_texel(inspect_light, last_pick_.position, last_pick_.object, last_pick_.plane);
     inspect_pending_ = false;
   }
 }

@@ -460,6 +460,13 @@ void plot_window(Session& s, UiState& ui) {
     ImGui::Text("map %d (light %d, slot %d), texel (%d, %d): %zu nodes, %zu samples at eps 0", t.map, t.light, t.slot,
                 t.tx, t.ty, t.nodes.size(), t.exact.size());
     ImGui::Text("max deviation %.5f (epsilon %.4f)", t.max_deviation, t.epsilon);
+    if (t.receiver) {
+      const float a = (t.received.x + t.received.y + t.received.z) / 3.0f;
+      if (t.own_node >= 0)
+        ImGui::Text("the surface reads alpha %.4f: its own step (blue ring) left out", a);
+      else
+        ImGui::Text("the surface reads alpha %.4f at its plane (no step of its own here)", a);
+    }
     const ImVec2 at = ImGui::GetCursorScreenPos();
     const ImVec2 size(ImGui::GetContentRegionAvail().x, std::max(ImGui::GetContentRegionAvail().y - 4.0f, 80.0f));
     ImDrawList* dl = ImGui::GetWindowDrawList();
@@ -484,11 +491,16 @@ void plot_window(Session& s, UiState& ui) {
       const ImVec2 p = pt(t.nodes[i].z, grey(t.nodes[i].alpha));
       if (i > 0) dl->AddLine(pt(t.nodes[i - 1].z, grey(t.nodes[i - 1].alpha)), p, IM_COL32(255, 150, 30, 255), 3.0f);
       dl->AddCircleFilled(p, 3.5f, IM_COL32(255, 200, 60, 255));
+      if (int(i) == t.own_node) dl->AddCircle(p, 7.0f, IM_COL32(90, 160, 255, 255), 0, 2.0f);
     }
     for (size_t i = 1; i < t.exact.size(); ++i)
       dl->AddLine(pt(t.exact[i - 1].z, grey(t.exact[i - 1].alpha)), pt(t.exact[i].z, grey(t.exact[i].alpha)),
                   IM_COL32(235, 235, 235, 255), 1.0f);
     dl->AddLine(pt(t.depth, 0.0f), pt(t.depth, top), IM_COL32(90, 160, 255, 200), 1.0f);
+    if (t.receiver) {  // what the surface reads: a blue mark at its plane's depth on the texel's ray
+      const float a = (t.received.x + t.received.y + t.received.z) / 3.0f;
+      dl->AddCircleFilled(pt(t.receiver_depth, a), 4.0f, IM_COL32(90, 160, 255, 255));
+    }
     char axis[96];
     std::snprintf(axis, sizeof axis, "alpha 0 .. %.3g   z %.3g .. %.3g (blue: the point)", top, z0, z1);
     dl->AddText(ImVec2(at.x + 4, at.y + 2), IM_COL32(160, 160, 170, 255), axis);

@@ -43,7 +43,7 @@
 #include <memory>
 #include <string>
 
-#include "cpu/fragments_cpu.h"
+#include "scene/fragments.h"
 #include "hd/scene_data.h"
 #include "hd/view.h"
 

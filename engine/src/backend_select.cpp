@@ -3,7 +3,7 @@
 #include <cstdlib>
 
 #include "cdsm/error.h"
-#include "cpu/cpu_backend.h"
+#include "backend/backend.h"
 #if defined(CDSM_HAVE_CUDA)
 #include "cuda_backend.h"
 #include "device.h"

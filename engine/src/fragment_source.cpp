@@ -1,7 +1,7 @@
 #include "fragment_source.h"
 
 #include "cdsm/error.h"
-#include "exec/exec_backend.h"
+#include "backend/backend.h"
 
 #if CDSM_HAVE_GL
 #include "gl/context.h"
@@ -48,7 +48,7 @@ void FragmentSourceSelector::choose(FragmentSource want, std::string& name, std:
   use_gl_ = false;
   use_cuda_ = false;
   if (want == FragmentSource::Cuda) {
-    if (!dynamic_cast<exec::ExecShadowBackend*>(backend_))
+    if (std::string(backend_->name()) != "cuda")
       throw Error("--fragments cuda", "the CUDA fragment producer runs on the cuda backend (--backend cuda, on a CUDA device)");
     use_cuda_ = true;
     name_ = "cuda";
@@ -113,7 +113,7 @@ uint64_t FragmentSourceSelector::scene_changed(const SceneBuffers& sb, const Sce
 
 FragmentProducer FragmentSourceSelector::producer(const SceneBuffers& sb) const {
   if (use_cuda_) {
-    auto* b = static_cast<exec::ExecShadowBackend*>(backend_);
+    ShadowBackend* b = backend_;
     return [b](const PinholeView& view, ObjectMask mask, FragmentBuffers& out) { b->cast_fragments(view, mask, out); };
   }
 #if CDSM_HAVE_GL

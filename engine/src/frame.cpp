@@ -1,7 +1,7 @@
 #include "frame.h"
 
 #include "cluster/focus.h"
-#include "cpu/cpu_backend.h"
+#include "backend/backend.h"
 #include "scene_compile.h"
 
 #include <algorithm>

@@ -7,7 +7,7 @@
 
 #include "cdsm/error.h"
 #include "cdsm/shadow_system.h"
-#include "cpu/fragments_cpu.h"
+#include "scene/fragments.h"
 #include "hd/light_pass.h"
 #include "shadow_system_impl.h"
 
@@ -72,10 +72,15 @@ float deviation(Span<const Node> f, Span<const Node> g, float rel_tol) {
   return worst;
 }
 
+// The samples of a node list; with tags, each step's object (tags hold the
+// object index modulo 16383, plus 1: exact below 16383 objects).
 template <class Node>
-std::vector<ShadowSystem::AlphaSample> samples_of(const Node* n, uint32_t count) {
+std::vector<ShadowSystem::AlphaSample> samples_of(const Node* n, uint32_t count, const SurfaceTag* tags = nullptr) {
   std::vector<ShadowSystem::AlphaSample> out;
-  for (uint32_t i = 0; i < count; ++i) out.push_back({n[i].z, alpha_rgb_of(n[i])});
+  for (uint32_t i = 0; i < count; ++i) {
+    const uint32_t o = tags ? tag_object_of(tags[i]) : 0u;
+    out.push_back({n[i].z, alpha_rgb_of(n[i]), o ? int(o) - 1 : -1});
+  }
   return out;
 }
 
@@ -139,7 +144,7 @@ std::vector<float> ShadowSystem::map_alpha(int map, float depth) const {
   return out;
 }
 
-ShadowSystem::TexelInspection ShadowSystem::inspect_texel(int light, Vec3 p) const {
+ShadowSystem::TexelInspection ShadowSystem::inspect_texel(int light, Vec3 p, int object, Vec3 plane) const {
   const Impl& I = *impl_;
   const ShadowFrame& f = I.frame;
   TexelInspection r;
@@ -187,8 +192,24 @@ ShadowSystem::TexelInspection ShadowSystem::inspect_texel(int light, Vec3 p) con
   const uint32_t n = r.rgb ? read_texel_rgb(st, m, r.tx, r.ty, nullptr, 0) : read_texel(st, m, r.tx, r.ty, nullptr, 0);
   std::vector<DsmNode> grey(n);
   std::vector<DsmNodeRgb> rgb(n);
-  if (r.rgb) read_texel_rgb(st, m, r.tx, r.ty, rgb.data(), n);
-  else read_texel(st, m, r.tx, r.ty, grey.data(), n);
+  std::vector<SurfaceTag> tags(n);
+  if (r.rgb) read_texel_rgb(st, m, r.tx, r.ty, rgb.data(), n, tags.data());
+  else read_texel(st, m, r.tx, r.ty, grey.data(), n, tags.data());
+
+  // What the clicked surface reads from the texel: its plane along the
+  // texel's centre ray, its own step (if it casts) left out.
+  if (object >= 0 && size_t(object) < I.scene.objects.size() && dot(plane, plane) > 0.0f) {
+    const Receiver rc{p, plane, I.scene.objects[size_t(object)].casts_shadows ? uint32_t(object) : kNoObject};
+    r.receiver = true;
+    r.receiver_depth = tap_depth(sv, m, pr, rc, r.tx, r.ty);
+    const TexelRead tr = receiver_read_at(sv, m, pr, rc, r.receiver_depth);
+    r.received = texel_receive_rgb(st, m, r.tx, r.ty, tr);
+    OwnStepSearch own(tr);
+    if (tr.own != 0u)
+      for (uint32_t i = 0; i < n; ++i)
+        if (!own.visit(r.rgb ? rgb[i].z : grey[i].z, tags[i])) break;
+    r.own_node = own.index == 0xffffffffu ? -1 : int(own.index);
+  }
 
   // The same ray, epsilon 0: the texel's one-pixel view, its members' fragments.
   const MapPlan& plan = f.setup.maps[k];
@@ -209,7 +230,7 @@ ShadowSystem::TexelInspection ShadowSystem::inspect_texel(int light, Vec3 p) con
     std::vector<DsmNodeRgb> exact(kCapacity);
     RgbNodeBuffer buf{exact.data(), kCapacity};
     build_texel(scene, lp, fb.lists().pixel(0, 0), 0, 0, buf, ws);
-    r.nodes = samples_of(rgb.data(), n);
+    r.nodes = samples_of(rgb.data(), n, tags.data());
     r.exact = samples_of(exact.data(), uint32_t(buf.count));
     r.max_deviation = deviation(Span<const DsmNodeRgb>{rgb.data(), n}, Span<const DsmNodeRgb>{exact.data(), uint64_t(buf.count)},
                                 kRelativeDepthOffset);
@@ -217,7 +238,7 @@ ShadowSystem::TexelInspection ShadowSystem::inspect_texel(int light, Vec3 p) con
     std::vector<DsmNode> exact(kCapacity);
     NodeBuffer buf{exact.data(), kCapacity};
     build_texel(scene, lp, fb.lists().pixel(0, 0), 0, 0, buf, ws);
-    r.nodes = samples_of(grey.data(), n);
+    r.nodes = samples_of(grey.data(), n, tags.data());
     r.exact = samples_of(exact.data(), uint32_t(buf.count));
     r.max_deviation = deviation(Span<const DsmNode>{grey.data(), n}, Span<const DsmNode>{exact.data(), uint64_t(buf.count)},
                                 kRelativeDepthOffset);

@@ -14,7 +14,7 @@
 #include "cdsm/error.h"
 #include "cdsm/scene_io.h"
 #include "cdsm/shadow_system.h"
-#include "cpu/lookup_recorder.h"
+#include "reference/lookup_recorder.h"
 #include "memory_budget.h"
 #include "reference/reference.h"
 #include "shadow_system_impl.h"

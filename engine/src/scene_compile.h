@@ -9,7 +9,7 @@
 
 #include "cdsm/scene.h"
 #include "cluster/light_views.h"
-#include "cpu/scene_buffers.h"
+#include "scene/scene_buffers.h"
 
 namespace cdsm {
 

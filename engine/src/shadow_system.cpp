@@ -9,7 +9,7 @@
 #include "cdsm/error.h"
 #include "cdsm/scene_io.h"
 #include "backend_select.h"
-#include "exec/exec_backend.h"
+#include "backend/backend.h"
 #include "memory_budget.h"
 #include "reference/reference.h"
 #include "scene_compile.h"
@@ -79,9 +79,7 @@ const char* to_string(RebuildReason r) {
 // launches ("fragments: ...", and "scan: ...", its offsets: no other pass
 // scans) add to `fragments_ms`, the others to `other_ms`.
 static void take_kernel_times(ShadowBackend& backend, StageTimes& t, double& fragments_ms, double& other_ms) {
-  auto* ex = dynamic_cast<exec::ExecShadowBackend*>(&backend);
-  if (!ex) return;
-  for (const exec::StageTime& k : ex->take_stage_times()) {
+  for (const exec::StageTime& k : backend.take_stage_times()) {
     const bool producer = k.name.rfind("fragments", 0) == 0 || k.name.rfind("scan", 0) == 0;
     (producer ? fragments_ms : other_ms) += k.ms;
     auto it = std::find_if(t.kernels.begin(), t.kernels.end(), [&](const KernelTime& x) { return x.name == k.name; });

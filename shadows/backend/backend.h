@@ -1,10 +1,10 @@
 // The interface between the frame (engine/src/frame.h: lights -> map plans
-// -> clustering -> map cache -> build or reuse -> camera pass) and a
-// backend that runs the CDSM_HD kernels: the cpu backend (TBB,
-// shadows/cpu/cpu_backend.h) first, a cuda backend second. A backend holds
-// no frame logic: it keeps the scene buffers it was given, builds and stores
-// maps it is asked for, hands out the lookup over a list of them and runs
-// the camera pass (DESIGN.md §5).
+// -> clustering -> map cache -> build or reuse -> camera pass) and the
+// backend that runs the CDSM_HD kernels: one implementation,
+// shadows/exec/exec_backend.h, over CPU threads (the cpu backend) or a CUDA
+// device (the cuda backend). A backend holds no frame logic: it keeps the
+// scene buffers it was given, builds and stores maps it is asked for, hands
+// out the lookup over a list of them and runs the camera pass (DESIGN.md §5).
 #pragma once
 
 #include <cstdint>
@@ -13,9 +13,12 @@
 #include <string>
 #include <vector>
 
-#include "cpu/backend.h"
-#include "cpu/scene_buffers.h"
-#include "hd/lights.h"
+#include "exec/exec.h"
+#include "hd/camera_pass.h"
+#include "hd/light_pass.h"
+#include "hd/map_build.h"
+#include "scene/fragments.h"
+#include "scene/scene_buffers.h"
 
 namespace cdsm {
 
@@ -185,6 +188,17 @@ class ShadowBackend {
   }
 
   virtual MapStoreStats map_store() const = 0;
+
+  // Milliseconds per kernel launch name since the last call (CUDA events on
+  // the cuda backend, the wall clock on CPU threads).
+  virtual std::vector<exec::StageTime> take_stage_times() = 0;
+  // The exact ray-cast fragment producer run on the backend (the scene of
+  // the last update_scene), the lists read back to `out`; `mask` a host mask.
+  virtual void cast_fragments(const PinholeView& view, ObjectMask mask, FragmentBuffers& out) = 0;
 };
+
+// The cpu backend: the exec backend (backend/exec_backend.h) over CPU
+// threads (exec/host_exec.h).
+std::unique_ptr<ShadowBackend> make_cpu_backend();
 
 }  // namespace cdsm

@@ -11,6 +11,7 @@
 //
 // An executor Ex provides:
 //   static constexpr bool kHostMemory;  // its memory is host memory (readable by the host)
+//   static constexpr uint64_t kLightPassBatchBytes;  // the light pass's walk buffers per batch (exec/light_pass.h)
 //   static constexpr bool kGlInterop;   // it can write GL buffers in place; then also
 //     bool gl_context_on_device() const;  // the current GL context shares its memory
 //     void write_gl_buffers(const GlMapWrite* w, int n, const void* const* src);  // src[array] + offset -> buffer
@@ -76,9 +77,11 @@ CDSM_HD CDSM_INLINE unsigned long long atomic_add(unsigned long long* p, unsigne
 #endif
 }
 
+// Reads first and writes only a larger value: many threads offering values
+// below the maximum share the line instead of taking turns writing it.
 CDSM_HD CDSM_INLINE void atomic_max(uint32_t* p, uint32_t v) {
 #if defined(__CUDA_ARCH__)
-  atomicMax(p, v);
+  if (v > *static_cast<volatile uint32_t*>(p)) atomicMax(p, v);
 #else
   uint32_t cur = __atomic_load_n(p, __ATOMIC_RELAXED);
   while (cur < v && !__atomic_compare_exchange_n(p, &cur, v, true, __ATOMIC_RELAXED, __ATOMIC_RELAXED)) {
@@ -167,7 +170,14 @@ class ExecArray {
       uint64_t cap = capacity_ + capacity_ / 2;
       if (cap < n) cap = n;
       T* p = static_cast<T*>(ex_->allocate(size_t(cap * sizeof(T))));
-      if (keep && size_) ex_->copy(p, ptr_, size_t(size_ * sizeof(T)));
+      if (keep && size_) {
+        try {
+          ex_->copy(p, ptr_, size_t(size_ * sizeof(T)));
+        } catch (...) {
+          ex_->release(p);
+          throw;
+        }
+      }
       if (ptr_) ex_->release(ptr_);
       ptr_ = p;
       capacity_ = cap;

@@ -9,6 +9,8 @@
 #include <chrono>
 #include <cstring>
 #include <new>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "exec/exec.h"
@@ -19,12 +21,17 @@ class HostExec {
  public:
   static constexpr bool kHostMemory = true;
   static constexpr bool kGlInterop = false;  // no GL buffers written from here (exec_backend.h)
+  static constexpr uint64_t kLightPassBatchBytes = uint64_t(8) << 20;  // exec/light_pass.h: cache-sized batches
 
-  void* allocate(size_t bytes) { return ::operator new(bytes ? bytes : 1, std::align_val_t(256)); }
+  void* allocate(size_t bytes) {
+    injected_failure("allocate");
+    return ::operator new(bytes ? bytes : 1, std::align_val_t(256));
+  }
   void release(void* p) noexcept { ::operator delete(p, std::align_val_t(256)); }
 
   template <class F>
   void parallel_for(const char* name, uint64_t n, F f) {
+    injected_failure(name);
     const auto t0 = std::chrono::steady_clock::now();
     if (n > 0)
       tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, 64), [&](const tbb::blocked_range<uint64_t>& r) {
@@ -42,7 +49,15 @@ class HostExec {
 
   std::vector<StageTime> take_stage_times() { return std::exchange(times_, {}); }
 
+  // Tests of the callers' exception guarantees: the fail_after-th call
+  // (0-based) of allocate or parallel_for from now throws, naming it; -1 none.
+  int64_t fail_after = -1;
+
  private:
+  void injected_failure(const char* what) {
+    if (fail_after >= 0 && fail_after-- == 0) throw std::runtime_error(std::string("HostExec: injected failure in ") + what);
+  }
+
   std::vector<StageTime> times_;
 };
 

@@ -1,71 +1,70 @@
 // The light pass over an executor (shadows/exec/exec.h): one map into one
-// of the three layouts (DESIGN.md §3), built so that no thread holds more
-// than a few nodes — the form a GPU needs.
+// of the three layouts (DESIGN.md §3), the same algorithm on CPU threads
+// and on a GPU. Each texel's light ray is walked once, into a small buffer
+// of K nodes; only a texel with more nodes than that buffer holds is walked
+// again, into the large buffer that re-compresses beyond its bound:
 //
-// Why two passes. The cpu backend builds each texel into a buffer of
-// K = 1024 nodes per thread (8 KiB; 32 KiB with its removal heap). On a GPU
-// every resident thread would need it: an H200 keeps 132 SMs x 2048 =
-// 270,336 threads resident, so 2.2 GiB of local memory for the nodes alone
-// (8.9 GiB with the heaps), all of it streaming through L1/L2. A small
-// buffer instead (K = 64: 512 B per thread, 138 MB) must re-compress every
-// texel with more than node_limit(64) = 56 nodes — common in smoke — and then
-// differs from the cpu backend's nodes, which breaks CPU/GPU parity (>= 99.9%
-// of texels identical). So the DSM build here runs the wedge twice:
+//   1. walk     per texel of a batch of tile rows: build_texel into its own
+//               buffer of K = LightPassOptions::walk_nodes (64) nodes and
+//               their tags, no removal (hd/compress.h stop_when_full); a
+//               texel that would need more is listed for step 2;
+//   2. rewalk   the listed texels only, in chunks, each into a buffer of
+//               max_nodes (1024) nodes with the removal heap (where a long
+//               ray is re-compressed, the error bound recorded); each
+//               reserves exactly its node count in the pool with one atomic
+//               add and writes its nodes there;
+//   3. reserve  per 8x8 tile of the batch: a tile-local prefix sum over its
+//               other texels and one atomic reservation of their total;
+//   4. copy     those texels' nodes from their walk buffers into the pool;
+//   5. layout   packed: the pool is the store's; fixed and chunked: the
+//               pool is a staging array that write_fixed_texel /
+//               write_chunked_tile turn into the layout.
 //
-//   1. count   per texel, the wedge into a FixedSlotSink without slots: it
-//              keeps only the last two nodes (16 bytes), counts the rest;
-//   2. reserve per 8x8 tile, a tile-local prefix sum of the counts and one
-//              atomic reservation of the tile's exact node total (packed
-//              headers written here; chunked: the tile's chunks too);
-//   3. write   per texel, the wedge again straight into its reserved nodes
-//              (a FixedSlotSink over exactly `count` slots: it can never
-//              write past them). Texels over node_limit(K) — where the cpu
-//              backend's bounded buffer re-compresses — are built in exactly
-//              that buffer (K nodes and the removal heap) in a spill area
-//              allocated for those texels only, so the result is the cpu
-//              backend's bit for bit in every texel;
-//   4. fixed / chunked: write_fixed_texel / write_chunked_tile from the
-//              packed nodes of step 3.
-//
-// Cost: the segment walk twice. The alternative (one pass into K-node
-// buffers, LightPassMode::Staged) is kept for the baselines, whose node
-// count is bounded by their parameter, and for the GPU kit's benchmark,
-// which measures both on the device (scripts/gpu/run_kit.sh).
+// A texel's nodes are those of one walk into a buffer of max_nodes nodes
+// whatever K is: a texel that fits node_limit(K) nodes never removes any,
+// in either buffer. So the executors agree by construction, and K only
+// trades the walk buffers' memory (batch texels x K x 10 bytes, at most
+// LightPassOptions::batch_bytes) against texels walked twice. Measured on
+// the shipped scenes: none has a texel over 18 nodes (the default K = 64:
+// 0 texels walked again).
 #pragma once
 
+#include <algorithm>
 #include <limits>
 #include <stdexcept>
 #include <string>
 
-#include "cpu/backend.h"
 #include "exec/exec.h"
+#include "hd/dsm_chunked.h"
+#include "hd/dsm_fixed.h"
 #include "hd/light_pass.h"
+#include "hd/map_build.h"
 
 namespace cdsm::exec {
 
-// Counters of one build, accumulated in executor memory and read back once.
+// Counters of one build, accumulated in executor memory.
 struct BuildCounters {
-  unsigned long long nodes;         // node slots reserved by the tiles
+  unsigned long long nodes;         // node slots reserved in the pool (cumulative over the batches)
   unsigned long long chunks;        // chunked: chunks reserved
-  unsigned long long stored;        // nodes stored in the layout
-  uint32_t spill_texels;            // two-pass: texels over node_limit(K), built in the spill area
+  unsigned long long stored;        // fixed: nodes stored in the layout (packed, chunked: `nodes`)
+  uint32_t spilled;                 // this batch: texels listed for the second walk
+  uint32_t rewalked;                // texels walked twice (the map)
   uint32_t layout_overflow_texels;  // fixed: re-compressed to fit L
-  uint32_t recompressed_texels;     // by the per-texel bound or the layout (DsmBuildStats::overflow_texels)
+  uint32_t recompressed_texels;     // by the large buffer's bound or the layout (DsmBuildStats::overflow_texels)
   uint32_t max_nodes;               // stored, per texel
   uint32_t max_built_nodes;         // per texel, before the layout
   uint32_t max_extra_error_bits;    // float bits of the largest error re-compression added
-  uint32_t mismatches;              // write pass != count pass: a broken invariant, must stay 0
   uint32_t walk[4];                 // WalkStats: enclosing, match, unmatched, lengthened
 };
 
-enum class LightPassMode : uint32_t {
-  TwoPass,  // count -> reserve -> write (deep shadow maps; the default)
-  Staged,   // one pass into per-texel buffers of `node_capacity` nodes (re-compression beyond)
-};
-
 struct LightPassOptions {
-  LightPassMode mode = LightPassMode::TwoPass;
-  int node_capacity = kTexelNodeCapacity;  // K: two-pass, where a texel spills; staged, its buffer
+  int walk_nodes = kWalkNodes;            // K of the first walk (>= 4)
+  int max_nodes = kTexelNodeCapacity;     // the second walk's buffer: re-compression beyond node_limit() of it
+  // The first walk's buffers of one batch of tile rows, and the second's of
+  // one chunk; 0: the executor's (Ex::kLightPassBatchBytes: 8 MiB on CPU
+  // threads, where a batch's buffers stay in cache — measured against 2, 32
+  // and 1024 MiB —, 1 GiB on a device, where a batch must fill it).
+  uint64_t batch_bytes = 0;
 };
 
 // Per node kind: the chunk slot, the bounded buffer and its memory.
@@ -78,7 +77,6 @@ template <>
 struct NodeKind<DsmNode> {
   using Chunk = ChunkNode;
   using Buffer = NodeBuffer;
-  using Visitor = DsmVisitor;
   static constexpr size_t heap_bytes_per_slot = 4 * sizeof(uint32_t) + 2 * sizeof(float);
   static CDSM_HD uint64_t buffer_bytes(int k, bool heap) {
     const uint64_t b = uint64_t(k) * (sizeof(DsmNode) + (heap ? heap_bytes_per_slot : 0) + sizeof(SurfaceTag));
@@ -101,7 +99,6 @@ template <>
 struct NodeKind<DsmNodeRgb> {
   using Chunk = ChunkNodeRgb;
   using Buffer = RgbNodeBuffer;
-  using Visitor = DsmVisitorRgb;
   static CDSM_HD uint64_t buffer_bytes(int k, bool) {
     const uint64_t b = uint64_t(k) * (sizeof(DsmNodeRgb) + sizeof(SurfaceTag));
     return (b + 15) & ~uint64_t(15);
@@ -113,7 +110,7 @@ struct NodeKind<DsmNodeRgb> {
   }
 };
 
-// One node kind's arrays of a map store in executor memory (as DsmArrays).
+// One node kind's arrays of a map store in executor memory.
 template <class Node, class Ex>
 struct KindStore {
   using Chunk = typename NodeKind<Node>::Chunk;
@@ -129,26 +126,26 @@ struct KindStore {
 template <class Ex>
 struct LightPassScratch {
   explicit LightPassScratch(Ex& ex)
-      : counts(ex), overflow(ex), extra(ex), heads(ex), tile_first(ex), staging(ex), staging_tags(ex), staged(ex),
+      : counts(ex), spilled(ex), extra(ex), heads(ex), tile_first(ex), staging(ex), staging_tags(ex), walk(ex),
         spill(ex), spill_texels(ex), counters(ex), offsets(ex), fragments(ex), inside(ex) {}
-  ExecArray<uint32_t, Ex> counts;      // per texel: nodes it stores before the layout
-  ExecArray<uint32_t, Ex> overflow;    // per texel: 0, or re-compressed (staged: 1; two-pass: spill slot + 1)
-  ExecArray<float, Ex> extra;          // per texel: error the per-texel bound added
-  ExecArray<TexelRange, Ex> heads;     // fixed, chunked: each texel's nodes in `staging`
-  ExecArray<uint32_t, Ex> tile_first;  // chunked: each tile's first chunk (relative to the map's)
+  ExecArray<uint32_t, Ex> counts;        // per texel of the map: its nodes before the layout
+  ExecArray<uint32_t, Ex> spilled;       // per texel of the map: 1 walked again, 2 and re-compressed
+  ExecArray<float, Ex> extra;            // per texel of the map: error the large buffer's bound added
+  ExecArray<TexelRange, Ex> heads;       // fixed, chunked: each texel's nodes in `staging`
+  ExecArray<uint32_t, Ex> tile_first;    // chunked: each tile's first chunk (relative to the map's)
   ExecArray<unsigned char, Ex> staging;  // fixed, chunked: the packed nodes the layout is written from
   ExecArray<SurfaceTag, Ex> staging_tags;  // their tags
-  ExecArray<unsigned char, Ex> staged;   // staged mode: node_capacity nodes per texel
-  ExecArray<unsigned char, Ex> spill;    // two-pass: a K-node buffer per spilled texel
-  ExecArray<uint32_t, Ex> spill_texels;  // two-pass: the spilled texels, by spill slot
+  ExecArray<unsigned char, Ex> walk;     // the first walk's buffers of one batch
+  ExecArray<unsigned char, Ex> spill;    // the second walk's buffers of one chunk
+  ExecArray<uint32_t, Ex> spill_texels;  // the batch's texels listed for the second walk
   ExecArray<BuildCounters, Ex> counters;
   ExecArray<uint32_t, Ex> offsets;       // the map's fragment lists, in executor memory
   ExecArray<Fragment, Ex> fragments;
   ExecArray<uint32_t, Ex> inside;
 };
 
-// Nodes a baseline texel can hold at once (hd/baselines.h), so a buffer of
-// baseline_capacity() slots never re-compresses: the cpu backend's result.
+// Nodes a baseline texel can hold at once (hd/baselines.h): a first walk
+// into this many never needs a second.
 inline int baseline_capacity(uint32_t method, float param) {
   int bound = 2;
   if (method == kMethodOpacitySlices) bound = (param >= 1.0f ? int(param) : kDefaultOpacitySlices) + 1;
@@ -163,29 +160,12 @@ inline void check_u32_total(uint64_t v, const char* what) {
     throw std::length_error(std::string("DSM ") + what + " exceed 2^32 entries");
 }
 
-// A texel's nodes are in place (n of them before the layout): the build's
-// counters. `layout_counts`: packed and chunked store them as they are
-// (fixed counts after its own pass); `recompressed`: by the per-texel bound.
-CDSM_HD CDSM_INLINE void account_texel(BuildCounters* ctr, bool layout_counts, bool recompressed, uint32_t n, float added) {
-  atomic_max(&ctr->max_built_nodes, n);
-  if (!layout_counts) return;
-  atomic_add(&ctr->stored, (unsigned long long)n);
-  atomic_max(&ctr->max_nodes, n);
-  if (recompressed) {
-    atomic_add(&ctr->recompressed_texels, 1u);
-    atomic_max(&ctr->max_extra_error_bits, float_bits(added));
-  }
-}
-
-// The per-texel work of the light pass, one launch kind per node kind (a
-// functor rather than lambdas: one kernel holds the walker once for the
-// count and write steps and once for the bounded-buffer steps, which keeps
-// nvcc's compile time and code size down).
+// The per-texel walks of the light pass, one launch kind per node kind (a
+// functor rather than lambdas: one kernel holds the walker for both walks,
+// which keeps nvcc's compile time and code size down).
 enum class TexelStep : uint32_t {
-  Count,    // the wedge into a sink without slots: counts[i], overflow[i] (> node_limit(K))
-  Write,    // the wedge again into the texel's reserved nodes (texels with overflow[i] == 0)
-  Staged,   // build_texel into a per-texel buffer of K nodes (index: texel)
-  Spilled,  // build_texel into the cpu backend's bounded buffer, then into the pool (index: spill slot)
+  Walk,    // texel first + index into its buffer of K nodes; listed when it needs more
+  Rewalk,  // listed texel spill_texels[first + index] into the large buffer, reserved and written to the pool
 };
 
 template <class Node>
@@ -194,21 +174,32 @@ struct TexelWork {
   SceneView scene;
   LightPassParams params;
   FragmentLists frags;
-  TexelStep step = TexelStep::Count;
-  int res = 0;
-  int K = 0;                       // the per-texel bound
-  uint32_t limit = 0;              // node_limit(K)
-  bool layout_counts = true;       // account_texel()'s layout_counts
+  TexelStep step = TexelStep::Walk;
+  int res = 0, height = 0, tiles_x = 0;
+  int K = 0;                       // Walk: the first buffer; Rewalk: the large one
+  uint64_t first = 0;              // Walk: the batch's first tile; Rewalk: the chunk's first listed texel
+  bool layout_counts = true;       // packed and chunked store the nodes as built (fixed counts in its own pass)
+  uint64_t pool_base = 0;          // the pool's nodes before this map (packed: the store's)
   uint32_t* counts = nullptr;
-  uint32_t* overflow = nullptr;
+  uint32_t* spilled = nullptr;       // per texel: 0, 1 walked again, 2 walked again and re-compressed
   float* extra = nullptr;
+  TexelRange* heads = nullptr;
   BuildCounters* ctr = nullptr;
-  const TexelRange* heads = nullptr;
-  Node* target = nullptr;          // the packed nodes (the store's, or the staging array)
-  SurfaceTag* target_tags = nullptr;  // their tags
-  unsigned char* bounded = nullptr;  // Staged: K nodes per texel; Spilled: one buffer per spill slot
+  unsigned char* buffers = nullptr;  // Walk: the batch's; Rewalk: the chunk's
   uint64_t slot_bytes = 0;
-  const uint32_t* spill_texels = nullptr;
+  uint32_t* spill_texels = nullptr;
+  Node* pool = nullptr;              // Rewalk: the pool (its capacity holds the chunk's worst case)
+  SurfaceTag* pool_tags = nullptr;
+
+  // Texel k of the batch whose first tile is `tile0`, in tile order (64
+  // texels an 8x8 tile); false past the map's edge.
+  CDSM_HD bool batch_texel(uint64_t tile0, uint64_t k, int& tx, int& ty) const {
+    const uint64_t tile = tile0 + k / uint64_t(kDsmTile * kDsmTile);
+    const int j = int(k % uint64_t(kDsmTile * kDsmTile));
+    tx = int(tile % uint64_t(tiles_x)) * kDsmTile + j % kDsmTile;
+    ty = int(tile / uint64_t(tiles_x)) * kDsmTile + j / kDsmTile;
+    return tx < res && ty < height;
+  }
 
   CDSM_HD void add_walk(const WalkStats& st) const {
     if (st.enclosing_overflow) atomic_add(&ctr->walk[0], st.enclosing_overflow);
@@ -218,57 +209,56 @@ struct TexelWork {
   }
 
   CDSM_HD void operator()(uint64_t idx) const {
-    if (step == TexelStep::Staged || step == TexelStep::Spilled) {
-      bounded_texel(idx);
-      return;
+    const bool walk = step == TexelStep::Walk;
+    int tx, ty;
+    if (walk) {  // the batch's texels tile by tile (neighbouring rays walk together: coherent volume reads)
+      if (!batch_texel(first, idx, tx, ty)) return;
+    } else {
+      const uint64_t t = spill_texels[first + idx];
+      tx = int(t % uint64_t(res));
+      ty = int(t / uint64_t(res));
     }
-    const uint64_t i = idx;
-    const bool write = step == TexelStep::Write;
-    if (write && overflow[i] != 0u) return;  // spilled: its own step
-    const int tx = int(i % uint64_t(res)), ty = int(i / uint64_t(res));
-    const TexelRange h = write ? heads[i] : TexelRange{0u, 0u};
-    FixedSlotSink<Node> sink(write ? target + h.offset : nullptr, write ? int(h.count) : 0,
-                             write ? target_tags + h.offset : nullptr);
-    WalkStats st;
-    build_texel_into(scene, params, frags.pixel(tx, ty), tx, ty, sink, st);
-    const uint32_t n = uint32_t(sink.count);
-    if (!write) {
-      counts[i] = n > limit ? limit : n;  // a bounded buffer ends with node_limit(K) nodes
-      if (n > limit) overflow[i] = 1u;
-      add_walk(st);
-      return;
-    }
-    if (n != h.count) atomic_add(&ctr->mismatches, 1u);
-    account_texel(ctr, layout_counts, false, h.count, 0.0f);
-  }
-
-  CDSM_HD void bounded_texel(uint64_t idx) const {
-    const bool staged = step == TexelStep::Staged;
-    const uint64_t i = staged ? idx : uint64_t(spill_texels[idx]);
-    const int tx = int(i % uint64_t(res)), ty = int(i / uint64_t(res));
-    // Scalar spilled texels remove through the heap, as the cpu backend's
-    // buffer does; the staged buffers (and RGB ones) by scan.
-    auto buf = Kind::buffer(bounded + idx * slot_bytes, K, !staged && sizeof(Node) == sizeof(DsmNode));
+    const uint64_t i = uint64_t(ty) * uint64_t(res) + uint64_t(tx);
+    // The large buffer removes through the heap for scalar nodes (RGB ones by scan).
+    auto buf = Kind::buffer(buffers + idx * slot_bytes, K, !walk && sizeof(Node) == sizeof(DsmNode));
+    buf.stop_when_full = walk;
     WalkStats st;
     build_texel(scene, params, frags.pixel(tx, ty), tx, ty, buf, st);
-    if (staged) {
-      counts[i] = uint32_t(buf.count);
+    if (walk) {
+      add_walk(st);  // (a texel walked twice counts its walk once)
       if (buf.removed > 0) {
-        overflow[i] = 1u;
-        extra[i] = buf.extra_error;
+        spilled[i] = 1u;
+        spill_texels[atomic_add(&ctr->spilled, 1u)] = uint32_t(i);
+        return;
       }
-      add_walk(st);
+      // (no per-texel sums here: an atomic add on one counter from every
+      // thread costs more than the walk of an empty texel; the nodes stored
+      // are the pool's reservations)
+      counts[i] = uint32_t(buf.count);
+      atomic_max(&ctr->max_built_nodes, uint32_t(buf.count));
+      if (layout_counts) atomic_max(&ctr->max_nodes, uint32_t(buf.count));
       return;
     }
-    const TexelRange h = heads[i];
-    if (uint32_t(buf.count) != h.count) atomic_add(&ctr->mismatches, 1u);
-    const uint32_t n = uint32_t(buf.count) < h.count ? uint32_t(buf.count) : h.count;
-    for (uint32_t j = 0; j < n; ++j) {
-      target[h.offset + j] = buf.nodes[j];
-      target_tags[h.offset + j] = buf.tags[j];
-    }
+    const uint32_t n = uint32_t(buf.count);
+    const bool recompressed = buf.removed > 0;
+    counts[i] = n;
     extra[i] = buf.extra_error;
-    account_texel(ctr, layout_counts, true, h.count, buf.extra_error);
+    spilled[i] = recompressed ? 2u : 1u;
+    const uint32_t at = uint32_t(pool_base + atomic_add(&ctr->nodes, (unsigned long long)n));
+    heads[i] = TexelRange{at, n};
+    for (uint32_t j = 0; j < n; ++j) {
+      pool[at + j] = buf.nodes[j];
+      pool_tags[at + j] = buf.tags[j];
+    }
+    atomic_add(&ctr->rewalked, 1u);
+    atomic_max(&ctr->max_built_nodes, n);
+    if (layout_counts) {
+      atomic_max(&ctr->max_nodes, n);
+      if (recompressed) {
+        atomic_add(&ctr->recompressed_texels, 1u);
+        atomic_max(&ctr->max_extra_error_bits, float_bits(buf.extra_error));
+      }
+    }
   }
 };
 
@@ -288,10 +278,9 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
   const uint64_t n_tiles = uint64_t(tiles_x) * uint64_t(tiles_y);
   const uint32_t L = uint32_t(layout.fixed_layers), C = uint32_t(layout.chunk_nodes);
   const bool baseline = params.method != kMethodDsm;
-  const bool staged = baseline || opt.mode == LightPassMode::Staged;
-  const int K = baseline ? baseline_capacity(params.method, params.method_param) : opt.node_capacity;
-  if (K < 4) throw std::invalid_argument("light pass: the per-texel node bound must be >= 4");
-  const uint32_t limit = uint32_t(node_limit(K));
+  const int K = baseline ? baseline_capacity(params.method, params.method_param) : opt.walk_nodes;
+  const int K2 = opt.max_nodes;
+  if (K < 4 || K2 < K) throw std::invalid_argument("light pass: the walk buffers must hold >= 4 nodes, the second >= the first");
 
   map = DsmMap{};
   map.view = params.view;
@@ -300,163 +289,197 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
   map.texel_offset = out.texel_count;
 
   s.counts.resize_discard(n_texels);
-  s.overflow.resize_discard(n_texels);
+  s.spilled.resize_discard(n_texels);
   s.extra.resize_discard(n_texels);
   s.counters.resize_discard(1);
-  ex.fill_zero(s.overflow.data(), s.overflow.bytes());
+  ex.fill_zero(s.spilled.data(), s.spilled.bytes());
   ex.fill_zero(s.extra.data(), s.extra.bytes());
   ex.fill_zero(s.counters.data(), s.counters.bytes());
-  const uint64_t staged_bytes = Kind::buffer_bytes(K, false);  // per texel
-  if (staged) {
-    const uint64_t bytes = n_texels * staged_bytes;
-    if (bytes > (uint64_t(4) << 30))
-      throw std::length_error("light pass: " + std::to_string(bytes >> 20) + " MiB of per-texel buffers (" +
-                              std::to_string(K) + " nodes per texel); lower the resolution or the method's parameter");
-    s.staged.resize_discard(bytes);
-  }
-
   uint32_t* counts = s.counts.data();
-  uint32_t* overflow = s.overflow.data();
+  uint32_t* spilled = s.spilled.data();
   float* extra = s.extra.data();
   BuildCounters* ctr = s.counters.data();
-  unsigned char* staged_mem = s.staged.data();
 
-  // 1. count (staged: build into the per-texel buffers).
+  // The pool the walks write: packed, the store's nodes; fixed and chunked,
+  // the staging array. Headers: packed, the store's; else the scratch's.
+  const uint64_t pool_base = kind == kDsmPacked ? out.nodes.size() : 0;
+  if (kind != kDsmFixed) out.texels.resize(out.texels.size() + n_texels);
+  if (kind != kDsmPacked) {
+    s.heads.resize_discard(n_texels);
+    s.staging.resize_discard(0);
+    s.staging_tags.resize_discard(0);
+  }
+  TexelRange* heads = kind == kDsmPacked ? out.texels.data() + map.texel_offset : s.heads.data();
+  uint64_t pool_used = 0;  // nodes reserved in the pool so far (beyond pool_base)
+  // The pool grown to hold `nodes` beyond pool_base (contents kept).
+  const auto pool_size = [&](uint64_t nodes) {
+    if (kind == kDsmPacked) {
+      check_u32_total(pool_base + nodes, "nodes");
+      out.nodes.resize(pool_base + nodes);
+      out.tags.resize(pool_base + nodes);
+    } else {
+      check_u32_total(nodes, "staged nodes");
+      s.staging.resize(nodes * sizeof(Node));
+      s.staging_tags.resize(nodes);
+    }
+  };
+  const auto pool_nodes = [&]() -> Node* {
+    return kind == kDsmPacked ? out.nodes.data() : reinterpret_cast<Node*>(s.staging.data());
+  };
+  const auto pool_tags = [&]() -> SurfaceTag* { return kind == kDsmPacked ? out.tags.data() : s.staging_tags.data(); };
+
   TexelWork<Node> work;
   work.scene = scene;
   work.params = params;
   work.frags = frags;
   work.res = res;
-  work.K = K;
-  work.limit = limit;
-  work.layout_counts = kind != kDsmFixed;  // fixed counts after its layout pass
+  work.height = height;
+  work.tiles_x = tiles_x;
+  work.layout_counts = kind != kDsmFixed;
+  work.pool_base = pool_base;
   work.counts = counts;
-  work.overflow = overflow;
+  work.spilled = spilled;
   work.extra = extra;
+  work.heads = heads;
   work.ctr = ctr;
-  if (staged) {
-    work.step = TexelStep::Staged;
-    work.bounded = staged_mem;
-    work.slot_bytes = staged_bytes;
-    ex.parallel_for("light pass: build (staged)", n_texels, work);
-  } else {
-    work.step = TexelStep::Count;
-    ex.parallel_for("light pass: count", n_texels, work);
-  }
 
-  // 2. reserve: tile-local prefix sum, one atomic reservation per tile.
-  // Packed maps get their headers here (offsets into the store's nodes);
-  // fixed and chunked ones the places of their nodes in the staging array.
-  const uint64_t pool_base = kind == kDsmPacked ? out.nodes.size() : 0;
-  if (kind != kDsmFixed) out.texels.resize(out.texels.size() + n_texels);
-  if (kind != kDsmPacked) s.heads.resize_discard(n_texels);
-  if (kind == kDsmChunked) s.tile_first.resize_discard(n_tiles);
-  if (!staged) s.spill_texels.resize_discard(n_texels);
-  uint32_t* spill_texels = s.spill_texels.data();
-  TexelRange* heads = kind == kDsmPacked ? out.texels.data() + map.texel_offset : s.heads.data();
-  uint32_t* tile_first = s.tile_first.data();
-  ex.parallel_for("light pass: reserve tiles", n_tiles, CDSM_LAMBDA(uint64_t tile) {
-    const int x0 = int(tile % uint64_t(tiles_x)) * kDsmTile, y0 = int(tile / uint64_t(tiles_x)) * kDsmTile;
-    uint32_t total = 0;
-    for (int k = 0; k < kDsmTile * kDsmTile; ++k) {
-      const int tx = x0 + k % kDsmTile, ty = y0 + k / kDsmTile;
-      if (tx < res && ty < height) total += counts[uint64_t(ty) * res + tx];
-    }
-    unsigned long long at = atomic_add(&ctr->nodes, (unsigned long long)total);
-    if (kind == kDsmChunked) tile_first[tile] = uint32_t(atomic_add(&ctr->chunks, (unsigned long long)tile_chunks(total, C)));
-    for (int k = 0; k < kDsmTile * kDsmTile; ++k) {
-      const int tx = x0 + k % kDsmTile, ty = y0 + k / kDsmTile;
-      if (tx >= res || ty >= height) continue;
-      const uint64_t t = uint64_t(ty) * res + tx;
-      heads[t] = TexelRange{uint32_t(pool_base + at), counts[t]};
-      at += counts[t];
-      if (!staged && overflow[t] != 0u) {
-        const uint32_t slot = atomic_add(&ctr->spill_texels, 1u);
-        spill_texels[slot] = uint32_t(t);
-        overflow[t] = slot + 1u;
-      }
-    }
-  });
-
+  const uint64_t walk_bytes = Kind::buffer_bytes(K, false);
+  const uint64_t rewalk_bytes = Kind::buffer_bytes(K2, sizeof(Node) == sizeof(DsmNode));
+  const uint64_t row_texels = uint64_t(tiles_x) * kDsmTile * kDsmTile;  // a row of tiles, its edge included
+  const uint64_t batch_bytes = opt.batch_bytes ? opt.batch_bytes : Ex::kLightPassBatchBytes;
+  const uint64_t rows_per_batch = std::max<uint64_t>(1, batch_bytes / std::max<uint64_t>(1, row_texels * walk_bytes));
+  const uint64_t chunk_texels = std::max<uint64_t>(1, batch_bytes / rewalk_bytes);
   BuildCounters c{};
-  ex.download(&c, ctr, sizeof c);
-  const uint64_t total = c.nodes;
-  if (kind == kDsmPacked) check_u32_total(pool_base + total, "nodes");
-  if (kind == kDsmChunked) check_u32_total((out.chunks.size() / (C ? C : 1) + c.chunks) * C, "chunk slots");
-  if (kind != kDsmPacked) check_u32_total(total, "staged nodes");
-
-  // 3. write: the nodes into the packed pool (fixed, chunked: the staging array).
-  Node* target;
-  SurfaceTag* target_tags;
-  if (kind == kDsmPacked) {
-    out.nodes.resize(pool_base + total);
-    out.tags.resize(pool_base + total);
-    target = out.nodes.data();
-    target_tags = out.tags.data();
-  } else {
-    s.staging.resize_discard(total * sizeof(Node));
-    s.staging_tags.resize_discard(total);
-    target = reinterpret_cast<Node*>(s.staging.data());
-    target_tags = s.staging_tags.data();
-  }
-  const uint64_t slot_bytes = Kind::buffer_bytes(K, sizeof(Node) == sizeof(DsmNode));
-  if (!staged) s.spill.resize_discard(uint64_t(c.spill_texels) * slot_bytes);
-  const bool count_here = kind != kDsmFixed;
-  if (staged) {
-    ex.parallel_for("light pass: copy (staged)", n_texels, CDSM_LAMBDA(uint64_t i) {
-      const TexelRange h = heads[i];
-      const auto buf = Kind::buffer(staged_mem + i * staged_bytes, K, false);
-      for (uint32_t j = 0; j < h.count; ++j) {
-        target[h.offset + j] = buf.nodes[j];
-        target_tags[h.offset + j] = buf.tags[j];
+  for (int row0 = 0; row0 < tiles_y; row0 += int(rows_per_batch)) {
+    const int row1 = std::min<int>(tiles_y, row0 + int(rows_per_batch));
+    const uint64_t tile0 = uint64_t(row0) * uint64_t(tiles_x), tiles = uint64_t(row1 - row0) * uint64_t(tiles_x);
+    const uint64_t batch = tiles * uint64_t(kDsmTile * kDsmTile);  // texels, tile by tile (the map's edge included)
+    // 1. walk
+    s.walk.resize_discard(batch * walk_bytes);
+    s.spill_texels.resize_discard(batch);
+    ex.fill_zero(&ctr->spilled, sizeof(uint32_t));
+    work.step = TexelStep::Walk;
+    work.K = K;
+    work.first = tile0;
+    work.buffers = s.walk.data();
+    work.slot_bytes = walk_bytes;
+    work.spill_texels = s.spill_texels.data();
+    ex.parallel_for("light pass: walk", batch, work);
+    ex.download(&c, ctr, sizeof c);
+    // 2. rewalk the listed texels, a chunk at a time, into the pool.
+    if (c.spilled > 0) {
+      work.step = TexelStep::Rewalk;
+      work.K = K2;
+      work.slot_bytes = rewalk_bytes;
+      for (uint64_t f = 0; f < c.spilled; f += chunk_texels) {
+        const uint64_t n = std::min<uint64_t>(chunk_texels, c.spilled - f);
+        s.spill.resize_discard(n * rewalk_bytes);
+        pool_size(pool_used + n * uint64_t(node_limit(K2)));  // the chunk's worst case; trimmed below
+        work.first = f;
+        work.buffers = s.spill.data();
+        work.pool = pool_nodes();
+        work.pool_tags = pool_tags();
+        ex.parallel_for("light pass: walk again", n, work);
+        ex.download(&c, ctr, sizeof c);
+        pool_used = c.nodes;
       }
-      account_texel(ctr, count_here, overflow[i] != 0u, h.count, extra[i]);
+    }
+    // 3. reserve the tiles' other texels.
+    ex.parallel_for("light pass: reserve tiles", tiles, CDSM_LAMBDA(uint64_t k) {
+      const uint64_t tile = tile0 + k;
+      const int x0 = int(tile % uint64_t(tiles_x)) * kDsmTile, y0 = int(tile / uint64_t(tiles_x)) * kDsmTile;
+      uint32_t total = 0;
+      for (int j = 0; j < kDsmTile * kDsmTile; ++j) {
+        const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
+        const uint64_t t = uint64_t(ty) * res + tx;
+        if (tx < res && ty < height && spilled[t] == 0u) total += counts[t];
+      }
+      uint64_t at = pool_base + atomic_add(&ctr->nodes, (unsigned long long)total);
+      for (int j = 0; j < kDsmTile * kDsmTile; ++j) {
+        const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
+        const uint64_t t = uint64_t(ty) * res + tx;
+        if (tx >= res || ty >= height || spilled[t] != 0u) continue;
+        heads[t] = TexelRange{uint32_t(at), counts[t]};
+        at += counts[t];
+      }
     });
-  } else {
-    work.heads = heads;
-    work.target = target;
-    work.target_tags = target_tags;
-    work.step = TexelStep::Write;
-    ex.parallel_for("light pass: write", n_texels, work);
-    // Texels over node_limit(K): the cpu backend's bounded buffer (K nodes,
-    // the removal heap for scalar nodes), so the same removals, the same nodes.
-    work.step = TexelStep::Spilled;
-    work.bounded = s.spill.data();
-    work.slot_bytes = slot_bytes;
-    work.spill_texels = spill_texels;
-    ex.parallel_for("light pass: spilled texels", c.spill_texels, work);
+    ex.download(&c, ctr, sizeof c);
+    pool_used = c.nodes;
+    pool_size(pool_used);
+    // 4. copy the walked texels' nodes.
+    Node* pn = pool_nodes();
+    SurfaceTag* pt = pool_tags();
+    const unsigned char* walk_mem = s.walk.data();
+    const TexelWork<Node> at = work;
+    ex.parallel_for("light pass: copy", batch, CDSM_LAMBDA(uint64_t k) {
+      int tx, ty;
+      if (!at.batch_texel(tile0, k, tx, ty)) return;
+      const uint64_t t = uint64_t(ty) * uint64_t(res) + uint64_t(tx);
+      if (spilled[t] != 0u) return;
+      const TexelRange h = heads[t];
+      const auto buf = Kind::buffer(const_cast<unsigned char*>(walk_mem) + k * walk_bytes, K, false);
+      for (uint32_t j = 0; j < h.count; ++j) {
+        pn[h.offset + j] = buf.nodes[j];
+        pt[h.offset + j] = buf.tags[j];
+      }
+    });
   }
+  const uint64_t total = pool_used;
 
-  // 4. the layout.
-  const uint64_t chunk_base = kind == kDsmChunked ? out.chunks.size() : 0;  // slots
+  // 5. the layout.
   if (kind == kDsmFixed) {
-    out.nodes.resize(out.nodes.size() + n_texels * L);
+    const uint64_t first_slot = out.nodes.size();
+    out.nodes.resize(first_slot + n_texels * L);
     out.tags.resize(out.nodes.size());
-    Node* slots = out.nodes.data() + map.texel_offset * L;
-    SurfaceTag* slot_tags = out.tags.data() + map.texel_offset * L;
+    Node* slots = out.nodes.data() + first_slot;
+    SurfaceTag* slot_tags = out.tags.data() + first_slot;
     const float eps = params.epsilon;
-    const Node* staging = target;
-    const SurfaceTag* staging_tags = target_tags;
+    const Node* staging = reinterpret_cast<const Node*>(s.staging.data());
+    const SurfaceTag* staging_tags = s.staging_tags.data();
     ex.parallel_for("light pass: fixed layout", n_texels, CDSM_LAMBDA(uint64_t i) {
       const TexelRange h = heads[i];
       FixedFit fit = write_fixed_texel(Span<const Node>{staging + h.offset, h.count}, staging_tags + h.offset, eps,
                                        slots + i * L, slot_tags + i * L, int(L));
-      atomic_add(&ctr->stored, (unsigned long long)fit.count);
+      counts[i] = uint32_t(fit.count);  // summed per tile below
       atomic_max(&ctr->max_nodes, uint32_t(fit.count));
       if (fit.recompressed) atomic_add(&ctr->layout_overflow_texels, 1u);
-      if (fit.recompressed || overflow[i] != 0u) {
+      if (fit.recompressed || spilled[i] == 2u) {
         atomic_add(&ctr->recompressed_texels, 1u);
         atomic_max(&ctr->max_extra_error_bits, float_bits(extra[i] + fit.extra_error));
       }
     });
+    ex.parallel_for("light pass: count stored", n_tiles, CDSM_LAMBDA(uint64_t tile) {
+      const int x0 = int(tile % uint64_t(tiles_x)) * kDsmTile, y0 = int(tile / uint64_t(tiles_x)) * kDsmTile;
+      unsigned long long n = 0;
+      for (int j = 0; j < kDsmTile * kDsmTile; ++j) {
+        const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
+        if (tx < res && ty < height) n += counts[uint64_t(ty) * res + tx];
+      }
+      if (n) atomic_add(&ctr->stored, n);
+    });
   } else if (kind == kDsmChunked) {
+    // Each tile reserves the chunks of all its nodes (Alg. 4.1, hd/dsm_chunked.h).
+    s.tile_first.resize_discard(n_tiles);
+    uint32_t* tile_first = s.tile_first.data();
+    ex.parallel_for("light pass: reserve chunks", n_tiles, CDSM_LAMBDA(uint64_t tile) {
+      const int x0 = int(tile % uint64_t(tiles_x)) * kDsmTile, y0 = int(tile / uint64_t(tiles_x)) * kDsmTile;
+      uint32_t n = 0;
+      for (int j = 0; j < kDsmTile * kDsmTile; ++j) {
+        const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
+        if (tx < res && ty < height) n += counts[uint64_t(ty) * res + tx];
+      }
+      tile_first[tile] = uint32_t(atomic_add(&ctr->chunks, (unsigned long long)tile_chunks(n, C)));
+    });
+    ex.download(&c, ctr, sizeof c);
+    const uint64_t chunk_base = out.chunks.size();  // slots
+    check_u32_total(chunk_base + c.chunks * C, "chunk slots");
     out.chunks.resize(chunk_base + c.chunks * C);
     out.tags.resize(out.chunks.size());
     Chunk* pool = out.chunks.data();
-    SurfaceTag* pool_tags = out.tags.data();
+    SurfaceTag* chunk_tags = out.tags.data();
     TexelRange* store_heads = out.texels.data() + map.texel_offset;
-    const Node* staging = target;
-    const SurfaceTag* staging_tags = target_tags;
+    const Node* staging = reinterpret_cast<const Node*>(s.staging.data());
+    const SurfaceTag* staging_tags = s.staging_tags.data();
     ex.parallel_for("light pass: chunked layout", n_tiles, CDSM_LAMBDA(uint64_t tile) {
       const int x0 = int(tile % uint64_t(tiles_x)) * kDsmTile, y0 = int(tile / uint64_t(tiles_x)) * kDsmTile;
       uint32_t tile_counts[kChunkTileTexels];
@@ -471,7 +494,7 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
       write_chunked_tile(
           tile_counts, kChunkTileTexels, [&](int k) { return staging + heads[texel[k]].offset; },
           [&](int k) { return staging_tags + heads[texel[k]].offset; },
-          uint32_t(chunk_base + uint64_t(tile_first[tile]) * C), C, pool, pool_tags, tile_heads);
+          uint32_t(chunk_base + uint64_t(tile_first[tile]) * C), C, pool, chunk_tags, tile_heads);
       for (int k = 0; k < kChunkTileTexels; ++k) {
         const int tx = x0 + k % kDsmTile, ty = y0 + k / kDsmTile;
         if (tx < res && ty < height) store_heads[texel[k]] = tile_heads[k];
@@ -481,18 +504,16 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
   out.texel_count += n_texels;
 
   ex.download(&c, ctr, sizeof c);
-  if (c.mismatches != 0)
-    throw std::logic_error("light pass: " + std::to_string(c.mismatches) +
-                           " texels wrote a different node count than they counted (the two passes disagree)");
   DsmBuildStats stats;
   stats.layout = kind;
   stats.rgb = params.rgb;
   stats.texels = n_texels;
-  stats.nodes = c.stored;
+  stats.nodes = kind == kDsmFixed ? c.stored : c.nodes;  // packed, chunked: every node reserved is stored
   stats.max_nodes = c.max_nodes;
   stats.max_built_nodes = c.max_built_nodes;
   stats.overflow_texels = c.recompressed_texels;
   stats.layout_overflow_texels = c.layout_overflow_texels;
+  stats.rewalked_texels = c.rewalked;
   stats.max_extra_error = bits_float(c.max_extra_error_bits);
   stats.walk.enclosing_overflow = c.walk[0];
   stats.walk.match_overflow = c.walk[1];
@@ -513,9 +534,9 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
       break;
     default:
       stats.index_bytes = n_texels * sizeof(TexelRange);
-      stats.node_bytes_allocated = stats.nodes * sizeof(Node);
+      stats.node_bytes_allocated = total * sizeof(Node);
       stats.node_bytes_used = stats.nodes * sizeof(Node);
-      stats.tag_bytes = stats.nodes * sizeof(SurfaceTag);
+      stats.tag_bytes = total * sizeof(SurfaceTag);
   }
   stats.slack_bytes = stats.node_bytes_allocated - stats.node_bytes_used;
   return stats;

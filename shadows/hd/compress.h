@@ -85,6 +85,10 @@ struct NodeBuffer {
   RemovalScratch scratch;
   SurfaceTag* tags = nullptr;  // per slot, the node's SurfaceTag (capacity entries); null: not kept
   SurfaceTag last_tag_ = kNoSurface;  // the last node's tag (kept also without `tags`)
+  // A first walk into a small buffer (shadows/exec/light_pass.h): beyond
+  // node_limit(capacity) nodes nothing is removed or stored, `removed`
+  // only says the texel needs a larger buffer (it is walked again).
+  bool stop_when_full = false;
   // Overflow state (with scratch): nodes are linked over slots [0, count).
   bool linked = false;
   int alive = 0;             // nodes of the function when linked
@@ -380,6 +384,10 @@ CDSM_HD CDSM_INLINE int node_limit(int capacity) { return capacity - (capacity /
 
 CDSM_HD inline void NodeBuffer::emit(float z, float a, SurfaceTag tag) {
   const int limit = node_limit(capacity);
+  if (stop_when_full && count >= limit) {
+    ++removed;
+    return;
+  }
   last_tag_ = tag;
   if (scratch.empty()) {
     if (count >= limit && count >= 2) {

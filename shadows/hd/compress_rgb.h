@@ -177,7 +177,12 @@ struct RgbNodeBuffer {
   float eps = 0.0f;  // tolerance of the compressor feeding it
   SurfaceTag* tags = nullptr;         // per slot, the node's SurfaceTag; null: not kept
   SurfaceTag last_tag_ = kNoSurface;  // the last node's tag
+  bool stop_when_full = false;        // as NodeBuffer's: a first walk that only learns it needs more
   CDSM_HD void emit(float z, Vec3 a, SurfaceTag tag = kNoSurface) {
+    if (stop_when_full && count >= node_limit(capacity)) {
+      ++removed;
+      return;
+    }
     const DsmNodeRgb incoming{z, a.x, a.y, a.z};
     if (count >= node_limit(capacity) && count >= 2) {
       remove_cheapest_scan(nodes, count, incoming, extra_error, tags);

@@ -9,7 +9,7 @@
 #include "cdsm/renderer.h"
 #include "cdsm/scene_io.h"
 #include "frame.h"
-#include "cpu/lookup_recorder.h"
+#include "reference/lookup_recorder.h"
 #include "reference/reference.h"
 
 namespace cdsm {

@@ -14,7 +14,7 @@
 #include "backend/backend.h"
 #include "cdsm/gl.h"
 #include "cdsm/scene.h"
-#include "cpu/fragments_cpu.h"
+#include "scene/fragments.h"
 #include "scene_compile.h"
 #include "gl/context.h"
 #include "gl/fragment_raster.h"

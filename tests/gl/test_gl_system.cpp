@@ -14,7 +14,7 @@
 #include "cdsm/procedural.h"
 #include "cdsm/scene_io.h"
 #include "cdsm/shadow_system.h"
-#include "exec/exec_backend.h"
+#include "backend/exec_backend.h"
 #include "exec/host_exec.h"
 #include "gl/gl_api.h"
 #include "gl_test_util.h"
@@ -480,6 +480,8 @@ class InPlaceBackend final : public ShadowBackend {
     inner_->camera_pass(v, p, f, rgb, w);
   }
   MapStoreStats map_store() const override { return inner_->map_store(); }
+  std::vector<exec::StageTime> take_stage_times() override { return inner_->take_stage_times(); }
+  void cast_fragments(const PinholeView& v, ObjectMask m, FragmentBuffers& out) override { inner_->cast_fragments(v, m, out); }
 
   bool can_write_gl_maps() const override { return true; }
   void write_gl_maps(const GlMapWrite* w, int n) override {

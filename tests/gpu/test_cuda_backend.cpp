@@ -8,7 +8,8 @@
 #include <gtest/gtest.h>
 
 #include "cdsm/renderer.h"
-#include "cpu/cpu_backend.h"
+#include "backend/backend.h"
+#include "common/host_maps.h"
 #include "cuda_backend.h"
 #include "gpu_test.h"
 #include "parity.h"
@@ -80,11 +81,12 @@ TEST(CudaBackend, SpilledTexelsMatchTheBoundedBuffer) {
   f2 = f1;
   std::vector<uint32_t> inside = objects_containing(sv, ls.maps[0].view.eye, mask);
   const LightPassParams lp{ls.maps[0].view, 0.002f, {inside.data(), inside.size()}};
-  DsmBuffers ref;
-  const DsmBuildStats rs = build_dsm(sv, lp, f1.lists(), ref, {}, 16);
+  cdsm_test::HostMaps ref;
+  const DsmBuildStats rs = cdsm_test::build_host_map(sb, lp, f1, ref, {}, 16, 8);
   std::unique_ptr<exec::ExecShadowBackend> gpu = cuda::make_cuda_backend();
   gpu->update_scene(sb, SceneChange{true, 0, 0, true});
-  gpu->light_pass().node_capacity = 16;
+  gpu->light_pass().walk_nodes = 8;
+  gpu->light_pass().max_nodes = 16;
   DsmBuildStats gs;
   const MapId id = gpu->build_map(lp, f2.lists(), {}, gs);
   const parity::MapComparison c = parity::compare_maps(ref.storage(), ref.maps[0], gpu->storage(), gpu->map_header(id));

@@ -14,10 +14,12 @@
 
 #include "cdsm/procedural.h"
 #include "cdsm/renderer.h"
-#include "cpu/backend.h"
+#include "common/host_maps.h"
 #include "scene_compile.h"
 
 using namespace cdsm;
+using cdsm_test::build_host_map;
+using cdsm_test::HostMaps;
 
 namespace {
 
@@ -125,16 +127,16 @@ struct Fixture {
   }
 
   // One map in `layout` (eps: compression bound; 0 keeps every sample).
-  DsmBuildStats build(const DsmLayoutParams& layout, DsmBuffers& out, float eps = 0.002f,
+  DsmBuildStats build(const DsmLayoutParams& layout, HostMaps& out, float eps = 0.002f,
                       PinholeView v = PinholeView{}) {
     LightPassParams lp{v.width > 1 ? v : view, eps, {inside.data(), inside.size()}};
     if (v.width > 1) {
       FragmentBuffers fb;
       ObjectMask mask{{casters.data(), casters.size()}};
       cast_fragments(sv, v, mask, fb);
-      return build_dsm(sv, lp, fb.lists(), out, layout);
+      return build_host_map(sb, lp, fb, out, layout);
     }
-    return build_dsm(sv, lp, frags.lists(), out, layout);
+    return build_host_map(sb, lp, frags, out, layout);
   }
 };
 
@@ -147,7 +149,7 @@ DsmLayoutParams packed() { return {kDsmPacked, 32, 64}; }
 DsmLayoutParams fixed(int L) { return {kDsmFixed, L, 64}; }
 DsmLayoutParams chunked(int C = 64) { return {kDsmChunked, 32, C}; }
 
-std::vector<DsmNode> nodes_of(const DsmBuffers& b, int tx, int ty, int map = 0) {
+std::vector<DsmNode> nodes_of(const HostMaps& b, int tx, int ty, int map = 0) {
   std::vector<DsmNode> n(4096);
   uint32_t c = read_texel(b.storage(), b.maps[size_t(map)], tx, ty, n.data(), uint32_t(n.size()));
   n.resize(c);
@@ -167,10 +169,10 @@ std::vector<float> probe_depths(const std::vector<DsmNode>& n) {
   return z;
 }
 
-uint32_t packed_count(const DsmBuffers& b, int tx, int ty) { return b.texels[size_t(ty) * kRes + tx].count; }
+uint32_t packed_count(const HostMaps& b, int tx, int ty) { return b.texels[size_t(ty) * kRes + tx].count; }
 
 TEST(Layouts, SceneHasInterestingTexels) {
-  DsmBuffers p;
+  HostMaps p;
   DsmBuildStats st = fixture().build(packed(), p);
   EXPECT_GT(st.max_nodes, 64u) << "the slab stack should need more than one chunk per texel";
   EXPECT_EQ(st.overflow_texels, 0u);
@@ -181,7 +183,7 @@ TEST(Layouts, SceneHasInterestingTexels) {
 
 TEST(Layouts, SameLookupsAcrossLayouts) {
   Fixture& f = fixture();
-  DsmBuffers p, x, c;
+  HostMaps p, x, c;
   f.build(packed(), p);
   DsmBuildStats sx = f.build(fixed(256), x);
   DsmBuildStats sc = f.build(chunked(), c);
@@ -229,7 +231,7 @@ TEST(Layouts, SameLookupsAcrossLayouts) {
 }
 
 TEST(Layouts, PackedHasNoSlack) {
-  DsmBuffers p;
+  HostMaps p;
   DsmBuildStats st = fixture().build(packed(), p);
   uint64_t sum = 0;
   for (const TexelRange& r : p.texels) sum += r.count;
@@ -255,7 +257,7 @@ TEST(Layouts, PackedHasNoSlack) {
 
 TEST(Layouts, FixedWasteMatchesHandCount) {
   Fixture& f = fixture();
-  DsmBuffers p, x;
+  HostMaps p, x;
   f.build(packed(), p);
   const int L = 128;
   DsmBuildStats st = f.build(fixed(L), x);
@@ -284,10 +286,10 @@ TEST(Layouts, FixedWasteMatchesHandCount) {
 
 TEST(Layouts, ChunkedSlackMatchesHandCount) {
   Fixture& f = fixture();
-  DsmBuffers p;
+  HostMaps p;
   f.build(packed(), p);
   for (int C : {64, 7}) {
-    DsmBuffers c;
+    HostMaps c;
     DsmBuildStats st = f.build(chunked(C), c);
     // Hand count: per 8x8 tile, ceil(T / C) chunks for its T nodes.
     uint64_t chunks = 0, used = 0;
@@ -327,7 +329,7 @@ TEST(Layouts, ChunkedSlackMatchesHandCount) {
 
 TEST(Layouts, ChunkedLinksLongTexelsAcrossChunks) {
   Fixture& f = fixture();
-  DsmBuffers p, c;
+  HostMaps p, c;
   f.build(packed(), p, 0.0f);
   f.build(chunked(), c, 0.0f);
   int long_texels = 0;
@@ -484,7 +486,7 @@ TEST(Layouts, FixedRecompressesStepsGreedily) {
 
 TEST(Layouts, FixedSmallLayersRecordOverflow) {
   Fixture& f = fixture();
-  DsmBuffers p, x;
+  HostMaps p, x;
   f.build(packed(), p);
   const int L = 6;
   DsmBuildStats st = f.build(fixed(L), x);
@@ -525,20 +527,23 @@ TEST(Layouts, FixedSmallLayersRecordOverflow) {
   std::printf("[ fixed ] L = %d: worst change %.4f, worst ratio to the optimum %.2f\n", L, worst, worst_ratio);
 }
 
-TEST(Layouts, AppendRebasesEveryLayout) {
+// Two maps in one store (the second's headers, nodes, chunk links and tags
+// after the first's) read as each built alone, in every layout; a map of
+// another layout is refused by the store.
+TEST(Layouts, MapsShareTheStoreInEveryLayout) {
   Fixture& f = fixture();
   PinholeView v2 = f.view;
   v2.eye = v2.eye + Vec3{0.3f, 0.0f, -0.2f};
   v2.width = v2.height = 36;
   for (DsmLayoutParams lp : {packed(), fixed(128), chunked(), chunked(5)}) {
-    DsmBuffers a, b, all;
+    HostMaps a, b, all;
     f.build(lp, a);
     f.build(lp, b, 0.002f, v2);
-    all.append(a);
-    all.append(b);
+    f.build(lp, all);
+    f.build(lp, all, 0.002f, v2);
     ASSERT_EQ(all.maps.size(), 2u);
     for (int m = 0; m < 2; ++m) {
-      const DsmBuffers& one = m == 0 ? a : b;
+      const HostMaps& one = m == 0 ? a : b;
       int res = int(one.maps[0].res);
       for (int ty = 0; ty < res; ty += 3)
         for (int tx = 0; tx < res; tx += 2) {
@@ -549,9 +554,7 @@ TEST(Layouts, AppendRebasesEveryLayout) {
                 << "layout " << lp.layout << " map " << m;
         }
     }
-    DsmBuffers other;
-    f.build(lp.layout == kDsmPacked ? chunked() : packed(), other);
-    EXPECT_THROW(all.append(other), std::logic_error);
+    EXPECT_THROW(f.build(lp.layout == kDsmPacked ? chunked() : packed(), all), std::logic_error);
   }
 }
 

@@ -6,6 +6,7 @@
 
 #include "common/minimax_fit.h"
 #include "stability_util.h"
+#include "common/host_maps.h"
 
 namespace stab {
 namespace {
@@ -57,8 +58,8 @@ TEST(Overflow, RecompressesRecordsTheErrorAndKeepsItWithinTheBound) {
   cast_fragments(sb.view(), view, ObjectMask{}, fb);
   std::vector<uint32_t> inside;
   LightPassParams lp{view, 0.0f, {inside.data(), 0}};
-  DsmBuffers out;
-  DsmBuildStats st = build_dsm(sb.view(), lp, fb.lists(), out, DsmLayoutParams{}, capacity);
+  cdsm_test::HostMaps out;
+  DsmBuildStats st = cdsm_test::build_host_map(sb, lp, fb, out, DsmLayoutParams{}, capacity);
   EXPECT_GT(st.overflow_texels, 0u);
   EXPECT_GT(st.max_extra_error, 0.0f);
   EXPECT_LE(st.max_nodes, uint32_t(capacity));

@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "cdsm/error.h"
+#include "cdsm/procedural.h"
 #include "cdsm/renderer.h"
 #include "cdsm/scene_io.h"
 #include "cdsm/shadow_system.h"
@@ -109,6 +110,50 @@ TEST(Inspect, TexelWithinEpsilonOfTheUncompressedRay) {
   sys.update();
   EXPECT_FALSE(sys.inspect_texel(3, {0, 0, 0}).found);
   EXPECT_FALSE(sys.inspect_texel(0, {0, 100, 0}).found);  // behind the light's cone
+}
+
+// The editor's alpha(z) view follows the receiver rule (DESIGN.md §8): a
+// casting slab under a glass box resting 1 mm above it — the texel's nodes
+// name the objects of their steps, the slab's own step is the one left
+// out, and the slab reads the glass's two faces (1 - 0.55^2).
+TEST(Inspect, TexelShowsWhatTheSurfaceReceives) {
+  Scene scene;
+  scene.source = "glass on slab";
+  const auto add = [&](const char* name, TriangleMesh mesh, Vec3 at, float opacity) {
+    Object o;
+    o.name = name;
+    o.mesh = std::make_shared<const TriangleMesh>(std::move(mesh));
+    o.transform = make_transform(at, {0, 0, 0}, {1, 1, 1});
+    o.surface.opacity = opacity;
+    scene.objects.push_back(o);
+  };
+  add("slab", make_ground(8, 8, 0.3f), {0, 0, 0}, 1.0f);
+  add("glass", make_box({1, 1, 1}), {0, 0.501f, 0}, 0.45f);
+  Light l;
+  l.position = {0.2f, 6, 0.1f};
+  l.direction = normalize(Vec3{-0.2f, -6, -0.1f});
+  scene.lights.push_back(l);
+  scene.shadows.resolution = 256;
+  ShadowSystem sys(cpu_options());
+  sync_scene(sys, scene);
+  sys.update();
+  const Vec3 p{0.05f, 0.0f, -0.1f};
+  const ShadowSystem::TexelInspection t = sys.inspect_texel(0, p, 0, {0, 1, 0});
+  ASSERT_TRUE(t.found) << t.why;
+  ASSERT_TRUE(t.receiver);
+  ASSERT_GE(t.own_node, 0);
+  ASSERT_LT(size_t(t.own_node), t.nodes.size());
+  EXPECT_EQ(t.nodes[size_t(t.own_node)].object, 0) << "the slab's own step";
+  int glass_steps = 0;
+  for (const ShadowSystem::AlphaSample& a : t.nodes) glass_steps += a.object == 1;
+  EXPECT_EQ(glass_steps, 2) << "the glass's entry and exit";
+  EXPECT_NEAR(t.received.x, 1.0f - 0.55f * 0.55f, 1e-4f);
+  EXPECT_NEAR(t.receiver_depth, t.nodes[size_t(t.own_node)].z, 1e-3f * t.receiver_depth);
+  // A receive-only view of the same point (no object): no own step, the
+  // slab's own surface (entered by the light, like the point) lies beside it.
+  const ShadowSystem::TexelInspection u = sys.inspect_texel(0, p);
+  EXPECT_FALSE(u.receiver);
+  EXPECT_EQ(u.own_node, -1);
 }
 
 // build() on a worker thread while the owner only reads progress; then

@@ -10,7 +10,7 @@
 #include <cstdio>
 #include <vector>
 
-#include "cpu/fragments_cpu.h"
+#include "scene/fragments.h"
 #include "reference/reference.h"
 #include "unit_util.h"
 

@@ -11,7 +11,7 @@
 #include <random>
 #include <vector>
 
-#include "cpu/fragments_cpu.h"
+#include "scene/fragments.h"
 #include "hd/bvh.h"
 #include "unit_util.h"
 

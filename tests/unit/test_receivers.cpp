@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "cdsm/loaders.h"
-#include "cpu/fragments_cpu.h"
-#include "cpu/lookup_recorder.h"
+#include "scene/fragments.h"
+#include "reference/lookup_recorder.h"
 #include "reference/reference.h"
 #include "unit_util.h"
 

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "cdsm/renderer.h"
-#include "cpu/fragments_cpu.h"
+#include "scene/fragments.h"
 #include "hd/segments.h"
 #include "unit_util.h"
 

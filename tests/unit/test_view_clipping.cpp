@@ -19,7 +19,7 @@
 
 #include "cdsm/loaders.h"
 #include "cdsm/renderer.h"
-#include "cpu/backend.h"
+#include "common/host_maps.h"
 #include "unit_util.h"
 
 #if CDSM_CLIPPING_GL
@@ -189,10 +189,10 @@ void check_light_views(const Producer& produce) {
       FragmentBuffers fb;
       produce(sb, lv, fb);
       std::vector<uint32_t> inside = objects_containing(sv, lv.eye, ObjectMask{});
-      DsmBuffers dsm;
+      cdsm_test::HostMaps dsm;
       const float eps = 0.002f;
       LightPassParams lp{lv, eps, {inside.data(), inside.size()}};
-      DsmBuildStats bs = build_dsm(sv, lp, fb.lists(), dsm);
+      DsmBuildStats bs = cdsm_test::build_host_map(sb, lp, fb, dsm);
       EXPECT_EQ(bs.walk.unmatched, 0u) << c.name << ", " << name_of(m);
       DsmStorage st = dsm.storage();
       double worst = 0.0;

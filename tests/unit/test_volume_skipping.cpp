@@ -19,6 +19,7 @@
 #include "cdsm/loaders.h"
 #include "reference/reference.h"
 #include "unit_util.h"
+#include "common/host_maps.h"
 
 using namespace cdsm;
 using namespace cdsm_test;
@@ -134,9 +135,9 @@ Agreement compare(const Medium& m) {
   PinholeView lv = light_view(eye, c - eye, {1, 0, 0}, 0.45f, 48, 1, 0.01f, 20.0f);
   FragmentBuffers fb;
   cast_fragments(sv, lv, ObjectMask{}, fb);
-  DsmBuffers dsm;
+  cdsm_test::HostMaps dsm;
   LightPassParams lp{lv, m.eps, {}};
-  build_dsm(sv, lp, fb.lists(), dsm);
+  cdsm_test::build_host_map(sb, lp, fb, dsm);
   ReferenceRenderer ref(sv, {});
   Agreement out;
   for (int ty = 2; ty < 46; ty += 3)

@@ -252,10 +252,13 @@ class ShadowSystem {
   // it), the texel whose centre is nearest to p's projection; its stored
   // nodes and the same light ray walked with epsilon 0 (every sample a
   // node, the map's own segments and march steps). Costs one light ray's
-  // fragments and walk.
+  // fragments and walk. With `object` (its index, handle order) and the
+  // unit normal `plane` of the surface p lies on, also what that surface
+  // reads from the texel (its own step left out, DESIGN.md §8).
   struct AlphaSample {
-    float z;     // radial depth from the light
-    Vec3 alpha;  // per channel (grey maps: equal)
+    float z;          // radial depth from the light
+    Vec3 alpha;       // per channel (grey maps: equal)
+    int object = -1;  // the object whose surface's step ends at this node (-1: none)
   };
   struct TexelInspection {
     bool found = false;
@@ -270,8 +273,16 @@ class ShadowSystem {
     // step matched within 2e-5 of its depth (the exact ray is cast on the
     // CPU; GL fragments put steps up to ~1e-5 of the depth elsewhere)
     float max_deviation = 0.0f;
+    // What the surface (object, plane) reads from this texel: the texel's
+    // centre ray crosses its plane at `receiver_depth`; `own_node` is the
+    // node of its own step, left out (-1: none found: a receive-only
+    // surface, or the texel past its edge); `received` its alpha there.
+    bool receiver = false;
+    float receiver_depth = 0.0f;
+    int own_node = -1;
+    Vec3 received{0, 0, 0};
   };
-  TexelInspection inspect_texel(int light, Vec3 p) const;
+  TexelInspection inspect_texel(int light, Vec3 p, int object = -1, Vec3 plane = Vec3{0, 0, 0}) const;
 
   // Drops every map and the clusters' history (the next update rebuilds
   // all maps and clusters from scratch); the compiled scene stays.

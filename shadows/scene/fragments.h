@@ -1,5 +1,7 @@
-// The exact CPU fragment producer: ray casting against the BVH, one list
-// per pixel, same format as the OpenGL rasterizer (DESIGN.md §2.1).
+// Fragment lists on the host (DESIGN.md §2.1): their owner, and the exact
+// ray-cast producer on CPU threads — the executor's (shadows/exec/
+// camera_pass.h cast_fragments_exec over HostExec), the same code a CUDA
+// device runs — one list per pixel, the OpenGL rasterizer's format.
 #pragma once
 
 #include <vector>
@@ -28,7 +30,8 @@ struct FragmentBuffers {
 
 // Every crossing of every pixel-centre ray with the triangles of objects in
 // `mask`, whose view-axis coordinate lies in [near, far]. Lists are not
-// sorted (consumers sort). Count pass, prefix sum, fill pass.
+// sorted (consumers sort). Count pass, prefix sum, fill pass, on CPU
+// threads (defined in shadows/exec/host_exec.cpp).
 void cast_fragments(const SceneView& scene, const PinholeView& view, ObjectMask mask,
                     FragmentBuffers& out);
 

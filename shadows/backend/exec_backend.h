@@ -1,8 +1,9 @@
-// A ShadowBackend (shadows/backend/backend.h) whose every kernel runs
-// through an executor (shadows/exec/exec.h): scene buffers, maps and the
-// camera pass live in the executor's memory. Over CudaExec it is the cuda
-// backend (cuda/cuda_backend.h); over HostExec the same code runs on CPU
-// threads, which is how CI tests it without a GPU (tests/gpu/).
+// The ShadowBackend (shadows/backend/backend.h): every kernel runs through
+// an executor (shadows/exec/exec.h), scene buffers, maps and the camera
+// pass live in the executor's memory. Over HostExec it is the cpu backend
+// (shadows/exec/host_exec.h: make_host_backend), over CudaExec the cuda
+// backend (cuda/cuda_backend.h): one class, so the CPU tests run the
+// GPU's code minus the CUDA glue.
 //
 // Maps are appended to one store per node kind (as the cpu backend's),
 // freed maps leave holes that are compacted on the executor once they
@@ -29,13 +30,8 @@ namespace cdsm::exec {
 // The exec backend's own controls beyond ShadowBackend (tests, benchmark).
 class ExecShadowBackend : public ShadowBackend {
  public:
-  // How the light pass builds maps (two-pass by default).
+  // How the light pass walks texels (its buffers).
   virtual LightPassOptions& light_pass() = 0;
-  // Milliseconds per launch name since the last call.
-  virtual std::vector<StageTime> take_stage_times() = 0;
-  // The ray-cast fragment producer on the executor (the scene of the last
-  // update_scene), lists read back to `out`; `mask` is a host mask.
-  virtual void cast_fragments(const PinholeView& view, ObjectMask mask, FragmentBuffers& out) = 0;
   // Texel t's nodes of map `id` (pads excluded), read on the executor:
   // counts[t], nodes[t * cap ...]. Grey maps only.
   virtual void read_map(MapId id, uint32_t cap, std::vector<uint32_t>& counts, std::vector<DsmNode>& nodes) = 0;
@@ -80,22 +76,25 @@ class ExecBackend final : public ExecShadowBackend {
     if (slots_.live() == 0) reset_store();
     if (stored_any_ && !same_layout(layout_, layout))
       throw std::logic_error("exec backend: maps of different layouts cannot share the store");
-    layout_ = layout;
-    stored_any_ = true;
-    // The map's inputs into executor memory.
-    scratch_.offsets.assign(frags.offsets.data(), frags.offsets.size());
-    scratch_.fragments.assign(frags.fragments.data(), frags.fragments.size());
-    scratch_.inside.assign(params.inside.data(), params.inside.size());
+    // The map's inputs in executor memory: over host memory, as they are
+    // (sorted in place); else copied.
     FragmentLists ef = frags;
-    ef.offsets = scratch_.offsets.cspan();
-    ef.fragments = scratch_.fragments.span();
     LightPassParams ep = params;
-    ep.inside = scratch_.inside.cspan();
+    if constexpr (!Ex::kHostMemory) {
+      scratch_.offsets.assign(frags.offsets.data(), frags.offsets.size());
+      scratch_.fragments.assign(frags.fragments.data(), frags.fragments.size());
+      scratch_.inside.assign(params.inside.data(), params.inside.size());
+      ef.offsets = scratch_.offsets.cspan();
+      ef.fragments = scratch_.fragments.span();
+      ep.inside = scratch_.inside.cspan();
+    }
 
     ExecStoredMap m;
     m.live = true;
     if (params.rgb) m = build_kind(ep, ef, layout, rgb_, stats);
     else m = build_kind(ep, ef, layout, grey_, stats);
+    layout_ = layout;
+    stored_any_ = true;
     mirror_dirty_ = true;
     const MapId id = slots_.add(m);
     return id;
@@ -119,15 +118,23 @@ class ExecBackend final : public ExecShadowBackend {
         grey_.texels.read(mirror_.texels);
         grey_.nodes.read(mirror_.nodes);
         grey_.chunks.read(mirror_.chunks);
-        rgb_.texels.read(mirror_.rgb.texels);
-        rgb_.nodes.read(mirror_.rgb.nodes);
-        rgb_.chunks.read(mirror_.rgb.chunks);
         grey_.tags.read(mirror_.tags);
-        rgb_.tags.read(mirror_.rgb.tags);
-        mirror_.layout = layout_;
+        rgb_.texels.read(mirror_.rgb_texels);
+        rgb_.nodes.read(mirror_.rgb_nodes);
+        rgb_.chunks.read(mirror_.rgb_chunks);
+        rgb_.tags.read(mirror_.rgb_tags);
         mirror_dirty_ = false;
       }
-      return mirror_.storage();
+      DsmStorage st = exec_storage();
+      st.texels = {mirror_.texels.data(), mirror_.texels.size()};
+      st.nodes = {mirror_.nodes.data(), mirror_.nodes.size()};
+      st.chunks = {mirror_.chunks.data(), mirror_.chunks.size()};
+      st.tags = {mirror_.tags.data(), mirror_.tags.size()};
+      st.rgb_texels = {mirror_.rgb_texels.data(), mirror_.rgb_texels.size()};
+      st.rgb_nodes = {mirror_.rgb_nodes.data(), mirror_.rgb_nodes.size()};
+      st.rgb_chunks = {mirror_.rgb_chunks.data(), mirror_.rgb_chunks.size()};
+      st.rgb_tags = {mirror_.rgb_tags.data(), mirror_.rgb_tags.size()};
+      return st;
     }
   }
   uint64_t storage_epoch() const override { return epoch_; }
@@ -231,22 +238,25 @@ class ExecBackend final : public ExecShadowBackend {
   // The camera pass into `out` (executor memory: 3 floats per pixel).
   void shade(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags, float* out,
              WalkStats& walk) {
-    cam_offsets_.assign(frags.offsets.data(), frags.offsets.size());
-    cam_fragments_.assign(frags.fragments.data(), frags.fragments.size());
-    cam_inside_.assign(params.inside.data(), params.inside.size());
-    cam_lights_.assign(shadows.lights.data(), shadows.lights.size());
-    cam_maps_.assign(shadows.maps.data(), shadows.maps.size());
     cam_walk_.resize_discard(4);
     ex_.fill_zero(cam_walk_.data(), cam_walk_.bytes());
+    // The pass's inputs in executor memory: over host memory, as they are.
     FragmentLists ef = frags;
-    ef.offsets = cam_offsets_.cspan();
-    ef.fragments = cam_fragments_.span();
     ShadowView sv = shadows;
-    sv.lights = cam_lights_.cspan();
-    sv.maps = cam_maps_.cspan();
     sv.storage = exec_storage();
     CameraPassParams cp = params;
-    cp.inside = cam_inside_.cspan();
+    if constexpr (!Ex::kHostMemory) {
+      cam_offsets_.assign(frags.offsets.data(), frags.offsets.size());
+      cam_fragments_.assign(frags.fragments.data(), frags.fragments.size());
+      cam_inside_.assign(params.inside.data(), params.inside.size());
+      cam_lights_.assign(shadows.lights.data(), shadows.lights.size());
+      cam_maps_.assign(shadows.maps.data(), shadows.maps.size());
+      ef.offsets = cam_offsets_.cspan();
+      ef.fragments = cam_fragments_.span();
+      sv.lights = cam_lights_.cspan();
+      sv.maps = cam_maps_.cspan();
+      cp.inside = cam_inside_.cspan();
+    }
     shade_pixels(ex_, scene_view(), sv, cp, ef, out, cam_walk_.data());
     uint32_t w[4];
     ex_.download(w, cam_walk_.data(), sizeof w);
@@ -270,6 +280,10 @@ class ExecBackend final : public ExecShadowBackend {
       throw std::invalid_argument("build_map: chunk_nodes must be within [1, 4096]");
   }
 
+  // Builds one map into `store`. Strong guarantee: when the build throws
+  // (an allocation, the memory budget, a failed launch) the store's arrays
+  // are cut back to where they ended (their contents before them kept: a
+  // grown array copied them) and every earlier map reads as before.
   template <class Node>
   ExecStoredMap build_kind(const LightPassParams& p, FragmentLists f, const DsmLayoutParams& layout,
                            KindStore<Node, Ex>& store, DsmBuildStats& stats) {
@@ -278,7 +292,17 @@ class ExecBackend final : public ExecShadowBackend {
     m.texel_begin = store.texels.size();
     m.node_begin = store.nodes.size();
     m.chunk_begin = store.chunks.size();
-    stats = build_map_exec(ex_, scene_view(), p, f, layout, options_, store, m.map, scratch_);
+    const uint64_t tags = store.tags.size(), texel_count = store.texel_count;
+    try {
+      stats = build_map_exec(ex_, scene_view(), p, f, layout, options_, store, m.map, scratch_);
+    } catch (...) {
+      store.texels.resize(m.texel_begin);
+      store.nodes.resize(m.node_begin);
+      store.chunks.resize(m.chunk_begin);
+      store.tags.resize(tags);
+      store.texel_count = texel_count;
+      throw;
+    }
     m.texel_end = store.texels.size();
     m.node_end = store.nodes.size();
     m.chunk_end = store.chunks.size();
@@ -341,15 +365,21 @@ class ExecBackend final : public ExecShadowBackend {
     ++epoch_;
   }
 
-  // The live maps into fresh arrays, exactly sized, offsets and links re-based.
+  // The live maps into fresh arrays, exactly sized, offsets and links
+  // re-based. Nothing changes until every map moved (a failure leaves the
+  // store as it was, holes included).
   void compact() {
     KindStore<DsmNode, Ex> grey(ex_);
     KindStore<DsmNodeRgb, Ex> rgb(ex_);
-    for (ExecStoredMap& m : slots_.maps) {
+    std::vector<ExecStoredMap> moved = slots_.maps;
+    uint64_t bytes = 0;
+    for (ExecStoredMap& m : moved) {
       if (!m.live) continue;
       m = m.map.rgb ? move_map_exec(ex_, m, layout_.layout, rgb_, rgb) : move_map_exec(ex_, m, layout_.layout, grey_, grey);
-      compacted_bytes_ += m.bytes();
+      bytes += m.bytes();
     }
+    slots_.maps = std::move(moved);
+    compacted_bytes_ += bytes;
     grey_ = std::move(grey);
     rgb_ = std::move(rgb);
     slots_.compacted();
@@ -390,7 +420,16 @@ class ExecBackend final : public ExecShadowBackend {
   MapSlots<ExecStoredMap> slots_;
   uint64_t compactions_ = 0, compacted_bytes_ = 0;
   uint64_t epoch_ = 1;
-  mutable DsmBuffers mirror_;  // storage() over device memory
+  // storage() over device memory: a host copy of the store's arrays.
+  struct HostMirror {
+    std::vector<TexelRange> texels, rgb_texels;
+    std::vector<DsmNode> nodes;
+    std::vector<DsmNodeRgb> rgb_nodes;
+    std::vector<ChunkNode> chunks;
+    std::vector<ChunkNodeRgb> rgb_chunks;
+    std::vector<SurfaceTag> tags, rgb_tags;
+  };
+  mutable HostMirror mirror_;
   mutable bool mirror_dirty_ = true;
 };
 

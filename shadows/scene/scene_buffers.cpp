@@ -1,4 +1,4 @@
-#include "cpu/scene_buffers.h"
+#include "scene/scene_buffers.h"
 
 namespace cdsm {
 

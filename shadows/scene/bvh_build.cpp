@@ -2,7 +2,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "cpu/scene_buffers.h"
+#include "scene/scene_buffers.h"
 
 namespace cdsm {
 namespace {

@@ -1,0 +1,9 @@
+// The cpu backend: the exec backend over CPU threads (one instantiation).
+#include "backend/exec_backend.h"
+#include "exec/host_exec.h"
+
+namespace cdsm {
+
+std::unique_ptr<ShadowBackend> make_cpu_backend() { return std::make_unique<exec::ExecBackend<exec::HostExec>>("cpu"); }
+
+}  // namespace cdsm
