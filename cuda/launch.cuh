@@ -109,11 +109,15 @@ class CudaExec {
 
   void upload(void* dst, const void* src, size_t bytes) {
     if (bytes) CDSM_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyHostToDevice, stream()));
+    bytes_up += bytes;
   }
   void download(void* dst, const void* src, size_t bytes) {
     if (bytes) CDSM_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToHost, stream()));
     synchronize();
+    bytes_down += bytes;
   }
+  // Bytes through upload() and download() so far (host <-> device transfers).
+  uint64_t bytes_up = 0, bytes_down = 0;
   void copy(void* dst, const void* src, size_t bytes) {
     if (bytes) CDSM_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToDevice, stream()));
   }

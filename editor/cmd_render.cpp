@@ -104,6 +104,8 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
     up["map_live_bytes"] = u.map_live_bytes;
     up["scene_bytes"] = u.scene_bytes;
     up["gl_scene_bytes"] = u.gl_scene_bytes;
+    up["host_to_backend_bytes"] = u.host_to_backend_bytes;
+    up["backend_to_host_bytes"] = u.backend_to_host_bytes;
   }
   auto& t = j["times_ms"];
   t["compile_scene"] = s.times.compile_ms;
@@ -127,6 +129,7 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
   m["nodes"] = s.memory.nodes;
   m["index_bytes"] = s.memory.index_bytes;
   m["tag_bytes"] = s.memory.tag_bytes;
+  m["rewalked_texels"] = s.memory.rewalked_texels;
   m["node_bytes"] = s.memory.node_bytes;
   m["slack_bytes"] = s.memory.slack_bytes;
   m["avg_nodes_per_texel"] = s.memory.avg_nodes_per_texel;
@@ -201,12 +204,15 @@ void print_summary(const FrameStats& s, const Scene& scene, bool reference_backe
     std::printf("\n");
   }
   std::printf("rebuilds     %u maps built, %u reused\n", s.maps_rebuilt, s.maps_reused);
+  std::printf("transfers    host -> backend %.2f MiB, backend -> host %.2f MiB\n",
+              double(s.update.host_to_backend_bytes) / 1048576.0, double(s.update.backend_to_host_bytes) / 1048576.0);
   const char* layouts[] = {"packed", "fixed", "chunked"};
   std::printf("DSM memory   %s layout, %llu maps, index %.2f MiB, nodes %.2f MiB, tags %.2f MiB, slack %.2f MiB\n",
               layouts[int(scene.shadows.layout)], (unsigned long long)s.memory.maps, s.memory.index_bytes / 1048576.0,
               s.memory.node_bytes / 1048576.0, s.memory.tag_bytes / 1048576.0, s.memory.slack_bytes / 1048576.0);
-  std::printf("nodes/texel  avg %.2f, max %u (overflowed texels %llu)\n", s.memory.avg_nodes_per_texel,
-              s.memory.max_nodes_per_texel, (unsigned long long)s.memory.overflow_texels);
+  std::printf("nodes/texel  avg %.2f, max %u (texels walked twice %llu, re-compressed %llu)\n",
+              s.memory.avg_nodes_per_texel, s.memory.max_nodes_per_texel, (unsigned long long)s.memory.rewalked_texels,
+              (unsigned long long)s.memory.overflow_texels);
   if (s.memory.rgb_maps > 0)
     std::printf("map kinds    %llu RGB maps %.2f MiB, %llu grey maps %.2f MiB\n", (unsigned long long)s.memory.rgb_maps,
                 s.memory.rgb_bytes / 1048576.0, (unsigned long long)(s.memory.maps - s.memory.rgb_maps),

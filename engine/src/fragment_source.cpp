@@ -102,11 +102,12 @@ uint64_t FragmentSourceSelector::scene_changed(const SceneBuffers& sb, const Sce
                    {sb.objects.data(), sb.objects.size()});
     return r.last_upload_bytes();
   }
-  if (change.tri_count > 0) {
-    r.update_triangles(change.first_tri,
-                       {sb.tri_vertices.data() + size_t(change.first_tri) * 3, size_t(change.tri_count) * 3});
-    return r.last_upload_bytes();
+  uint64_t bytes = 0;
+  for (const IndexRange& t : change.triangles) {
+    r.update_triangles(t.first, {sb.tri_vertices.data() + size_t(t.first) * 3, size_t(t.count) * 3});
+    bytes += r.last_upload_bytes();
   }
+  if (!change.triangles.empty()) return bytes;
 #endif
   return 0;
 }

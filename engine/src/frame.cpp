@@ -617,7 +617,7 @@ ShadowCache::~ShadowCache() = default;
 
 void build_shadow_frame(const Scene& scene, const SceneBuffers& sb, const FragmentProducer& produce,
                         ShadowCache& cache, ShadowFrame& frame) {
-  cache.backend->update_scene(sb, SceneChange{true, 0, 0, true});
+  cache.backend->update_scene(sb, SceneChange::all());
   build_shadow_frame(frame_inputs(scene, sb), produce, *cache.backend, cache.maps, frame);
 }
 

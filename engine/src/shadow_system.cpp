@@ -89,6 +89,13 @@ static void take_kernel_times(ShadowBackend& backend, StageTimes& t, double& fra
   }
 }
 
+// The backend's host <-> backend bytes since the last take, into `u`.
+static void add_transfers(ShadowBackend& backend, UpdateStats& u) {
+  const TransferBytes t = backend.take_transfers();
+  u.host_to_backend_bytes += t.host_to_backend;
+  u.backend_to_host_bytes += t.backend_to_host;
+}
+
 // ---- Impl -------------------------------------------------------------------
 
 ShadowSystem::Impl::Impl(const SystemOptions& o) : options(o) {
@@ -251,7 +258,7 @@ void ShadowSystem::Impl::compile_structure(FrameStats& st) {
 
 // Moved objects: their world data recomputed into their own range, the BVH
 // refitted (rebuilt when the tree degraded).
-void ShadowSystem::Impl::compile_moves(FrameStats& st, std::vector<SceneChange>& uploads) {
+void ShadowSystem::Impl::compile_moves(FrameStats& st, SceneChange& change) {
   bool any = false;
   CompiledObject co;
   for (size_t oi = 0; oi < objects.size(); ++oi) {
@@ -261,11 +268,14 @@ void ShadowSystem::Impl::compile_moves(FrameStats& st, std::vector<SceneChange>&
     compile_object(o, rec.closed = is_closed_mesh(o.mesh), object_where(oi), co);
     ObjectData& od = sb.objects[oi];
     if (co.vertices.size() != size_t(od.tri_count) * 3) throw std::logic_error("compile_moves: triangle count changed");
-    if (od.volume >= 0) place_volume(sb.volumes[size_t(od.volume)], scene.volumes[size_t(od.volume)], o.transform, object_where(oi));
+    if (od.volume >= 0) {
+      place_volume(sb.volumes[size_t(od.volume)], scene.volumes[size_t(od.volume)], o.transform, object_where(oi));
+      change.volumes = true;
+    }
     std::copy(co.vertices.begin(), co.vertices.end(), sb.tri_vertices.begin() + ptrdiff_t(od.first_tri) * 3);
     std::copy(co.normals.begin(), co.normals.end(), sb.tri_normals.begin() + ptrdiff_t(od.first_tri) * 3);
     sb.object_bounds[oi] = co.bounds;
-    uploads.push_back({false, od.first_tri, od.tri_count, true});
+    change.triangles.push_back({od.first_tri, od.tri_count});
     rec.moved = false;
     any = true;
     ++st.update.objects_compiled;
@@ -273,23 +283,28 @@ void ShadowSystem::Impl::compile_moves(FrameStats& st, std::vector<SceneChange>&
   if (!any) return;
   sb.bounds = Box3{};
   for (const Box3& b : sb.object_bounds) sb.bounds.grow(b);
-  const double cost = refit_bvh(sb);
+  const double cost = refit_bvh(sb, &change.bvh_nodes);
   if (cost > kRefitCostLimit * bvh_built_cost) {
     build_bvh(sb);
     bvh_built_cost = bvh_cost(sb);
+    change.bvh = true;
+    change.bvh_nodes.clear();
     ++st.update.bvh_rebuilds;
   } else {
     ++st.update.bvh_refits;
   }
 }
 
-// Material and shadow-flag edits: kernel data only.
-void ShadowSystem::Impl::refresh_surfaces() {
+// Material and shadow-flag edits: kernel data only. Whether any was made.
+bool ShadowSystem::Impl::refresh_surfaces() {
+  bool any = false;
   for (size_t oi = 0; oi < objects.size(); ++oi) {
     if (!objects[oi].surface) continue;
     apply_surface(scene.objects[oi], object_where(oi), sb.objects[oi]);
     objects[oi].surface = false;
+    any = true;
   }
+  return any;
 }
 
 void ShadowSystem::Impl::compile(FrameStats& st) {
@@ -301,24 +316,20 @@ void ShadowSystem::Impl::compile(FrameStats& st) {
   if (!compile_pending) return;
   ++geometry_epoch;
   auto t0 = Clock::now();
-  std::vector<SceneChange> uploads;
+  SceneChange change;
+  const uint32_t volumes_before = st.update.volumes_compiled;
   compile_volumes(st);
+  change.grids = st.update.volumes_compiled != volumes_before;
   if (structure_dirty) {
     compile_structure(st);
-    uploads.push_back({true, 0, 0, true});
+    change.everything = true;
   } else {
-    compile_moves(st, uploads);
-    refresh_surfaces();
-    uploads.push_back({false, 0, 0, true});  // kernel data (materials, volume placement)
+    compile_moves(st, change);
+    change.objects = refresh_surfaces();
   }
   st.times.compile_ms = ms_since(t0);
-  SceneChange all;
-  for (const SceneChange& u : uploads) {
-    all.everything |= u.everything;
-    all.objects |= u.objects;
-    st.update.gl_upload_bytes += fragments.scene_changed(sb, u);
-  }
-  backend->update_scene(sb, all);
+  st.update.gl_upload_bytes += fragments.scene_changed(sb, change);
+  backend->update_scene(sb, change);
   compile_pending = false;
 }
 
@@ -411,6 +422,7 @@ void ShadowSystem::Impl::build(FrameStats& st) {
   st.times.fragments_ms = frame.fragments_ms;
   st.times.dsm_build_ms = frame.build_ms;
   take_kernel_times(*backend, st.times, st.times.kernel_fragments_ms, st.times.kernel_dsm_build_ms);
+  add_transfers(*backend, st.update);
   st.light_fragments = frame.fragments;
   DsmMemory& m = st.memory;
   m = DsmMemory{};
@@ -424,6 +436,7 @@ void ShadowSystem::Impl::build(FrameStats& st) {
     m.tag_bytes += b.tag_bytes;
     m.max_nodes_per_texel = std::max(m.max_nodes_per_texel, b.max_nodes);
     m.overflow_texels += b.overflow_texels;
+    m.rewalked_texels += b.rewalked_texels;
     m.max_extra_error = std::max(m.max_extra_error, b.max_extra_error);
     const uint64_t bytes = b.index_bytes + b.node_bytes_allocated + b.tag_bytes;
     if (b.rgb) {
@@ -722,11 +735,16 @@ Image ShadowSystem::render(FrameStats* stats) {
   I.backend->camera_pass(I.shadow_view(), cam, I.camera_frags.lists(), img.rgb, ws);
   st.times.camera_ms = ms_since(t0);
   take_kernel_times(*I.backend, st.times, st.times.kernel_camera_ms, st.times.kernel_camera_ms);
+  add_transfers(*I.backend, st.update);
   add_walk(st, ws);
   if (st.march_lengthened > 0)
     st.warnings.push_back(I.scene.source + ": " + std::to_string(st.march_lengthened) +
                           " volume segments lie so far from the eye or light that their march step is below float "
                           "resolution there; they were marched with the finest step float allows (coarser than asked)");
+  if (st.enclosing_overflow > 0)
+    st.warnings.push_back(I.scene.source + ": " + std::to_string(st.enclosing_overflow) +
+                          " entries of light or camera rays into volumes nested inside " + std::to_string(kMaxEnclosing) +
+                          " other volumes; those innermost volumes were left out there (their media absorb nothing)");
   st.times.total_ms = ms_since(t_total);
   return img;
 }

@@ -89,8 +89,8 @@ struct ShadowSystem::Impl {
   void compile_volumes(FrameStats& st);
   void erase_volume_data(size_t vi);
   void compile_structure(FrameStats& st);
-  void compile_moves(FrameStats& st, std::vector<SceneChange>& uploads);
-  void refresh_surfaces();
+  void compile_moves(FrameStats& st, SceneChange& change);
+  bool refresh_surfaces();
   std::string object_where(size_t i) const;
   // The lookup over the last update's maps with the current settings.
   ShadowView shadow_view() const { return frame.view(scene.shadows); }

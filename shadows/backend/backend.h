@@ -22,12 +22,29 @@
 
 namespace cdsm {
 
-// What changed in the scene buffers since the backend last saw them.
+// What changed in the scene buffers since the backend last saw them: the
+// backend brings only that into its memory (a moved object: its triangles
+// and the BVH nodes whose boxes moved with them).
 struct SceneChange {
-  bool everything = false;      // first upload, objects or volumes added or removed
-  uint32_t first_tri = 0;       // else: triangles [first_tri, first_tri + tri_count) moved
-  uint32_t tri_count = 0;       //   (vertices, normals, the BVH refitted)
-  bool objects = false;         // per-object data (materials, interiors, volume placement)
+  bool everything = false;            // the first upload; objects added or removed: every array
+  std::vector<IndexRange> triangles;  // triangles that moved (their vertices and normals)
+  bool bvh = false;                   // the BVH was rebuilt (every node, the primitive order)
+  std::vector<IndexRange> bvh_nodes;  // else: the nodes whose boxes a refit changed
+  bool objects = false;               // per-object data (materials, interiors, flags)
+  bool volumes = false;               // volume placements (a moved volume's object)
+  bool grids = false;                 // volume grids compiled again (voxels, NanoVDB pool, macro cells)
+  static SceneChange all() {
+    SceneChange c;
+    c.everything = true;
+    return c;
+  }
+};
+
+// Bytes between the host and a backend's memory (FrameStats::update): on a
+// GPU the transfers, on CPU threads the copies the backend still makes.
+struct TransferBytes {
+  uint64_t host_to_backend = 0;
+  uint64_t backend_to_host = 0;
 };
 
 // The eight arrays of DsmStorage, in its order (texels, nodes, chunks, the
@@ -195,6 +212,8 @@ class ShadowBackend {
   // The exact ray-cast fragment producer run on the backend (the scene of
   // the last update_scene), the lists read back to `out`; `mask` a host mask.
   virtual void cast_fragments(const PinholeView& view, ObjectMask mask, FragmentBuffers& out) = 0;
+  // Bytes moved between the host and the backend since the last call.
+  virtual TransferBytes take_transfers() = 0;
 };
 
 // The cpu backend: the exec backend (backend/exec_backend.h) over CPU

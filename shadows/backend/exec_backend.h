@@ -53,20 +53,48 @@ class ExecBackend final : public ExecShadowBackend {
   const char* name() const override { return name_; }
   Ex& executor() { return ex_; }
 
-  // Every array again: called when the scene changed (not per frame); the
-  // SceneChange's ranges are not relied on.
-  void update_scene(const SceneBuffers& sb, const SceneChange&) override {
+  // The scene's arrays into executor memory (on CPU threads too: the same
+  // code, counted as copies): all of them on `everything` (or the first
+  // call), else only what `change` names — a moved object's triangles and
+  // the BVH nodes a refit changed, the object or volume data when edited.
+  void update_scene(const SceneBuffers& sb, const SceneChange& change) override {
+    const bool all = change.everything || host_scene_ == nullptr || tri_vertices_.size() != sb.tri_vertices.size() ||
+                     bvh_.size() != sb.bvh.size() || objects_.size() != sb.objects.size();
     host_scene_ = &sb;
-    tri_vertices_.assign(sb.tri_vertices);
-    tri_normals_.assign(sb.tri_normals);
-    tri_object_.assign(sb.tri_object);
-    objects_.assign(sb.objects);
-    volumes_.assign(sb.volumes);
-    voxels_.assign(sb.voxels);
-    macro_max_.assign(sb.macro_max);
-    nano_pool_.assign(reinterpret_cast<const unsigned char*>(sb.nano_pool.data()), sb.nano_pool.size() * sizeof(GridBlock));
-    bvh_.assign(sb.bvh);
-    bvh_prims_.assign(sb.bvh_prims);
+    if (all) {
+      tri_vertices_.assign(sb.tri_vertices);
+      tri_normals_.assign(sb.tri_normals);
+      tri_object_.assign(sb.tri_object);
+      objects_.assign(sb.objects);
+      bvh_.assign(sb.bvh);
+      bvh_prims_.assign(sb.bvh_prims);
+    } else {
+      for (const IndexRange& r : change.triangles) {
+        const uint64_t v = uint64_t(r.first) * 3, n = uint64_t(r.count) * 3;
+        tri_vertices_.write(v, sb.tri_vertices.data() + v, n);
+        if (!sb.tri_normals.empty()) tri_normals_.write(v, sb.tri_normals.data() + v, n);
+      }
+      if (change.bvh) {
+        bvh_.assign(sb.bvh);
+        bvh_prims_.assign(sb.bvh_prims);
+      } else {
+        for (const IndexRange& r : change.bvh_nodes) bvh_.write(r.first, sb.bvh.data() + r.first, r.count);
+      }
+      if (change.objects) objects_.assign(sb.objects);
+    }
+    if (all || change.volumes || change.grids) volumes_.assign(sb.volumes);
+    if (all || change.grids) {
+      voxels_.assign(sb.voxels);
+      macro_max_.assign(sb.macro_max);
+      nano_pool_.assign(reinterpret_cast<const unsigned char*>(sb.nano_pool.data()), sb.nano_pool.size() * sizeof(GridBlock));
+    }
+  }
+
+  TransferBytes take_transfers() override {
+    const TransferBytes t{ex_.bytes_up - taken_up_, ex_.bytes_down - taken_down_};
+    taken_up_ = ex_.bytes_up;
+    taken_down_ = ex_.bytes_down;
+    return t;
   }
 
   MapId build_map(const LightPassParams& params, FragmentLists frags, const DsmLayoutParams& layout,
@@ -414,6 +442,7 @@ class ExecBackend final : public ExecShadowBackend {
   ExecArray<uint32_t, Ex> frag_mask_;
 
   const SceneBuffers* host_scene_ = nullptr;
+  uint64_t taken_up_ = 0, taken_down_ = 0;  // the executor's byte counts at the last take_transfers
   LightPassOptions options_;
   DsmLayoutParams layout_;
   bool stored_any_ = false;

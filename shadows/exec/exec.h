@@ -21,6 +21,7 @@
 //   template <class F> void parallel_for(const char* name, uint64_t n, F f);  // f(i) for i in [0, n)
 //   void upload(void* dst, const void* src, size_t bytes);    // host -> executor (src reusable on return)
 //   void download(void* dst, const void* src, size_t bytes);  // executor -> host, complete on return
+//   uint64_t bytes_up, bytes_down;     // bytes through upload() and download() so far
 //   void copy(void* dst, const void* src, size_t bytes);      // executor -> executor, in stream order
 //   void fill_zero(void* dst, size_t bytes);
 //   void synchronize();
@@ -31,6 +32,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <stdexcept>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -158,6 +160,11 @@ class ExecArray {
     if (n) ex_->upload(ptr_, src, n * sizeof(T));
   }
   void assign(const std::vector<T>& v) { assign(v.data(), v.size()); }
+  // Host data into entries [at, at + n) (within the size).
+  void write(uint64_t at, const T* src, uint64_t n) {
+    if (at + n > size_) throw std::out_of_range("ExecArray::write past the array's end");
+    if (n) ex_->upload(ptr_ + at, src, n * sizeof(T));
+  }
   // Back to the host.
   void read(std::vector<T>& out) const {
     out.resize(size_);

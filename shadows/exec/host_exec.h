@@ -40,14 +40,23 @@ class HostExec {
     add_stage_time(times_, name, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
 
-  void upload(void* dst, const void* src, size_t bytes) { std::memcpy(dst, src, bytes); }
-  void download(void* dst, const void* src, size_t bytes) { std::memcpy(dst, src, bytes); }
+  void upload(void* dst, const void* src, size_t bytes) {
+    std::memcpy(dst, src, bytes);
+    bytes_up += bytes;
+  }
+  void download(void* dst, const void* src, size_t bytes) {
+    std::memcpy(dst, src, bytes);
+    bytes_down += bytes;
+  }
   void copy(void* dst, const void* src, size_t bytes) { std::memmove(dst, src, bytes); }
   void fill_zero(void* dst, size_t bytes) { std::memset(dst, 0, bytes); }
 
   void synchronize() {}
 
   std::vector<StageTime> take_stage_times() { return std::exchange(times_, {}); }
+
+  // Bytes through upload() and download() so far (host <-> executor copies).
+  uint64_t bytes_up = 0, bytes_down = 0;
 
   // Tests of the callers' exception guarantees: the fail_after-th call
   // (0-based) of allocate or parallel_for from now throws, naming it; -1 none.

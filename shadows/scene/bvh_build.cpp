@@ -152,9 +152,10 @@ float half_area(const Box3& b) {
 
 }  // namespace
 
-double refit_bvh(SceneBuffers& sb) {
+double refit_bvh(SceneBuffers& sb, std::vector<IndexRange>* changed) {
   // Pre-order layout: both children of node i come after i (left = i + 1,
   // right = first), so one backward sweep sees children before parents.
+  if (changed) changed->clear();
   for (size_t i = sb.bvh.size(); i-- > 0;) {
     BvhNode& n = sb.bvh[i];
     Box3 b;
@@ -171,8 +172,18 @@ double refit_bvh(SceneBuffers& sb) {
       b.grow(r.lo);
       b.grow(r.hi);
     }
+    const bool moved = !(n.lo.x == b.lo.x && n.lo.y == b.lo.y && n.lo.z == b.lo.z && n.hi.x == b.hi.x &&
+                         n.hi.y == b.hi.y && n.hi.z == b.hi.z);
     n.lo = b.lo;
     n.hi = b.hi;
+    if (moved && changed) {  // runs, found backwards: extend the last one down
+      if (!changed->empty() && changed->back().first == uint32_t(i) + 1) {
+        --changed->back().first;
+        ++changed->back().count;
+      } else {
+        changed->push_back({uint32_t(i), 1u});
+      }
+    }
   }
   return bvh_cost(sb);
 }

@@ -44,9 +44,15 @@ struct SceneBuffers {
 // Builds the BVH over the triangles already in `sb` (binned SAH).
 void build_bvh(SceneBuffers& sb);
 
+// A range of array entries [first, first + count).
+struct IndexRange {
+  uint32_t first = 0, count = 0;
+};
+
 // After triangles moved (the same triangles, new positions): every node's
-// box recomputed bottom-up, the tree kept. Returns bvh_cost() of the result.
-double refit_bvh(SceneBuffers& sb);
+// box recomputed bottom-up, the tree kept. Returns bvh_cost() of the result;
+// `changed` (when given) receives the runs of nodes whose boxes changed.
+double refit_bvh(SceneBuffers& sb, std::vector<IndexRange>* changed = nullptr);
 
 // The tree's surface-area cost: the sum over nodes of their surface area
 // (times their triangle count for leaves) over the root's. A refit tree

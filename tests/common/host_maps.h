@@ -36,7 +36,7 @@ inline DsmBuildStats build_host_map(const SceneBuffers& sb, const LightPassParam
                                     HostMaps& out, const DsmLayoutParams& layout = {},
                                     int max_nodes = kTexelNodeCapacity, int walk_nodes = kWalkNodes) {
   if (!out.backend) out.backend = std::make_unique<exec::ExecBackend<exec::HostExec>>("cpu");
-  out.backend->update_scene(sb, SceneChange{true, 0, 0, true});
+  out.backend->update_scene(sb, SceneChange::all());
   out.backend->light_pass().max_nodes = max_nodes;
   out.backend->light_pass().walk_nodes = walk_nodes < max_nodes ? walk_nodes : max_nodes;
   DsmBuildStats stats;

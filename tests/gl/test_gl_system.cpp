@@ -481,6 +481,7 @@ class InPlaceBackend final : public ShadowBackend {
   }
   MapStoreStats map_store() const override { return inner_->map_store(); }
   std::vector<exec::StageTime> take_stage_times() override { return inner_->take_stage_times(); }
+  TransferBytes take_transfers() override { return inner_->take_transfers(); }
   void cast_fragments(const PinholeView& v, ObjectMask m, FragmentBuffers& out) override { inner_->cast_fragments(v, m, out); }
 
   bool can_write_gl_maps() const override { return true; }

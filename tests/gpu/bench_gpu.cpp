@@ -74,7 +74,7 @@ nlohmann::json frame_times(const Scene& s, Backend backend, FragmentSource frags
 nlohmann::json light_pass_walk(const Scene& s, const SceneBuffers& sb, int k) {
   std::unique_ptr<exec::ExecShadowBackend> gpu = cuda::make_cuda_backend();
   gpu->light_pass().walk_nodes = k;
-  gpu->update_scene(sb, SceneChange{true, 0, 0, true});
+  gpu->update_scene(sb, SceneChange::all());
   MapCache cache;
   ShadowFrame frame;
   build_shadow_frame(frame_inputs(s, sb), cpu_fragment_producer(sb.view()), *gpu, cache, frame);
@@ -108,7 +108,7 @@ nlohmann::json light_pass_walk(const Scene& s, const SceneBuffers& sb, int k) {
 nlohmann::json fragment_producers(const Scene& s, const SceneBuffers& sb, int repeat) {
   nlohmann::json j;
   std::unique_ptr<exec::ExecShadowBackend> gpu = cuda::make_cuda_backend();
-  gpu->update_scene(sb, SceneChange{true, 0, 0, true});
+  gpu->update_scene(sb, SceneChange::all());
   const PinholeView cam = camera_view(s.camera);
   FragmentBuffers fb;
   gpu->cast_fragments(cam, ObjectMask{}, fb);  // warm-up

@@ -46,7 +46,7 @@ struct Frame {
 };
 
 inline void run(const Scene& scene, const SceneBuffers& sb, ShadowBackend& backend, Frame& f) {
-  backend.update_scene(sb, SceneChange{true, 0, 0, true});
+  backend.update_scene(sb, SceneChange::all());
   const SceneView sv = sb.view();
   build_shadow_frame(frame_inputs(scene, sb), cpu_fragment_producer(sv), backend, f.cache, f.frame);
   f.stats = f.frame.map_stats;

@@ -84,7 +84,7 @@ TEST(CudaBackend, SpilledTexelsMatchTheBoundedBuffer) {
   cdsm_test::HostMaps ref;
   const DsmBuildStats rs = cdsm_test::build_host_map(sb, lp, f1, ref, {}, 16, 8);
   std::unique_ptr<exec::ExecShadowBackend> gpu = cuda::make_cuda_backend();
-  gpu->update_scene(sb, SceneChange{true, 0, 0, true});
+  gpu->update_scene(sb, SceneChange::all());
   gpu->light_pass().walk_nodes = 8;
   gpu->light_pass().max_nodes = 16;
   DsmBuildStats gs;
@@ -104,7 +104,7 @@ TEST(CudaBackend, FragmentsEqualTheCpuRayCaster) {
     Scene s = parity::load(name, 64, 320, 240);
     SceneBuffers sb = compile_scene(s);
     std::unique_ptr<exec::ExecShadowBackend> gpu = cuda::make_cuda_backend();
-    gpu->update_scene(sb, SceneChange{true, 0, 0, true});
+    gpu->update_scene(sb, SceneChange::all());
     const PinholeView cam = camera_view(s.camera);
     FragmentBuffers ref, got;
     cast_fragments(sb.view(), cam, ObjectMask{}, ref);

@@ -181,7 +181,7 @@ TEST(ExecBackend, MapsEqualASerialWalk) {
         v.params.rgb = rgb;
         const std::vector<SerialTexel> serial = serial_map(v.sb, v.params, v.frags, kTexelNodeCapacity);
         HostBackend ex("cpu");
-        ex.update_scene(v.sb, SceneChange{true, 0, 0, true});
+        ex.update_scene(v.sb, SceneChange::all());
         FragmentBuffers f = v.frags;
         DsmBuildStats st;
         const MapId id = ex.build_map(v.params, f.lists(), layout_params(kind), st);
@@ -208,7 +208,7 @@ TEST(ExecBackend, SecondWalkOnlyForTexelsThatNeedIt) {
       for (uint64_t batch : {uint64_t(64) << 20, uint64_t(4096)}) {
         const std::string what = std::string(rgb ? "rgb" : "grey") + " K " + std::to_string(K) + " batch " + std::to_string(batch);
         HostBackend ex("cpu");
-        ex.update_scene(v.sb, SceneChange{true, 0, 0, true});
+        ex.update_scene(v.sb, SceneChange::all());
         ex.light_pass().walk_nodes = K;
         ex.light_pass().batch_bytes = batch;
         FragmentBuffers f = v.frags;
@@ -236,7 +236,7 @@ TEST(ExecBackend, RecompressionEqualsTheBoundedBuffer) {
       v.params.rgb = rgb;
       const std::vector<SerialTexel> serial = serial_map(v.sb, v.params, v.frags, K);
       HostBackend ex("cpu");
-      ex.update_scene(v.sb, SceneChange{true, 0, 0, true});
+      ex.update_scene(v.sb, SceneChange::all());
       ex.light_pass().walk_nodes = 8;
       ex.light_pass().max_nodes = K;
       FragmentBuffers f = v.frags;
@@ -257,7 +257,7 @@ TEST(ExecBackend, RecompressionEqualsTheBoundedBuffer) {
 TEST(ExecBackend, DeepTexelsKeepEveryNode) {
   OneView v(parity::load("depth", 48, 32, 24), 0.0f);
   HostBackend ex("cpu");
-  ex.update_scene(v.sb, SceneChange{true, 0, 0, true});
+  ex.update_scene(v.sb, SceneChange::all());
   DsmBuildStats st;
   ex.build_map(v.params, v.frags.lists(), layout_params(kDsmPacked), st);
   EXPECT_EQ(st.overflow_texels, 0u);
@@ -276,7 +276,7 @@ TEST(ExecBackend, BaselinesEqualASerialWalk) {
       v.params.method_param = m == ShadowMethod::ShadowMap ? param * 0.1f : param;
       const std::vector<SerialTexel> serial = serial_map(v.sb, v.params, v.frags, kTexelNodeCapacity);
       HostBackend ex("cpu");
-      ex.update_scene(v.sb, SceneChange{true, 0, 0, true});
+      ex.update_scene(v.sb, SceneChange::all());
       FragmentBuffers f = v.frags;
       DsmBuildStats st;
       const MapId id = ex.build_map(v.params, f.lists(), layout_params(kDsmPacked), st);
@@ -292,7 +292,7 @@ TEST(ExecBackend, FreeAndCompactKeepTheOtherMaps) {
   OneView v(parity::load("depth", 32, 32, 24), 0.005f);
   for (uint32_t kind : {kDsmPacked, kDsmFixed, kDsmChunked}) {
     HostBackend ex("cpu");
-    ex.update_scene(v.sb, SceneChange{true, 0, 0, true});
+    ex.update_scene(v.sb, SceneChange::all());
     std::vector<MapId> ids;
     std::vector<LightPassParams> params;
     for (int i = 0; i < 6; ++i) {
@@ -332,7 +332,7 @@ TEST(ExecBackend, AFailedBuildLeavesTheStoreAsItWas) {
     int failures = 0;
     for (int64_t n = 0; n < 1000; ++n) {
       HostBackend ex("cpu");
-      ex.update_scene(v.sb, SceneChange{true, 0, 0, true});
+      ex.update_scene(v.sb, SceneChange::all());
       ex.light_pass().walk_nodes = 8;  // texels walked twice as well: every step of a build
       std::vector<MapId> ids;
       for (int i = 0; i < 2; ++i) {
@@ -383,7 +383,7 @@ TEST(ExecBackend, AFailedBuildLeavesTheStoreAsItWas) {
 TEST(ExecBackend, CompactionFollowsHolesNotArrayCapacity) {
   OneView v(parity::load("depth", 32, 32, 24), 0.005f);
   HostBackend b("cpu");
-  b.update_scene(v.sb, SceneChange{true, 0, 0, true});
+  b.update_scene(v.sb, SceneChange::all());
   std::vector<MapId> ids;
   for (int i = 0; i < 5; ++i) {
     DsmBuildStats st;
@@ -440,7 +440,7 @@ TEST(ExecBackend, FragmentsEqualASerialRayCast) {
     Scene s = parity::load(name, 64, 96, 64);
     SceneBuffers sb = compile_scene(s);
     HostBackend ex("cpu");
-    ex.update_scene(sb, SceneChange{true, 0, 0, true});
+    ex.update_scene(sb, SceneChange::all());
     const PinholeView cam = camera_view(s.camera);
     std::vector<uint32_t> casters = sb.mask_where([&](uint32_t o) { return (sb.objects[o].flags & kObjCastsShadows) != 0u; });
     for (ObjectMask mask : {ObjectMask{}, ObjectMask{{casters.data(), casters.size()}}}) {

@@ -532,3 +532,79 @@ TEST(ShadowSystem, BadEditsAreRefusedByNameAndTheStateSurvives) {
 }
 
 }  // namespace
+
+// Frame data stays where it was made (issue 26 item 3), counted in
+// FrameStats::update (host <-> backend bytes; on CPU threads the copies the
+// backend still makes): an unchanged frame moves nothing; a camera move
+// only the image back; a moved object only its triangles and the BVH nodes
+// its move changed; an epsilon edit with kept fragment lists nothing into
+// the backend.
+TEST(ShadowSystem, HostBackendBytesFollowWhatChanged) {
+  Scene scene = shipped("default", 96, 64, 64);
+  SystemOptions o;
+  o.fragments = FragmentSource::Cpu;
+  o.backend = Backend::Cpu;
+  o.keep_fragment_lists = true;
+  ShadowSystem sys(o);
+  add_scene(sys, scene);
+  FrameStats first;
+  sys.update(&first);
+  const SceneBuffers& sb = sys.internals().sb;
+  uint64_t scene_bytes = (sb.tri_vertices.size() + sb.tri_normals.size()) * sizeof(Vec3) +
+                         sb.tri_object.size() * 4 + sb.objects.size() * sizeof(ObjectData) +
+                         sb.volumes.size() * sizeof(VolumeData) + (sb.voxels.size() + sb.macro_max.size()) * 4 +
+                         sb.nano_pool.size() * sizeof(GridBlock) + sb.bvh.size() * sizeof(BvhNode) +
+                         sb.bvh_prims.size() * 4;
+  EXPECT_GE(first.update.host_to_backend_bytes, scene_bytes) << "the first frame uploads the scene";
+
+  FrameStats again;
+  sys.update(&again);
+  EXPECT_EQ(again.update.host_to_backend_bytes, 0u) << "nothing changed";
+  EXPECT_EQ(again.update.backend_to_host_bytes, 0u) << "nothing changed";
+
+  // The camera moves: maps stay (one cluster), the image comes back.
+  Camera cam = scene.camera;
+  cam.position = cam.position + Vec3{0.3f, 0.0f, 0.0f};
+  sys.set_camera(cam);
+  FrameStats moved_camera;
+  Image img = sys.render(&moved_camera);
+  EXPECT_EQ(moved_camera.maps_rebuilt, 0u);
+  EXPECT_EQ(moved_camera.update.host_to_backend_bytes, 0u) << "the camera's fragment lists are used where they are";
+  EXPECT_EQ(moved_camera.update.backend_to_host_bytes, img.rgb.size() * sizeof(float) + 4 * sizeof(uint32_t))
+      << "the image and the walk's four counters";
+
+  // One object moves (twice: the first refit after a build also tightens
+  // every box the build left): its triangles (vertices and normals) and the
+  // BVH nodes whose boxes changed go to the backend, nothing else.
+  const size_t oi = index_of(scene, "teapot");
+  const ObjectData od = sb.objects[oi];
+  Object teapot = scene.objects[oi];
+  for (int step = 1; step <= 2; ++step) {
+    const std::vector<BvhNode> bvh_before = sb.bvh;
+    sys.set_transform(sys.objects()[oi],
+                      make_transform({0.05f * float(step), 0.0f, 0.02f}, {0, 10.0f * float(step), 0}, {1, 1, 1}) *
+                          teapot.transform);
+    FrameStats moved;
+    sys.update(&moved);
+    ASSERT_EQ(moved.update.bvh_refits, 1u);
+    ASSERT_EQ(sb.bvh.size(), bvh_before.size());
+    uint64_t nodes = 0;
+    for (size_t i = 0; i < sb.bvh.size(); ++i)
+      nodes += std::memcmp(&sb.bvh[i], &bvh_before[i], sizeof(BvhNode)) != 0;
+    ASSERT_GT(nodes, 0u);
+    if (step == 2) EXPECT_LT(nodes, sb.bvh.size() / 2) << "a move changes its own branches of the tree";
+    const uint64_t tris = uint64_t(od.tri_count) * 3 * sizeof(Vec3) * (sb.tri_normals.empty() ? 1 : 2);
+    EXPECT_EQ(moved.update.host_to_backend_bytes, tris + nodes * sizeof(BvhNode))
+        << "move " << step << ": " << od.tri_count << " triangles, " << nodes << " BVH nodes of " << sb.bvh.size();
+  }
+
+  // Epsilon: every map rebuilt from its kept fragment lists, nothing into the backend.
+  ShadowSettings s = scene.shadows;
+  s.epsilon = 0.03f;
+  sys.set_settings(s);
+  FrameStats eps;
+  sys.update(&eps);
+  EXPECT_GT(eps.maps_rebuilt, 0u);
+  EXPECT_EQ(eps.update.fragment_lists_reused, eps.maps_rebuilt);
+  EXPECT_EQ(eps.update.host_to_backend_bytes, 0u);
+}

@@ -100,6 +100,7 @@ struct DsmMemory {
   double avg_nodes_per_texel = 0.0;
   uint32_t max_nodes_per_texel = 0;
   uint64_t overflow_texels = 0;   // re-compressed to fit the per-texel buffer
+  uint64_t rewalked_texels = 0;   // light rays walked twice: more nodes than the first walk's buffer holds
   float max_extra_error = 0.0f;   // error those re-compressions added (bound)
   // Per map kind: grey maps store scalar nodes (8 bytes; chunked slots 12),
   // RGB maps (a coloured caster among their members) 16 bytes (chunked 20).
@@ -219,6 +220,12 @@ struct UpdateStats {
   uint64_t gl_map_bytes = 0;         // GL map buffers, allocated
   uint64_t gl_readback_bytes = 0;    // bytes read back from application buffers (read_gl_mesh) since
                                      // the last update
+  // Bytes between the host and the backend's memory this frame (update and
+  // render): on a GPU the transfers; on CPU threads the copies the backend
+  // still makes (the scene's changed arrays; fragment lists are used where
+  // they are). 0 in a frame where nothing changed and nothing is drawn.
+  uint64_t host_to_backend_bytes = 0;  // scene changes, fragment lists on a device
+  uint64_t backend_to_host_bytes = 0;  // the image, the builds' counters, the map store when inspected
 };
 
 struct FrameStats {
