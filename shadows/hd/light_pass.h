@@ -69,7 +69,8 @@ struct DsmVisitorOf {
         [&](float ta, float tb) {
           c.push(buf, ta, alpha);
           c.push(buf, tb, alpha);
-        });
+        },
+        [&] { return MarchTolerance{1.0f - alpha}; });
   }
 };
 
@@ -121,7 +122,8 @@ struct DsmVisitorRgbOf {
         [&](float ta, float tb) {
           c.push(buf, ta, alpha);
           c.push(buf, tb, alpha);
-        });
+        },
+        [&] { return MarchTolerance{max_channel(one_minus(alpha))}; });  // the least saturated channel
   }
 };
 
