@@ -21,7 +21,8 @@ struct EnclosingSet {
       if (object[i] == o) return i;
     return -1;
   }
-  // Returns false if the set is full (the entry is dropped and counted).
+  // Returns false if the set is full (the walker keeps the entry in an
+  // EnclosingOverflow).
   CDSM_HD bool enter(uint32_t o) {
     int i = find(o);
     if (i >= 0) {
@@ -46,6 +47,22 @@ struct EnclosingSet {
   }
 };
 
+// The entries a full EnclosingSet cannot hold (issue 25 b). An interior
+// that needs no identity in a segment — a constant medium, whose sigma only
+// adds, or none at all — is kept as a sum: its sigma is added at its entry
+// and taken off at its exit (the walker knows the object there), so
+// constant media nest to any depth. A volume entering a full set takes the
+// place of such a member (moved to the sum); only when every member is a
+// volume (or nested in itself) is a volume left out: counted in
+// WalkStats::enclosing_overflow, and warned about per frame.
+struct EnclosingOverflow {
+  Vec3 sigma{0, 0, 0};  // summed extinction of the constant media held here
+  uint32_t count = 0;   // entries held here (or left out) whose exits are still to come
+};
+
+// Whether a segment's media need to know this interior (a volume is marched).
+CDSM_HD CDSM_INLINE bool interior_needs_identity(const ObjectData& o) { return o.interior == 2u && o.volume >= 0; }
+
 // The media of one homogeneous segment.
 struct SegmentMedia {
   Vec3 sigma{0, 0, 0};      // summed extinction of enclosing constant media, per channel
@@ -56,8 +73,9 @@ struct SegmentMedia {
   uint32_t volume_object[kMaxEnclosing];  // the object bounding each volume
 };
 
-CDSM_HD CDSM_INLINE SegmentMedia media_of(const SceneView& s, const EnclosingSet& set) {
+CDSM_HD CDSM_INLINE SegmentMedia media_of(const SceneView& s, const EnclosingSet& set, const EnclosingOverflow& over) {
   SegmentMedia m;
+  m.sigma = over.sigma;
   for (int i = 0; i < set.count; ++i) {
     const ObjectData& o = s.objects[set.object[i]];
     if (o.interior == 1u) {
@@ -75,7 +93,7 @@ CDSM_HD CDSM_INLINE SegmentMedia media_of(const SceneView& s, const EnclosingSet
 
 // Counters a walk reports (summed into frame statistics).
 struct WalkStats {
-  uint32_t enclosing_overflow = 0;  // entries dropped: more than kMaxEnclosing objects
+  uint32_t enclosing_overflow = 0;  // volume entries left out: inside kMaxEnclosing volumes already
   uint32_t match_overflow = 0;      // rays with more than kMaxRayObjects distinct objects (matched
                                     // in further passes: same answer)
   uint32_t unmatched = 0;           // entries or exits without a partner, ignored
@@ -251,6 +269,39 @@ CDSM_HD inline void mark_matched_entries(const SceneView& s, Span<Fragment> frag
   }
 }
 
+// Enters object o: into the set, else (full) as EnclosingOverflow says.
+CDSM_HD inline void enter_object(const SceneView& s, EnclosingSet& set, EnclosingOverflow& over, uint32_t o,
+                                 WalkStats& st) {
+  if (set.enter(o)) return;
+  const ObjectData& od = s.objects[o];
+  if (interior_needs_identity(od)) {
+    for (int i = 0; i < set.count; ++i) {
+      const ObjectData& member = s.objects[set.object[i]];
+      if (set.depth[i] != 1u || interior_needs_identity(member)) continue;
+      if (member.interior == 1u) over.sigma += member.sigma;  // the member moves to the sum
+      ++over.count;
+      set.object[i] = o;
+      return;
+    }
+    ++st.enclosing_overflow;  // left out
+  } else if (od.interior == 1u) {
+    over.sigma += od.sigma;
+  }
+  ++over.count;
+}
+
+// Leaves object o; false if nothing entered it (an unmatched exit).
+CDSM_HD inline bool exit_object(const SceneView& s, EnclosingSet& set, EnclosingOverflow& over, uint32_t o) {
+  if (set.exit(o)) return true;
+  if (over.count == 0) return false;
+  const ObjectData& od = s.objects[o];
+  if (od.interior == 1u)  // (never below 0: an unmatched exit meeting the sum takes off at most what is there)
+    over.sigma = Vec3{fmaxf(over.sigma.x - od.sigma.x, 0.0f), fmaxf(over.sigma.y - od.sigma.y, 0.0f),
+                      fmaxf(over.sigma.z - od.sigma.z, 0.0f)};
+  if (--over.count == 0) over.sigma = Vec3{0, 0, 0};  // exactly: no rounding left behind
+  return true;
+}
+
 // Walks a ray through its fragments. `frags` are sorted here (in place).
 // `inside` lists objects containing the eye (decided once per view).
 // Visitor interface:
@@ -268,15 +319,14 @@ CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint3
   order_touching(s, frags);
   mark_matched_entries(s, frags, st);
   EnclosingSet set;
-  uint32_t dropped = 0;  // entries the full set dropped: their exits are expected, not unmatched
-  for (uint64_t i = 0; i < inside.size(); ++i)
-    if (!set.enter(inside[i])) ++st.enclosing_overflow;
+  EnclosingOverflow over;
+  for (uint64_t i = 0; i < inside.size(); ++i) enter_object(s, set, over, inside[i], st);
   float t_prev = t_start;
   for (uint64_t k = 0; k < frags.size(); ++k) {
     Fragment f = frags[k];
     float t = fminf(fmaxf(f.depth, t_start), t_end);
-    if (set.count > 0 && t > t_prev) {
-      SegmentMedia m = media_of(s, set);
+    if ((set.count > 0 || over.count > 0) && t > t_prev) {
+      SegmentMedia m = media_of(s, set, over);
       m.lengthened = &st.march_lengthened;
       if ((max_channel(m.sigma) > 0.0f || m.volume_count > 0) && !vis.segment(t_prev, t, m)) return;
     }
@@ -287,21 +337,14 @@ CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint3
     uint32_t o = s.tri_object[tri];
     if ((s.objects[o].flags & kObjClosed) == 0u) continue;  // open meshes have no interior
     if (frag_front(f)) {
-      if ((f.bits & kFragScratchBit) != 0u) {
-        if (!set.enter(o)) {
-          ++st.enclosing_overflow;
-          ++dropped;
-        }
-      } else {
-        ++st.unmatched;
-      }
-    } else if (!set.exit(o)) {
-      if (dropped > 0) --dropped;  // (an exit of a dropped entry; the count, not the object, is kept)
+      if ((f.bits & kFragScratchBit) != 0u) enter_object(s, set, over, o, st);
       else ++st.unmatched;
+    } else if (!exit_object(s, set, over, o)) {
+      ++st.unmatched;
     }
   }
-  if (set.count > 0 && t_end > t_prev) {
-    SegmentMedia m = media_of(s, set);
+  if ((set.count > 0 || over.count > 0) && t_end > t_prev) {
+    SegmentMedia m = media_of(s, set, over);
     m.lengthened = &st.march_lengthened;
     if (max_channel(m.sigma) > 0.0f || m.volume_count > 0) vis.segment(t_prev, t_end, m);
   }

@@ -28,8 +28,9 @@ namespace cdsm {
 
 // Hard limits of the bounded per-ray / per-texel state (DESIGN.md §2).
 // Changing them changes stack usage of every kernel.
-inline constexpr int kMaxEnclosing = 16;      // objects a ray can be inside at once (deeper entries
-                                              // are dropped and counted: the innermost media are left out)
+inline constexpr int kMaxEnclosing = 16;      // objects a ray tracks the interiors of at once (deeper
+                                              // constant media are summed: hd/segments.h EnclosingOverflow;
+                                              // a volume inside 16 volumes is left out, counted and warned)
 inline constexpr int kMaxRayObjects = 32;     // objects bracket-matched per pass (more: further passes)
 inline constexpr int kBvhStackSize = 64;      // BVH traversal stack depth
 inline constexpr int kMaxTransferPoints = 16; // transfer-function control points
