@@ -745,10 +745,6 @@ Image ShadowSystem::render(FrameStats* stats) {
     st.warnings.push_back(I.scene.source + ": " + std::to_string(st.enclosing_overflow) +
                           " entries of light or camera rays into volumes nested inside " + std::to_string(kMaxEnclosing) +
                           " other volumes; those innermost volumes were left out there (their media absorb nothing)");
-  if (st.enclosing_overflow > 0)
-    st.warnings.push_back(I.scene.source + ": " + std::to_string(st.enclosing_overflow) +
-                          " entries of light or camera rays into volumes nested inside " + std::to_string(kMaxEnclosing) +
-                          " other volumes; those innermost volumes were left out there (their media absorb nothing)");
   st.times.total_ms = ms_since(t_total);
   return img;
 }
