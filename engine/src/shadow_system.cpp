@@ -732,7 +732,8 @@ Image ShadowSystem::render(FrameStats* stats) {
   img.height = cam.view.height;
   t0 = Clock::now();
   WalkStats ws;
-  I.backend->camera_pass(I.shadow_view(), cam, I.camera_frags.lists(), img.rgb, ws);
+  // (the backend reads its own store: no host view of it is fetched)
+  I.backend->camera_pass(I.frame.view(I.scene.shadows, /*with_storage=*/false), cam, I.camera_frags.lists(), img.rgb, ws);
   st.times.camera_ms = ms_since(t0);
   take_kernel_times(*I.backend, st.times, st.times.kernel_camera_ms, st.times.kernel_camera_ms);
   add_transfers(*I.backend, st.update);

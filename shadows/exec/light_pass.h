@@ -77,6 +77,7 @@ template <>
 struct NodeKind<DsmNode> {
   using Chunk = ChunkNode;
   using Buffer = NodeBuffer;
+  using Visitor = DsmVisitor;
   static constexpr size_t heap_bytes_per_slot = 4 * sizeof(uint32_t) + 2 * sizeof(float);
   static CDSM_HD uint64_t buffer_bytes(int k, bool heap) {
     const uint64_t b = uint64_t(k) * (sizeof(DsmNode) + (heap ? heap_bytes_per_slot : 0) + sizeof(SurfaceTag));
@@ -99,6 +100,7 @@ template <>
 struct NodeKind<DsmNodeRgb> {
   using Chunk = ChunkNodeRgb;
   using Buffer = RgbNodeBuffer;
+  using Visitor = DsmVisitorRgb;
   static CDSM_HD uint64_t buffer_bytes(int k, bool) {
     const uint64_t b = uint64_t(k) * (sizeof(DsmNodeRgb) + sizeof(SurfaceTag));
     return (b + 15) & ~uint64_t(15);
@@ -160,39 +162,36 @@ inline void check_u32_total(uint64_t v, const char* what) {
     throw std::length_error(std::string("DSM ") + what + " exceed 2^32 entries");
 }
 
-// The per-texel walks of the light pass, one launch kind per node kind (a
-// functor rather than lambdas: one kernel holds the walker for both walks,
-// which keeps nvcc's compile time and code size down).
-enum class TexelStep : uint32_t {
-  Walk,    // texel first + index into its buffer of K nodes; listed when it needs more
-  Rewalk,  // listed texel spill_texels[first + index] into the large buffer, reserved and written to the pool
-};
-
+// The per-texel walks of the light pass. Each walk is its own functor, so
+// its own kernel on a GPU holding one walker: the first walk of a deep
+// shadow map (the DSM visitor into a small buffer), the first walk of a
+// baseline (its builder), the second walk (the DSM visitor into the large
+// buffer with the removal heap). Their shared state:
 template <class Node>
-struct TexelWork {
+struct TexelWalks {
   using Kind = NodeKind<Node>;
   SceneView scene;
   LightPassParams params;
   FragmentLists frags;
-  TexelStep step = TexelStep::Walk;
   int res = 0, height = 0, tiles_x = 0;
-  int K = 0;                       // Walk: the first buffer; Rewalk: the large one
-  uint64_t first = 0;              // Walk: the batch's first tile; Rewalk: the chunk's first listed texel
+  int K = 0;                       // the buffer's nodes
+  uint64_t first = 0;              // first walks: the batch's first tile; second: the chunk's first listed texel
   bool layout_counts = true;       // packed and chunked store the nodes as built (fixed counts in its own pass)
   uint64_t pool_base = 0;          // the pool's nodes before this map (packed: the store's)
   uint32_t* counts = nullptr;
-  uint32_t* spilled = nullptr;       // per texel: 0, 1 walked again, 2 walked again and re-compressed
+  uint32_t* spilled = nullptr;     // per texel: 0, 1 walked again, 2 walked again and re-compressed
   float* extra = nullptr;
   TexelRange* heads = nullptr;
   BuildCounters* ctr = nullptr;
-  unsigned char* buffers = nullptr;  // Walk: the batch's; Rewalk: the chunk's
+  unsigned char* buffers = nullptr;  // first walks: the batch's; second: the chunk's
   uint64_t slot_bytes = 0;
   uint32_t* spill_texels = nullptr;
-  Node* pool = nullptr;              // Rewalk: the pool (its capacity holds the chunk's worst case)
+  Node* pool = nullptr;              // second walk: the pool (its capacity holds the chunk's worst case)
   SurfaceTag* pool_tags = nullptr;
 
   // Texel k of the batch whose first tile is `tile0`, in tile order (64
-  // texels an 8x8 tile); false past the map's edge.
+  // texels an 8x8 tile: neighbouring rays walk together, in a warp on a
+  // GPU); false past the map's edge.
   CDSM_HD bool batch_texel(uint64_t tile0, uint64_t k, int& tx, int& ty) const {
     const uint64_t tile = tile0 + k / uint64_t(kDsmTile * kDsmTile);
     const int j = int(k % uint64_t(kDsmTile * kDsmTile));
@@ -208,55 +207,87 @@ struct TexelWork {
     if (st.march_lengthened) atomic_add(&ctr->walk[3], st.march_lengthened);
   }
 
-  CDSM_HD void operator()(uint64_t idx) const {
-    const bool walk = step == TexelStep::Walk;
-    int tx, ty;
-    if (walk) {  // the batch's texels tile by tile (neighbouring rays walk together: coherent volume reads)
-      if (!batch_texel(first, idx, tx, ty)) return;
-    } else {
-      const uint64_t t = spill_texels[first + idx];
-      tx = int(t % uint64_t(res));
-      ty = int(t / uint64_t(res));
-    }
-    const uint64_t i = uint64_t(ty) * uint64_t(res) + uint64_t(tx);
-    // The large buffer removes through the heap for scalar nodes (RGB ones by scan).
-    auto buf = Kind::buffer(buffers + idx * slot_bytes, K, !walk && sizeof(Node) == sizeof(DsmNode));
-    buf.stop_when_full = walk;
-    WalkStats st;
-    build_texel(scene, params, frags.pixel(tx, ty), tx, ty, buf, st);
-    if (walk) {
-      add_walk(st);  // (a texel walked twice counts its walk once)
-      if (buf.removed > 0) {
-        spilled[i] = 1u;
-        spill_texels[atomic_add(&ctr->spilled, 1u)] = uint32_t(i);
-        return;
-      }
-      // (no per-texel sums here: an atomic add on one counter from every
-      // thread costs more than the walk of an empty texel; the nodes stored
-      // are the pool's reservations)
-      counts[i] = uint32_t(buf.count);
-      atomic_max(&ctr->max_built_nodes, uint32_t(buf.count));
-      if (layout_counts) atomic_max(&ctr->max_nodes, uint32_t(buf.count));
+  // After a first walk of texel i into `buf`: its count, or listed for the second walk.
+  template <class Buffer>
+  CDSM_HD void first_done(uint64_t i, const Buffer& buf, const WalkStats& st) const {
+    add_walk(st);  // (a texel walked twice counts its walk once)
+    if (buf.removed > 0) {
+      spilled[i] = 1u;
+      spill_texels[atomic_add(&ctr->spilled, 1u)] = uint32_t(i);
       return;
     }
+    // (no per-texel sums here: an atomic add on one counter from every
+    // thread costs more than the walk of an empty texel; the nodes stored
+    // are the pool's reservations)
+    counts[i] = uint32_t(buf.count);
+    atomic_max(&ctr->max_built_nodes, uint32_t(buf.count));
+    if (layout_counts) atomic_max(&ctr->max_nodes, uint32_t(buf.count));
+  }
+};
+
+// First walk of a deep shadow map's texel into its buffer of K nodes.
+template <class Node>
+struct FirstWalk {
+  TexelWalks<Node> w;
+  CDSM_HD void operator()(uint64_t idx) const {
+    int tx, ty;
+    if (!w.batch_texel(w.first, idx, tx, ty)) return;
+    auto buf = NodeKind<Node>::buffer(w.buffers + idx * w.slot_bytes, w.K, false);
+    buf.stop_when_full = true;
+    WalkStats st;
+    walk_texel<typename NodeKind<Node>::Visitor>(w.scene, w.params, w.frags.pixel(tx, ty), tx, ty, buf, st);
+    w.first_done(uint64_t(ty) * uint64_t(w.res) + uint64_t(tx), buf, st);
+  }
+};
+
+// First walk of a baseline's texel (hd/baselines.h: grey, its node count
+// bounded by its parameter: never walked twice).
+struct BaselineWalk {
+  TexelWalks<DsmNode> w;
+  CDSM_HD void operator()(uint64_t idx) const {
+    int tx, ty;
+    if (!w.batch_texel(w.first, idx, tx, ty)) return;
+    NodeBuffer buf = NodeKind<DsmNode>::buffer(w.buffers + idx * w.slot_bytes, w.K, false);
+    buf.stop_when_full = true;
+    WalkStats st;
+    const Vec3 d = pixel_ray(w.params.view, tx, ty);
+    const float t_end = w.params.view.far / fmaxf(dot(d, w.params.view.forward), 1e-6f);
+    build_baseline_texel(w.scene, w.params.method, w.params.method_param, w.params.inside, w.frags.pixel(tx, ty),
+                         w.params.view.eye, d, t_end, buf, st);
+    w.first_done(uint64_t(ty) * uint64_t(w.res) + uint64_t(tx), buf, st);
+  }
+};
+
+// Second walk of a listed texel into the large buffer (scalar nodes remove
+// through the heap, RGB ones by scan), reserved exactly in the pool and
+// written there.
+template <class Node>
+struct SecondWalk {
+  TexelWalks<Node> w;
+  CDSM_HD void operator()(uint64_t idx) const {
+    const uint64_t i = w.spill_texels[w.first + idx];
+    const int tx = int(i % uint64_t(w.res)), ty = int(i / uint64_t(w.res));
+    auto buf = NodeKind<Node>::buffer(w.buffers + idx * w.slot_bytes, w.K, sizeof(Node) == sizeof(DsmNode));
+    WalkStats st;
+    build_texel(w.scene, w.params, w.frags.pixel(tx, ty), tx, ty, buf, st);
     const uint32_t n = uint32_t(buf.count);
     const bool recompressed = buf.removed > 0;
-    counts[i] = n;
-    extra[i] = buf.extra_error;
-    spilled[i] = recompressed ? 2u : 1u;
-    const uint32_t at = uint32_t(pool_base + atomic_add(&ctr->nodes, (unsigned long long)n));
-    heads[i] = TexelRange{at, n};
+    w.counts[i] = n;
+    w.extra[i] = buf.extra_error;
+    w.spilled[i] = recompressed ? 2u : 1u;
+    const uint32_t at = uint32_t(w.pool_base + atomic_add(&w.ctr->nodes, (unsigned long long)n));
+    w.heads[i] = TexelRange{at, n};
     for (uint32_t j = 0; j < n; ++j) {
-      pool[at + j] = buf.nodes[j];
-      pool_tags[at + j] = buf.tags[j];
+      w.pool[at + j] = buf.nodes[j];
+      w.pool_tags[at + j] = buf.tags[j];
     }
-    atomic_add(&ctr->rewalked, 1u);
-    atomic_max(&ctr->max_built_nodes, n);
-    if (layout_counts) {
-      atomic_max(&ctr->max_nodes, n);
+    atomic_add(&w.ctr->rewalked, 1u);
+    atomic_max(&w.ctr->max_built_nodes, n);
+    if (w.layout_counts) {
+      atomic_max(&w.ctr->max_nodes, n);
       if (recompressed) {
-        atomic_add(&ctr->recompressed_texels, 1u);
-        atomic_max(&ctr->max_extra_error_bits, float_bits(buf.extra_error));
+        atomic_add(&w.ctr->recompressed_texels, 1u);
+        atomic_max(&w.ctr->max_extra_error_bits, float_bits(buf.extra_error));
       }
     }
   }
@@ -328,7 +359,7 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
   };
   const auto pool_tags = [&]() -> SurfaceTag* { return kind == kDsmPacked ? out.tags.data() : s.staging_tags.data(); };
 
-  TexelWork<Node> work;
+  TexelWalks<Node> work;
   work.scene = scene;
   work.params = params;
   work.frags = frags;
@@ -358,17 +389,20 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
     s.walk.resize_discard(batch * walk_bytes);
     s.spill_texels.resize_discard(batch);
     ex.fill_zero(&ctr->spilled, sizeof(uint32_t));
-    work.step = TexelStep::Walk;
     work.K = K;
     work.first = tile0;
     work.buffers = s.walk.data();
     work.slot_bytes = walk_bytes;
     work.spill_texels = s.spill_texels.data();
-    ex.parallel_for("light pass: walk", batch, work);
+    if constexpr (sizeof(Node) == sizeof(DsmNode)) {
+      if (baseline) ex.parallel_for("light pass: walk (baseline)", batch, BaselineWalk{work});
+      else ex.parallel_for("light pass: walk", batch, FirstWalk<Node>{work});
+    } else {
+      ex.parallel_for("light pass: walk", batch, FirstWalk<Node>{work});
+    }
     ex.download(&c, ctr, sizeof c);
     // 2. rewalk the listed texels, a chunk at a time, into the pool.
     if (c.spilled > 0) {
-      work.step = TexelStep::Rewalk;
       work.K = K2;
       work.slot_bytes = rewalk_bytes;
       for (uint64_t f = 0; f < c.spilled; f += chunk_texels) {
@@ -379,7 +413,7 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
         work.buffers = s.spill.data();
         work.pool = pool_nodes();
         work.pool_tags = pool_tags();
-        ex.parallel_for("light pass: walk again", n, work);
+        ex.parallel_for("light pass: walk again", n, SecondWalk<Node>{work});
         ex.download(&c, ctr, sizeof c);
         pool_used = c.nodes;
       }
@@ -410,7 +444,7 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
     Node* pn = pool_nodes();
     SurfaceTag* pt = pool_tags();
     const unsigned char* walk_mem = s.walk.data();
-    const TexelWork<Node> at = work;
+    const TexelWalks<Node> at = work;
     ex.parallel_for("light pass: copy", batch, CDSM_LAMBDA(uint64_t k) {
       int tx, ty;
       if (!at.batch_texel(tile0, k, tx, ty)) return;
@@ -480,25 +514,24 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
     TexelRange* store_heads = out.texels.data() + map.texel_offset;
     const Node* staging = reinterpret_cast<const Node*>(s.staging.data());
     const SurfaceTag* staging_tags = s.staging_tags.data();
-    ex.parallel_for("light pass: chunked layout", n_tiles, CDSM_LAMBDA(uint64_t tile) {
+    // A thread per texel (write_chunked_texel: the tile writer's slots).
+    ex.parallel_for("light pass: chunked layout", n_tiles * kChunkTileTexels, CDSM_LAMBDA(uint64_t idx) {
+      const uint64_t tile = idx / kChunkTileTexels;
+      const int k = int(idx % kChunkTileTexels);
       const int x0 = int(tile % uint64_t(tiles_x)) * kDsmTile, y0 = int(tile / uint64_t(tiles_x)) * kDsmTile;
       uint32_t tile_counts[kChunkTileTexels];
-      uint64_t texel[kChunkTileTexels];
-      TexelRange tile_heads[kChunkTileTexels];
-      for (int k = 0; k < kChunkTileTexels; ++k) {
-        const int tx = x0 + k % kDsmTile, ty = y0 + k / kDsmTile;
-        const bool in = tx < res && ty < height;
-        texel[k] = in ? uint64_t(ty) * res + tx : 0;
-        tile_counts[k] = in ? heads[texel[k]].count : 0u;
+      for (int j = 0; j < kChunkTileTexels; ++j) {
+        const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
+        tile_counts[j] = tx < res && ty < height ? heads[uint64_t(ty) * res + tx].count : 0u;
       }
-      write_chunked_tile(
-          tile_counts, kChunkTileTexels, [&](int k) { return staging + heads[texel[k]].offset; },
-          [&](int k) { return staging_tags + heads[texel[k]].offset; },
-          uint32_t(chunk_base + uint64_t(tile_first[tile]) * C), C, pool, chunk_tags, tile_heads);
-      for (int k = 0; k < kChunkTileTexels; ++k) {
-        const int tx = x0 + k % kDsmTile, ty = y0 + k / kDsmTile;
-        if (tx < res && ty < height) store_heads[texel[k]] = tile_heads[k];
-      }
+      const int tx = x0 + k % kDsmTile, ty = y0 + k / kDsmTile;
+      const bool in = tx < res && ty < height;
+      const uint64_t t = in ? uint64_t(ty) * res + tx : 0;
+      const uint32_t at = in ? heads[t].offset : 0u;
+      TexelRange head;
+      write_chunked_texel(tile_counts, kChunkTileTexels, k, staging + at, staging_tags + at,
+                          uint32_t(chunk_base + uint64_t(tile_first[tile]) * C), C, pool, chunk_tags, head);
+      if (in) store_heads[t] = head;
     });
   }
   out.texel_count += n_texels;

@@ -82,4 +82,45 @@ CDSM_HD uint32_t write_chunked_tile(const uint32_t* counts, int texels, NodesOf 
   return bl;
 }
 
+// The slot write_chunked_tile gives layer `layer` of tile texel k (counts
+// as there): the nodes of every texel in the layers before, then those of
+// the texels before k that reach this layer.
+CDSM_HD CDSM_INLINE uint32_t chunked_tile_slot(const uint32_t* counts, int texels, int k, uint32_t layer) {
+  uint32_t before = 0;
+  for (int j = 0; j < texels; ++j) {
+    before += counts[j] < layer ? counts[j] : layer;  // its nodes in layers 0 .. layer-1
+    if (j < k && counts[j] > layer) ++before;
+  }
+  return before;
+}
+
+// write_chunked_tile's result, one texel at a time (a thread per texel on
+// a GPU): tile texel k writes its own nodes and links and its header;
+// texel 0 also clears the free slots of the tile's last chunk. The same
+// slots, links and headers as write_chunked_tile, bit for bit.
+template <class Node, class Chunk>
+CDSM_HD void write_chunked_texel(const uint32_t* counts, int texels, int k, const Node* nodes, const SurfaceTag* tags,
+                                 uint32_t first_slot, uint32_t chunk_nodes, Chunk* pool, SurfaceTag* pool_tags,
+                                 TexelRange& head) {
+  const uint32_t n = counts[k];
+  head = TexelRange{kChunkEnd, n};
+  uint32_t slot = n > 0 ? first_slot + chunked_tile_slot(counts, texels, k, 0) : kChunkEnd;
+  if (n > 0) head.offset = slot;
+  for (uint32_t layer = 0; layer < n; ++layer) {
+    const uint32_t next = layer + 1 < n ? first_slot + chunked_tile_slot(counts, texels, k, layer + 1) : kChunkEnd;
+    pool[slot] = chunk_of(nodes[layer], next);
+    if (pool_tags) pool_tags[slot] = tags ? tags[layer] : kNoSurface;
+    slot = next;
+  }
+  if (k == 0) {
+    uint32_t total = 0;
+    for (int j = 0; j < texels; ++j) total += counts[j];
+    const uint32_t end = first_slot + tile_chunks(total, chunk_nodes) * chunk_nodes;
+    for (uint32_t s = first_slot + total; s < end; ++s) {
+      pool[s] = empty_chunk<Chunk>();
+      if (pool_tags) pool_tags[s] = kNoSurface;
+    }
+  }
+}
+
 }  // namespace cdsm

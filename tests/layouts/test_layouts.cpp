@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <set>
 #include <vector>
@@ -405,6 +406,42 @@ TEST(Layouts, ChunkedTileWriterLinksThreeChunks) {
   Span<const DsmNode> ref{texel[9].data(), texel[9].size()};
   for (float z = -1.0f; z < 152.0f; z += 0.37f)
     EXPECT_EQ(lookup_alpha_chunked(Span<const ChunkNode>{pool.data(), pool.size()}, h, z), lookup_alpha(ref, z));
+}
+
+// The same tile written a texel at a time (a thread per texel on a GPU):
+// the same pool slots, links, tags and headers as the tile writer, for
+// tiles of random node counts (empty texels, one deep texel, whole chunks).
+TEST(Layouts, ChunkedTexelWriterEqualsTheTileWriter) {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 50; ++trial) {
+    const uint32_t C = trial % 3 == 0 ? 64u : uint32_t(1 + rng() % 9);
+    std::vector<uint32_t> counts(64);
+    std::vector<std::vector<DsmNode>> texel(64);
+    std::vector<std::vector<SurfaceTag>> tags(64);
+    for (int k = 0; k < 64; ++k) {
+      const uint32_t n = rng() % 4 == 0 ? 0u : (k == trial % 64 ? 100u + rng() % 60 : rng() % 7);
+      counts[size_t(k)] = n;
+      for (uint32_t i = 0; i < n; ++i) {
+        texel[size_t(k)].push_back({float(i) + 0.01f * float(k), float(i) / float(n)});
+        tags[size_t(k)].push_back(SurfaceTag(rng() % 200));
+      }
+    }
+    uint32_t total = 0;
+    for (uint32_t n : counts) total += n;
+    const uint32_t first = 2 * C, slots = first + tile_chunks(total, C) * C + 5;
+    std::vector<ChunkNode> a(slots, ChunkNode{-1.0f, -1.0f, 777u}), b = a;
+    std::vector<SurfaceTag> ta(slots, SurfaceTag(999)), tb = ta;
+    std::vector<TexelRange> ha(64), hb(64);
+    write_chunked_tile(
+        counts.data(), 64, [&](int k) { return texel[size_t(k)].data(); }, [&](int k) { return tags[size_t(k)].data(); },
+        first, C, a.data(), ta.data(), ha.data());
+    for (int k = 63; k >= 0; --k)  // any order: each texel writes its own slots
+      write_chunked_texel(counts.data(), 64, k, texel[size_t(k)].data(), tags[size_t(k)].data(), first, C, b.data(), tb.data(),
+                          hb[size_t(k)]);
+    ASSERT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(ChunkNode)), 0) << "trial " << trial;
+    ASSERT_EQ(ta, tb) << "trial " << trial;
+    ASSERT_EQ(std::memcmp(ha.data(), hb.data(), ha.size() * sizeof(TexelRange)), 0) << "trial " << trial;
+  }
 }
 
 // Exact sup |f - g| of two node lists (breakpoints of both, both sides of steps).
