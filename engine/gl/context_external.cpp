@@ -4,9 +4,15 @@
 // application can), it checks that it still is, and throws naming the
 // situation otherwise: no context current, or another one (the adopted
 // context destroyed, or the application switched contexts).
+//
+// GLX is asked through dlsym, and only when the process has libGLX (or
+// libGL) loaded already: a GLX context can be current only then, and the
+// library builds without X11 headers and links no libGLX (so neither X11 nor
+// xcb), which a GPU machine without a display lacks.
 #include <EGL/egl.h>
-#include <GL/glx.h>
+#include <dlfcn.h>
 
+#include <atomic>
 #include <cstdio>
 #include <string>
 
@@ -18,19 +24,35 @@ namespace cdsm::gl {
 
 namespace {
 
+// glXGetCurrentContext of the libGLX or libGL the process loaded (GLFW
+// loads one for a window), null while it has loaded neither. Looked up
+// again until found: a library may be loaded after the first call.
+void* current_glx_context() {
+  using GetCurrent = void* (*)();
+  static std::atomic<GetCurrent> found{nullptr};
+  GetCurrent get = found.load();
+  for (const char* soname : {"libGLX.so.0", "libGL.so.1"}) {
+    if (get) break;
+    void* lib = dlopen(soname, RTLD_LAZY | RTLD_NOLOAD);  // only if loaded already; kept referenced
+    if (lib) get = reinterpret_cast<GetCurrent>(dlsym(lib, "glXGetCurrentContext"));
+    if (get) found.store(get);
+  }
+  return get ? get() : nullptr;
+}
+
 struct CurrentIdentity {
   EGLContext egl = EGL_NO_CONTEXT;
-  GLXContext glx = nullptr;
+  void* glx = nullptr;  // GLXContext
   bool any() const { return egl != EGL_NO_CONTEXT || glx != nullptr; }
   bool operator==(const CurrentIdentity& o) const { return egl == o.egl && glx == o.glx; }
 };
 
-CurrentIdentity current_identity() { return {eglGetCurrentContext(), glXGetCurrentContext()}; }
+CurrentIdentity current_identity() { return {eglGetCurrentContext(), current_glx_context()}; }
 
 std::string describe(const CurrentIdentity& c) {
   char buf[96];
   if (c.egl != EGL_NO_CONTEXT) std::snprintf(buf, sizeof buf, "EGL context %p", c.egl);
-  else if (c.glx) std::snprintf(buf, sizeof buf, "GLX context %p", static_cast<void*>(c.glx));
+  else if (c.glx) std::snprintf(buf, sizeof buf, "GLX context %p", c.glx);
   else std::snprintf(buf, sizeof buf, "no context");
   return buf;
 }
