@@ -387,7 +387,7 @@ CDSM_HD CDSM_INLINE void ray_box_span(Vec3 qo, Vec3 qd, Vec3 lo, Vec3 hi, float&
 // chord deviates by at most T h^2 sigma^2 / 8 (as for constant media,
 // sample_constant_medium), within e = kVolumeChordError for steps h <=
 // sqrt(8 e / T) / sigma. The step grows as the ray saturates: about
-// 2 / sqrt(8 e) (32) samples reach saturation however dense the volume.
+// 2 / sqrt(8 e) (16) samples reach saturation however dense the volume.
 // An edge of the extinction (a thresholded transfer function) inside a
 // step moves the optical depth by up to its height dsigma times h / 2
 // (trapezoid rule): within kVolumeEdgeError / 2 where T dsigma h <=
@@ -396,6 +396,7 @@ CDSM_HD CDSM_INLINE void ray_box_span(Vec3 qo, Vec3 qd, Vec3 lo, Vec3 hi, float&
 inline constexpr float kVolumeChordError = 0.002f;
 inline constexpr float kVolumeEdgeError = 0.004f;
 inline constexpr int kMaxEdgeHalvings = 24;  // a float step halves to 4 ulps of t in fewer
+inline constexpr float kSaturationDepth = 9.22f;  // optical depth of saturation: -ln(1 - kSaturatedAlpha)
 
 struct MarchTolerance {
   float T;  // transmittance where the step starts (the largest over channels)
@@ -573,10 +574,18 @@ CDSM_HD bool march_segment(const SceneView& s, const SegmentMedia& m, Vec3 org, 
     bool need_start = bounded && bounded_end != t;
     if (need_start) grow = 3.0e38f;
     const float proposed = te - t;
+    bool unresolved = false;  // the chords need a step below float resolution here
     MarchSample ms;
     for (int k = 0;; ++k) {
-      if (bounded && !need_start && k == 0)
-        te = fminf(t + fmaxf(fminf(fminf(proposed, grow), tol.step(max_channel(start.extinction))), progress), t1);
+      if (bounded && !need_start && k == 0) {
+        const float sigma0 = max_channel(start.extinction), fine = tol.step(sigma0);
+        // Below float resolution (4 ulps of t) the ray saturates within a
+        // few ulps: one step of kSaturationDepth optical depths stands for it.
+        unresolved = fine < progress;
+        const float h_step = unresolved ? fminf(proposed, fmaxf(progress, kSaturationDepth / sigma0))
+                                        : fmaxf(fminf(fminf(proposed, grow), fine), progress);
+        te = fminf(t + h_step, t1);
+      }
       media_at(org + dir * (!bounded ? 0.5f * (t + te) : need_start ? t : te), ms);
       if (!bounded) break;
       if (need_start) {
@@ -589,7 +598,7 @@ CDSM_HD bool march_segment(const SceneView& s, const SegmentMedia& m, Vec3 org, 
       const float sigma = fmaxf(max_channel(start.extinction), max_channel(ms.extinction));
       const float jump = fmaxf(fmaxf(fabsf(d.x), fabsf(d.y)), fabsf(d.z));
       const float half = t + 0.5f * (te - t);
-      if (k == kMaxEdgeHalvings || tol.resolved(sigma, jump, te - t) || !(half - t >= progress)) {
+      if (k == kMaxEdgeHalvings || unresolved || tol.resolved(sigma, jump, te - t) || !(half - t >= progress)) {
         const MarchSample end = ms;
         ms.extinction = (start.extinction + end.extinction) * 0.5f;
         start = end;
