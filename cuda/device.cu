@@ -2,6 +2,8 @@
 
 #include <cuda_runtime.h>
 
+#include <atomic>
+#include <cstdio>
 #include <cstdlib>
 #include <mutex>
 #include <string>
@@ -66,13 +68,77 @@ DeviceInfo probe() {
   return info;
 }
 
+struct UnusableState {
+  std::atomic<bool> set{false};
+  std::mutex mutex;
+  int error = 0;
+  std::string what;
+};
+UnusableState& unusable_state() {
+  static UnusableState s;
+  return s;
+}
+std::atomic<const char*> g_last_launch{nullptr};
+
 }  // namespace
 
 DeviceInfo probe_device() {
   static std::once_flag once;
   static DeviceInfo info;
   std::call_once(once, [] { info = probe(); });
+  if (unusable()) {
+    DeviceInfo gone = info;
+    gone.available = false;
+    gone.description = "no CUDA device: CUDA is unusable in this process after an earlier error: " + unusable_reason();
+    return gone;
+  }
   return info;
+}
+
+std::string mark_unusable(int cuda_error, const std::string& what) {
+  UnusableState& s = unusable_state();
+  std::lock_guard<std::mutex> lock(s.mutex);
+  if (!s.set.load()) {
+    s.error = cuda_error;
+    s.what = what;
+    const char* last = last_launch();
+    if (*last) s.what += std::string("; last kernel launched: '") + last + "'";
+    if (!sync_every_launch()) s.what += " (CDSM_CUDA_SYNC=1 names the kernel that failed)";
+    s.set.store(true);
+    std::fprintf(stderr, "cdsm: CUDA is unusable in this process: %s; every later CUDA call fails\n", s.what.c_str());
+  }
+  return s.what;
+}
+
+bool unusable() { return unusable_state().set.load(); }
+
+std::string unusable_reason() {
+  UnusableState& s = unusable_state();
+  if (!s.set.load()) return {};
+  std::lock_guard<std::mutex> lock(s.mutex);
+  return s.what;
+}
+
+int unusable_error() {
+  UnusableState& s = unusable_state();
+  if (!s.set.load()) return 0;
+  std::lock_guard<std::mutex> lock(s.mutex);
+  return s.error;
+}
+
+bool sync_every_launch() {
+  static const bool sync = [] {
+    const char* v = std::getenv("CDSM_CUDA_SYNC");
+    return v && *v && std::string(v) != "0";
+  }();
+  return sync;
+}
+
+void note_launch(const char* name) { g_last_launch.store(name); }
+
+const char* last_launch() {
+  const char* n = g_last_launch.load();
+  return n ? n : "";
 }
 
 }  // namespace cdsm::cuda

@@ -43,6 +43,7 @@ GlBufferLink& GlBufferLink::operator=(GlBufferLink&& o) noexcept {
 
 bool GlBufferLink::bind(unsigned name, size_t bytes, GlAccess access) {
   if (name == 0) throw std::invalid_argument("GlBufferLink::bind: GL buffer name 0");
+  check_usable("GlBufferLink::bind");
   if (resource_ && name == name_ && bytes == bytes_ && access == access_) return false;
   reset();
   cudaGraphicsResource_t r = nullptr;
@@ -63,6 +64,7 @@ void GlBufferLink::reset() noexcept {
 
 GlMapScope::GlMapScope(GlBufferLink* const* links, int count, void* stream) : stream_(stream) {
   if (count < 0 || count > kMax) throw std::invalid_argument("GlMapScope: at most 16 buffers");
+  check_usable("GlMapScope");
   for (int i = 0; i < count; ++i) {
     if (!links[i] || !links[i]->registered()) throw std::invalid_argument("GlMapScope: buffer not registered");
     resources_[i] = links[i]->resource();

@@ -24,7 +24,10 @@ enum class GlAccess { ReadWrite, ReadOnly, WriteDiscard };
 
 // One GL buffer object registered with CUDA. Cannot be copied; moving
 // hands the registration over. A GL context must be current (and on the
-// CUDA device) for bind() and the destructor.
+// CUDA device) for bind() and the destructor. Whoever deletes or replaces
+// the GL buffer resets the link first (CudaExec::gl_buffer_released, called
+// through ShadowBackend::gl_buffer_released by engine/gl/map_buffers.cpp):
+// a registration must not outlive its buffer object.
 class GlBufferLink {
  public:
   GlBufferLink() = default;

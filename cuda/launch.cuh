@@ -3,7 +3,9 @@
 // memory in device memory, every asynchronous call on the executor's
 // stream, every call checked (cuda/check.cuh), and a pair of CUDA events
 // around every launch so take_stage_times() reports milliseconds per
-// launch name.
+// launch name. Faults: $CDSM_CUDA_SYNC=1 synchronizes after every launch,
+// so an illegal address is reported by the launch that made it, by name;
+// after a sticky error every call fails fast with its message (check.cuh).
 #pragma once
 
 #include <memory>
@@ -72,13 +74,14 @@ class CudaExec {
   int device() const { return device_; }
 
   void* allocate(size_t bytes) {
+    check_usable("allocate");
     void* p = nullptr;
     if (async_alloc_) CDSM_CUDA_CHECK(cudaMallocAsync(&p, bytes ? bytes : 1, stream()));
     else CDSM_CUDA_CHECK(cudaMalloc(&p, bytes ? bytes : 1));
     return p;
   }
   void release(void* p) noexcept {
-    if (!p) return;
+    if (!p || unusable()) return;  // the context is lost: nothing to give back
     if (async_alloc_) CDSM_CUDA_CHECK_NOTHROW(cudaFreeAsync(p, stream()));
     else CDSM_CUDA_CHECK_NOTHROW(cudaFree(p));
   }
@@ -86,6 +89,7 @@ class CudaExec {
   template <class F>
   void parallel_for(const char* name, uint64_t n, F f) {
     if (n == 0) return;
+    check_usable(name);
     static const int block = [] {
       int min_grid = 0, b = 0;
       CDSM_CUDA_CHECK(cudaOccupancyMaxPotentialBlockSize(&min_grid, &b, parallel_for_kernel<F>, 0, 0));
@@ -96,22 +100,31 @@ class CudaExec {
     Launch l{name, nullptr, nullptr};
     take_events(l);
     CDSM_CUDA_CHECK(cudaEventRecord(l.start, stream()));
+    note_launch(name);
     parallel_for_kernel<F><<<unsigned(grid), unsigned(block), 0, stream()>>>(n, f);
     const cudaError_t launched = cudaGetLastError();
     if (launched != cudaSuccess) {
       free_events_.push_back({l.start, l.stop});
-      throw CudaError(launched, describe(launched, name, __FILE__, __LINE__));
+      throw error_of(launched, describe(launched, (std::string("launch of kernel '") + name + "'").c_str(), __FILE__, __LINE__));
     }
     CDSM_CUDA_CHECK(cudaEventRecord(l.stop, stream()));
     pending_.push_back(l);
+    if (sync_every_launch()) {  // CDSM_CUDA_SYNC=1: a fault here is this kernel's
+      const cudaError_t ran = cudaStreamSynchronize(stream());
+      if (ran != cudaSuccess)
+        throw error_of(ran, describe(ran, (std::string("kernel '") + name + "' (CDSM_CUDA_SYNC=1: synchronized after its launch)").c_str(),
+                                     __FILE__, __LINE__));
+    }
     if (pending_.size() >= 1024) fold();  // nobody asked for the times yet: keep the events bounded
   }
 
   void upload(void* dst, const void* src, size_t bytes) {
+    check_usable("upload");
     if (bytes) CDSM_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyHostToDevice, stream()));
     bytes_up += bytes;
   }
   void download(void* dst, const void* src, size_t bytes) {
+    check_usable("download");
     if (bytes) CDSM_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToHost, stream()));
     synchronize();
     bytes_down += bytes;
@@ -119,13 +132,18 @@ class CudaExec {
   // Bytes through upload() and download() so far (host <-> device transfers).
   uint64_t bytes_up = 0, bytes_down = 0;
   void copy(void* dst, const void* src, size_t bytes) {
+    check_usable("copy");
     if (bytes) CDSM_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToDevice, stream()));
   }
   void fill_zero(void* dst, size_t bytes) {
+    check_usable("fill_zero");
     if (bytes) CDSM_CUDA_CHECK(cudaMemsetAsync(dst, 0, bytes, stream()));
   }
 
-  void synchronize() { CDSM_CUDA_CHECK(cudaStreamSynchronize(stream())); }
+  void synchronize() {
+    check_usable("synchronize");
+    CDSM_CUDA_CHECK(cudaStreamSynchronize(stream()));
+  }
 
 #if defined(CDSM_HAVE_CUDA_GL)
   // CUDA-GL interop for the map buffers (engine/gl/map_buffers.h through
@@ -135,6 +153,7 @@ class CudaExec {
   // generation changed), all mapped together on the stream for the copies.
   bool gl_context_on_device() const { return cuda::gl_context_on_device(device_, nullptr); }
   void write_gl_buffers(const GlMapWrite* w, int n, const void* const* src) {
+    check_usable("write_gl_buffers");
     if (n < 0 || n > kStorageArrays) throw std::invalid_argument("write_gl_buffers: at most one range per storage array");
     GlBufferLink* links[kStorageArrays] = {};
     for (int i = 0; i < n; ++i) {
@@ -158,6 +177,7 @@ class CudaExec {
   // registered write-discard once per buffer object), unmapped after.
   template <class F>
   void with_gl_buffer(unsigned name, uint64_t bytes, uint64_t generation, F&& f) {
+    check_usable("with_gl_buffer");
     if (image_generation_ != generation) image_link_.reset();
     image_generation_ = generation;
     image_link_.bind(name, size_t(bytes), GlAccess::WriteDiscard);
@@ -167,6 +187,14 @@ class CudaExec {
     void* p = mapped.pointer(0, &size);
     if (size < bytes) throw std::out_of_range("with_gl_buffer: the mapped GL buffer is smaller than said");
     f(p);
+  }
+  // GL buffer `name` is about to be deleted or replaced by its owner
+  // (ShadowBackend::gl_buffer_released): unregistered now, while it exists;
+  // the next write registers its successor.
+  void gl_buffer_released(unsigned name) noexcept {
+    for (GlBufferLink& l : gl_links_)
+      if (l.registered() && l.name() == name) l.reset();
+    if (image_link_.registered() && image_link_.name() == name) image_link_.reset();
   }
   uint64_t gl_registrations() const {
     uint64_t r = 0;

@@ -58,6 +58,16 @@ MapBuffers::~MapBuffers() {
     context_.make_current();  // the names belong to it
   } catch (...) {
   }
+  for (int b = 0; b < kMapBlocks; ++b) release(b);  // before the members delete them
+}
+
+void MapBuffers::release(int b) {
+  const GLuint name = buffers_[b].id();
+  if (name == 0 || !release_hook_) return;
+  try {
+    release_hook_(name);
+  } catch (...) {  // a hook that throws must not keep the buffer alive or leak it
+  }
 }
 
 void MapBuffers::renew(int b) {
@@ -77,6 +87,7 @@ GlMapWrite MapBuffers::prepare_array(int b, uint64_t bytes, bool full, MapUpload
   if (full || bytes < used_[b]) {
     const uint64_t want = (std::max(bytes, kMinBytes) + 3) & ~uint64_t(3);  // whole words
     if (want > buf.capacity() || buf.capacity() > 2 * want) {
+      release(b);
       buf.destroy();
       buf.reserve(want);
       renew(b);
@@ -93,7 +104,8 @@ GlMapWrite MapBuffers::prepare_array(int b, uint64_t bytes, bool full, MapUpload
         CDSM_GL(glCopyNamedBufferSubData(buf.id(), next.id(), 0, 0, GLsizeiptr(used_[b])));
         st.copy_bytes += used_[b];
       }
-      buf = std::move(next);
+      release(b);
+      buf = std::move(next);  // deletes the old buffer object
       renew(b);
     }
     w.offset = used_[b];
@@ -171,6 +183,7 @@ MapUploadStats MapBuffers::sync(const ShadowView& view, uint64_t epoch, const De
     const uint64_t bytes = frame.size();
     Buffer& buf = buffers_[int(MapBlock::Frame)];
     if (bytes > buf.capacity() || buf.capacity() > 2 * bytes) {
+      release(int(MapBlock::Frame));
       buf.destroy();
       buf.reserve(bytes);
     }

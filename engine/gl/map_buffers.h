@@ -84,6 +84,14 @@ class MapBuffers {
   // view.storage's spans are only read for their sizes.
   MapUploadStats sync(const ShadowView& view, uint64_t epoch, const DeviceWriter& device = {});
 
+  // Called with a buffer's GL name just before this deletes it or replaces
+  // it by another (growth, re-allocation, the destructor), the context
+  // current: whoever registered the buffer elsewhere (the cuda backend's
+  // CUDA-GL interop, ShadowBackend::gl_buffer_released) lets it go first.
+  // Empty: nobody to tell. The hook must not throw.
+  using ReleaseHook = std::function<void(GLuint name)>;
+  void set_release_hook(ReleaseHook hook) { release_hook_ = std::move(hook); }
+
   GLuint buffer(MapBlock b) const { return buffers_[int(b)].id(); }
   uint64_t limit_bytes() const { return max_block_; }
 
@@ -99,7 +107,8 @@ class MapBuffers {
   // Sizes array `block`'s buffer for `bytes` (growing it by a GL-side copy,
   // or re-allocating it on a full sync) and returns the range to write.
   GlMapWrite prepare_array(int block, uint64_t bytes, bool full, MapUploadStats& st);
-  void renew(int block);  // the array has a new buffer object
+  void renew(int block);    // the array has a new buffer object
+  void release(int block);  // tells the release hook before the block's buffer goes
 
   Context& context_;
   uint64_t max_block_ = 0;
@@ -109,6 +118,7 @@ class MapBuffers {
   uint64_t epoch_ = 0;              // of the last sync (0: none yet)
   uint32_t layout_ = ~0u;
   std::vector<unsigned char> frame_;  // the frame block last uploaded
+  ReleaseHook release_hook_;
 };
 
 }  // namespace cdsm::gl

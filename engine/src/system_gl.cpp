@@ -35,6 +35,9 @@ void SystemGlDeleter::operator()(SystemGl* p) const {
   } catch (...) {
   }
   if (!current && p->maps) p->maps.release();  // leaked into the (gone or other) context on purpose
+  // The backend the release hook names is gone by now (ShadowSystem::Impl
+  // declares it after `gl`), and it unregistered its GL buffers as it died.
+  if (p->maps) p->maps->set_release_hook({});
   delete p;
 }
 
@@ -73,6 +76,9 @@ SystemGlScope::~SystemGlScope() = default;
 void sync_gl_maps(SystemGl& g, ShadowView view, ShadowBackend& backend, UpdateStats& st) {
   if (!g.maps) g.maps = std::make_unique<gl::MapBuffers>(*g.context, g.block_limit);
   g.context->make_current();
+  // A buffer the backend may have registered (CUDA-GL interop) is released
+  // to it before GL deletes or replaces it (system_gl.h).
+  g.maps->set_release_hook([&backend](GLuint name) { backend.gl_buffer_released(name); });
   gl::MapUploadStats m;
   if (backend.can_write_gl_maps()) {
     // The backend writes the ranges from its own memory: sizes only here.

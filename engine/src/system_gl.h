@@ -53,7 +53,10 @@ class SystemGlScope {
 // can write them in place (ShadowBackend::can_write_gl_maps: the cuda
 // backend with this context on its device; counted in gl_map_device_bytes),
 // else as uploads from its storage() (gl_map_upload_bytes). The figures go
-// to `st`.
+// to `st`. Every map buffer is passed to backend.gl_buffer_released() before
+// GL deletes or replaces it: in this sync, in later ones, and when
+// set_gl_map_block_limit drops the buffers (not when the SystemGl is
+// deleted: the system's backend dies first and unregisters everything).
 void sync_gl_maps(SystemGl& g, ShadowView view, ShadowBackend& backend, UpdateStats& st);
 GlMapBuffers gl_map_buffers(const SystemGl& g);
 void bind_gl_maps(SystemGl& g, uint32_t program);

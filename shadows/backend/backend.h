@@ -184,6 +184,11 @@ class ShadowBackend {
     (void)count;
     throw std::logic_error(std::string(name()) + " backend: write_gl_maps is not supported (can_write_gl_maps is false)");
   }
+  // GL buffer `name` (current context) is about to be deleted or replaced
+  // by its owner (engine/gl/map_buffers.h): a backend that registered it
+  // (CUDA-GL interop) unregisters it now, before GL deletes it. No-op by
+  // default; never throws.
+  virtual void gl_buffer_released(uint32_t name) { (void)name; }
 
   // Shades every pixel of the camera view into `rgb` (3 floats per pixel,
   // linear), read back to the host; fragments are sorted in place.

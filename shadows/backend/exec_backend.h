@@ -203,6 +203,11 @@ class ExecBackend final : public ExecShadowBackend {
       ShadowBackend::write_gl_maps(writes, count);
     }
   }
+  // The executor lets go of its registration of that buffer, if it has one.
+  void gl_buffer_released(uint32_t name) override {
+    if constexpr (Ex::kGlInterop) ex_.gl_buffer_released(name);
+    else (void)name;
+  }
 
   void camera_pass(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags,
                    std::vector<float>& rgb, WalkStats& walk) override {

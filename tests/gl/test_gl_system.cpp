@@ -4,8 +4,10 @@
 // read from application buffers, and every misuse as a clear error.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -461,7 +463,11 @@ TEST_F(GlSystem, MapsBeyondTheStorageBlockLimitAreRefused) {
 // on a GPU): it says it can write the map buffers, gets the ranges
 // engine/gl/map_buffers.h decided and writes them itself (here from its
 // inner cpu backend's arrays with glNamedBufferSubData). Its storage_extent()
-// has no data: nothing on the device path may read bytes through it.
+// has no data: nothing on the device path may read bytes through it. Like
+// CudaExec's GL links it keeps a registry of the buffers it wrote (name ->
+// buffer generation) that gl_buffer_released empties; a release of a name
+// GL no longer knows, or a known name written under a new generation (the
+// old object deleted unannounced, the name reused), is a violation.
 class InPlaceBackend final : public ShadowBackend {
  public:
   explicit InPlaceBackend(std::unique_ptr<ShadowBackend> inner) : inner_(std::move(inner)) {}
@@ -495,6 +501,10 @@ class InPlaceBackend final : public ShadowBackend {
                                        s.rgb_nodes.data(), s.rgb_chunks.data(), s.tags.data(),   s.rgb_tags.data()};
     static_assert(kStorageArrays == 8, "one source per storage array");
     for (int i = 0; i < n; ++i) {
+      const auto known = registered.find(w[i].gl_buffer);
+      if (known != registered.end() && known->second != w[i].gl_buffer_generation)
+        violations.push_back("buffer " + std::to_string(w[i].gl_buffer) + " written under a new generation, never released");
+      registered[w[i].gl_buffer] = w[i].gl_buffer_generation;
       GLint64 size = 0;
       glGetNamedBufferParameteri64v(w[i].gl_buffer, GL_BUFFER_SIZE, &size);
       ASSERT_EQ(uint64_t(size), w[i].gl_buffer_bytes);
@@ -504,8 +514,15 @@ class InPlaceBackend final : public ShadowBackend {
       ++writes;
     }
   }
-  uint64_t writes = 0;
+  void gl_buffer_released(uint32_t name) override {
+    ++releases;
+    if (!glIsBuffer(name)) violations.push_back("buffer " + std::to_string(name) + " released after GL deleted it");
+    registered.erase(name);
+  }
+  uint64_t writes = 0, releases = 0;
   bool fail_next = false;
+  std::map<uint32_t, uint64_t> registered;  // GL name -> gl_buffer_generation
+  std::vector<std::string> violations;
 
  private:
   std::unique_ptr<ShadowBackend> inner_;
@@ -618,6 +635,49 @@ TEST_F(GlSystem, InPlaceBackendGetsTheRangesTheHostPathUploads) {
   EXPECT_GT(d[2].u.gl_map_device_bytes, 0u);
   EXPECT_LT(d[2].u.gl_map_device_bytes, d[0].u.gl_map_device_bytes) << "a spot map appended: tails only";
   EXPECT_GT(ip->writes, 0u);
+}
+
+// The registry a backend keeps of the GL buffers it registered (CUDA-GL
+// interop) hears of every buffer before GL deletes or replaces it: growth
+// and re-allocation in update(), the buffers dropped by a new block limit;
+// between updates every registered name is one of the system's buffers.
+TEST_F(GlSystem, EveryMapBufferIsReleasedToTheBackendBeforeGlDeletesIt) {
+  Scene scene = load_scene(scene_path("teapot_omni.json"));
+  scene.shadows.resolution = 96;
+  ShadowSystem sys(app_options(FragmentSource::Cpu));
+  InPlaceBackend* ip = use_in_place_backend(sys);
+  ShadowSystem::Impl& I = sys.internals();
+  const auto registered_are_live = [&] {
+    const GlMapBuffers b = sys.gl_buffers();
+    const uint32_t live[] = {b.texels, b.nodes, b.chunks, b.rgb_texels, b.rgb_nodes, b.rgb_chunks, b.tags, b.rgb_tags};
+    for (const auto& r : ip->registered)
+      EXPECT_NE(std::find(std::begin(live), std::end(live), r.first), std::end(live))
+          << "buffer " << r.first << " is registered but no longer one of the system's";
+  };
+  sync_scene(sys, scene);
+  sys.update();
+  registered_are_live();
+  const uint64_t first = ip->releases;
+  for (float dx : {-2.0f, -1.0f, 1.0f, 2.0f}) {  // more maps: arrays grow (a GL-side copy into a new buffer)
+    Light l = scene.lights[0];
+    l.position = l.position + Vec3{dx, 0.5f, 0};
+    sys.add_light(l);
+    sys.update();
+    registered_are_live();
+  }
+  while (sys.lights().size() > 1) {  // fewer: compaction, full syncs that re-allocate
+    sys.remove_light(sys.lights().back());
+    sys.update();
+    registered_are_live();
+  }
+  EXPECT_GT(ip->releases, first) << "the updates replaced buffers";
+  EXPECT_FALSE(ip->registered.empty());
+  set_gl_map_block_limit(*I.gl, 0);  // drops every buffer
+  EXPECT_TRUE(ip->registered.empty()) << ip->registered.size() << " buffers deleted while registered";
+  sys.update();
+  registered_are_live();
+  EXPECT_EQ(gl_maps_differ(sys.gl_buffers(), I.backend->storage()), "");
+  for (const std::string& v : ip->violations) ADD_FAILURE() << v;
 }
 
 // A failed in-place write leaves the buffers behind: the next update writes
