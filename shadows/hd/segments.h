@@ -442,6 +442,22 @@ CDSM_HD CDSM_INLINE float volume_bound_at(const SceneView& s, const VolumeData& 
   return mx < 0.0f ? max_channel(apply_transfer(v.tf, v.background).extinction) : mx;
 }
 
+// Whether marching m can need a MarchTolerance: not where each volume's
+// step allows the largest extinction of all the transfer functions (at T =
+// 1, the strictest), unless constant media or a background fill the
+// stretches outside the volumes' boxes (one sample each).
+CDSM_HD inline bool may_need_tolerance(const SceneView& s, const SegmentMedia& m) {
+  if (max_channel(m.sigma) > 0.0f) return true;
+  float sigma_all = 0.0f, step_all = 0.0f;
+  for (int i = 0; i < m.volume_count; ++i) {
+    const VolumeData& v = s.volumes[m.volume[i]];
+    if (max_channel(apply_transfer(v.tf, v.background).extinction) > 0.0f) return true;
+    sigma_all += v.tf.max_extinction;
+    step_all = fmaxf(step_all, v.step);
+  }
+  return !MarchTolerance{1.0f}.allows(sigma_all, step_all);
+}
+
 // Marches [t0, t1] through the segment's volumes, each with its own step
 // where it can hold data (inside its cells box, VolumeData::cells_lo/hi)
 // and not at all elsewhere (there it reads its background: constant), and
@@ -469,6 +485,8 @@ CDSM_HD bool march_segment(const SceneView& s, const SegmentMedia& m, Vec3 org, 
                            float t1, OnSample&& on_sample, OnSkip&& on_skip,
                            const Tolerance& tolerance = Tolerance{}) {
   constexpr bool kBounded = IsToleranceBounded<Tolerance>::value;
+  if (kBounded && !may_need_tolerance(s, m))  // the march without one: the same samples, no bookkeeping
+    return march_segment(s, m, org, dir, t0, t1, on_sample, on_skip, NoMarchTolerance{});
   Vec3 qo[kMaxEnclosing], qd[kMaxEnclosing];
   float enter[kMaxEnclosing], leave[kMaxEnclosing];
   for (int i = 0; i < m.volume_count; ++i) {
