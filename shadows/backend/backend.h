@@ -191,7 +191,8 @@ class ShadowBackend {
   virtual void gl_buffer_released(uint32_t name) { (void)name; }
 
   // Shades every pixel of the camera view into `rgb` (3 floats per pixel,
-  // linear), read back to the host; fragments are sorted in place.
+  // linear), read back to the host; fragments are sorted in place. The
+  // lookup reads the backend's own store: `shadows.storage` is not used.
   virtual void camera_pass(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags,
                            std::vector<float>& rgb, WalkStats& walk) = 0;
 

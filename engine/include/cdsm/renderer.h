@@ -244,7 +244,7 @@ struct FrameStats {
   std::string fragment_source_reason;  // why it was chosen
   // Segment walker counters over the frame's maps and camera pass:
   uint64_t unmatched_fragments = 0;    // entries/exits without partner (open meshes), ignored
-  uint64_t enclosing_overflow = 0;     // entries beyond kMaxEnclosing nested objects, dropped
+  uint64_t enclosing_overflow = 0;     // volume entries left out: inside kMaxEnclosing volumes already
   uint64_t match_overflow = 0;         // rays with more than kMaxRayObjects objects (matched in
                                        // extra passes: the answer is unchanged, only slower)
   uint64_t march_lengthened = 0;       // volume segments marched with a step lengthened to the
