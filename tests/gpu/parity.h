@@ -95,21 +95,47 @@ inline std::vector<float> alpha_at(const DsmStorage& st, const DsmMap& m, int tx
 }
 
 struct MapComparison {
-  uint64_t texels = 0, identical = 0;
+  uint64_t texels = 0, identical = 0;  // texels 0 (nothing compared): identical / texels is NaN, which fails any bound
+  uint64_t nodes_a = 0, nodes_b = 0;
   double max_alpha_diff = 0.0;  // over every node depth of either list (and just before it)
   std::string first_difference;
 };
 
+// Whether `st` holds map `m`'s texels (headers, or fixed slots), so reading them stays inside it.
+inline bool holds_texels(const DsmStorage& st, const DsmMap& m) {
+  const uint64_t texels = uint64_t(m.texel_offset) + uint64_t(m.res) * m.res;
+  if (st.layout == kDsmFixed) return (m.rgb ? st.rgb_nodes.size() : st.nodes.size()) >= texels * st.layers;
+  return (m.rgb ? st.rgb_texels.size() : st.texels.size()) >= texels;
+}
+
 // Texel by texel: identical node lists, and the largest |alpha_a - alpha_b|
 // at every node depth of either (the functions are piecewise linear
-// between them, so that is the sup over z).
+// between them, so that is the sup over z). Maps of different sizes or
+// kinds, maps of no texels, storage that lacks a map's texels, and two maps
+// without a single node are a test failure: nothing was compared.
 inline MapComparison compare_maps(const DsmStorage& sa, const DsmMap& ma, const DsmStorage& sb, const DsmMap& mb) {
   MapComparison r;
+  const auto kind = [](const DsmMap& m) { return std::to_string(m.res) + "^2 " + (m.rgb ? "RGB" : "grey"); };
+  if (ma.res == 0 || ma.res != mb.res || ma.rgb != mb.rgb) {
+    ADD_FAILURE() << "compare_maps: a map of " << kind(ma) << " against one of " << kind(mb) << ": nothing to compare";
+    return r;
+  }
+  for (int side = 0; side < 2; ++side) {
+    const DsmStorage& st = side ? sb : sa;
+    const DsmMap& m = side ? mb : ma;
+    if (!holds_texels(st, m)) {
+      ADD_FAILURE() << "compare_maps: the " << (side ? "second" : "first") << " storage lacks its map's texels ("
+                    << kind(m) << " from texel " << m.texel_offset << ")";
+      return r;
+    }
+  }
   const int res = int(ma.res);
   for (int ty = 0; ty < res; ++ty)
     for (int tx = 0; tx < res; ++tx) {
       ++r.texels;
       const TexelList a = texel_list(sa, ma, tx, ty), b = texel_list(sb, mb, tx, ty);
+      r.nodes_a += a.z.size();
+      r.nodes_b += b.z.size();
       if (a.z == b.z && a.a == b.a) {
         ++r.identical;
         continue;
@@ -125,17 +151,26 @@ inline MapComparison compare_maps(const DsmStorage& sa, const DsmMap& ma, const 
           for (size_t k = 0; k < x.size(); ++k) r.max_alpha_diff = std::max(r.max_alpha_diff, double(std::fabs(x[k] - y[k])));
         }
     }
+  if (r.nodes_a == 0 && r.nodes_b == 0)
+    ADD_FAILURE() << "compare_maps: neither map (" << kind(ma) << ") holds a node: nothing was compared";
   return r;
 }
 
 // PSNR in dB of two linear images (values clamped to [0, 1]); inf when equal.
+// Images of different sizes, or empty ones, are a test failure (and -inf):
+// nothing was compared.
 inline double psnr(const std::vector<float>& a, const std::vector<float>& b) {
+  if (a.empty() || a.size() != b.size()) {
+    ADD_FAILURE() << "psnr: images of " << a.size() << " and " << b.size() << " values: "
+                  << (a.empty() ? "empty, nothing to compare" : "different sizes");
+    return -INFINITY;
+  }
   double se = 0.0;
-  for (size_t i = 0; i < a.size() && i < b.size(); ++i) {
+  for (size_t i = 0; i < a.size(); ++i) {
     const double d = double(std::min(std::max(a[i], 0.0f), 1.0f)) - double(std::min(std::max(b[i], 0.0f), 1.0f));
     se += d * d;
   }
-  const double mse = se / double(std::max<size_t>(a.size(), 1));
+  const double mse = se / double(a.size());
   return mse == 0.0 ? INFINITY : 10.0 * std::log10(1.0 / mse);
 }
 

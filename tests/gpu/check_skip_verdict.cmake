@@ -1,0 +1,36 @@
+# gpu_main.cpp's verdict on skips (tests/gpu/CMakeLists.txt, label unit):
+# runs test_skip_verdict (-DEXE=...) on chosen cases and checks each exit code.
+#   cmake -DEXE=build/tests/gpu/test_skip_verdict -P tests/gpu/check_skip_verdict.cmake
+set(failures 0)
+# expect(CODE REQUIRE FILTER WHAT): the run of FILTER exits CODE (REQUIRE: CDSM_REQUIRE_GPU=1 or not).
+function(expect code require filter what)
+  set(env --unset=CDSM_REQUIRE_GPU)
+  if(require)
+    list(APPEND env CDSM_REQUIRE_GPU=1)
+  endif()
+  execute_process(COMMAND ${CMAKE_COMMAND} -E env ${env} ${EXE} --gtest_also_run_disabled_tests "--gtest_filter=${filter}"
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE out)
+  string(REGEX MATCHALL "\\[ verdict  \\][^\n]*" verdict "${out}")
+  string(REPLACE ";" "\n  " verdict "${verdict}")
+  if(NOT rc STREQUAL "${code}")
+    message(SEND_ERROR "${what}: exit ${rc}, expected ${code} (filter ${filter}, CDSM_REQUIRE_GPU=${require})\n${out}")
+    math(EXPR n "${failures} + 1")
+    set(failures ${n} PARENT_SCOPE)
+  else()
+    message(STATUS "ok: ${what}: exit ${rc}\n  ${verdict}")
+  endif()
+endfunction()
+
+set(V DISABLED_Verdict)
+expect(77 0 "${V}.SkipsWithAReason:${V}.SkipsWithAnotherReason" "every test skipped, each with a reason -> skipped (77)")
+expect(0 0 "${V}.SkipsWithAReason:${V}.Passes" "a partial skip -> passed")
+expect(1 1 "${V}.SkipsWithAReason:${V}.Passes" "a partial skip under CDSM_REQUIRE_GPU=1 -> failed")
+expect(1 1 "${V}.SkipsWithAReason" "all skipped under CDSM_REQUIRE_GPU=1 -> failed")
+expect(1 0 "${V}.SkipsWithoutAReason:${V}.SkipsWithAReason" "a skip without a reason -> failed")
+expect(1 0 "${V}.FailsOnPurpose:${V}.SkipsWithAReason" "a failure next to a skip -> failed, not skipped")
+expect(1 0 "${V}.FailsOnPurpose" "the parity assertion broken on purpose -> failed")
+expect(1 1 "NoSuchTest.AtAll" "no test ran under CDSM_REQUIRE_GPU=1 -> failed")
+expect(0 0 "ParityGuards.*" "parity.h's guards")
+if(failures GREATER 0)
+  message(FATAL_ERROR "${failures} verdict(s) wrong")
+endif()
