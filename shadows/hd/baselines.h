@@ -72,7 +72,7 @@ struct ExactAlphaVisitor {
 
   CDSM_HD bool piece(float z0, float z1, float sigma) {
     float a0 = alpha;
-    alpha = 1.0f - (1.0f - a0) * expf(-sigma * (z1 - z0));
+    alpha = 1.0f - (1.0f - a0) * expf_hd(-sigma * (z1 - z0));
     return b.piece(z0, z1, a0, alpha, sigma) && !saturated();
   }
 
@@ -117,13 +117,13 @@ struct ShadowMapBuilder {
   }
   CDSM_HD bool piece(float z0, float z1, float, float, float sigma) {
     if (sigma <= 0.0f) return true;
-    float T1 = media_T * expf(-sigma * (z1 - z0));
+    float T1 = media_T * expf_hd(-sigma * (z1 - z0));
     if (1.0f - T1 < threshold) {
       media_T = T1;
       return true;
     }
     // Where the media's opacity reaches the threshold: T(z) = 1 - threshold.
-    float zc = z0 + logf(media_T / fmaxf(1.0f - threshold, 1e-30f)) / sigma;
+    float zc = z0 + logf_hd(media_T / fmaxf(1.0f - threshold, 1e-30f)) / sigma;
     opaque_at(clampf(zc, z0, z1), kNoSurface);
     return false;
   }
@@ -155,7 +155,7 @@ struct OpacitySliceBuilder {
     flat_until(z0);
     while (next <= slices && boundary(next) < z1) {
       float z = boundary(next++);
-      buf.emit(z, 1.0f - (1.0f - a0) * expf(-sigma * (z - z0)));
+      buf.emit(z, 1.0f - (1.0f - a0) * expf_hd(-sigma * (z - z0)));
     }
     alpha = a1;
     return true;

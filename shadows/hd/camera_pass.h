@@ -105,7 +105,7 @@ struct CameraVisitor {
   CDSM_HD bool segment(float t0, float t1, const SegmentMedia& m) {
     if (m.volume_count == 0) {  // a pure absorber: exact Beer-Lambert per channel
       const float d = t1 - t0;
-      T = T * Vec3{expf(-m.sigma.x * d), expf(-m.sigma.y * d), expf(-m.sigma.z * d)};
+      T = T * Vec3{expf_hd(-m.sigma.x * d), expf_hd(-m.sigma.y * d), expf_hd(-m.sigma.z * d)};
       return !done();
     }
     return march_segment(

@@ -61,7 +61,7 @@ struct DsmVisitorOf {
     return march_segment(
         s, m, org, dir, t0, t1,
         [&](const MarchSample& ms) {
-          float a = 1.0f - expf(-grey_of(ms.extinction) * (ms.t1 - ms.t0));
+          float a = 1.0f - expf_hd(-grey_of(ms.extinction) * (ms.t1 - ms.t0));
           alpha = alpha + a * (1.0f - alpha);
           c.push(buf, ms.t1, alpha);
           return !saturated();

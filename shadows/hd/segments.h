@@ -4,6 +4,7 @@
 // with empty-space skipping is a helper the visitors call.
 #pragma once
 
+#include "hd/explog.h"
 #include "hd/fragment.h"
 #include "hd/sort.h"
 #include "hd/volume.h"
@@ -362,7 +363,7 @@ struct MarchSample {
 // The opacity of one march sample per channel: 1 - exp(-sigma_k dt).
 CDSM_HD CDSM_INLINE Vec3 sample_alpha(const MarchSample& ms) {
   const float dt = ms.t1 - ms.t0;
-  return {1.0f - expf(-ms.extinction.x * dt), 1.0f - expf(-ms.extinction.y * dt), 1.0f - expf(-ms.extinction.z * dt)};
+  return {1.0f - expf_hd(-ms.extinction.x * dt), 1.0f - expf_hd(-ms.extinction.y * dt), 1.0f - expf_hd(-ms.extinction.z * dt)};
 }
 
 // The parameter interval [enter, leave] of the index-space ray qo + t qd
@@ -656,7 +657,7 @@ CDSM_HD void sample_constant_medium(float t0, float t1, float T0, float sigma, f
     float zn = fminf(z + h, t1);
     if (!(zn > z)) zn = fminf(nextafterf(z, 3.0e38f), t1);  // sigma beyond float resolution: a jump
     if (i + 1 == kMaxConstantSamples) zn = t1;
-    T = T0 * expf(-sigma * (zn - t0));
+    T = T0 * expf_hd(-sigma * (zn - t0));
     emit(zn, 1.0f - T);
     z = zn;
   }
@@ -678,7 +679,7 @@ CDSM_HD void sample_constant_medium_rgb(float t0, float t1, Vec3 T0, Vec3 sigma,
     if (!(zn > z)) zn = fminf(nextafterf(z, 3.0e38f), t1);  // sigma beyond float resolution: a jump
     if (i + 1 == kMaxConstantSamples) zn = t1;
     const float d = zn - t0;
-    T = {T0.x * expf(-sigma.x * d), T0.y * expf(-sigma.y * d), T0.z * expf(-sigma.z * d)};
+    T = {T0.x * expf_hd(-sigma.x * d), T0.y * expf_hd(-sigma.y * d), T0.z * expf_hd(-sigma.z * d)};
     emit(zn, one_minus(T));
     z = zn;
   }
