@@ -92,18 +92,10 @@ void ReferenceRenderer::hits_along(Vec3 org, Vec3 dir, float tmax, ObjectMask ma
   });
 }
 
-// Simpson at <= step_voxels inside the volume's value box (every sample
-// read from the grid: no skipping), the background's extinction exactly
-// outside it.
-ReferenceRenderer::Depth ReferenceRenderer::optical_depth_volume(uint32_t vi, Vec3 org, Vec3 dir, float t0,
-                                                                 float t1) const {
-  const VolumeData& v = scene_.volumes[vi];
+// The ray's interval inside volume vi's value box (slabs in index space),
+// intersected with [ta, tb]; empty when tb <= ta on return.
+void ReferenceRenderer::clip_to_value_box(uint32_t vi, Vec3 qo, Vec3 qd, float& ta, float& tb) const {
   const ValueBox& box = value_boxes_[vi];
-  const float h = opt_.step_voxels * v.voxel_world;
-  const Vec3 qo = v.world_to_index.point(org), qd = v.world_to_index.vector(dir);
-  const Vec3 bg_ext = apply_transfer(v.tf, v.background).extinction;
-  // The ray's interval inside the value box (slabs in index space).
-  float ta = t0, tb = t1;
   for (int a = 0; a < 3; ++a) {
     if (qd[a] == 0.0f) {
       if (qo[a] < box.lo[a] || qo[a] > box.hi[a]) tb = ta - 1.0f;  // parallel and outside
@@ -113,6 +105,19 @@ ReferenceRenderer::Depth ReferenceRenderer::optical_depth_volume(uint32_t vi, Ve
     ta = std::max(ta, std::min(u, w));
     tb = std::min(tb, std::max(u, w));
   }
+}
+
+// Simpson at <= step_voxels inside the volume's value box (every sample
+// read from the grid: no skipping), the background's extinction exactly
+// outside it.
+ReferenceRenderer::Depth ReferenceRenderer::optical_depth_volume(uint32_t vi, Vec3 org, Vec3 dir, float t0,
+                                                                 float t1) const {
+  const VolumeData& v = scene_.volumes[vi];
+  const float h = opt_.step_voxels * v.voxel_world;
+  const Vec3 qo = v.world_to_index.point(org), qd = v.world_to_index.vector(dir);
+  const Vec3 bg_ext = apply_transfer(v.tf, v.background).extinction;
+  float ta = t0, tb = t1;
+  clip_to_value_box(vi, qo, qd, ta, tb);
   Depth tau;
   if (!(tb > ta)) {
     tau = {double(bg_ext.x) * double(t1 - t0), double(bg_ext.y) * double(t1 - t0), double(bg_ext.z) * double(t1 - t0)};
@@ -290,10 +295,29 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
               step = std::min(step, opt_.step_voxels * scene_.volumes[uint32_t(od.volume)].voxel_world);
             }
           });
+          // Volumes read only their background outside their value boxes:
+          // where every background is clear, march only the boxes' hull and
+          // let the constant media absorb the rest exactly.
+          float ma = tb, mb = ta;
+          for (int k = 0; k < nv; ++k) {
+            const VolumeData& v = scene_.volumes[vols[k]];
+            float ca = ta, cb = tb;
+            if (max_channel(apply_transfer(v.tf, v.background).extinction) <= 0.0f)
+              clip_to_value_box(vols[k], v.world_to_index.point(view.eye), v.world_to_index.vector(dir), ca, cb);
+            if (cb > ca) {
+              ma = std::min(ma, ca);
+              mb = std::max(mb, cb);
+            }
+          }
+          if (!(mb > ma)) nv = 0;
           if (nv == 0) {
             for (int k = 0; k < 3; ++k) T[k] *= std::exp(-double(sigma[k]) * (tb - ta));
             return;
           }
+          for (int k = 0; k < 3; ++k) T[k] *= std::exp(-double(sigma[k]) * (ma - ta));
+          const float end = tb;
+          ta = ma;
+          tb = mb;
           int n = std::max(1, int(std::ceil((tb - ta) / step)));
           float dt = (tb - ta) / float(n);
           for (int i = 0; i < n && !done(); ++i) {
@@ -349,6 +373,7 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
             }
             for (int k = 0; k < 3; ++k) T[k] *= 1.0 - a[k];
           }
+          for (int k = 0; k < 3; ++k) T[k] *= std::exp(-double(sigma[k]) * (end - tb));
         };
         for (const Hit& hh : hits) {
           if (hh.t > t_far) break;

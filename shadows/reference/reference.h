@@ -80,6 +80,7 @@ class ReferenceRenderer {
     double r = 0, g = 0, b = 0;
   };
   Depth optical_depth_volume(uint32_t volume, Vec3 org, Vec3 dir, float t0, float t1) const;
+  void clip_to_value_box(uint32_t volume, Vec3 index_org, Vec3 index_dir, float& ta, float& tb) const;
 
   SceneView scene_;
   std::vector<LightData> lights_;
