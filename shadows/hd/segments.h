@@ -477,7 +477,8 @@ CDSM_HD inline bool may_need_tolerance(const SceneView& s, const SegmentMedia& m
 // the step the extinction at its start allows, and is halved until the two
 // reads are resolved; the sample is their mean (trapezoid rule; the end's
 // colour). Elsewhere (thin and empty stretches) the march takes the same
-// samples as without a tolerance, reading one macro-cell per volume and step.
+// samples as without a tolerance. Each volume's macro-cell is read once
+// per cell the ray crosses, not per step.
 // Callback: bool sample(const MarchSample&) (false stops), and
 // void skip(float ta, float tb) for an empty stretch (so visitors can
 // keep flat runs in the visibility function).
@@ -521,10 +522,10 @@ CDSM_HD bool march_segment(const SceneView& s, const SegmentMedia& m, Vec3 org, 
                 vol_ext.z > 0.0f ? ms.color.z * (1.0f / vol_ext.z) : 0.0f};
   };
   bool lengthened = false;
-  // The tolerance's state: each volume's volume_bound_at, valid from t to
-  // cell_until; the media read at the end of the last bounded step (at
-  // bounded_end), and twice that step's length (steps grow back after an
-  // edge).
+  // Each volume's volume_bound_at, valid from t to cell_until; the
+  // tolerance's state: the media read at the end of the last bounded step
+  // (at bounded_end), and twice that step's length (steps grow back after
+  // an edge).
   float cell_max[kMaxEnclosing], cell_until[kMaxEnclosing];
   for (int i = 0; i < m.volume_count; ++i) cell_until[i] = -3.0e38f;
   float bounded_end = -3.0e38f, grow = 3.0e38f;
@@ -533,10 +534,11 @@ CDSM_HD bool march_segment(const SceneView& s, const SegmentMedia& m, Vec3 org, 
   while (t < t1) {
     // No step below float resolution here (4 ulps of t): counted once.
     const float progress = min_march_step(t, t);
-    if (kBounded)
-      for (int i = 0; i < m.volume_count; ++i)
-        if (t >= cell_until[i])
-          cell_max[i] = volume_bound_at(s, s.volumes[m.volume[i]], qo[i], qd[i], enter[i], leave[i], t, cell_until[i]);
+    // Each volume's macro-cell bound, probed again only where the ray
+    // crosses into another cell or box (a NanoVDB probe walks the tree).
+    for (int i = 0; i < m.volume_count; ++i)
+      if (t >= cell_until[i])
+        cell_max[i] = volume_bound_at(s, s.volumes[m.volume[i]], qo[i], qd[i], enter[i], leave[i], t, cell_until[i]);
     // This stretch: the finest step of the volumes whose box holds t, and
     // the next box boundary of any volume.
     float h = 3.0e38f, next = t1;
@@ -556,12 +558,10 @@ CDSM_HD bool march_segment(const SceneView& s, const SegmentMedia& m, Vec3 org, 
         next = fminf(next, enter[i]);
       }
       if (!empty) continue;
-      float until;
-      const float mx = kBounded ? cell_max[i] : volume_bound_at(s, v, qo[i], qd[i], enter[i], leave[i], t, until);
-      if (mx > 0.0f) {
+      if (cell_max[i] > 0.0f) {
         empty = false;
       } else {
-        empty_until = fminf(empty_until, inside ? macro_cell_exit(qo[i], qd[i], t) : next);
+        empty_until = fminf(empty_until, inside ? cell_until[i] : next);  // inside: next <= leave[i]
       }
     }
     if (empty) {
