@@ -8,7 +8,9 @@
 // after a sticky error every call fails fast with its message (check.cuh).
 #pragma once
 
+#include <cstdlib>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -20,8 +22,13 @@
 
 namespace cdsm::cuda {
 
+// The functor (a pass's parameters: views of the scene, the store, the
+// settings; some hundreds of bytes) stays in the kernel's parameter space:
+// __grid_constant__ lets every thread read it there instead of copying it
+// to its own local memory first (sm_70 and later; every F's operator() is
+// const).
 template <class F>
-__global__ void parallel_for_kernel(uint64_t n, F f) {
+__global__ void parallel_for_kernel(uint64_t n, const __grid_constant__ F f) {
   const uint64_t i = uint64_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (i < n) f(i);
 }
@@ -90,11 +97,7 @@ class CudaExec {
   void parallel_for(const char* name, uint64_t n, F f) {
     if (n == 0) return;
     check_usable(name);
-    static const int block = [] {
-      int min_grid = 0, b = 0;
-      CDSM_CUDA_CHECK(cudaOccupancyMaxPotentialBlockSize(&min_grid, &b, parallel_for_kernel<F>, 0, 0));
-      return b > 0 ? b : 128;
-    }();
+    const int block = block_size();
     const uint64_t grid = (n + uint64_t(block) - 1) / uint64_t(block);
     if (grid > 0x7fffffffull) throw std::length_error(std::string(name) + ": too many threads for one launch");
     Launch l{name, nullptr, nullptr};
@@ -116,6 +119,23 @@ class CudaExec {
                                      __FILE__, __LINE__));
     }
     if (pending_.size() >= 1024) fold();  // nobody asked for the times yet: keep the events bounded
+  }
+
+  // Threads per block: 128 (four warps), $CDSM_CUDA_BLOCK (32..1024, a
+  // multiple of 32) to measure others. Not the occupancy API's choice: for
+  // a 128-register walk it answers 512, one block per SM, and the slowest
+  // light ray of a block then holds its SM.
+  static int block_size() {
+    static const int b = [] {
+      const char* e = std::getenv("CDSM_CUDA_BLOCK");
+      if (!e || !*e) return 128;
+      char* end = nullptr;
+      const long v = std::strtol(e, &end, 10);
+      if (*end != '\0' || v < 32 || v > 1024 || v % 32 != 0)
+        throw std::invalid_argument(std::string("CDSM_CUDA_BLOCK=") + e + ": threads per block must be a multiple of 32 in [32, 1024]");
+      return int(v);
+    }();
+    return b;
   }
 
   void upload(void* dst, const void* src, size_t bytes) {

@@ -212,9 +212,10 @@ struct FixedNodeBuilder {
   CDSM_HD void finish() {}
 };
 
+// (Out of line on a GPU: the baseline walk and the second walk share it.)
 // Builds one texel of a baseline map along unit ray `dir` from `org`,
 // walking [0, t_end]. `param` is ShadowSettings::method_param (0: default).
-CDSM_HD inline void build_baseline_texel(const SceneView& s, uint32_t method, float param,
+CDSM_HD CDSM_NOINLINE inline void build_baseline_texel(const SceneView& s, uint32_t method, float param,
                                          Span<const uint32_t> inside, Span<Fragment> frags, Vec3 org,
                                          Vec3 dir, float t_end, NodeBuffer& buf, WalkStats& st) {
   if (method == kMethodShadowMap) {

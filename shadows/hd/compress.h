@@ -95,6 +95,7 @@ struct NodeBuffer {
   uint32_t heap_size = 0;
 
   CDSM_HD inline void emit(float z, float a, SurfaceTag tag = kNoSurface);
+  CDSM_HD inline CDSM_NOINLINE void emit_full(float z, float a, SurfaceTag tag);  // emit() past node_limit or once linked
   CDSM_HD int size() const { return linked ? alive : count; }  // nodes of the function
   CDSM_HD DsmNode& last() { return nodes[count - 1]; }           // the last node is always slot count - 1
   CDSM_HD SurfaceTag last_tag() const { return last_tag_; }
@@ -148,8 +149,28 @@ struct Wedge {
     pending = true;
   }
 
+  // The common case inline: a sample the current wedge still admits
+  // narrows it. Every other case (the first sample, a new line, a jump at
+  // one depth) goes out of line: a walk pushes from many places, and a
+  // GPU kernel would otherwise carry a copy of all of it at each.
   CDSM_HD void push(Sink& buf, float z, float a) {
     a = clampf(a, 0.0f, 1.0f);
+    if (has_origin && pending && z > zl) {
+      float dz = z - z0;
+      float nlo = fmaxf(lo, (a - eps - a0) / dz);
+      float nhi = fminf(hi, fminf((a + eps - a0) / dz, (1.0f - a0) / dz));
+      if (nlo <= nhi) {
+        lo = nlo;
+        hi = nhi;
+        zl = z;
+        al = a;
+        return;
+      }
+    }
+    push_rest(buf, z, a);
+  }
+
+  CDSM_HD CDSM_NOINLINE void push_rest(Sink& buf, float z, float a) {
     if (!has_origin) {
       has_origin = true;
       set_origin(buf, z, a);
@@ -186,7 +207,7 @@ struct Wedge {
 
   // A surface (tag: which one) at depth z raises alpha to `after`
   // (push(z, before) came first).
-  CDSM_HD void step(Sink& buf, float z, float after, SurfaceTag tag = kNoSurface) {
+  CDSM_HD CDSM_NOINLINE void step(Sink& buf, float z, float after, SurfaceTag tag = kNoSurface) {
     after = clampf(after, 0.0f, 1.0f);
     if (!has_origin) {
       has_origin = true;
@@ -389,6 +410,16 @@ CDSM_HD inline void NodeBuffer::emit(float z, float a, SurfaceTag tag) {
     return;
   }
   last_tag_ = tag;
+  if (!linked && count < limit) {  // room: appended as emitted (with or without scratch)
+    if (tags) tags[count] = tag;
+    nodes[count++] = DsmNode{z, a};
+    return;
+  }
+  emit_full(z, a, tag);
+}
+
+CDSM_HD void NodeBuffer::emit_full(float z, float a, SurfaceTag tag) {
+  const int limit = node_limit(capacity);
   if (scratch.empty()) {
     if (count >= limit && count >= 2) {
       remove_cheapest_scan(nodes, count, DsmNode{z, a}, extra_error, tags);
@@ -398,11 +429,6 @@ CDSM_HD inline void NodeBuffer::emit(float z, float a, SurfaceTag tag) {
       if (tags) tags[count] = tag;
       nodes[count++] = DsmNode{z, a};
     }
-    return;
-  }
-  if (!linked && count < limit) {
-    if (tags) tags[count] = tag;
-    nodes[count++] = DsmNode{z, a};
     return;
   }
   if (!linked) link_nodes(*this, false);

@@ -74,8 +74,34 @@ struct WedgeRgb {
   static CDSM_HD bool same(Vec3 a, Vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
   static CDSM_HD bool above(Vec3 a, Vec3 b) { return a.x > b.x || a.y > b.y || a.z > b.z; }
 
+  // As Wedge::push: a sample the wedges still admit inline, the rest out
+  // of line.
   CDSM_HD void push(Sink& buf, float z, Vec3 a) {
     a = clamp01(a);
+    if (has_origin && pending && z > zl) {
+      const float dz = z - z0;
+      float nlo[3], nhi[3];
+      bool fits = true;
+      for (int k = 0; k < 3; ++k) {
+        const float ak = channel(a, k), a0k = channel(a0, k);
+        nlo[k] = fmaxf(lo[k], (ak - eps - a0k) / dz);
+        nhi[k] = fminf(hi[k], fminf((ak + eps - a0k) / dz, (1.0f - a0k) / dz));
+        fits = fits && nlo[k] <= nhi[k];
+      }
+      if (fits) {
+        for (int k = 0; k < 3; ++k) {
+          lo[k] = nlo[k];
+          hi[k] = nhi[k];
+        }
+        zl = z;
+        al = a;
+        return;
+      }
+    }
+    push_rest(buf, z, a);
+  }
+
+  CDSM_HD CDSM_NOINLINE void push_rest(Sink& buf, float z, Vec3 a) {
     if (!has_origin) {
       has_origin = true;
       set_origin(buf, z, a);
@@ -120,7 +146,7 @@ struct WedgeRgb {
 
   // A surface (tag: which one) at depth z raises alpha to `after`
   // (push(z, before) came first).
-  CDSM_HD void step(Sink& buf, float z, Vec3 after, SurfaceTag tag = kNoSurface) {
+  CDSM_HD CDSM_NOINLINE void step(Sink& buf, float z, Vec3 after, SurfaceTag tag = kNoSurface) {
     after = clamp01(after);
     if (!has_origin) {
       has_origin = true;
@@ -184,13 +210,15 @@ struct RgbNodeBuffer {
       return;
     }
     const DsmNodeRgb incoming{z, a.x, a.y, a.z};
-    if (count >= node_limit(capacity) && count >= 2) {
-      remove_cheapest_scan(nodes, count, incoming, extra_error, tags);
-      ++removed;
-    }
+    if (count >= node_limit(capacity) && count >= 2) make_room(incoming);
     if (tags) tags[count] = tag;
     last_tag_ = tag;
     nodes[count++] = incoming;
+  }
+  // Full: the cheapest interior node goes (out of line: the overflow path).
+  CDSM_HD CDSM_NOINLINE void make_room(const DsmNodeRgb& incoming) {
+    remove_cheapest_scan(nodes, count, incoming, extra_error, tags);
+    ++removed;
   }
   CDSM_HD int size() const { return count; }
   CDSM_HD SurfaceTag last_tag() const { return last_tag_; }

@@ -142,8 +142,10 @@ CDSM_HD inline void walk_texel_into(const SceneView& s, const LightPassParams& p
   vis.c.finish(sink);
 }
 
+// Out of line on a GPU: the first and the second walk of a texel share one
+// compiled copy.
 template <class Visitor, class Buffer>
-CDSM_HD inline void walk_texel(const SceneView& s, const LightPassParams& p, Span<Fragment> frags, int tx, int ty,
+CDSM_HD CDSM_NOINLINE inline void walk_texel(const SceneView& s, const LightPassParams& p, Span<Fragment> frags, int tx, int ty,
                                Buffer& buf, WalkStats& st) {
   buf.eps = p.epsilon;
   walk_texel_into<Visitor>(s, p, frags, tx, ty, buf, st);

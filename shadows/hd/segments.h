@@ -312,13 +312,20 @@ CDSM_HD inline bool exit_object(const SceneView& s, EnclosingSet& set, Enclosing
 // [t_start, t_end]. Clipped fragments (outside the view's [near, far]) bound
 // media but are never reported as surfaces: media absorb from t_start (the
 // eye) to t_end (the far distance) wherever their boundaries lie.
-template <class Visitor>
-CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint32_t> inside,
-                      float t_start, float t_end, Visitor& vis, WalkStats& st) {
+// A ray's fragments in walking order, entries matched: sorted by depth,
+// crossings and touching surfaces ordered, matched entries marked. The same
+// for every visitor, so compiled once (out of line on a GPU).
+CDSM_HD CDSM_NOINLINE inline void prepare_fragments(const SceneView& s, Span<Fragment> frags, WalkStats& st) {
   sort_fragments(frags);
   order_crossings(s, frags);
   order_touching(s, frags);
   mark_matched_entries(s, frags, st);
+}
+
+template <class Visitor>
+CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint32_t> inside,
+                      float t_start, float t_end, Visitor& vis, WalkStats& st) {
+  prepare_fragments(s, frags, st);
   EnclosingSet set;
   EnclosingOverflow over;
   for (uint64_t i = 0; i < inside.size(); ++i) enter_object(s, set, over, inside[i], st);
@@ -527,7 +534,10 @@ CDSM_HD bool march_segment(const SceneView& s, const SegmentMedia& m, Vec3 org, 
   // (at bounded_end), and twice that step's length (steps grow back after
   // an edge).
   float cell_max[kMaxEnclosing], cell_until[kMaxEnclosing];
-  for (int i = 0; i < m.volume_count; ++i) cell_until[i] = -3.0e38f;
+  for (int i = 0; i < m.volume_count; ++i) {
+    cell_until[i] = -3.0e38f;  // probed at the first iteration
+    cell_max[i] = 0.0f;
+  }
   float bounded_end = -3.0e38f, grow = 3.0e38f;
   MarchSample start;
   float t = t0;

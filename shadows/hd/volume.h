@@ -80,19 +80,27 @@ CDSM_HD CDSM_INLINE const nanovdb::FloatGrid* nano_grid(const SceneView& s, cons
 }
 #endif
 
+#if CDSM_HAVE_NANOVDB
+// Trilinear density of a sparse (NanoVDB) grid. The accessor caches the
+// path to the last leaf: the 8 taps mostly share one leaf. Unstored voxels
+// read the tile or background value. Out of line: eight tree walks are
+// large code and cost far more than a call (every march and gradient site
+// would carry its own copy on a GPU).
+CDSM_HD CDSM_NOINLINE inline float nano_density_at_index(const SceneView& s, const VolumeData& v, Vec3 q) {
+  auto acc = nano_grid(s, v)->getAccessor();
+  return trilinear(q, [&](int i, int j, int k, float* c) {
+    corners_by_voxel(i, j, k, c, [&](int x, int y, int z) { return acc.getValue(nanovdb::Coord(x, y, z)); });
+  });
+}
+#endif
+
 // Trilinear density at index-space position q (voxel centres at integers).
 // Dense and sparse grids: a closed set, dispatched by a switch (STYLE.md 5).
 CDSM_HD CDSM_INLINE float density_at_index(const SceneView& s, const VolumeData& v, Vec3 q) {
   switch (v.grid_kind) {
 #if CDSM_HAVE_NANOVDB
-    case kGridNano: {
-      // The accessor caches the path to the last leaf: the 8 taps mostly
-      // share one leaf. Unstored voxels read the tile or background value.
-      auto acc = nano_grid(s, v)->getAccessor();
-      return trilinear(q, [&](int i, int j, int k, float* c) {
-        corners_by_voxel(i, j, k, c, [&](int x, int y, int z) { return acc.getValue(nanovdb::Coord(x, y, z)); });
-      });
-    }
+    case kGridNano:
+      return nano_density_at_index(s, v, q);
 #endif
     case kGridDense:
     default:
@@ -128,6 +136,33 @@ CDSM_HD CDSM_INLINE Vec3 density_gradient(const SceneView& s, const VolumeData& 
           m.m[0][2] * g.x + m.m[1][2] * g.y + m.m[2][2] * g.z};
 }
 
+#if CDSM_HAVE_NANOVDB
+// macro_max_at of a sparse grid at cell (ci, cj, ck). Out of line (tree
+// probes, up to 27 of them: see nano_density_at_index).
+CDSM_HD CDSM_NOINLINE inline float nano_macro_max_at(const SceneView& s, const VolumeData& v, int ci, int cj, int ck) {
+  // Leaves are 8^3 voxels at multiples of 8: leaf (ci, cj, ck) is the cell.
+  static_assert(nanovdb::FloatTree::LeafNodeType::DIM == kMacroCell, "a leaf is a macro-cell");
+  const nanovdb::FloatGrid* grid = nano_grid(s, v);
+  const nanovdb::FloatTree& tree = grid->tree();
+  const auto* first = tree.getFirstLeaf();
+  const auto* leaf = tree.root().probeLeaf(nanovdb::Coord(ci * kMacroCell, cj * kMacroCell, ck * kMacroCell));
+  if (leaf != nullptr) return s.macro_max[v.macro_offset + uint64_t(leaf - first)];
+  if (v.skip_mode != kNanoSkipNeighbours) return -1.0f;
+  // A cell without a leaf is one value; its apron reaches into the 26
+  // neighbours: each a leaf (its stored maximum) or one value.
+  float m = 0.0f;
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        nanovdb::Coord o((ci + dx) * kMacroCell, (cj + dy) * kMacroCell, (ck + dz) * kMacroCell);
+        const auto* n = tree.root().probeLeaf(o);
+        m = fmaxf(m, n ? s.macro_max[v.macro_offset + uint64_t(n - first)]
+                       : max_channel(apply_transfer(v.tf, tree.root().getValue(o)).extinction));
+      }
+  return m;
+}
+#endif
+
 // Maximum extinction in the macro-cell containing index position q, or -1
 // where no maximum is stored (beyond a dense grid's outer ring of cells; a
 // sparse cell without a leaf whose neighbourhood needs no reading): there
@@ -140,28 +175,7 @@ CDSM_HD CDSM_INLINE float macro_max_at(const SceneView& s, const VolumeData& v, 
   int cj = int(floorf((clamp_index(q.y) + 0.5f) / float(kMacroCell)));
   int ck = int(floorf((clamp_index(q.z) + 0.5f) / float(kMacroCell)));
 #if CDSM_HAVE_NANOVDB
-  if (v.grid_kind == kGridNano) {
-    // Leaves are 8^3 voxels at multiples of 8: leaf (ci, cj, ck) is the cell.
-    static_assert(nanovdb::FloatTree::LeafNodeType::DIM == kMacroCell, "a leaf is a macro-cell");
-    const nanovdb::FloatGrid* grid = nano_grid(s, v);
-    const nanovdb::FloatTree& tree = grid->tree();
-    const auto* first = tree.getFirstLeaf();
-    const auto* leaf = tree.root().probeLeaf(nanovdb::Coord(ci * kMacroCell, cj * kMacroCell, ck * kMacroCell));
-    if (leaf != nullptr) return s.macro_max[v.macro_offset + uint64_t(leaf - first)];
-    if (v.skip_mode != kNanoSkipNeighbours) return -1.0f;
-    // A cell without a leaf is one value; its apron reaches into the 26
-    // neighbours: each a leaf (its stored maximum) or one value.
-    float m = 0.0f;
-    for (int dz = -1; dz <= 1; ++dz)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          nanovdb::Coord o((ci + dx) * kMacroCell, (cj + dy) * kMacroCell, (ck + dz) * kMacroCell);
-          const auto* n = tree.root().probeLeaf(o);
-          m = fmaxf(m, n ? s.macro_max[v.macro_offset + uint64_t(n - first)]
-                         : max_channel(apply_transfer(v.tf, tree.root().getValue(o)).extinction));
-        }
-    return m;
-  }
+  if (v.grid_kind == kGridNano) return nano_macro_max_at(s, v, ci, cj, ck);
 #endif
   ci += 1;  // the stored cells start at -1
   cj += 1;

@@ -17,6 +17,18 @@
 #define CDSM_DEVICE_CODE 0
 #endif
 
+// A rarely taken path kept out of line (a buffer's overflow handling): one
+// copy per program instead of one per call site. Under nvcc every caller
+// would otherwise inline it, and ptxas's time grows faster than the size
+// of the kernels it compiles (docs/gpu.md, "Compile time").
+#if defined(__CUDACC__)
+#define CDSM_NOINLINE __noinline__
+#elif defined(__GNUC__)
+#define CDSM_NOINLINE __attribute__((noinline))
+#else
+#define CDSM_NOINLINE
+#endif
+
 // Invariant check usable inside CDSM_HD code: assert() on both sides.
 #define CDSM_HD_ASSERT(cond) assert(cond)
 
