@@ -7,7 +7,8 @@
 #      no OpenVDB loader, no editor, no GLFW: nothing pulls X11 in) and no
 #      build RPATH: $CDSM_KIT_BUILD (default build-gpu) for bench_gpu, and
 #      the parity build (CDSM_FP_STRICT=ON) $CDSM_KIT_PARITY_BUILD (default
-#      build-gpu-parity) for test_cuda_backend and test_gl_interop;
+#      build-gpu-parity) for test_cuda_backend, test_gl_interop and
+#      test_cuda_faults;
 #   2. the binaries, stripped, into gpu-kit/bin (release) and gpu-kit/bin/parity;
 #   3. every shared library they load that is not on the allowed list
 #      (glibc, libstdc++, libgcc_s, and the NVIDIA driver's own: libcuda, the
@@ -31,7 +32,7 @@
 #                                                   # from the installed packages (no download), checked
 #                                                   # (the CI test of this script: tests/gpu/CMakeLists.txt)
 # Environment: CDSM_KIT_DIR (gpu-kit), CDSM_KIT_BUILD, CDSM_KIT_PARITY_BUILD,
-#   CDSM_KIT_JOBS (1: ptxas needs ~6 GB per light-pass unit), CDSM_KIT_MAX_MIB (48),
+#   CDSM_KIT_JOBS (the cores: ptxas peaks at ~0.4 GB per unit), CDSM_KIT_MAX_MIB (48),
 #   CDSM_KIT_CMAKE_ARGS (more configure arguments for both builds).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -39,7 +40,7 @@ src=$PWD
 kit=${CDSM_KIT_DIR:-gpu-kit}
 release=${CDSM_KIT_BUILD:-build-gpu}
 parity=${CDSM_KIT_PARITY_BUILD:-build-gpu-parity}
-jobs=${CDSM_KIT_JOBS:-1}
+jobs=${CDSM_KIT_JOBS:-$(nproc 2>/dev/null || echo 2)}
 max_mib=${CDSM_KIT_MAX_MIB:-48}
 debs=${CDSM_KIT_DEBS:-build-kit-debs}
 arch_dir=x86_64-linux-gnu
@@ -185,7 +186,7 @@ write_manifest() {
     echo "  \"source_dir\": \"$src\","
     echo "  \"commit\": \"$commit\", \"tree_modified\": $dirty,"
     echo "  \"built\": \"$(date -u +%FT%TZ)\","
-    echo "  \"builds\": {\"release\": \"$release\", \"parity\": \"$parity\", \"cmake_args\": \"${common_args[*]-}\"},"
+    echo "  \"builds\": {\"release\": \"$release\", \"parity\": \"$parity\", \"cmake_args\": \"${common_args[*]-} ${extra[*]-}\"},"
     echo "  \"binaries\": ["
     (cd "$k" && find bin -type f | sort | sed 's/.*/    "&"/; $!s/$/,/')
     echo "  ],"
@@ -238,11 +239,12 @@ if [[ ${1:-} != --no-build ]]; then
     targets=(bench_gpu)
     if [[ $b == "$parity" ]]; then
       strict=ON
-      targets=(test_cuda_backend test_gl_interop)
+      targets=(test_cuda_backend test_gl_interop test_cuda_faults)
     fi
     say "configure $b (CDSM_FP_STRICT=$strict)"
-    cmake -S . -B "$b" "${common_args[@]}" -DCDSM_FP_STRICT=$strict "${extra[@]}" >"$b.configure.log" 2>&1 ||
-      { tail -30 "$b.configure.log"; die "configure $b failed ($b.configure.log)"; }
+    mkdir -p "$b"
+    cmake -S . -B "$b" "${common_args[@]}" -DCDSM_FP_STRICT=$strict "${extra[@]}" >"$b/kit-configure.log" 2>&1 ||
+      { tail -30 "$b/kit-configure.log"; die "configure $b failed ($b/kit-configure.log)"; }
     say "build $b: ${targets[*]} (-j $jobs)"
     cmake --build "$b" -j "$jobs" --target "${targets[@]}" ||
       die "build $b failed"
@@ -252,13 +254,13 @@ fi
 
 # ---- the kit folder -------------------------------------------------------------
 [[ -x $release/tests/gpu/bench_gpu ]] || die "$release/tests/gpu/bench_gpu missing: build first"
-for t in test_cuda_backend test_gl_interop; do
+for t in test_cuda_backend test_gl_interop test_cuda_faults; do
   [[ -x $parity/tests/gpu/$t ]] || die "$parity/tests/gpu/$t missing: build first (test_gl_interop needs GL headers)"
 done
 rm -rf "$kit"
 mkdir -p "$kit/bin/parity"
 cp "$release/tests/gpu/bench_gpu" "$kit/bin/"
-cp "$parity/tests/gpu/test_cuda_backend" "$parity/tests/gpu/test_gl_interop" "$kit/bin/parity/"
+cp "$parity/tests/gpu/test_cuda_backend" "$parity/tests/gpu/test_gl_interop" "$parity/tests/gpu/test_cuda_faults" "$kit/bin/parity/"
 strip --strip-unneeded "$kit/bin/bench_gpu" "$kit/bin/parity/"*
 gather_libraries "$kit" download
 write_manifest "$kit" device
