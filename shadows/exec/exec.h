@@ -39,6 +39,7 @@
 #include <vector>
 
 #include "cdsm/config.h"
+#include "hd/bits.h"
 #include "hd/span.h"
 
 namespace cdsm::exec {
@@ -89,22 +90,6 @@ CDSM_HD CDSM_INLINE void atomic_max(uint32_t* p, uint32_t v) {
   while (cur < v && !__atomic_compare_exchange_n(p, &cur, v, true, __ATOMIC_RELAXED, __ATOMIC_RELAXED)) {
   }
 #endif
-}
-
-// Bits of a float; for x >= 0 they order as the values do (atomic_max of errors).
-CDSM_HD CDSM_INLINE uint32_t float_bits(float x) {
-#if defined(__CUDA_ARCH__)
-  return __float_as_uint(x);
-#else
-  uint32_t u;
-  std::memcpy(&u, &x, sizeof u);
-  return u;
-#endif
-}
-inline float bits_float(uint32_t u) {
-  float x;
-  std::memcpy(&x, &u, sizeof x);
-  return x;
 }
 
 // ---- memory ----------------------------------------------------------------

@@ -155,7 +155,7 @@ struct Wedge {
   // GPU kernel would otherwise carry a copy of all of it at each.
   CDSM_HD void push(Sink& buf, float z, float a) {
     a = clampf(a, 0.0f, 1.0f);
-    if (has_origin && pending && z > zl) {
+    if (has_origin && pending && !(z <= zl)) {  // (as push_rest tests it: a NaN z too)
       float dz = z - z0;
       float nlo = fmaxf(lo, (a - eps - a0) / dz);
       float nhi = fminf(hi, fminf((a + eps - a0) / dz, (1.0f - a0) / dz));
@@ -170,6 +170,7 @@ struct Wedge {
     push_rest(buf, z, a);
   }
 
+  // push() of a sample the current wedge does not narrow to.
   CDSM_HD CDSM_NOINLINE void push_rest(Sink& buf, float z, float a) {
     if (!has_origin) {
       has_origin = true;
@@ -191,16 +192,7 @@ struct Wedge {
       }
       return;
     }
-    float dz = z - z0;
-    float nlo = fmaxf(lo, (a - eps - a0) / dz);
-    float nhi = fminf(hi, fminf((a + eps - a0) / dz, (1.0f - a0) / dz));
-    if (nlo <= nhi) {
-      lo = nlo;
-      hi = nhi;
-      zl = z;
-      al = a;
-      return;
-    }
+    // Beyond the last sample: push() found that the wedge does not admit it.
     set_origin(buf, zl, line_end());  // the wedge emptied: close the line
     restart(z, a);
   }

@@ -78,7 +78,7 @@ struct WedgeRgb {
   // of line.
   CDSM_HD void push(Sink& buf, float z, Vec3 a) {
     a = clamp01(a);
-    if (has_origin && pending && z > zl) {
+    if (has_origin && pending && !(z <= zl)) {  // (as push_rest tests it: a NaN z too)
       const float dz = z - z0;
       float nlo[3], nhi[3];
       bool fits = true;
@@ -101,6 +101,7 @@ struct WedgeRgb {
     push_rest(buf, z, a);
   }
 
+  // push() of a sample the wedges do not narrow to.
   CDSM_HD CDSM_NOINLINE void push_rest(Sink& buf, float z, Vec3 a) {
     if (!has_origin) {
       has_origin = true;
@@ -122,25 +123,8 @@ struct WedgeRgb {
       }
       return;
     }
-    const float dz = z - z0;
-    float nlo[3], nhi[3];
-    bool fits = true;
-    for (int k = 0; k < 3; ++k) {
-      const float ak = channel(a, k), a0k = channel(a0, k);
-      nlo[k] = fmaxf(lo[k], (ak - eps - a0k) / dz);
-      nhi[k] = fminf(hi[k], fminf((ak + eps - a0k) / dz, (1.0f - a0k) / dz));
-      fits = fits && nlo[k] <= nhi[k];
-    }
-    if (fits) {
-      for (int k = 0; k < 3; ++k) {
-        lo[k] = nlo[k];
-        hi[k] = nhi[k];
-      }
-      zl = z;
-      al = a;
-      return;
-    }
-    set_origin(buf, zl, line_end());  // some channel's wedge emptied: close every line
+    // Beyond the last sample: push() found some channel's wedge empty.
+    set_origin(buf, zl, line_end());  // close every line
     restart(z, a);
   }
 

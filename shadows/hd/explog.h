@@ -22,9 +22,9 @@
 #pragma once
 
 #include <cstdint>
-#include <cstring>  // std::memcpy (host)
 
 #include "cdsm/config.h"
+#include "hd/bits.h"
 
 #if !defined(__CUDACC__)
 #include <cmath>
@@ -52,28 +52,8 @@ CDSM_HD CDSM_INLINE float fma_hd(float a, float b, float c) {
 #endif
 }
 
-CDSM_HD CDSM_INLINE uint32_t bits_of(float f) {
-#if defined(__CUDA_ARCH__)
-  return __float_as_uint(f);
-#else
-  uint32_t u;
-  std::memcpy(&u, &f, sizeof u);
-  return u;
-#endif
-}
-
-CDSM_HD CDSM_INLINE float float_of(uint32_t u) {
-#if defined(__CUDA_ARCH__)
-  return __uint_as_float(u);
-#else
-  float f;
-  std::memcpy(&f, &u, sizeof f);
-  return f;
-#endif
-}
-
 // 2^k as a float, for k in [-126, 127].
-CDSM_HD CDSM_INLINE float pow2(int k) { return float_of(uint32_t(k + 127) << 23); }
+CDSM_HD CDSM_INLINE float pow2(int k) { return bits_float(uint32_t(k + 127) << 23); }
 
 }  // namespace exp_detail
 
@@ -110,16 +90,16 @@ CDSM_FMA_CLONES CDSM_HD inline float logf_hd(float x) {
   using exp_detail::fma_hd;
   if (!(x > 0.0f)) return x == 0.0f ? -1e30f * 1e30f : (x - x) / (x - x);  // 0 -> -inf; < 0, NaN -> NaN
   if (x == x * 2.0f) return x;                                                // +inf
-  uint32_t u = exp_detail::bits_of(x);
+  uint32_t u = float_bits(x);
   int e = -127;
   if (u < 0x00800000u) {  // subnormal: into the normal range first
-    u = exp_detail::bits_of(x * 8388608.0f);  // 2^23
+    u = float_bits(x * 8388608.0f);  // 2^23
     e -= 23;
   }
   // Exponent and mantissa split at sqrt(1/2) (bits 0x3f3504f3), not at 1.
   u += 0x3f800000u - 0x3f3504f3u;
   e += int(u >> 23);
-  const float m = exp_detail::float_of((u & 0x007fffffu) + 0x3f3504f3u);
+  const float m = bits_float((u & 0x007fffffu) + 0x3f3504f3u);
   const float s = (m - 1.0f) / (m + 1.0f);
   const float s2 = s * s;
   float q = 0.111111111f;           // 1/9
