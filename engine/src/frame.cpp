@@ -148,7 +148,7 @@ LightSetup setup_lights(const std::vector<Light>& lights, const SceneBuffers& sb
     ld.first_map = uint32_t(ls.maps.size());
     float near, far;
     light_range(l, sb, near, far);
-    bool faces = l.type == LightType::Point || l.outer_cone_deg > 60.0f;
+    bool faces = l.type == LightType::Point || l.outer_cone_deg > cluster::kMaxSpotFrustumHalfAngleDeg;
     if (faces) {
       for (const PinholeView& v : cube_face_views(l.position, res, near, far))
         ls.maps.push_back({v, uint32_t(li), casters});
