@@ -6,7 +6,9 @@
 // stalling the suite.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -156,6 +158,56 @@ TEST(March, HugeScalesFinishQuickly) {
 // box only, outside it the volume reads its background (one sample per
 // stretch), so the march does not take 4e7 steps per ray (issue
 // "Reliability": marching only where a volume is).
+// The reference's camera march of a volume whose background is clear stays
+// inside the box of the grid's values: a 1e5 m proxy gives the image a proxy
+// around the grid gives, and in about the same time (it marched the whole
+// proxy at step_voxels before: past the watchdog under ASan).
+TEST(March, ReferenceImageOfAnOversizedProxyEqualsATightOne) {
+  auto fog_scene = [](TriangleMesh proxy) {
+    Scene s = scene_named("reference proxy");
+    add_uniform_volume(s, "fog", {-0.16f, 0.5f, -0.16f}, {0.16f, 0.82f, 0.16f}, 3.0f, std::move(proxy), 32,
+                       {0.8f, 0.8f, 0.8f}, 0.5f);
+    s.volumes.back().grid = [] {
+      auto g = std::make_shared<DenseGrid>();
+      g->nx = g->ny = g->nz = 32;
+      g->values.assign(32 * 32 * 32, 1.0f);
+      g->background = 0.0f;
+      return g;
+    }();
+    s.objects.back().casts_shadows = false;  // the fog shows only along camera rays: what this tests
+    s.objects.push_back(surface_object("ground", make_ground(4, 4, 0.02f), Mat4{}, 1.0f, false));
+    s.lights.push_back(spot({0.3f, 3.0f, 0.2f}, {-0.3f, -3.0f, -0.2f}, 20.0f, 15.0f));
+    s.camera.width = 96;
+    s.camera.height = 72;
+    return s;
+  };
+  // One voxel (0.01 m) of reach around the grid, as the value box has.
+  const Scene tight = fog_scene(box_mesh({-0.171f, 0.489f, -0.171f}, {0.171f, 0.831f, 0.171f}));
+  const Scene big = fog_scene(box_mesh({-1e5f, -1e5f, -1e5f}, {1e5f, 1e5f, 1e5f}));
+  Scene none = tight;  // the same view without the fog
+  none.volumes.clear();
+  none.objects.erase(none.objects.begin());
+  Image a, b, c;
+  within(30.0, "reference, oversized proxy", [&] {
+    RenderOptions o = cpu_options();
+    a = Renderer().render_reference(tight, o);
+    b = Renderer().render_reference(big, o);
+    c = Renderer().render_reference(none, o);
+  });
+  ASSERT_EQ(a.rgb.size(), b.rgb.size());
+  ASSERT_EQ(a.rgb.size(), c.rgb.size());
+  ASSERT_FALSE(a.rgb.empty());
+  double worst = 0.0, fog_tight = 0.0, fog_big = 0.0;
+  for (size_t i = 0; i < a.rgb.size(); ++i) {
+    worst = std::max(worst, double(std::fabs(a.rgb[i] - b.rgb[i])));
+    fog_tight = std::max(fog_tight, double(std::fabs(a.rgb[i] - c.rgb[i])));
+    fog_big = std::max(fog_big, double(std::fabs(b.rgb[i] - c.rgb[i])));
+  }
+  EXPECT_GT(fog_tight, 0.05) << "the fog must show in the reference (tight proxy)";
+  EXPECT_GT(fog_big, 0.05) << "the fog must show in the reference (oversized proxy)";
+  EXPECT_LE(worst, 0.02) << "the oversized proxy's reference differs from the tight one's";
+}
+
 TEST(March, ProxyFarLargerThanItsGridMarchesOnlyTheGrid) {
   Scene s = scene_named("big proxy");
   add_uniform_volume(s, "fog", {-0.16f, 0.5f, -0.16f}, {0.16f, 0.82f, 0.16f}, 3.0f, box_mesh({-1e5f, -1e5f, -1e5f}, {1e5f, 1e5f, 1e5f}),
