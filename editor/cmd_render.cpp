@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <unistd.h>
 
 #include "cdsm/cdsm.h"
@@ -122,8 +123,8 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
   kt = nlohmann::json::object();
   for (const KernelTime& k : s.times.kernels) kt[k.name] = {{"ms", k.ms}, {"launches", k.launches}};
   auto& m = j["dsm_memory"];
-  m["layout"] = std::vector<std::string>{"packed", "fixed", "chunked"}[size_t(scene.shadows.layout)];
-  j["receiver_lookup"] = scene.shadows.receiver == ReceiverLookup::Plane ? "plane" : "slope_bias";
+  m["layout"] = tag_name(scene.shadows.layout);
+  j["receiver_lookup"] = tag_name(scene.shadows.receiver);
   m["maps"] = s.memory.maps;
   m["texels"] = s.memory.texels;
   m["nodes"] = s.memory.nodes;
@@ -206,9 +207,8 @@ void print_summary(const FrameStats& s, const Scene& scene, bool reference_backe
   std::printf("rebuilds     %u maps built, %u reused\n", s.maps_rebuilt, s.maps_reused);
   std::printf("transfers    host -> backend %.2f MiB, backend -> host %.2f MiB\n",
               double(s.update.host_to_backend_bytes) / 1048576.0, double(s.update.backend_to_host_bytes) / 1048576.0);
-  const char* layouts[] = {"packed", "fixed", "chunked"};
   std::printf("DSM memory   %s layout, %llu maps, index %.2f MiB, nodes %.2f MiB, tags %.2f MiB, slack %.2f MiB\n",
-              layouts[int(scene.shadows.layout)], (unsigned long long)s.memory.maps, s.memory.index_bytes / 1048576.0,
+              tag_name(scene.shadows.layout), (unsigned long long)s.memory.maps, s.memory.index_bytes / 1048576.0,
               s.memory.node_bytes / 1048576.0, s.memory.tag_bytes / 1048576.0, s.memory.slack_bytes / 1048576.0);
   std::printf("nodes/texel  avg %.2f, max %u (texels walked twice %llu, re-compressed %llu)\n",
               s.memory.avg_nodes_per_texel, s.memory.max_nodes_per_texel, (unsigned long long)s.memory.rewalked_texels,
@@ -302,7 +302,8 @@ int cmd_render(const std::vector<std::string>& args) {
   int filtering = -1;
   int clusters = 0;
   float d0 = -1.0f;
-  std::string layout, receiver;
+  std::optional<DsmLayout> layout;
+  std::optional<ReceiverLookup> receiver;
   int fixed_layers = 0;
   int splits = -1;
   int64_t max_memory = 0;
@@ -357,13 +358,14 @@ int cmd_render(const std::vector<std::string>& args) {
       splits = parse_int(a, value());
       if (splits != 0 && (splits < 2 || splits > 7)) throw Error("--splits", "must be 0 (off) or within [2, 7]");
     } else if (a == "--layout") {
-      layout = value();
-      if (layout != "packed" && layout != "fixed" && layout != "chunked")
-        throw Error("--layout", "unknown layout '" + layout + "' (packed, fixed or chunked)");
+      const std::string v = value();
+      layout = DsmLayout::Packed;
+      if (!parse_tag(v, *layout)) throw Error("--layout", "unknown layout '" + v + "' (" + tag_choices<DsmLayout>() + ")");
     } else if (a == "--receiver") {
-      receiver = value();
-      if (receiver != "plane" && receiver != "slope_bias")
-        throw Error("--receiver", "unknown receiver lookup '" + receiver + "' (plane or slope_bias)");
+      const std::string v = value();
+      receiver = ReceiverLookup::Plane;
+      if (!parse_tag(v, *receiver))
+        throw Error("--receiver", "unknown receiver lookup '" + v + "' (" + tag_choices<ReceiverLookup>() + ")");
     } else if (a == "--fixed-layers") {
       fixed_layers = parse_int(a, value());
       if (fixed_layers < 2 || fixed_layers > 4096) throw Error("--fixed-layers", "must be within [2, 4096]");
@@ -417,11 +419,8 @@ int cmd_render(const std::vector<std::string>& args) {
   if (filtering >= 0) scene.shadows.filtering = filtering == 1;
   if (clusters > 0) scene.shadows.max_clusters = clusters;
   if (d0 >= 0) scene.shadows.d0 = d0;
-  if (layout == "packed") scene.shadows.layout = DsmLayout::Packed;
-  if (layout == "fixed") scene.shadows.layout = DsmLayout::Fixed;
-  if (layout == "chunked") scene.shadows.layout = DsmLayout::Chunked;
-  if (receiver == "plane") scene.shadows.receiver = ReceiverLookup::Plane;
-  if (receiver == "slope_bias") scene.shadows.receiver = ReceiverLookup::SlopeBias;
+  if (layout) scene.shadows.layout = *layout;
+  if (receiver) scene.shadows.receiver = *receiver;
   if (fixed_layers > 0) scene.shadows.fixed_layers = fixed_layers;
   if (splits >= 0) scene.shadows.parallel_splits = splits;
 
@@ -462,9 +461,8 @@ int cmd_info(const std::vector<std::string>& args) {
               s.objects.size(), tris, s.volumes.size(), s.lights.size(), s.camera.width, s.camera.height);
   for (size_t i = 0; i < s.objects.size(); ++i) {
     const Object& o = s.objects[i];
-    const char* interior[] = {"none", "constant", "volume"};
     std::printf("  object %zu %-12s %6zu tris  opacity %.2f  interior %s%s%s\n", i, o.name.c_str(),
-                o.mesh->triangle_count(), o.surface.opacity, interior[int(o.interior)],
+                o.mesh->triangle_count(), o.surface.opacity, tag_name(o.interior),
                 is_closed(*o.mesh) ? "" : "  (open mesh)", o.casts_shadows ? "" : "  (receives only)");
   }
   for (size_t i = 0; i < s.volumes.size(); ++i) {

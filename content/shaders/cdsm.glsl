@@ -87,14 +87,14 @@ struct CdsmMap {
 // shadows/hd/lights.h LightData (64 bytes).
 struct CdsmLight {
   vec3 position;
-  uint type;  // 0 spot, 1 point
+  uint type;  // CDSM_LIGHT_SPOT / CDSM_LIGHT_POINT
   vec3 direction;
   float cos_outer;
   vec3 radiance;
   float cos_inner;
   uint first_map;
   uint map_count;
-  uint map_mode;  // 0 clusters combined, 1 six cube faces, 2 parallel splits
+  uint map_mode;  // CDSM_MAPS_COMBINE (clusters), _CUBE_FACES (six), _FIRST_CONTAINING (parallel splits)
   uint pad;
 };
 
@@ -116,7 +116,7 @@ layout(std430, binding = CDSM_BINDING_BASE + 0) readonly buffer CdsmFrame {
   uint cdsm_layout;  // 0 packed, 1 fixed, 2 chunked
   uint cdsm_layers;  // fixed: node slots per texel
   uint cdsm_filtering;
-  uint cdsm_receiver;  // 0 receiver plane, 1 slope bias
+  uint cdsm_receiver;  // CDSM_RECEIVER_PLANE / CDSM_RECEIVER_SLOPE_BIAS
   float cdsm_bias_constant;
   float cdsm_bias_slope;
   uint cdsm_light_total;
@@ -135,6 +135,19 @@ layout(std430, binding = CDSM_BINDING_BASE + 8) readonly buffer CdsmRgbTags { ui
 
 // The object id of a receive-only surface (and of no surface).
 const uint CDSM_NO_OBJECT = 0xffffffffu;
+
+// The tags of cdsm/tags.h, value for value (tests/unit/test_tags.cpp
+// reads them from this file and checks them).
+#define CDSM_LAYOUT_PACKED 0
+#define CDSM_LAYOUT_FIXED 1
+#define CDSM_LAYOUT_CHUNKED 2
+const uint CDSM_LIGHT_SPOT = 0u;
+const uint CDSM_LIGHT_POINT = 1u;
+const uint CDSM_MAPS_COMBINE = 0u;
+const uint CDSM_MAPS_CUBE_FACES = 1u;
+const uint CDSM_MAPS_FIRST_CONTAINING = 2u;
+const uint CDSM_RECEIVER_PLANE = 0u;
+const uint CDSM_RECEIVER_SLOPE_BIAS = 1u;
 
 #ifdef CDSM_LAYOUT
 #if CDSM_LAYOUT < 0 || CDSM_LAYOUT > 2
@@ -267,11 +280,11 @@ vec3 cdsm_alpha_chunked_rgb(uvec2 head, float z) {
 // its header's offset, or at a fixed stride.
 vec3 cdsm_texel_alpha(CdsmMap m, int tx, int ty, float z) {
   uint t = m.texel_offset + uint(ty) * m.res + uint(tx);
-  if (CDSM_LAYOUT_IS(2)) {
+  if (CDSM_LAYOUT_IS(CDSM_LAYOUT_CHUNKED)) {
     if (m.rgb == 0u) return vec3(cdsm_alpha_chunked(cdsm_texels[t], z));
     return cdsm_alpha_chunked_rgb(cdsm_rgb_texels[t], z);
   }
-  uvec2 span = CDSM_LAYOUT_IS(1) ? uvec2(t * cdsm_layers, cdsm_layers) : m.rgb == 0u ? cdsm_texels[t] : cdsm_rgb_texels[t];
+  uvec2 span = CDSM_LAYOUT_IS(CDSM_LAYOUT_FIXED) ? uvec2(t * cdsm_layers, cdsm_layers) : m.rgb == 0u ? cdsm_texels[t] : cdsm_rgb_texels[t];
   if (m.rgb == 0u) return vec3(cdsm_alpha_nodes(span.x, span.y, z));
   return cdsm_alpha_nodes_rgb(span.x, span.y, z);
 }
@@ -284,7 +297,7 @@ float cdsm_texel_footprint(CdsmMap m, float axial) { return 2.0 * m.view.tan_hal
 // crosses the receiver's plane (within a reach of the point's depth), or
 // the point's own depth (volume samples, the slope-bias baseline).
 float cdsm_tap_depth(CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, int tx, int ty) {
-  if (cdsm_receiver == 1u || !(cdsm_dot(plane, plane) > 0.0)) return pr.depth;
+  if (cdsm_receiver == CDSM_RECEIVER_SLOPE_BIAS || !(cdsm_dot(plane, plane) > 0.0)) return pr.depth;
   float reach = CDSM_PLANE_REACH_TEXELS * cdsm_texel_footprint(m, pr.axial);
   vec3 d = cdsm_normalize(cdsm_view_direction(m.view, float(tx) + 0.5, float(ty) + 0.5));
   float dn = cdsm_dot(d, plane);
@@ -306,7 +319,7 @@ uint cdsm_tag(bool rgb, uint i) {
 // channel (grey: its one value in each), the chunked layout's link.
 void cdsm_slot(bool rgb, uint i, out float z, out vec3 a, out uint next) {
   next = 0u;
-  if (CDSM_LAYOUT_IS(2)) {
+  if (CDSM_LAYOUT_IS(CDSM_LAYOUT_CHUNKED)) {
     if (rgb) {
       CdsmChunkRgb c = cdsm_rgb_chunks[i];
       z = c.z;
@@ -344,13 +357,13 @@ vec3 cdsm_over_layer(vec3 alpha, vec3 a) {
 void cdsm_read_start(CdsmMap m, uint t, float from_z, out uint slot, out uint i, out uint count) {
   bool rgb = m.rgb != 0u;
   i = 0u;
-  if (CDSM_LAYOUT_IS(2)) {
+  if (CDSM_LAYOUT_IS(CDSM_LAYOUT_CHUNKED)) {
     uvec2 head = rgb ? cdsm_rgb_texels[t] : cdsm_texels[t];
     slot = head.x;
     count = head.y;
     return;
   }
-  uvec2 span = CDSM_LAYOUT_IS(1) ? uvec2(t * cdsm_layers, cdsm_layers) : rgb ? cdsm_rgb_texels[t] : cdsm_texels[t];
+  uvec2 span = CDSM_LAYOUT_IS(CDSM_LAYOUT_FIXED) ? uvec2(t * cdsm_layers, cdsm_layers) : rgb ? cdsm_rgb_texels[t] : cdsm_texels[t];
   uint lo = 0u, hi = span.y;
   while (lo < hi) {
     uint mid = (lo + hi) >> 1;
@@ -394,7 +407,7 @@ vec3 cdsm_texel_receive(CdsmMap m, uint t, float depth, float window, float copl
         own_rank = tag >> 14;
       }
       ++seen;
-      slot = CDSM_LAYOUT_IS(2) ? next : slot + 1u;
+      slot = CDSM_LAYOUT_IS(CDSM_LAYOUT_CHUNKED) ? next : slot + 1u;
     }
   }
   // Pass 2: what counts.
@@ -432,7 +445,7 @@ vec3 cdsm_texel_receive(CdsmMap m, uint t, float depth, float window, float copl
     pz = z;
     pa = a;
     have_prev = true;
-    slot = CDSM_LAYOUT_IS(2) ? next : slot + 1u;
+    slot = CDSM_LAYOUT_IS(CDSM_LAYOUT_CHUNKED) ? next : slot + 1u;
   }
   return alpha;
 }
@@ -454,8 +467,8 @@ float cdsm_slope_bias_offset(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, 
 // count as 0.
 vec3 cdsm_map_alpha(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, uint object) {
   bool surface = cdsm_dot(plane, plane) > 0.0;
-  bool at_point = cdsm_receiver == 1u || !surface;
-  float point_z = pr.depth - (cdsm_receiver == 1u ? cdsm_slope_bias_offset(L, m, pr, p, plane) : 0.0);
+  bool at_point = cdsm_receiver == CDSM_RECEIVER_SLOPE_BIAS || !surface;
+  float point_z = pr.depth - (cdsm_receiver == CDSM_RECEIVER_SLOPE_BIAS ? cdsm_slope_bias_offset(L, m, pr, p, plane) : 0.0);
   uint own = cdsm_tag_object(object);
   float footprint = cdsm_texel_footprint(m, pr.axial);
   int res = int(m.res);
@@ -498,7 +511,7 @@ int cdsm_cube_face(vec3 d) {
 vec3 cdsm_shadow_alpha(CdsmLight L, vec3 p, vec3 plane, uint object) {
   vec3 alpha = vec3(0.0);
   uint first = L.first_map, count = L.map_count;
-  if (L.map_mode == 1u && count == 6u) {
+  if (L.map_mode == CDSM_MAPS_CUBE_FACES && count == 6u) {
     first += uint(cdsm_cube_face(p - L.position));
     count = 1u;
   }
@@ -509,8 +522,8 @@ vec3 cdsm_shadow_alpha(CdsmLight L, vec3 p, vec3 plane, uint object) {
     // Every tap outside the map: it adds nothing (alpha + 0 (1 - alpha) is
     // alpha exactly), skipped before its offsets and taps are computed.
     float res_f = float(m.res);
-    if (L.map_mode == 0u && (pr.u < -0.5 || pr.v < -0.5 || pr.u > res_f + 0.5 || pr.v > res_f + 0.5)) continue;
-    if (L.map_mode == 2u) {
+    if (L.map_mode == CDSM_MAPS_COMBINE && (pr.u < -0.5 || pr.v < -0.5 || pr.u > res_f + 0.5 || pr.v > res_f + 0.5)) continue;
+    if (L.map_mode == CDSM_MAPS_FIRST_CONTAINING) {
       float lo = 1.0, hi = float(m.res) - 1.0;
       if (k + 1u < count && (pr.u < lo || pr.v < lo || pr.u > hi || pr.v > hi)) continue;
       count = k + 1u;
@@ -529,7 +542,7 @@ vec3 cdsm_light_radiance(int light) { return cdsm_lights[light].radiance; }
 // The spot cone's falloff at p (smoothstep between the outer and inner cone), 1 for point lights.
 float cdsm_spot_factor(int light, vec3 p) {
   CdsmLight L = cdsm_lights[light];
-  if (L.type != 0u) return 1.0;
+  if (L.type != CDSM_LIGHT_SPOT) return 1.0;
   float c = cdsm_dot(cdsm_normalize(p - L.position), L.direction);
   if (c <= L.cos_outer) return 0.0;
   if (c >= L.cos_inner) return 1.0;

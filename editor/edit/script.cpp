@@ -124,12 +124,11 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
       else if (field == "filtering") next.filtering = on_off(word("on or off"), where);
       else if (field == "layout") {
         const std::string l = word("a layout");
-        next.layout = l == "packed" ? DsmLayout::Packed : l == "fixed" ? DsmLayout::Fixed : l == "chunked" ? DsmLayout::Chunked
-                      : throw Error(where, "unknown layout '" + l + "'");
+        if (!parse_tag(l, next.layout)) throw Error(where, "unknown layout '" + l + "' (" + tag_choices<DsmLayout>() + ")");
       } else if (field == "receiver") {
         const std::string r = word("plane or slope_bias");
-        next.receiver = r == "plane" ? ReceiverLookup::Plane : r == "slope_bias" ? ReceiverLookup::SlopeBias
-                        : throw Error(where, "unknown receiver '" + r + "'");
+        if (!parse_tag(r, next.receiver))
+          throw Error(where, "unknown receiver '" + r + "' (" + tag_choices<ReceiverLookup>() + ")");
       } else {
         throw Error(where, "unknown setting '" + field + "'");
       }

@@ -41,7 +41,6 @@ bool drag3(const char* label, Vec3& v, float speed, float lo = 0.0f, float hi = 
   return true;
 }
 
-const char* layout_names[] = {"packed", "fixed", "chunked"};
 const char* receiver_names[] = {"receiver plane", "slope bias (baseline)"};
 
 void shadows_panel(Session& s) {
@@ -73,7 +72,7 @@ void shadows_panel(Session& s) {
   changed |= ImGui::SliderInt("clusters m", &next.max_clusters, 1, 8);
   changed |= ImGui::SliderFloat("d0", &next.d0, 0.0f, 1.0f, "%.3f");
   int layout = int(next.layout);
-  if (ImGui::Combo("layout", &layout, layout_names, 3)) {
+  if (ImGui::Combo("layout", &layout, TagNames<DsmLayout>::names, int(tag_count<DsmLayout>()))) {
     next.layout = DsmLayout(layout);
     changed = true;
   }

@@ -122,7 +122,7 @@ MapUploadStats MapBuffers::sync(const ShadowView& view, uint64_t epoch, const De
   context_.make_current();
   MapUploadStats st;
   const DsmStorage& s = view.storage;
-  st.full = epoch != epoch_ || s.layout != layout_;
+  st.full = !synced_ || epoch != epoch_ || s.layout != layout_;
   const void* data[kMapBlocks] = {nullptr,           s.texels.data(),     s.nodes.data(),     s.chunks.data(),
                                   s.rgb_texels.data(), s.rgb_nodes.data(), s.rgb_chunks.data(), s.tags.data(),
                                   s.rgb_tags.data()};
@@ -160,6 +160,7 @@ MapUploadStats MapBuffers::sync(const ShadowView& view, uint64_t epoch, const De
   }
   epoch_ = epoch;
   layout_ = s.layout;
+  synced_ = true;
 
   // The frame block: settings, lights, map headers.
   if (view.lights.size() > uint64_t(kMaxLights))

@@ -36,10 +36,10 @@ class Context;
 
 // The head of the CdsmFrame block (std430): then `map_count` DsmMap.
 struct FrameBlockHeader {
-  uint32_t layout;        // kDsmPacked / kDsmFixed / kDsmChunked
+  DsmLayout layout;
   uint32_t layers;        // fixed: node slots per texel
   uint32_t filtering;     // 1: bilinear taps
-  uint32_t receiver;      // kReceiverPlane / kReceiverSlopeBias
+  ReceiverLookup receiver;
   float bias_constant;    // casters' offset from their own plane, world units
   float bias_slope;       // + texel footprints
   uint32_t light_count;
@@ -100,8 +100,8 @@ class MapBuffers {
   // that does not use cdsm.glsl's lookup, or whose compiler dropped it) or
   // two blocks sharing a binding.
   void bind(GLuint program) const;
-  // The layout of the last sync's storage (kDsmPacked before any).
-  uint32_t layout() const { return layout_ == ~0u ? 0u : layout_; }
+  // The layout of the last sync's storage (DsmLayout::Packed before any).
+  DsmLayout layout() const { return layout_; }
 
  private:
   // Sizes array `block`'s buffer for `bytes` (growing it by a GL-side copy,
@@ -116,7 +116,8 @@ class MapBuffers {
   uint64_t used_[kMapBlocks] = {};  // bytes holding data
   uint64_t generation_[kMapBlocks] = {};
   uint64_t epoch_ = 0;              // of the last sync (0: none yet)
-  uint32_t layout_ = ~0u;
+  DsmLayout layout_ = DsmLayout::Packed;
+  bool synced_ = false;  // a sync has run (the first one is full)
   std::vector<unsigned char> frame_;  // the frame block last uploaded
   ReleaseHook release_hook_;
 };

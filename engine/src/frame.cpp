@@ -78,7 +78,7 @@ void light_range(const Light& l, const SceneBuffers& sb, float& near, float& far
 LightData light_data(const Light& l) {
   LightData ld{};
   ld.position = l.position;
-  ld.type = l.type == LightType::Spot ? kLightSpot : kLightPoint;
+  ld.type = l.type;
   ld.direction = normalize(l.direction);
   const float k = 3.14159265f / 180.0f;
   ld.cos_outer = l.type == LightType::Spot ? std::cos(l.outer_cone_deg * k) : -2.0f;
@@ -153,13 +153,13 @@ LightSetup setup_lights(const std::vector<Light>& lights, const SceneBuffers& sb
       for (const PinholeView& v : cube_face_views(l.position, res, near, far))
         ls.maps.push_back({v, uint32_t(li), casters});
       ld.map_count = 6;
-      ld.map_mode = kMapsCubeFaces;
+      ld.map_mode = MapMode::CubeFaces;
     } else {
       float tan_half = std::tan(l.outer_cone_deg * 3.14159265f / 180.0f);
       ls.maps.push_back({light_view(l.position, ld.direction, {0, 1, 0}, tan_half, res, 1, near, far),
                          uint32_t(li), casters});
       ld.map_count = 1;
-      ld.map_mode = kMapsCombine;
+      ld.map_mode = MapMode::Combine;
     }
     ls.lights.push_back(ld);
   }
@@ -167,14 +167,8 @@ LightSetup setup_lights(const std::vector<Light>& lights, const SceneBuffers& sb
 }
 
 DsmLayoutParams dsm_layout_params(const ShadowSettings& s) {
-  static_assert(uint32_t(DsmLayout::Packed) == kDsmPacked && uint32_t(DsmLayout::Fixed) == kDsmFixed &&
-                    uint32_t(DsmLayout::Chunked) == kDsmChunked,
-                "layout tags match cdsm::DsmLayout");
-  return {uint32_t(s.layout), s.fixed_layers, s.chunk_nodes};
+  return {s.layout, s.fixed_layers, s.chunk_nodes};
 }
-
-static_assert(uint32_t(ReceiverLookup::Plane) == kReceiverPlane && uint32_t(ReceiverLookup::SlopeBias) == kReceiverSlopeBias,
-              "hd/lights.h receiver tags equal cdsm::ReceiverLookup");
 
 void ShadowFrame::refresh_headers() {
   headers.clear();
@@ -189,7 +183,7 @@ ShadowView ShadowFrame::view(const ShadowSettings& s, bool with_storage) const {
   v.filtering = s.filtering;
   v.bias_constant = s.bias_constant;
   v.bias_slope = s.bias_slope;
-  v.receiver = uint32_t(s.receiver);
+  v.receiver = s.receiver;
   return v;
 }
 
@@ -197,7 +191,7 @@ namespace {
 
 // Light li's maps become `mine` (read with `mode`); the other lights' maps
 // keep their order, every light's first_map follows.
-void replace_light_maps(LightSetup& ls, size_t li, const std::vector<MapPlan>& mine, uint32_t mode) {
+void replace_light_maps(LightSetup& ls, size_t li, const std::vector<MapPlan>& mine, MapMode mode) {
   std::vector<MapPlan> all;
   for (size_t l = 0; l < ls.lights.size(); ++l) {
     uint32_t first = uint32_t(all.size());
@@ -250,7 +244,7 @@ void cluster_light(const FrameInputs& in, size_t li, const LightClusters* previo
       for (int32_t id : c.members) p.members.push_back(uint32_t(id));
       mine.push_back(std::move(p));
     }
-  replace_light_maps(ls, li, mine, kMapsCombine);
+  replace_light_maps(ls, li, mine, MapMode::Combine);
   lc.clustered = true;
 }
 
@@ -263,7 +257,7 @@ void split_light(const FrameInputs& in, size_t li, LightSetup& ls) {
   const SceneBuffers& sb = *in.scene;
   const cluster::LightShape light = light_shape(in.lights[li]);
   const int m = in.settings.parallel_splits;
-  if (ls.lights[li].map_mode != kMapsCombine || ls.lights[li].map_count != 1) return;  // spots only
+  if (ls.lights[li].map_mode != MapMode::Combine || ls.lights[li].map_count != 1) return;  // spots only
   PinholeView cam = camera_view(in.camera);
   // The view's depth range inside the scene box.
   float far = 0.0f;
@@ -299,7 +293,7 @@ void split_light(const FrameInputs& in, size_t li, LightSetup& ls) {
   }
   if (mine.empty()) return;
   mine.push_back(base);  // the whole cone last: points outside every split
-  replace_light_maps(ls, li, mine, kMapsFirstContaining);
+  replace_light_maps(ls, li, mine, MapMode::FirstContaining);
 }
 
 // What a light's clusters depend on besides the casters: a change drops
@@ -408,7 +402,7 @@ CasterTexels caster_texels(const MapPlan& plan, const SceneBuffers& sb) {
 void warn_subtexel_casters(const FrameInputs& in, ShadowFrame& frame) {
   for (size_t li = 0; li < frame.setup.lights.size(); ++li) {
     const LightData& ld = frame.setup.lights[li];
-    const bool splits = ld.map_mode == kMapsFirstContaining && ld.map_count > 1;
+    const bool splits = ld.map_mode == MapMode::FirstContaining && ld.map_count > 1;
     const uint32_t counted = splits ? ld.map_count - 1 : ld.map_count;
     uint32_t small = 0;
     float largest = 0.0f, texel = 1e30f;
@@ -573,7 +567,7 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
       frame.fragments += fb.total();
       t0 = std::chrono::steady_clock::now();
       std::vector<uint32_t> inside = objects_containing(sv, plan.view.eye, mask);
-      LightPassParams lp{plan.view, s.epsilon, {inside.data(), inside.size()}, uint32_t(s.method), s.method_param};
+      LightPassParams lp{plan.view, s.epsilon, {inside.data(), inside.size()}, s.method, s.method_param};
       // RGB nodes only where a member is coloured (deep shadow maps; the
       // baselines are grey).
       lp.rgb = s.rgb_maps && s.method == ShadowMethod::Dsm &&

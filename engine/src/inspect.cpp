@@ -159,7 +159,7 @@ ShadowSystem::TexelInspection ShadowSystem::inspect_texel(int light, Vec3 p, int
   // The map that serves p: the cube face holding it, else the map whose
   // window holds it with the largest opacity there.
   uint32_t first = L.first_map, count = L.map_count;
-  if (L.map_mode == kMapsCubeFaces && count == 6) {
+  if (L.map_mode == MapMode::CubeFaces && count == 6) {
     first += uint32_t(cube_face_of(p - L.position));
     count = 1;
   }
@@ -222,7 +222,7 @@ ShadowSystem::TexelInspection ShadowSystem::inspect_texel(int light, Vec3 p, int
   FragmentBuffers fb;
   cast_fragments(scene, one, mask, fb);
   std::vector<uint32_t> inside = objects_containing(scene, one.eye, mask);
-  LightPassParams lp{one, 0.0f, {inside.data(), inside.size()}, kMethodDsm, 0.0f};
+  LightPassParams lp{one, 0.0f, {inside.data(), inside.size()}, ShadowMethod::Dsm, 0.0f};
   lp.rgb = r.rgb;
   WalkStats ws;
   constexpr int kCapacity = 1 << 16;  // every sample of a long march

@@ -9,6 +9,7 @@
 
 #include "cdsm/error.h"
 #include "cdsm/math.h"
+#include "cdsm/tags.h"
 
 namespace cdsm {
 
@@ -47,6 +48,16 @@ class JsonNode {
   bool get(const char* key, bool def) const { return has(key) ? at(key).as_bool() : def; }
   std::string get(const char* key, const char* def) const { return has(key) ? at(key).as_string() : def; }
   Vec3 get(const char* key, Vec3 def) const { return has(key) ? at(key).as_vec3() : def; }
+  // A tag by its name (cdsm/tags.h); `what` names it in the error.
+  template <class E>
+  E get_tag(const char* key, E def, const char* what) const {
+    if (!has(key)) return def;
+    const JsonNode n = at(key);
+    const std::string s = n.as_string();
+    E e = def;
+    if (!parse_tag(s, e)) n.fail("unknown " + std::string(what) + " '" + s + "' (" + tag_choices<E>() + ")");
+    return e;
+  }
 
  private:
   const nlohmann::json& j_;

@@ -219,7 +219,7 @@ struct Renderer::Impl {
     // error is the same for every receiver lookup and the map error holds
     // the lookup's offsets.
     ShadowView exact_taps = shv;
-    exact_taps.receiver = kReceiverPlane;
+    exact_taps.receiver = ReceiverLookup::Plane;
     std::vector<PointErrorRgb> errors(lookups.size());
     tbb::parallel_for(size_t(0), lookups.size(), [&](size_t i) {
       const RecordedLookup& l = lookups[i];
@@ -335,7 +335,7 @@ struct Renderer::Impl {
       before.filtering = previous.settings.filtering;
       before.bias_constant = previous.settings.bias_constant;
       before.bias_slope = previous.settings.bias_slope;
-      before.receiver = uint32_t(previous.settings.receiver);
+      before.receiver = previous.settings.receiver;
       double sum = 0.0, mx = 0.0;
       uint64_t n = 0;
       for (const Receiver& r : previous.receivers)

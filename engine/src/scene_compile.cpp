@@ -336,7 +336,7 @@ void compile_object(const Object& o, bool closed, const std::string& where, Comp
   for (size_t i = 0; i < mesh.positions.size(); ++i)
     if (!is_finite(mesh.positions[i])) throw Error(where, "vertex " + std::to_string(i) + " is NaN or infinite");
   ObjectData& od = out.data;
-  od.interior = uint32_t(o.interior);
+  od.interior = o.interior;
   od.volume = -1;
   od.flags = closed ? kObjClosed : 0u;
   apply_surface(o, where, od);
@@ -344,7 +344,7 @@ void compile_object(const Object& o, bool closed, const std::string& where, Comp
     throw Error(where, "sigma must be finite and >= 0 in every channel");
   od.sigma = o.interior == InteriorKind::Constant ? o.sigma : Vec3{0, 0, 0};
   if (o.interior != InteriorKind::None && !closed) {  // no interior without a closed boundary
-    od.interior = 0;
+    od.interior = InteriorKind::None;
     out.warnings.push_back(where + ": mesh is not closed, its interior (medium or volume) is ignored");
   }
   Mat4 inv;

@@ -122,24 +122,12 @@ struct Parser {
     s.d0 = n.get("d0", s.d0);
     s.parallel_splits = n.get("parallel_splits", s.parallel_splits);
     s.max_memory_mib = n.get("max_memory", int(s.max_memory_mib));
-    std::string layout = n.get("layout", "packed");
-    if (layout == "packed") s.layout = DsmLayout::Packed;
-    else if (layout == "fixed") s.layout = DsmLayout::Fixed;
-    else if (layout == "chunked") s.layout = DsmLayout::Chunked;
-    else n.at("layout").fail("unknown layout '" + layout + "' (packed, fixed or chunked)");
+    s.layout = n.get_tag("layout", s.layout, "layout");
     s.fixed_layers = n.get("fixed_layers", s.fixed_layers);
     s.chunk_nodes = n.get("chunk_nodes", s.chunk_nodes);
-    std::string receiver = n.get("receiver", "plane");
-    if (receiver == "plane") s.receiver = ReceiverLookup::Plane;
-    else if (receiver == "slope_bias") s.receiver = ReceiverLookup::SlopeBias;
-    else n.at("receiver").fail("unknown receiver lookup '" + receiver + "' (plane or slope_bias)");
+    s.receiver = n.get_tag("receiver", s.receiver, "receiver lookup");
     // The benchmark's baselines (DESIGN.md §7): what a texel stores.
-    std::string method = n.get("method", "dsm");
-    if (method == "dsm") s.method = ShadowMethod::Dsm;
-    else if (method == "shadow_map") s.method = ShadowMethod::ShadowMap;
-    else if (method == "opacity_slices") s.method = ShadowMethod::OpacitySlices;
-    else if (method == "fixed_nodes") s.method = ShadowMethod::FixedNodes;
-    else n.at("method").fail("unknown method '" + method + "' (dsm, shadow_map, opacity_slices or fixed_nodes)");
+    s.method = n.get_tag("method", s.method, "method");
     s.method_param = n.get("method_param", s.method_param);
     s.ambient_light = n.get("ambient", s.ambient_light);
     s.rgb_maps = n.get("rgb_maps", s.rgb_maps);
@@ -493,10 +481,8 @@ struct Parser {
                      "intensity"});
     Light l;
     l.name = n.get("name", "");
-    std::string type = n.at("type").as_string();
-    if (type == "spot") l.type = LightType::Spot;
-    else if (type == "point") l.type = LightType::Point;
-    else n.at("type").fail("unknown light type '" + type + "' (spot or point)");
+    n.at("type");  // required
+    l.type = n.get_tag("type", l.type, "light type");
     l.position = n.at("position").as_vec3();
     // A point light keeps a direction and cones when given (unused; they
     // come back when it is made a spot again, and a saved scene keeps them).

@@ -47,21 +47,10 @@ bool same_mesh(const TriangleMesh& a, const TriangleMesh& b) {
   return same_vec3s(a.positions, b.positions) && a.indices == b.indices && same_vec3s(a.normals, b.normals);
 }
 
-const char* layout_name(DsmLayout l) {
-  switch (l) {
-    case DsmLayout::Fixed: return "fixed";
-    case DsmLayout::Chunked: return "chunked";
-    default: return "packed";
-  }
-}
-
-const char* method_name(ShadowMethod m) {
-  switch (m) {
-    case ShadowMethod::ShadowMap: return "shadow_map";
-    case ShadowMethod::OpacitySlices: return "opacity_slices";
-    case ShadowMethod::FixedNodes: return "fixed_nodes";
-    default: return "dsm";
-  }
+// A tag as a JSON string: "packed".
+template <class E>
+std::string quoted(E e) {
+  return std::string("\"") + tag_name(e) + "\"";
 }
 
 // One JSON object written field by field: {"a": 1, "b": [2, 3]}.
@@ -222,19 +211,13 @@ struct Writer {
     f.add("casts_shadows", boolean(o.casts_shadows));
     f.add("material", material(o.surface, at + "/material"));
     Fields in;
-    switch (o.interior) {
-      case InteriorKind::Constant:
-        in.add("type", "\"constant\"");
-        in.add("sigma", channels(o.sigma, at + "/interior/sigma"));
-        break;
-      case InteriorKind::Volume: {
-        in.add("type", "\"volume\"");
-        const Volume& v = s.volumes[size_t(o.volume)];
-        in.add("volume", v.name.empty() ? std::to_string(o.volume) : str(v.name, at + "/interior/volume"));
-        break;
-      }
-      default:
-        in.add("type", "\"none\"");
+    const InteriorKind kind = o.interior == InteriorKind::Constant || o.interior == InteriorKind::Volume ? o.interior
+                                                                                                        : InteriorKind::None;
+    in.add("type", quoted(kind));
+    if (kind == InteriorKind::Constant) in.add("sigma", channels(o.sigma, at + "/interior/sigma"));
+    if (kind == InteriorKind::Volume) {
+      const Volume& v = s.volumes[size_t(o.volume)];
+      in.add("volume", v.name.empty() ? std::to_string(o.volume) : str(v.name, at + "/interior/volume"));
     }
     f.add("interior", in.done());
     return f.done();
@@ -346,7 +329,7 @@ struct Writer {
     const std::string at = "/lights/" + std::to_string(i);
     Fields f;
     f.add("name", str(l.name, at + "/name"));
-    f.add("type", l.type == LightType::Point ? "\"point\"" : "\"spot\"");
+    f.add("type", quoted(l.type));
     f.add("position", vec(l.position, at + "/position"));
     f.add("direction", vec(l.direction, at + "/direction"));
     f.add("outer_cone", num(l.outer_cone_deg, at + "/outer_cone"));
@@ -376,16 +359,16 @@ struct Writer {
     f.add("epsilon", num(sh.epsilon, "/shadows/epsilon"));
     f.add("resolution", std::to_string(sh.resolution));
     f.add("filtering", boolean(sh.filtering));
-    f.add("receiver", sh.receiver == ReceiverLookup::SlopeBias ? "\"slope_bias\"" : "\"plane\"");
+    f.add("receiver", quoted(sh.receiver));
     f.add("bias_constant", num(sh.bias_constant, "/shadows/bias_constant"));
     f.add("bias_slope", num(sh.bias_slope, "/shadows/bias_slope"));
     f.add("clusters", std::to_string(sh.max_clusters));
     f.add("parallel_splits", std::to_string(sh.parallel_splits));
     f.add("d0", num(sh.d0, "/shadows/d0"));
-    f.add("layout", std::string("\"") + layout_name(sh.layout) + "\"");
+    f.add("layout", quoted(sh.layout));
     f.add("fixed_layers", std::to_string(sh.fixed_layers));
     f.add("chunk_nodes", std::to_string(sh.chunk_nodes));
-    f.add("method", std::string("\"") + method_name(sh.method) + "\"");
+    f.add("method", quoted(sh.method));
     f.add("method_param", num(sh.method_param, "/shadows/method_param"));
     f.add("ambient", vec(sh.ambient_light, "/shadows/ambient"));
     f.add("rgb_maps", boolean(sh.rgb_maps));

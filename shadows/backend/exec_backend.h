@@ -100,7 +100,7 @@ class ExecBackend final : public ExecShadowBackend {
   MapId build_map(const LightPassParams& params, FragmentLists frags, const DsmLayoutParams& layout,
                   DsmBuildStats& stats) override {
     check_layout(layout);
-    if (params.rgb && params.method != kMethodDsm) throw std::invalid_argument("build_map: the baselines are grey (no RGB maps)");
+    if (params.rgb && params.method != ShadowMethod::Dsm) throw std::invalid_argument("build_map: the baselines are grey (no RGB maps)");
     if (slots_.live() == 0) reset_store();
     if (stored_any_ && !same_layout(layout_, layout))
       throw std::logic_error("exec backend: maps of different layouts cannot share the store");
@@ -301,15 +301,16 @@ class ExecBackend final : public ExecShadowBackend {
 
   static bool same_layout(const DsmLayoutParams& a, const DsmLayoutParams& b) {
     if (a.layout != b.layout) return false;
-    if (a.layout == kDsmFixed) return a.fixed_layers == b.fixed_layers;
-    if (a.layout == kDsmChunked) return a.chunk_nodes == b.chunk_nodes;
+    if (a.layout == DsmLayout::Fixed) return a.fixed_layers == b.fixed_layers;
+    if (a.layout == DsmLayout::Chunked) return a.chunk_nodes == b.chunk_nodes;
     return true;
   }
   static void check_layout(const DsmLayoutParams& p) {
-    if (p.layout > kDsmChunked) throw std::invalid_argument("build_map: unknown DSM layout " + std::to_string(p.layout));
-    if (p.layout == kDsmFixed && (p.fixed_layers < 2 || p.fixed_layers > 4096))
+    if (uint32_t(p.layout) > uint32_t(DsmLayout::Chunked))
+      throw std::invalid_argument("build_map: unknown DSM layout " + std::to_string(uint32_t(p.layout)));
+    if (p.layout == DsmLayout::Fixed && (p.fixed_layers < 2 || p.fixed_layers > 4096))
       throw std::invalid_argument("build_map: fixed_layers must be within [2, 4096]");
-    if (p.layout == kDsmChunked && (p.chunk_nodes < 1 || p.chunk_nodes > 4096))
+    if (p.layout == DsmLayout::Chunked && (p.chunk_nodes < 1 || p.chunk_nodes > 4096))
       throw std::invalid_argument("build_map: chunk_nodes must be within [1, 4096]");
   }
 
@@ -368,7 +369,7 @@ class ExecBackend final : public ExecShadowBackend {
     s.tags = grey_.tags.cspan();
     s.rgb_tags = rgb_.tags.cspan();
     s.layout = layout_.layout;
-    s.layers = layout_.layout == kDsmFixed ? uint32_t(layout_.fixed_layers) : 0u;
+    s.layers = layout_.layout == DsmLayout::Fixed ? uint32_t(layout_.fixed_layers) : 0u;
     return s;
   }
 

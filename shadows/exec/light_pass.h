@@ -148,10 +148,10 @@ struct LightPassScratch {
 
 // Nodes a baseline texel can hold at once (hd/baselines.h): a first walk
 // into this many never needs a second.
-inline int baseline_capacity(uint32_t method, float param) {
+inline int baseline_capacity(ShadowMethod method, float param) {
   int bound = 2;
-  if (method == kMethodOpacitySlices) bound = (param >= 1.0f ? int(param) : kDefaultOpacitySlices) + 1;
-  if (method == kMethodFixedNodes) bound = (param >= 2.0f ? int(param) : kDefaultFixedNodes) + 1;
+  if (method == ShadowMethod::OpacitySlices) bound = (param >= 1.0f ? int(param) : kDefaultOpacitySlices) + 1;
+  if (method == ShadowMethod::FixedNodes) bound = (param >= 2.0f ? int(param) : kDefaultFixedNodes) + 1;
   int cap = bound + 2 < 4 ? 4 : bound + 2;
   while (node_limit(cap) < bound + 1) ++cap;
   return cap;
@@ -302,13 +302,13 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
                              DsmMap& map, LightPassScratch<Ex>& s) {
   using Kind = NodeKind<Node>;
   using Chunk = typename Kind::Chunk;
-  const uint32_t kind = layout.layout;
+  const DsmLayout kind = layout.layout;
   const int res = params.view.width, height = params.view.height;
   const int tiles_x = (res + kDsmTile - 1) / kDsmTile, tiles_y = (height + kDsmTile - 1) / kDsmTile;
   const uint64_t n_texels = uint64_t(res) * uint64_t(height);
   const uint64_t n_tiles = uint64_t(tiles_x) * uint64_t(tiles_y);
   const uint32_t L = uint32_t(layout.fixed_layers), C = uint32_t(layout.chunk_nodes);
-  const bool baseline = params.method != kMethodDsm;
+  const bool baseline = params.method != ShadowMethod::Dsm;
   const int K = baseline ? baseline_capacity(params.method, params.method_param) : opt.walk_nodes;
   const int K2 = opt.max_nodes;
   if (K < 4 || K2 < K) throw std::invalid_argument("light pass: the walk buffers must hold >= 4 nodes, the second >= the first");
@@ -333,18 +333,18 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
 
   // The pool the walks write: packed, the store's nodes; fixed and chunked,
   // the staging array. Headers: packed, the store's; else the scratch's.
-  const uint64_t pool_base = kind == kDsmPacked ? out.nodes.size() : 0;
-  if (kind != kDsmFixed) out.texels.resize(out.texels.size() + n_texels);
-  if (kind != kDsmPacked) {
+  const uint64_t pool_base = kind == DsmLayout::Packed ? out.nodes.size() : 0;
+  if (kind != DsmLayout::Fixed) out.texels.resize(out.texels.size() + n_texels);
+  if (kind != DsmLayout::Packed) {
     s.heads.resize_discard(n_texels);
     s.staging.resize_discard(0);
     s.staging_tags.resize_discard(0);
   }
-  TexelRange* heads = kind == kDsmPacked ? out.texels.data() + map.texel_offset : s.heads.data();
+  TexelRange* heads = kind == DsmLayout::Packed ? out.texels.data() + map.texel_offset : s.heads.data();
   uint64_t pool_used = 0;  // nodes reserved in the pool so far (beyond pool_base)
   // The pool grown to hold `nodes` beyond pool_base (contents kept).
   const auto pool_size = [&](uint64_t nodes) {
-    if (kind == kDsmPacked) {
+    if (kind == DsmLayout::Packed) {
       check_u32_total(pool_base + nodes, "nodes");
       out.nodes.resize(pool_base + nodes);
       out.tags.resize(pool_base + nodes);
@@ -355,9 +355,9 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
     }
   };
   const auto pool_nodes = [&]() -> Node* {
-    return kind == kDsmPacked ? out.nodes.data() : reinterpret_cast<Node*>(s.staging.data());
+    return kind == DsmLayout::Packed ? out.nodes.data() : reinterpret_cast<Node*>(s.staging.data());
   };
-  const auto pool_tags = [&]() -> SurfaceTag* { return kind == kDsmPacked ? out.tags.data() : s.staging_tags.data(); };
+  const auto pool_tags = [&]() -> SurfaceTag* { return kind == DsmLayout::Packed ? out.tags.data() : s.staging_tags.data(); };
 
   TexelWalks<Node> work;
   work.scene = scene;
@@ -366,7 +366,7 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
   work.res = res;
   work.height = height;
   work.tiles_x = tiles_x;
-  work.layout_counts = kind != kDsmFixed;
+  work.layout_counts = kind != DsmLayout::Fixed;
   work.pool_base = pool_base;
   work.counts = counts;
   work.spilled = spilled;
@@ -461,7 +461,7 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
   const uint64_t total = pool_used;
 
   // 5. the layout.
-  if (kind == kDsmFixed) {
+  if (kind == DsmLayout::Fixed) {
     const uint64_t first_slot = out.nodes.size();
     out.nodes.resize(first_slot + n_texels * L);
     out.tags.resize(out.nodes.size());
@@ -491,7 +491,7 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
       }
       if (n) atomic_add(&ctr->stored, n);
     });
-  } else if (kind == kDsmChunked) {
+  } else if (kind == DsmLayout::Chunked) {
     // Each tile reserves the chunks of all its nodes (Alg. 4.1, hd/dsm_chunked.h).
     s.tile_first.resize_discard(n_tiles);
     uint32_t* tile_first = s.tile_first.data();
@@ -541,7 +541,7 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
   stats.layout = kind;
   stats.rgb = params.rgb;
   stats.texels = n_texels;
-  stats.nodes = kind == kDsmFixed ? c.stored : c.nodes;  // packed, chunked: every node reserved is stored
+  stats.nodes = kind == DsmLayout::Fixed ? c.stored : c.nodes;  // packed, chunked: every node reserved is stored
   stats.max_nodes = c.max_nodes;
   stats.max_built_nodes = c.max_built_nodes;
   stats.overflow_texels = c.recompressed_texels;
@@ -553,12 +553,12 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
   stats.walk.unmatched = c.walk[2];
   stats.walk.march_lengthened = c.walk[3];
   switch (kind) {
-    case kDsmFixed:
+    case DsmLayout::Fixed:
       stats.node_bytes_allocated = n_texels * L * sizeof(Node);
       stats.node_bytes_used = stats.nodes * sizeof(Node);
       stats.tag_bytes = n_texels * L * sizeof(SurfaceTag);
       break;
-    case kDsmChunked:
+    case DsmLayout::Chunked:
       stats.chunks = c.chunks;
       stats.index_bytes = n_texels * sizeof(TexelRange);
       stats.node_bytes_allocated = stats.chunks * C * sizeof(Chunk);

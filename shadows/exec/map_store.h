@@ -25,7 +25,7 @@ struct ExecStoredMap {
 
 // Appends map m of `from` to `to` (same kind and layout); returns its new place.
 template <class Node, class Ex>
-ExecStoredMap move_map_exec(Ex& ex, const ExecStoredMap& m, uint32_t layout, const KindStore<Node, Ex>& from,
+ExecStoredMap move_map_exec(Ex& ex, const ExecStoredMap& m, DsmLayout layout, const KindStore<Node, Ex>& from,
                             KindStore<Node, Ex>& to) {
   using Chunk = typename NodeKind<Node>::Chunk;
   ExecStoredMap n = m;
@@ -36,7 +36,7 @@ ExecStoredMap move_map_exec(Ex& ex, const ExecStoredMap& m, uint32_t layout, con
   to.texel_count += uint64_t(m.map.res) * uint64_t(m.map.view.height);
   const long long node_shift = (long long)n.node_begin - (long long)m.node_begin;
   const long long chunk_shift = (long long)n.chunk_begin - (long long)m.chunk_begin;
-  const bool chunked = layout == kDsmChunked;
+  const bool chunked = layout == DsmLayout::Chunked;
 
   const uint64_t texels = m.texel_end - m.texel_begin;
   to.texels.resize(n.texel_begin + texels);

@@ -25,11 +25,6 @@
 
 namespace cdsm {
 
-// What a texel stores; the values of cdsm::ShadowMethod (public scene.h).
-inline constexpr uint32_t kMethodDsm = 0u;
-inline constexpr uint32_t kMethodShadowMap = 1u;
-inline constexpr uint32_t kMethodOpacitySlices = 2u;
-inline constexpr uint32_t kMethodFixedNodes = 3u;
 
 // Defaults when ShadowSettings::method_param is 0.
 inline constexpr float kDefaultOpacityThreshold = 0.5f;
@@ -215,16 +210,16 @@ struct FixedNodeBuilder {
 // (Out of line on a GPU: the baseline walk and the second walk share it.)
 // Builds one texel of a baseline map along unit ray `dir` from `org`,
 // walking [0, t_end]. `param` is ShadowSettings::method_param (0: default).
-CDSM_HD CDSM_NOINLINE inline void build_baseline_texel(const SceneView& s, uint32_t method, float param,
+CDSM_HD CDSM_NOINLINE inline void build_baseline_texel(const SceneView& s, ShadowMethod method, float param,
                                          Span<const uint32_t> inside, Span<Fragment> frags, Vec3 org,
                                          Vec3 dir, float t_end, NodeBuffer& buf, WalkStats& st) {
-  if (method == kMethodShadowMap) {
+  if (method == ShadowMethod::ShadowMap) {
     float thr = param > 0.0f ? fminf(param, 1.0f) : kDefaultOpacityThreshold;
     ShadowMapBuilder b{buf, thr};
     ExactAlphaVisitor<ShadowMapBuilder> vis(s, org, dir, b);
     walk_ray(s, frags, inside, 0.0f, t_end, vis, st);
     b.finish();
-  } else if (method == kMethodOpacitySlices) {
+  } else if (method == ShadowMethod::OpacitySlices) {
     int n = param >= 1.0f ? int(param) : kDefaultOpacitySlices;
     n = n > buf.capacity - 1 ? buf.capacity - 1 : n;
     // The slices span the ray's extent through the casters: from the light
@@ -241,7 +236,7 @@ CDSM_HD CDSM_NOINLINE inline void build_baseline_texel(const SceneView& s, uint3
     ExactAlphaVisitor<OpacitySliceBuilder> vis(s, org, dir, b);
     walk_ray(s, frags, inside, 0.0f, t_end, vis, st);
     b.finish();
-  } else if (method == kMethodFixedNodes) {
+  } else if (method == ShadowMethod::FixedNodes) {
     int n = param >= 2.0f ? int(param) : kDefaultFixedNodes;
     n = n > buf.capacity - 1 ? buf.capacity - 1 : n;
     FixedNodeBuilder b{buf, n};

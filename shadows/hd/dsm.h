@@ -22,10 +22,6 @@
 
 namespace cdsm {
 
-// Layout tags; the values equal cdsm::DsmLayout (engine/include/cdsm/scene.h).
-inline constexpr uint32_t kDsmPacked = 0u;
-inline constexpr uint32_t kDsmFixed = 1u;
-inline constexpr uint32_t kDsmChunked = 2u;
 
 // Per-texel header. std430: 8 bytes.
 //   packed:  the texel's nodes are nodes[offset .. offset + count).
@@ -99,7 +95,7 @@ struct DsmStorage {
   // there (hd/compress.h); then the same for the RGB maps. Empty: no tags.
   Span<const SurfaceTag> tags;
   Span<const SurfaceTag> rgb_tags;
-  uint32_t layout = kDsmPacked;   // kDsmPacked / kDsmFixed / kDsmChunked
+  DsmLayout layout = DsmLayout::Packed;
   uint32_t layers = 0;            // fixed: L, node slots per texel
 };
 
@@ -380,9 +376,9 @@ CDSM_HD CDSM_INLINE Span<const DsmNode> fixed_slots(const DsmStorage& st, uint64
 // L slots, pads included — lookups on it are exact).
 CDSM_HD CDSM_INLINE Span<const DsmNode> texel_nodes(const DsmStorage& st, const DsmMap& m, int tx,
                                                     int ty) {
-  CDSM_HD_ASSERT(st.layout != kDsmChunked);
+  CDSM_HD_ASSERT(st.layout != DsmLayout::Chunked);
   uint64_t t = texel_index(m, tx, ty);
-  if (st.layout == kDsmFixed) return fixed_slots(st, t);
+  if (st.layout == DsmLayout::Fixed) return fixed_slots(st, t);
   TexelRange r = st.texels[t];
   return st.nodes.subspan(r.offset, r.count);
 }
@@ -391,9 +387,9 @@ CDSM_HD CDSM_INLINE Span<const DsmNode> texel_nodes(const DsmStorage& st, const 
 CDSM_HD CDSM_INLINE float texel_alpha(const DsmStorage& st, const DsmMap& m, int tx, int ty, float z) {
   uint64_t t = texel_index(m, tx, ty);
   switch (st.layout) {
-    case kDsmFixed:
+    case DsmLayout::Fixed:
       return lookup_alpha(fixed_slots(st, t), z);
-    case kDsmChunked:
+    case DsmLayout::Chunked:
       return lookup_alpha_chunked(st.chunks, st.texels[t], z);
     default: {
       TexelRange r = st.texels[t];
@@ -406,9 +402,9 @@ CDSM_HD CDSM_INLINE float texel_alpha(const DsmStorage& st, const DsmMap& m, int
 CDSM_HD CDSM_INLINE float texel_receive(const DsmStorage& st, const DsmMap& m, int tx, int ty, const TexelRead& tr) {
   uint64_t t = texel_index(m, tx, ty);
   switch (st.layout) {
-    case kDsmFixed:
+    case DsmLayout::Fixed:
       return receiver_read(fixed_slots(st, t), st.tags, t * st.layers, tr);
-    case kDsmChunked:
+    case DsmLayout::Chunked:
       return receiver_read_chunked(st.chunks, st.tags, st.texels[t], tr);
     default: {
       TexelRange r = st.texels[t];
@@ -423,7 +419,7 @@ CDSM_HD CDSM_INLINE float texel_receive(const DsmStorage& st, const DsmMap& m, i
 CDSM_HD inline uint32_t read_texel(const DsmStorage& st, const DsmMap& m, int tx, int ty, DsmNode* out,
                                    uint32_t cap, SurfaceTag* out_tags = nullptr) {
   uint64_t t = texel_index(m, tx, ty);
-  if (st.layout == kDsmChunked) {
+  if (st.layout == DsmLayout::Chunked) {
     TexelRange h = st.texels[t];
     uint32_t slot = h.offset;
     for (uint32_t i = 0; i < h.count; ++i) {
@@ -435,8 +431,8 @@ CDSM_HD inline uint32_t read_texel(const DsmStorage& st, const DsmMap& m, int tx
     return h.count;
   }
   Span<const DsmNode> n = texel_nodes(st, m, tx, ty);
-  uint32_t count = st.layout == kDsmFixed ? lower_bound_z(n, kFixedPadZ) : uint32_t(n.size());
-  const uint64_t first = st.layout == kDsmFixed ? t * st.layers : uint64_t(st.texels[t].offset);
+  uint32_t count = st.layout == DsmLayout::Fixed ? lower_bound_z(n, kFixedPadZ) : uint32_t(n.size());
+  const uint64_t first = st.layout == DsmLayout::Fixed ? t * st.layers : uint64_t(st.texels[t].offset);
   for (uint32_t i = 0; i < count && i < cap; ++i) {
     out[i] = n[i];
     if (out_tags) out_tags[i] = tag_of(st.tags, first + i);
@@ -521,9 +517,9 @@ CDSM_HD CDSM_INLINE Vec3 texel_alpha_rgb(const DsmStorage& st, const DsmMap& m, 
   if (m.rgb == 0u) return vec3(texel_alpha(st, m, tx, ty, z));
   const uint64_t t = texel_index(m, tx, ty);
   switch (st.layout) {
-    case kDsmFixed:
+    case DsmLayout::Fixed:
       return lookup_alpha(st.rgb_nodes.subspan(t * st.layers, st.layers), z);
-    case kDsmChunked:
+    case DsmLayout::Chunked:
       return lookup_alpha_chunked(st.rgb_chunks, st.rgb_texels[t], z);
     default: {
       const TexelRange r = st.rgb_texels[t];
@@ -538,9 +534,9 @@ CDSM_HD CDSM_INLINE Vec3 texel_receive_rgb(const DsmStorage& st, const DsmMap& m
   if (m.rgb == 0u) return vec3(texel_receive(st, m, tx, ty, tr));
   const uint64_t t = texel_index(m, tx, ty);
   switch (st.layout) {
-    case kDsmFixed:
+    case DsmLayout::Fixed:
       return receiver_read(st.rgb_nodes.subspan(t * st.layers, st.layers), st.rgb_tags, t * st.layers, tr);
-    case kDsmChunked:
+    case DsmLayout::Chunked:
       return receiver_read_chunked(st.rgb_chunks, st.rgb_tags, st.rgb_texels[t], tr);
     default: {
       const TexelRange r = st.rgb_texels[t];
@@ -553,7 +549,7 @@ CDSM_HD CDSM_INLINE Vec3 texel_receive_rgb(const DsmStorage& st, const DsmMap& m
 CDSM_HD inline uint32_t read_texel_rgb(const DsmStorage& st, const DsmMap& m, int tx, int ty, DsmNodeRgb* out,
                                        uint32_t cap, SurfaceTag* out_tags = nullptr) {
   const uint64_t t = texel_index(m, tx, ty);
-  if (st.layout == kDsmChunked) {
+  if (st.layout == DsmLayout::Chunked) {
     const TexelRange h = st.rgb_texels[t];
     uint32_t slot = h.offset;
     for (uint32_t i = 0; i < h.count; ++i) {
@@ -567,7 +563,7 @@ CDSM_HD inline uint32_t read_texel_rgb(const DsmStorage& st, const DsmMap& m, in
   Span<const DsmNodeRgb> n;
   uint32_t count;
   uint64_t first;
-  if (st.layout == kDsmFixed) {
+  if (st.layout == DsmLayout::Fixed) {
     n = st.rgb_nodes.subspan(t * st.layers, st.layers);
     count = lower_bound_z(n, kFixedPadZ);
     first = t * st.layers;

@@ -15,7 +15,7 @@ struct LightPassParams {
   PinholeView view;              // the map's view from the light
   float epsilon;                 // compression bound
   Span<const uint32_t> inside;   // caster objects containing the light
-  uint32_t method = kMethodDsm;  // ShadowMethod: DSM, or a baseline (hd/baselines.h)
+  ShadowMethod method = ShadowMethod::Dsm;  // DSM, or a baseline (hd/baselines.h)
   float method_param = 0.0f;     // the baseline's parameter (0: its default)
   bool rgb = false;              // RGB nodes (a coloured caster among the map's members; DSM only)
 };
@@ -155,7 +155,7 @@ CDSM_HD CDSM_NOINLINE inline void walk_texel(const SceneView& s, const LightPass
 // sorted in place; nodes go to `buf`.
 CDSM_HD inline void build_texel(const SceneView& s, const LightPassParams& p, Span<Fragment> frags,
                                 int tx, int ty, NodeBuffer& buf, WalkStats& st) {
-  if (p.method != kMethodDsm) {  // the benchmark's baselines, same rays and walker
+  if (p.method != ShadowMethod::Dsm) {  // the benchmark's baselines, same rays and walker
     Vec3 d = pixel_ray(p.view, tx, ty);
     float t = p.view.far / fmaxf(dot(d, p.view.forward), 1e-6f);
     build_baseline_texel(s, p.method, p.method_param, p.inside, frags, p.view.eye, d, t, buf, st);
@@ -170,7 +170,7 @@ CDSM_HD inline void build_texel(const SceneView& s, const LightPassParams& p, Sp
   walk_texel<DsmVisitorRgb>(s, p, frags, tx, ty, buf, st);
 }
 
-// Texel (tx, ty) of a deep shadow map (p.method == kMethodDsm) into a
+// Texel (tx, ty) of a deep shadow map (p.method == ShadowMethod::Dsm) into a
 // FixedSlotSink: with no slots it only counts the nodes (the wedge reads
 // back just the last two), with `count` slots it writes them in place.
 // Until a NodeBuffer of K slots would overflow (node_limit(K) nodes), the

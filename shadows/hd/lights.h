@@ -6,22 +6,17 @@
 
 namespace cdsm {
 
-inline constexpr uint32_t kLightSpot = 0u;
-inline constexpr uint32_t kLightPoint = 1u;
-inline constexpr uint32_t kMapsCombine = 0u;    // clusters: alpha += alpha_c (1 - alpha)
-inline constexpr uint32_t kMapsCubeFaces = 1u;  // six faces +X,-X,+Y,-Y,+Z,-Z: pick by major axis
-inline constexpr uint32_t kMapsFirstContaining = 2u;  // parallel splits, near to far: the first map holding the point
 
 struct LightData {
   Vec3 position;
-  uint32_t type;       // kLightSpot / kLightPoint
+  LightType type;
   Vec3 direction;      // spot axis (unit)
   float cos_outer;     // spot: cosine of the outer half-angle
   Vec3 radiance;       // colour * intensity
   float cos_inner;     // spot: cosine of the inner half-angle
   uint32_t first_map;  // maps[first_map .. first_map + map_count)
   uint32_t map_count;
-  uint32_t map_mode;   // kMapsCombine / kMapsCubeFaces
+  MapMode map_mode;
   uint32_t pad;
 };
 static_assert(sizeof(LightData) == 64, "LightData is 64 bytes");
@@ -34,11 +29,9 @@ struct ShadowView {
   bool filtering;
   float bias_constant;  // a surface's own step is searched this far around its plane: world units
   float bias_slope;     // + this many texel footprints at the point (+ kRelativeDepthOffset of the depth)
-  uint32_t receiver;    // kReceiverPlane / kReceiverSlopeBias (cdsm::ReceiverLookup)
+  ReceiverLookup receiver;
 };
 
-inline constexpr uint32_t kReceiverPlane = 0u;
-inline constexpr uint32_t kReceiverSlopeBias = 1u;
 // The slope-bias baseline's constants (the defaults before receiver planes).
 inline constexpr float kSlopeBiasConstant = 0.0005f;
 inline constexpr float kSlopeBiasTexels = 1.5f;
@@ -49,7 +42,7 @@ inline constexpr float kPlaneReachTexels = 50.0f;
 
 // Spot falloff between the outer and inner cone (1 for point lights).
 CDSM_HD CDSM_INLINE float cone_factor(const LightData& L, Vec3 p) {
-  if (L.type != kLightSpot) return 1.0f;
+  if (L.type != LightType::Spot) return 1.0f;
   float c = dot(normalize(p - L.position), L.direction);
   if (c <= L.cos_outer) return 0.0f;
   if (c >= L.cos_inner) return 1.0f;
@@ -127,7 +120,7 @@ CDSM_HD CDSM_INLINE float plane_depth_at_texel(const PinholeView& v, int tx, int
 // baseline for every tap).
 CDSM_HD CDSM_INLINE float tap_depth(const ShadowView& sv, const DsmMap& m, const ViewProjection& pr,
                                     const Receiver& r, int tx, int ty) {
-  if (sv.receiver == kReceiverSlopeBias || !(dot(r.plane, r.plane) > 0.0f)) return pr.depth;
+  if (sv.receiver == ReceiverLookup::SlopeBias || !(dot(r.plane, r.plane) > 0.0f)) return pr.depth;
   return plane_depth_at_texel(m.view, tx, ty, r.p, r.plane, pr.depth,
                               kPlaneReachTexels * texel_footprint(m, pr.axial));
 }
@@ -168,7 +161,7 @@ CDSM_HD CDSM_INLINE auto combine_maps(const ShadowView& sv, const LightData& L, 
   using Alpha = decltype(map_alpha(0u, sv.maps[0], ViewProjection{}));
   Alpha alpha{};
   uint32_t first = L.first_map, count = L.map_count;
-  if (L.map_mode == kMapsCubeFaces && count == 6) {
+  if (L.map_mode == MapMode::CubeFaces && count == 6) {
     first += uint32_t(cube_face_of(p - L.position));
     count = 1;
   }
@@ -176,7 +169,7 @@ CDSM_HD CDSM_INLINE auto combine_maps(const ShadowView& sv, const LightData& L, 
     const DsmMap& m = sv.maps[first + k];
     ViewProjection pr = project(m.view, p);
     if (pr.axial <= 0.0f) continue;
-    if (L.map_mode == kMapsFirstContaining) {
+    if (L.map_mode == MapMode::FirstContaining) {
       // Each split map holds every caster: use the finest map whose window
       // (inside its one-texel guard band) holds the point, and only that one.
       float lo = 1.0f, hi = float(m.res) - 1.0f;
@@ -196,8 +189,8 @@ CDSM_HD CDSM_INLINE auto combine_maps(const ShadowView& sv, const LightData& L, 
 CDSM_HD inline Vec3 map_alpha_rgb(const ShadowView& sv, const LightData& L, const DsmMap& m, const ViewProjection& pr,
                                   const Receiver& r) {
   const bool surface = dot(r.plane, r.plane) > 0.0f;
-  if (sv.receiver == kReceiverSlopeBias || !surface) {
-    const float z = pr.depth - (sv.receiver == kReceiverSlopeBias ? slope_bias_offset(L, m, pr, r) : 0.0f);
+  if (sv.receiver == ReceiverLookup::SlopeBias || !surface) {
+    const float z = pr.depth - (sv.receiver == ReceiverLookup::SlopeBias ? slope_bias_offset(L, m, pr, r) : 0.0f);
     if (m.rgb == 0u) {
       float a = 0.0f;
       for_each_tap(m, pr.u, pr.v, sv.filtering, [&](int tx, int ty, float w) { a += w * texel_alpha(sv.storage, m, tx, ty, z); });

@@ -12,7 +12,7 @@ namespace cdsm {
 
 // Which layout the maps of a frame use, and its parameters.
 struct DsmLayoutParams {
-  uint32_t layout = kDsmPacked;  // kDsmPacked / kDsmFixed / kDsmChunked
+  DsmLayout layout = DsmLayout::Packed;
   int fixed_layers = 32;         // fixed: L, node slots per texel (>= 2)
   int chunk_nodes = 64;          // chunked: C, node slots per chunk (>= 1)
 };
@@ -30,7 +30,7 @@ inline constexpr int kTexelNodeCapacity = 1024;
 // the nodes stored (chunked: with their links); slack = allocated - used;
 // tags = the 2-byte SurfaceTag of every allocated node slot.
 struct DsmBuildStats {
-  uint32_t layout = kDsmPacked;
+  DsmLayout layout = DsmLayout::Packed;
   bool rgb = false;                     // RGB nodes (16 bytes; chunked slots 20) instead of scalar (8; 12)
   uint64_t texels = 0;
   uint64_t nodes = 0;                   // nodes stored

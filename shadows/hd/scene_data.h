@@ -4,6 +4,7 @@
 #pragma once
 
 #include "cdsm/math.h"
+#include "cdsm/tags.h"
 #include "hd/span.h"
 
 namespace cdsm {
@@ -24,7 +25,7 @@ struct ObjectData {
   Vec3 sigma;           // constant medium: extinction per channel, per world unit
   float kd;
   float ks, shininess;  // Phong k_s, exponent n_s
-  uint32_t interior;    // InteriorKind: 0 none, 1 constant, 2 volume
+  InteriorKind interior;
   int32_t volume;       // volume index, or -1
   uint32_t flags;       // kObjClosed | kObjCastsShadows | kObjColoured
   uint32_t first_tri;   // triangle range in the scene's triangle arrays
@@ -43,7 +44,7 @@ CDSM_HD CDSM_INLINE bool passes_all(const ObjectData& o) { return max_channel(o.
 // near or far plane cuts stay open: media absorb from the eye up to the
 // view's far distance, surfaces are seen only within [near, far].
 CDSM_HD CDSM_INLINE bool bounds_medium(const ObjectData& o) {
-  return (o.flags & kObjClosed) != 0u && o.interior != 0u;
+  return (o.flags & kObjClosed) != 0u && o.interior != InteriorKind::None;
 }
 
 // Piecewise-linear transfer function density -> (extinction, colour).
@@ -132,8 +133,8 @@ struct SceneView {
 // channels. Maps with such a caster store RGB nodes.
 CDSM_HD CDSM_INLINE bool is_coloured(const SceneView& s, const ObjectData& o) {
   if ((o.flags & kObjColoured) != 0u) return true;
-  if (o.interior == 1u) return !is_grey(o.sigma);
-  if (o.interior == 2u && o.volume >= 0) return s.volumes[uint32_t(o.volume)].tf.coloured != 0u;
+  if (o.interior == InteriorKind::Constant) return !is_grey(o.sigma);
+  if (o.interior == InteriorKind::Volume && o.volume >= 0) return s.volumes[uint32_t(o.volume)].tf.coloured != 0u;
   return false;
 }
 

@@ -62,7 +62,7 @@ struct EnclosingOverflow {
 };
 
 // Whether a segment's media need to know this interior (a volume is marched).
-CDSM_HD CDSM_INLINE bool interior_needs_identity(const ObjectData& o) { return o.interior == 2u && o.volume >= 0; }
+CDSM_HD CDSM_INLINE bool interior_needs_identity(const ObjectData& o) { return o.interior == InteriorKind::Volume && o.volume >= 0; }
 
 // The media of one homogeneous segment.
 struct SegmentMedia {
@@ -79,9 +79,9 @@ CDSM_HD CDSM_INLINE SegmentMedia media_of(const SceneView& s, const EnclosingSet
   m.sigma = over.sigma;
   for (int i = 0; i < set.count; ++i) {
     const ObjectData& o = s.objects[set.object[i]];
-    if (o.interior == 1u) {
+    if (o.interior == InteriorKind::Constant) {
       m.sigma += o.sigma;
-    } else if (o.interior == 2u && o.volume >= 0) {
+    } else if (o.interior == InteriorKind::Volume && o.volume >= 0) {
       const VolumeData& v = s.volumes[uint32_t(o.volume)];
       m.volume[m.volume_count] = uint32_t(o.volume);
       m.volume_object[m.volume_count] = set.object[i];
@@ -279,13 +279,13 @@ CDSM_HD inline void enter_object(const SceneView& s, EnclosingSet& set, Enclosin
     for (int i = 0; i < set.count; ++i) {
       const ObjectData& member = s.objects[set.object[i]];
       if (set.depth[i] != 1u || interior_needs_identity(member)) continue;
-      if (member.interior == 1u) over.sigma += member.sigma;  // the member moves to the sum
+      if (member.interior == InteriorKind::Constant) over.sigma += member.sigma;  // the member moves to the sum
       ++over.count;
       set.object[i] = o;
       return;
     }
     ++st.enclosing_overflow;  // left out
-  } else if (od.interior == 1u) {
+  } else if (od.interior == InteriorKind::Constant) {
     over.sigma += od.sigma;
   }
   ++over.count;
@@ -296,7 +296,7 @@ CDSM_HD inline bool exit_object(const SceneView& s, EnclosingSet& set, Enclosing
   if (set.exit(o)) return true;
   if (over.count == 0) return false;
   const ObjectData& od = s.objects[o];
-  if (od.interior == 1u)  // (never below 0: an unmatched exit meeting the sum takes off at most what is there)
+  if (od.interior == InteriorKind::Constant)  // (never below 0: an unmatched exit meeting the sum takes off at most what is there)
     over.sigma = Vec3{fmaxf(over.sigma.x - od.sigma.x, 0.0f), fmaxf(over.sigma.y - od.sigma.y, 0.0f),
                       fmaxf(over.sigma.z - od.sigma.z, 0.0f)};
   if (--over.count == 0) over.sigma = Vec3{0, 0, 0};  // exactly: no rounding left behind

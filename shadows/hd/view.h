@@ -3,6 +3,7 @@
 #pragma once
 
 #include "cdsm/math.h"
+#include "cdsm/tags.h"
 
 namespace cdsm {
 

@@ -207,7 +207,7 @@ Vec3 ReferenceRenderer::transmittance_segment_rgb(Vec3 a, Vec3 b, ObjectMask mem
   thread_local std::vector<float> ts;
   for (uint32_t o = 0; o < scene_.objects.size(); ++o) {
     const ObjectData& od = scene_.objects[o];
-    if (od.interior == 0u || !(od.flags & kObjClosed) || !(od.flags & kObjCastsShadows) || !members.contains(o))
+    if (od.interior == InteriorKind::None || !(od.flags & kObjClosed) || !(od.flags & kObjCastsShadows) || !members.contains(o))
       continue;
     ts.clear();
     for (const Hit& h : hits)
@@ -215,7 +215,7 @@ Vec3 ReferenceRenderer::transmittance_segment_rgb(Vec3 a, Vec3 b, ObjectMask mem
     if (ts.empty()) continue;
     for_each_inside_interval(ts, dist, [&](float t0, float t1) {
       if (t1 <= t0) return;
-      if (od.interior == 1u) {
+      if (od.interior == InteriorKind::Constant) {
         tau.r += double(od.sigma.x) * (t1 - t0);
         tau.g += double(od.sigma.y) * (t1 - t0);
         tau.b += double(od.sigma.z) * (t1 - t0);
@@ -271,7 +271,7 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
           float tm = 0.5f * (ta + tb);
           for (uint32_t o = 0; o < scene_.objects.size(); ++o) {
             const ObjectData& od = scene_.objects[o];
-            if (od.interior == 0u || !(od.flags & kObjClosed)) continue;
+            if (od.interior == InteriorKind::None || !(od.flags & kObjClosed)) continue;
             uint32_t beyond = 0, any = 0;
             for (const Hit& hh : hits)
               if (hh.object == o) {
@@ -289,7 +289,7 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
           float step = 3e38f;
           interval_media(ta, tb, [&](uint32_t o) {
             const ObjectData& od = scene_.objects[o];
-            if (od.interior == 1u) sigma = sigma + od.sigma;
+            if (od.interior == InteriorKind::Constant) sigma = sigma + od.sigma;
             else if (od.volume >= 0 && nv < kMaxEnclosing) {
               vols[nv++] = uint32_t(od.volume);
               step = std::min(step, opt_.step_voxels * scene_.volumes[uint32_t(od.volume)].voxel_world);

@@ -427,7 +427,7 @@ TEST_F(FragmentRaster, ClosedBoxesLeaveNoUnmatchedFragments) {
   s.add(make_box({6, 6, 5.5f}), make_transform({0, 0, -4.25f}, {0, 0, 0}, {1, 1, 1}));  // proxy-like, off-origin
   for (ObjectData& o : s.sb.objects) {
     o.opacity = 0.0f;
-    o.interior = 1;  // a medium: the walker's matching decides its segments
+    o.interior = InteriorKind::Constant;  // a medium: the walker's matching decides its segments
     o.sigma = vec3(1.0f);
   }
   s.finish();

@@ -59,7 +59,7 @@ std::vector<LookupPoint> sample_points(const SceneBuffers& sb, int surface, int 
   }
   std::vector<Box3> media;
   for (size_t i = 0; i < sb.objects.size(); ++i)
-    if (sb.objects[i].interior != 0u) media.push_back(sb.object_bounds[i]);
+    if (sb.objects[i].interior != InteriorKind::None) media.push_back(sb.object_bounds[i]);
   for (int i = 0; i < volume && !media.empty(); ++i) {
     const Box3& b = media[size_t(u01(rng) * float(media.size())) % media.size()];
     const Vec3 e = b.extent();
@@ -173,10 +173,10 @@ class GlLookup : public GlTest {
     const ShadowView sv = I.shadow_view();
     uint32_t rgb_maps = 0;
     for (const DsmMap& m : sv.maps) rgb_maps += m.rgb;
-    EXPECT_EQ(sys.gl_buffers().layout, uint32_t(scene.shadows.layout)) << what;
+    EXPECT_EQ(sys.gl_buffers().layout, scene.shadows.layout) << what;
     for (int run = 0; run < (variant ? 2 : 1); ++run)
     for (int l = 0; l < int(sv.lights.size()); ++l) {
-      const std::vector<Vec3> g = glsl_lookups(sys, pts, l, run == 0 ? -1 : int(sys.gl_buffers().layout));
+      const std::vector<Vec3> g = glsl_lookups(sys, pts, l, run == 0 ? -1 : int(uint32_t(sys.gl_buffers().layout)));
       double worst = 0.0;
       size_t identical = 0, shadowed = 0, worst_at = 0;
       for (size_t i = 0; i < pts.size(); ++i) {

@@ -25,7 +25,7 @@ namespace {
 
 const char* kScenes[] = {"default", "volumes", "depth"};
 
-DsmLayoutParams layout_params(uint32_t kind) { return {kind, 24, 64}; }
+DsmLayoutParams layout_params(DsmLayout kind) { return {kind, 24, 64}; }
 
 // A light view of `s`'s first light with its casters' fragment lists.
 struct OneView {
@@ -114,7 +114,7 @@ uint64_t expect_map_equals_serial(const ShadowBackend& b, MapId id, const std::v
       std::vector<SurfaceTag> tags(8192), want_tags = s.tags;
       if (m.rgb) {
         std::vector<DsmNodeRgb> got(8192), want = s.rgb;
-        if (layout.layout == kDsmFixed) {
+        if (layout.layout == DsmLayout::Fixed) {
           std::vector<DsmNodeRgb> slots(static_cast<size_t>(L));
           std::vector<SurfaceTag> slot_tags(static_cast<size_t>(L));
           const FixedFit fit = write_fixed_texel(Span<const DsmNodeRgb>{want.data(), want.size()}, want_tags.data(), eps,
@@ -129,7 +129,7 @@ uint64_t expect_map_equals_serial(const ShadowBackend& b, MapId id, const std::v
                  tags[i] == want_tags[i];
       } else {
         std::vector<DsmNode> got(8192), want = s.grey;
-        if (layout.layout == kDsmFixed) {
+        if (layout.layout == DsmLayout::Fixed) {
           std::vector<DsmNode> slots(static_cast<size_t>(L));
           std::vector<SurfaceTag> slot_tags(static_cast<size_t>(L));
           const FixedFit fit = write_fixed_texel(Span<const DsmNode>{want.data(), want.size()}, want_tags.data(), eps,
@@ -175,8 +175,8 @@ SerialTotals totals(const std::vector<SerialTexel>& serial) {
 TEST(ExecBackend, MapsEqualASerialWalk) {
   for (const char* name : kScenes)
     for (bool rgb : {false, true})
-      for (uint32_t kind : {kDsmPacked, kDsmFixed, kDsmChunked}) {
-        const std::string what = std::string(name) + (rgb ? " rgb " : " grey ") + std::to_string(kind);
+      for (DsmLayout kind : {DsmLayout::Packed, DsmLayout::Fixed, DsmLayout::Chunked}) {
+        const std::string what = std::string(name) + (rgb ? " rgb " : " grey ") + std::string(tag_name(kind));
         OneView v(parity::load(name, 48, 32, 24), 0.002f);
         v.params.rgb = rgb;
         const std::vector<SerialTexel> serial = serial_map(v.sb, v.params, v.frags, kTexelNodeCapacity);
@@ -188,7 +188,7 @@ TEST(ExecBackend, MapsEqualASerialWalk) {
         expect_map_equals_serial(ex, id, serial, layout_params(kind), v.params.epsilon, what);
         const SerialTotals t = totals(serial);
         EXPECT_EQ(st.max_built_nodes, t.max_nodes) << what;
-        if (kind != kDsmFixed) {
+        if (kind != DsmLayout::Fixed) {
           EXPECT_EQ(st.nodes, t.nodes) << what;
           EXPECT_EQ(st.max_nodes, t.max_nodes) << what;
           EXPECT_EQ(st.overflow_texels, t.recompressed) << what;
@@ -213,8 +213,8 @@ TEST(ExecBackend, SecondWalkOnlyForTexelsThatNeedIt) {
         ex.light_pass().batch_bytes = batch;
         FragmentBuffers f = v.frags;
         DsmBuildStats st;
-        const MapId id = ex.build_map(v.params, f.lists(), layout_params(kDsmPacked), st);
-        expect_map_equals_serial(ex, id, serial, layout_params(kDsmPacked), v.params.epsilon, what);
+        const MapId id = ex.build_map(v.params, f.lists(), layout_params(DsmLayout::Packed), st);
+        expect_map_equals_serial(ex, id, serial, layout_params(DsmLayout::Packed), v.params.epsilon, what);
         uint64_t need = 0;
         for (const SerialTexel& s : serial) need += s.size() > size_t(node_limit(K));
         EXPECT_EQ(st.rewalked_texels, need) << what;
@@ -231,8 +231,8 @@ TEST(ExecBackend, RecompressionEqualsTheBoundedBuffer) {
   constexpr int K = 16;
   OneView v(parity::load("depth", 48, 32, 24), 0.002f);
   for (bool rgb : {false, true})
-    for (uint32_t kind : {kDsmPacked, kDsmFixed, kDsmChunked}) {
-      const std::string what = std::string(rgb ? "rgb " : "grey ") + std::to_string(kind);
+    for (DsmLayout kind : {DsmLayout::Packed, DsmLayout::Fixed, DsmLayout::Chunked}) {
+      const std::string what = std::string(rgb ? "rgb " : "grey ") + std::string(tag_name(kind));
       v.params.rgb = rgb;
       const std::vector<SerialTexel> serial = serial_map(v.sb, v.params, v.frags, K);
       HostBackend ex("cpu");
@@ -245,7 +245,7 @@ TEST(ExecBackend, RecompressionEqualsTheBoundedBuffer) {
       expect_map_equals_serial(ex, id, serial, layout_params(kind), v.params.epsilon, what);
       const SerialTotals t = totals(serial);
       EXPECT_GT(t.recompressed, 100u) << what;
-      if (kind != kDsmFixed) {
+      if (kind != DsmLayout::Fixed) {
         EXPECT_EQ(st.overflow_texels, t.recompressed) << what;
         EXPECT_EQ(st.max_extra_error, t.max_extra) << what;
       }
@@ -259,7 +259,7 @@ TEST(ExecBackend, DeepTexelsKeepEveryNode) {
   HostBackend ex("cpu");
   ex.update_scene(v.sb, SceneChange::all());
   DsmBuildStats st;
-  ex.build_map(v.params, v.frags.lists(), layout_params(kDsmPacked), st);
+  ex.build_map(v.params, v.frags.lists(), layout_params(DsmLayout::Packed), st);
   EXPECT_EQ(st.overflow_texels, 0u);
   EXPECT_GT(st.max_nodes, 200u);
   EXPECT_GT(st.rewalked_texels, 0u);
@@ -272,15 +272,15 @@ TEST(ExecBackend, BaselinesEqualASerialWalk) {
   for (ShadowMethod m : methods)
     for (float param : {0.0f, 5.0f}) {
       OneView v(parity::load("volumes", 48, 32, 24), 0.002f);
-      v.params.method = uint32_t(m);
+      v.params.method = m;
       v.params.method_param = m == ShadowMethod::ShadowMap ? param * 0.1f : param;
       const std::vector<SerialTexel> serial = serial_map(v.sb, v.params, v.frags, kTexelNodeCapacity);
       HostBackend ex("cpu");
       ex.update_scene(v.sb, SceneChange::all());
       FragmentBuffers f = v.frags;
       DsmBuildStats st;
-      const MapId id = ex.build_map(v.params, f.lists(), layout_params(kDsmPacked), st);
-      expect_map_equals_serial(ex, id, serial, layout_params(kDsmPacked), v.params.epsilon,
+      const MapId id = ex.build_map(v.params, f.lists(), layout_params(DsmLayout::Packed), st);
+      expect_map_equals_serial(ex, id, serial, layout_params(DsmLayout::Packed), v.params.epsilon,
                                "method " + std::to_string(int(m)) + " param " + std::to_string(param));
       EXPECT_EQ(st.rewalked_texels, 0u) << "a baseline's buffer holds all its nodes";
     }
@@ -290,7 +290,7 @@ TEST(ExecBackend, BaselinesEqualASerialWalk) {
 // and tags re-based) and they read as the serial walk, in every layout.
 TEST(ExecBackend, FreeAndCompactKeepTheOtherMaps) {
   OneView v(parity::load("depth", 32, 32, 24), 0.005f);
-  for (uint32_t kind : {kDsmPacked, kDsmFixed, kDsmChunked}) {
+  for (DsmLayout kind : {DsmLayout::Packed, DsmLayout::Fixed, DsmLayout::Chunked}) {
     HostBackend ex("cpu");
     ex.update_scene(v.sb, SceneChange::all());
     std::vector<MapId> ids;
@@ -305,11 +305,11 @@ TEST(ExecBackend, FreeAndCompactKeepTheOtherMaps) {
       params.push_back(p);
     }
     for (int i : {0, 1, 3, 4}) ex.free_map(ids[size_t(i)]);
-    EXPECT_GT(ex.map_store().compactions, 0u) << "kind " << kind;
+    EXPECT_GT(ex.map_store().compactions, 0u) << "kind " << tag_name(kind);
     for (int i : {2, 5})
       expect_map_equals_serial(ex, ids[size_t(i)], serial_map(v.sb, params[size_t(i)], v.frags, kTexelNodeCapacity),
                                layout_params(kind), params[size_t(i)].epsilon,
-                               "kind " + std::to_string(kind) + " map " + std::to_string(i));
+                               "kind " + std::string(tag_name(kind)) + " map " + std::to_string(i));
   }
 }
 
@@ -328,7 +328,7 @@ std::vector<std::vector<unsigned char>> store_bytes(const DsmStorage& s) {
 // earlier map as they were, and the next build succeeds (issue 26 item 4).
 TEST(ExecBackend, AFailedBuildLeavesTheStoreAsItWas) {
   OneView v(parity::load("depth", 32, 32, 24), 0.002f);
-  for (uint32_t kind : {kDsmPacked, kDsmFixed, kDsmChunked}) {
+  for (DsmLayout kind : {DsmLayout::Packed, DsmLayout::Fixed, DsmLayout::Chunked}) {
     int failures = 0;
     for (int64_t n = 0; n < 1000; ++n) {
       HostBackend ex("cpu");
@@ -356,12 +356,12 @@ TEST(ExecBackend, AFailedBuildLeavesTheStoreAsItWas) {
       }
       ex.executor().fail_after = -1;
       if (!threw) {
-        EXPECT_GE(failures, 6) << "kind " << kind << ": a build has that many steps to fail";
+        EXPECT_GE(failures, 6) << "kind " << tag_name(kind) << ": a build has that many steps to fail";
         std::printf("[ failure  ] layout %u: a failure injected at each of %d steps left the store intact\n", kind, failures);
         break;
       }
       ++failures;
-      const std::string what = "kind " + std::to_string(kind) + ", failure at step " + std::to_string(n);
+      const std::string what = "kind " + std::string(tag_name(kind)) + ", failure at step " + std::to_string(n);
       EXPECT_TRUE(store_bytes(ex.storage()) == before) << what << ": the store changed";
       const DsmMap a0 = ex.map_header(ids[0]), a1 = ex.map_header(ids[1]);
       EXPECT_EQ(std::memcmp(&h0, &a0, sizeof h0), 0) << what;
@@ -388,7 +388,7 @@ TEST(ExecBackend, CompactionFollowsHolesNotArrayCapacity) {
   for (int i = 0; i < 5; ++i) {
     DsmBuildStats st;
     FragmentBuffers f = v.frags;
-    ids.push_back(b.build_map(v.params, f.lists(), layout_params(kDsmPacked), st));
+    ids.push_back(b.build_map(v.params, f.lists(), layout_params(DsmLayout::Packed), st));
   }
   const uint64_t one = b.map_store().live_bytes / 5;
   EXPECT_GT(b.map_store().allocated_bytes, b.map_store().live_bytes) << "growth slack to ignore";

@@ -47,7 +47,7 @@ struct SmallMap {
   }
   DsmStorage storage() const {
     DsmStorage s;
-    s.layout = kDsmPacked;
+    s.layout = DsmLayout::Packed;
     s.texels = {texels.data(), texels.size()};
     s.nodes = {nodes.data(), nodes.size()};
     return s;

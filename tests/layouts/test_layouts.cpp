@@ -146,9 +146,9 @@ Fixture& fixture() {
   return f;
 }
 
-DsmLayoutParams packed() { return {kDsmPacked, 32, 64}; }
-DsmLayoutParams fixed(int L) { return {kDsmFixed, L, 64}; }
-DsmLayoutParams chunked(int C = 64) { return {kDsmChunked, 32, C}; }
+DsmLayoutParams packed() { return {DsmLayout::Packed, 32, 64}; }
+DsmLayoutParams fixed(int L) { return {DsmLayout::Fixed, L, 64}; }
+DsmLayoutParams chunked(int C = 64) { return {DsmLayout::Chunked, 32, C}; }
 
 std::vector<DsmNode> nodes_of(const HostMaps& b, int tx, int ty, int map = 0) {
   std::vector<DsmNode> n(4096);
@@ -191,8 +191,8 @@ TEST(Layouts, SameLookupsAcrossLayouts) {
   ASSERT_EQ(sx.layout_overflow_texels, 0u) << "L = 256 holds every texel";
   ASSERT_EQ(sx.overflow_texels, 0u);
   DsmStorage sp = p.storage(), sxs = x.storage(), scs = c.storage();
-  EXPECT_EQ(sxs.layout, kDsmFixed);
-  EXPECT_EQ(scs.layout, kDsmChunked);
+  EXPECT_EQ(sxs.layout, DsmLayout::Fixed);
+  EXPECT_EQ(scs.layout, DsmLayout::Chunked);
   // Texel by texel: the same nodes, the same alpha at every probe depth.
   double max_diff = 0.0;
   for (int ty = 0; ty < kRes; ++ty)
@@ -588,10 +588,10 @@ TEST(Layouts, MapsShareTheStoreInEveryLayout) {
           for (float z : probe_depths(n))
             ASSERT_EQ(texel_alpha(one.storage(), one.maps[0], tx, ty, z),
                       texel_alpha(all.storage(), all.maps[size_t(m)], tx, ty, z))
-                << "layout " << lp.layout << " map " << m;
+                << "layout " << uint32_t(lp.layout) << " map " << m;
         }
     }
-    EXPECT_THROW(f.build(lp.layout == kDsmPacked ? chunked() : packed(), all), std::logic_error);
+    EXPECT_THROW(f.build(lp.layout == DsmLayout::Packed ? chunked() : packed(), all), std::logic_error);
   }
 }
 

@@ -270,7 +270,7 @@ TEST(Gltf, GlbSceneWithLightsCameraAndMaterials) {
   EXPECT_EQ(s.camera.height, 480);
   // It compiles (closed glass keeps its interior) and renders.
   SceneBuffers sb = compile_scene(s);
-  EXPECT_EQ(sb.objects[1].interior, uint32_t(InteriorKind::Constant));
+  EXPECT_EQ(sb.objects[1].interior, InteriorKind::Constant);
   for (uint32_t o = 0; o < 2; ++o) {
     double v = 0.0;
     for (uint32_t t = sb.objects[o].first_tri; t < sb.objects[o].first_tri + sb.objects[o].tri_count; ++t)

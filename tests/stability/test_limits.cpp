@@ -208,7 +208,7 @@ Scene wide_spot() {
 
 TEST(WideSpot, A170DegreeConeUsesFacesAndShadowsAtItsRim) {
   Rig rig(wide_spot());
-  ASSERT_EQ(rig.frame.setup.lights[0].map_mode, kMapsCubeFaces);
+  ASSERT_EQ(rig.frame.setup.lights[0].map_mode, MapMode::CubeFaces);
   const LightData& L = rig.frame.setup.lights[0];
   auto at_angle = [](float deg, float dist) {
     float a = deg * 3.14159265f / 180.0f;

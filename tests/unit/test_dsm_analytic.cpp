@@ -486,7 +486,7 @@ TEST(Lookup, CubeFacesInsideGuardBand) {
     SceneBuffers sb = compile_scene(s);
     LightSetup ls = setup_lights(s.lights, sb, res);
     ASSERT_EQ(ls.maps.size(), 6u);
-    ASSERT_EQ(ls.lights[0].map_mode, kMapsCubeFaces);
+    ASSERT_EQ(ls.lights[0].map_mode, MapMode::CubeFaces);
     std::mt19937 rng(43u);
     std::uniform_real_distribution<float> u(-1.0f, 1.0f);
     for (int i = 0; i < 20000; ++i) {

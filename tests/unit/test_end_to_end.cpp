@@ -50,7 +50,7 @@ ProbeResult texel_centre_probe() {
   ObjectMask mask{{casters.data(), casters.size()}};
   std::vector<uint32_t> constant_media;
   for (uint32_t o = 0; o < sc.objects.size(); ++o)
-    if (sc.objects[o].interior == 1u) constant_media.push_back(o);
+    if (sc.objects[o].interior == InteriorKind::Constant) constant_media.push_back(o);
 
   ProbeResult r;
   std::mt19937 rng(71u);

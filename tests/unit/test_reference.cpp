@@ -39,7 +39,7 @@ Convergence measure_convergence() {
   // Inside the volumes' boxes.
   int volumes = 0;
   for (uint32_t o = 0; o < sv.objects.size(); ++o) {
-    if (sv.objects[o].interior != 2u) continue;
+    if (sv.objects[o].interior != InteriorKind::Volume) continue;
     ++volumes;
     const Box3& b = sb.object_bounds[o];
     for (int i = 0; i < 1500; ++i) {

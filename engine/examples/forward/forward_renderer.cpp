@@ -484,7 +484,7 @@ FrameTimes ForwardRenderer::draw(cdsm::ShadowSystem& system, const cdsm::Scene& 
   if (opt.width > 0) cam.width = opt.width;
   if (opt.height > 0) cam.height = opt.height;
   resize(cam.width, cam.height);
-  use_layout(system.gl_buffers().layout);
+  use_layout(uint32_t(system.gl_buffers().layout));
   const cdsm::Mat4 vp = view_projection(cam);
   glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
   glViewport(0, 0, width_, height_);

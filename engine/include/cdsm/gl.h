@@ -13,6 +13,8 @@
 #include <memory>
 #include <string>
 
+#include "cdsm/tags.h"
+
 namespace cdsm {
 
 // An OpenGL 4.5 core context made by cdsm. Current on the creating thread
@@ -84,11 +86,11 @@ struct GlMapBuffers {
   uint32_t tags = 0;        // CdsmTags: the grey pool's surface tags, 16 bits per slot
   uint32_t rgb_tags = 0;    // CdsmRgbTags
   int default_binding_base = 8;  // CDSM_BINDING_BASE when the shader does not define it
-  // The node layout of the maps in these buffers (cdsm_layout: 0 packed,
-  // 1 fixed, 2 chunked; the settings' DsmLayout). A shader compiled with
-  // `#define CDSM_LAYOUT n` before the include reads only that layout, and
-  // needs recompiling when this changes (cdsm.glsl, "Shader variants").
-  uint32_t layout = 0;
+  // The node layout of the maps in these buffers (the settings' DsmLayout;
+  // cdsm_layout in the shader). A shader compiled with `#define CDSM_LAYOUT
+  // n` (n = uint32_t(layout)) before the include reads only that layout,
+  // and needs recompiling when this changes (cdsm.glsl, "Shader variants").
+  DsmLayout layout = DsmLayout::Packed;
 };
 
 // The text of content/shaders/cdsm.glsl as this library was built with it

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "cdsm/math.h"
+#include "cdsm/tags.h"
 
 namespace cdsm {
 
@@ -49,8 +50,6 @@ struct SurfaceMaterial {
   float specular = 0.25f;  // k_s
   float shininess = 32.0f; // n_s
 };
-
-enum class InteriorKind : uint32_t { None = 0, Constant = 1, Volume = 2 };
 
 // A dense scalar grid, x fastest. Voxel (i,j,k) sits at index coordinates
 // (i,j,k); trilinear filtering between voxel centres; outside the grid the
@@ -137,8 +136,6 @@ struct Object {
   std::string mesh_source;
 };
 
-enum class LightType : uint32_t { Spot = 0, Point = 1 };
-
 struct Light {
   std::string name;
   LightType type = LightType::Spot;
@@ -159,25 +156,6 @@ struct Camera {
   float far = 200.0f;
   int32_t width = 720;
   int32_t height = 480;
-};
-
-enum class DsmLayout : uint32_t { Packed = 0, Fixed = 1, Chunked = 2 };
-
-// How a surface looks itself up (hd/lights.h Receiver).
-enum class ReceiverLookup : uint32_t {
-  Plane = 0,      // each tap at the receiver's plane along its own ray; casters offset slightly
-  SlopeBias = 1,  // the previous design, kept as the baseline: every tap at the point's depth minus
-                  // 0.5 mm + 1.5 texel footprints x tan(incidence) (tan <= 50), for every surface
-};
-
-// What each texel stores. Deep shadow maps are the product; the others are
-// the baselines the benchmark compares against, built from the same light
-// rays and read by the same lookup.
-enum class ShadowMethod : uint32_t {
-  Dsm = 0,            // epsilon-bounded visibility functions (Lokovic-Veach wedge)
-  ShadowMap = 1,      // conventional: opaque at the first surface with opacity >= method_param
-  OpacitySlices = 2,  // opacity shadow maps: method_param uniform slices along the ray
-  FixedNodes = 3,     // AVSM-style: at most method_param nodes, greedy area-preserving removal
 };
 
 struct ShadowSettings {

@@ -1,0 +1,80 @@
+// The tags of cdsm/tags.h: names that read back to their values, messages
+// that list every name, and cdsm.glsl's constants equal to the enums' values
+// (the shader text has its own names; this is where they are checked).
+#include <gtest/gtest.h>
+
+#include <cctype>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "cdsm/procedural.h"
+#include "cdsm/tags.h"
+
+namespace cdsm {
+namespace {
+
+template <class E>
+void expect_names_round_trip() {
+  ASSERT_GT(tag_count<E>(), 1u);
+  for (uint32_t i = 0; i < tag_count<E>(); ++i) {
+    const std::string name = tag_name(E(i));
+    E back = E(tag_count<E>() - 1 - i);
+    EXPECT_TRUE(parse_tag(name, back)) << name;
+    EXPECT_EQ(uint32_t(back), i) << name;
+    EXPECT_NE(tag_choices<E>().find(name), std::string::npos) << name;
+  }
+  E untouched = E(0);
+  EXPECT_FALSE(parse_tag("no such name", untouched));
+  EXPECT_EQ(uint32_t(untouched), 0u);
+  EXPECT_STREQ(tag_name(E(tag_count<E>())), "?");
+}
+
+TEST(Tags, NamesReadBackToTheirValues) {
+  expect_names_round_trip<InteriorKind>();
+  expect_names_round_trip<LightType>();
+  expect_names_round_trip<MapMode>();
+  expect_names_round_trip<DsmLayout>();
+  expect_names_round_trip<ReceiverLookup>();
+  expect_names_round_trip<ShadowMethod>();
+  EXPECT_EQ(tag_choices<DsmLayout>(), "packed, fixed or chunked");
+  EXPECT_EQ(tag_choices<ReceiverLookup>(), "plane or slope_bias");
+}
+
+std::string read_glsl() {
+  const std::string path = content_dir() + "/shaders/cdsm.glsl";
+  std::ifstream f(path);
+  EXPECT_TRUE(f.good()) << path;
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+std::string upper(std::string s) {
+  for (char& c : s) c = char(std::toupper(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// Every value of E appears in cdsm.glsl as `const uint PREFIX_NAME = vu;`
+// (or `#define PREFIX_NAME v` when `define`), NAME its tag name in capitals.
+template <class E>
+void expect_glsl_constants(const std::string& glsl, const std::string& prefix, bool define = false) {
+  for (uint32_t i = 0; i < tag_count<E>(); ++i) {
+    const std::string name = prefix + upper(tag_name(E(i)));
+    const std::string line = define ? "#define " + name + " " + std::to_string(i) + "\n"
+                                    : "const uint " + name + " = " + std::to_string(i) + "u;";
+    EXPECT_NE(glsl.find(line), std::string::npos) << "cdsm.glsl lacks `" << line << "`";
+  }
+}
+
+TEST(Tags, TheShaderIncludeNamesTheSameValues) {
+  const std::string glsl = read_glsl();
+  ASSERT_FALSE(glsl.empty());
+  expect_glsl_constants<DsmLayout>(glsl, "CDSM_LAYOUT_", true);
+  expect_glsl_constants<LightType>(glsl, "CDSM_LIGHT_");
+  expect_glsl_constants<MapMode>(glsl, "CDSM_MAPS_");
+  expect_glsl_constants<ReceiverLookup>(glsl, "CDSM_RECEIVER_");
+}
+
+}  // namespace
+}  // namespace cdsm
