@@ -21,10 +21,10 @@ extern template void cast_fragments_exec<cuda::CudaExec>(
     cuda::CudaExec&, const SceneView&, const PinholeView&, ObjectMask, bool, ExecArray<uint32_t, cuda::CudaExec>&,
     ExecArray<uint32_t, cuda::CudaExec>&, ExecArray<Fragment, cuda::CudaExec>&,
     ExecArray<unsigned long long, cuda::CudaExec>&);
-extern template ExecStoredMap move_map_exec<DsmNode, cuda::CudaExec>(cuda::CudaExec&, const ExecStoredMap&, uint32_t,
+extern template ExecStoredMap move_map_exec<DsmNode, cuda::CudaExec>(cuda::CudaExec&, const ExecStoredMap&, DsmLayout,
                                                                      const KindStore<DsmNode, cuda::CudaExec>&,
                                                                      KindStore<DsmNode, cuda::CudaExec>&);
-extern template ExecStoredMap move_map_exec<DsmNodeRgb, cuda::CudaExec>(cuda::CudaExec&, const ExecStoredMap&, uint32_t,
+extern template ExecStoredMap move_map_exec<DsmNodeRgb, cuda::CudaExec>(cuda::CudaExec&, const ExecStoredMap&, DsmLayout,
                                                                         const KindStore<DsmNodeRgb, cuda::CudaExec>&,
                                                                         KindStore<DsmNodeRgb, cuda::CudaExec>&);
 extern template void read_map_exec<cuda::CudaExec>(cuda::CudaExec&, const DsmStorage&, const DsmMap&, uint32_t,

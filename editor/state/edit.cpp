@@ -6,6 +6,7 @@
 #include <cstring>
 #include <type_traits>
 
+#include "cdsm/fields.h"
 #include "cdsm/config.h"
 
 namespace cdsm::editor {
@@ -45,27 +46,7 @@ struct Diff {
   }
 };
 
-Diff settings_diff(const ShadowSettings& a, const ShadowSettings& b) {
-  Diff d;
-  d.field("epsilon", a.epsilon, b.epsilon);
-  d.field("resolution", a.resolution, b.resolution);
-  d.field("filtering", a.filtering, b.filtering);
-  d.field("bias_constant", a.bias_constant, b.bias_constant);
-  d.field("bias_slope", a.bias_slope, b.bias_slope);
-  d.field("receiver", a.receiver, b.receiver);
-  d.field("clusters", a.max_clusters, b.max_clusters);
-  d.field("parallel_splits", a.parallel_splits, b.parallel_splits);
-  d.field("d0", a.d0, b.d0);
-  d.field("layout", a.layout, b.layout);
-  d.field("fixed_layers", a.fixed_layers, b.fixed_layers);
-  d.field("chunk_nodes", a.chunk_nodes, b.chunk_nodes);
-  d.field("method", a.method, b.method);
-  d.field("method_param", a.method_param, b.method_param);
-  d.field("ambient", a.ambient_light, b.ambient_light);
-  d.field("rgb_maps", a.rgb_maps, b.rgb_maps);
-  d.field("max_memory", a.max_memory_mib, b.max_memory_mib);
-  return d;
-}
+Diff settings_diff(const ShadowSettings& a, const ShadowSettings& b) { return {changed_fields(a, b)}; }
 
 Diff light_diff(const Light& a, const Light& b) {
   Diff d;
@@ -398,13 +379,10 @@ Invalidation invalidation_of(const Edit& e) {
         using T = std::decay_t<decltype(c)>;
         if constexpr (std::is_same_v<T, change::Settings>) {
           const ShadowSettings &a = c.before, &b = c.after;
-          const bool map_settings = !same(a.epsilon, b.epsilon) || a.resolution != b.resolution || a.layout != b.layout ||
-                                    a.fixed_layers != b.fixed_layers || a.chunk_nodes != b.chunk_nodes ||
-                                    a.method != b.method || !same(a.method_param, b.method_param) ||
-                                    a.rgb_maps != b.rgb_maps;
-          const bool clustering = a.max_clusters != b.max_clusters || !same(a.d0, b.d0) ||
-                                  a.parallel_splits != b.parallel_splits;
-          inv.maps = map_settings ? Maps::All : clustering ? Maps::Views : Maps::None;
+          const uint32_t effects = changed_effects(a, b);
+          inv.maps = effects & kAffectsMaps                          ? Maps::All
+                     : effects & (kAffectsClusters | kAffectsPlan) ? Maps::Views
+                                                                   : Maps::None;
         } else if constexpr (std::is_same_v<T, change::Camera>) {
           inv.maps = c.maps_follow ? Maps::Views : Maps::None;
         } else if constexpr (std::is_same_v<T, change::Light>) {

@@ -1,5 +1,6 @@
 #include "frame.h"
 
+#include "cdsm/fields.h"
 #include "cluster/focus.h"
 #include "backend/backend.h"
 #include "scene_compile.h"
@@ -304,22 +305,13 @@ uint64_t light_signature(const Light& l, const ShadowSettings& s) {
   h.pod(l.position);
   h.pod(l.direction);
   h.pod(l.outer_cone_deg);
-  h.pod(s.max_clusters);
-  h.pod(s.d0);
-  h.pod(s.resolution);
+  hash_fields(h, s, kAffectsClusters);
   return h.h;
 }
 
 uint64_t settings_hash(const ShadowSettings& s) {
   Hasher h;
-  h.pod(s.epsilon);
-  h.pod(s.layout);
-  h.pod(s.fixed_layers);
-  h.pod(s.chunk_nodes);
-  h.pod(s.method);
-  h.pod(s.method_param);
-  h.pod(s.resolution);
-  h.pod(s.rgb_maps);
+  hash_fields(h, s, kAffectsMaps);
   return h.h;
 }
 

@@ -36,6 +36,10 @@ JsonNode JsonNode::at(size_t i) const {
 }
 
 void JsonNode::expect_object(std::initializer_list<const char*> allowed) const {
+  expect_object(std::vector<const char*>(allowed));
+}
+
+void JsonNode::expect_object(const std::vector<const char*>& allowed) const {
   if (!j_.is_object()) fail(std::string("expected an object, found ") + type_name(j_));
   for (auto it = j_.begin(); it != j_.end(); ++it) {
     bool ok = false;

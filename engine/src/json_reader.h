@@ -6,8 +6,11 @@
 
 #include <initializer_list>
 #include <string>
+#include <type_traits>
+#include <vector>
 
 #include "cdsm/error.h"
+#include "cdsm/fields.h"
 #include "cdsm/math.h"
 #include "cdsm/tags.h"
 
@@ -35,6 +38,7 @@ class JsonNode {
 
   // Object whose keys must all be in `allowed` (a typo is an error).
   void expect_object(std::initializer_list<const char*> allowed) const;
+  void expect_object(const std::vector<const char*>& allowed) const;
   void expect_array() const;
 
   float as_float() const;
@@ -48,6 +52,7 @@ class JsonNode {
   bool get(const char* key, bool def) const { return has(key) ? at(key).as_bool() : def; }
   std::string get(const char* key, const char* def) const { return has(key) ? at(key).as_string() : def; }
   Vec3 get(const char* key, Vec3 def) const { return has(key) ? at(key).as_vec3() : def; }
+  int64_t get(const char* key, int64_t def) const { return has(key) ? at(key).as_int() : def; }
   // A tag by its name (cdsm/tags.h); `what` names it in the error.
   template <class E>
   E get_tag(const char* key, E def, const char* what) const {
@@ -57,6 +62,20 @@ class JsonNode {
     E e = def;
     if (!parse_tag(s, e)) n.fail("unknown " + std::string(what) + " '" + s + "' (" + tag_choices<E>() + ")");
     return e;
+  }
+
+  // The fields of S's table present here into s (others keep their value);
+  // a key not in the table is an error. Ranges: validate_scene.
+  template <class S>
+  void read_fields(S& s, std::vector<const char*> more_keys = {}) const {
+    for_each_field<S>([&](const auto& f) { more_keys.push_back(f.key); });
+    expect_object(more_keys);
+    for_each_field<S>([&](const auto& f) {
+      auto& v = s.*f.member;
+      using T = std::remove_reference_t<decltype(v)>;
+      if constexpr (std::is_enum_v<T>) v = get_tag(f.key, v, f.key);
+      else v = get(f.key, v);
+    });
   }
 
  private:

@@ -109,28 +109,8 @@ struct Parser {
   }
 
   ShadowSettings shadows(const JsonNode& n) {
-    n.expect_object({"epsilon", "resolution", "filtering", "bias_constant", "bias_slope", "clusters", "d0",
-                     "layout", "method", "method_param", "ambient", "rgb_maps",
-                     "fixed_layers", "chunk_nodes", "parallel_splits", "max_memory", "receiver"});
-    ShadowSettings s;  // ranges: validate_scene
-    s.epsilon = n.get("epsilon", s.epsilon);
-    s.resolution = n.get("resolution", s.resolution);
-    s.filtering = n.get("filtering", s.filtering);
-    s.bias_constant = n.get("bias_constant", s.bias_constant);
-    s.bias_slope = n.get("bias_slope", s.bias_slope);
-    s.max_clusters = n.get("clusters", s.max_clusters);
-    s.d0 = n.get("d0", s.d0);
-    s.parallel_splits = n.get("parallel_splits", s.parallel_splits);
-    s.max_memory_mib = n.get("max_memory", int(s.max_memory_mib));
-    s.layout = n.get_tag("layout", s.layout, "layout");
-    s.fixed_layers = n.get("fixed_layers", s.fixed_layers);
-    s.chunk_nodes = n.get("chunk_nodes", s.chunk_nodes);
-    s.receiver = n.get_tag("receiver", s.receiver, "receiver lookup");
-    // The benchmark's baselines (DESIGN.md §7): what a texel stores.
-    s.method = n.get_tag("method", s.method, "method");
-    s.method_param = n.get("method_param", s.method_param);
-    s.ambient_light = n.get("ambient", s.ambient_light);
-    s.rgb_maps = n.get("rgb_maps", s.rgb_maps);
+    ShadowSettings s;
+    n.read_fields(s);  // ranges: validate_scene
     return s;
   }
 

@@ -4,9 +4,11 @@
 // range; where a fallback is reasonable, a warning says what is used.
 #include <cmath>
 #include <string>
+#include <type_traits>
 
 #include "cdsm/config.h"
 #include "cdsm/error.h"
+#include "cdsm/fields.h"
 #include "cdsm/scene_io.h"
 
 namespace cdsm {
@@ -68,20 +70,32 @@ struct Checker {
                           "; a perpendicular up is used instead");
   }
 
+  // Every field of S's table within its range (cdsm/fields.h).
+  template <class S>
+  void fields(const S& value, const std::string& at) const {
+    for_each_field<S>([&](const auto& f) {
+      const auto& v = value.*f.member;
+      using T = std::remove_cv_t<std::remove_reference_t<decltype(v)>>;
+      const std::string path = at + "/" + f.key;
+      if constexpr (std::is_enum_v<T>) {
+        if (uint32_t(v) >= tag_count<T>())
+          fail(path, "unknown value " + std::to_string(uint32_t(v)) + " (" + tag_choices<T>() + ")");
+      } else if constexpr (std::is_same_v<T, float>) {
+        number(path, v, f.lo, f.hi);
+      } else if constexpr (std::is_same_v<T, Vec3>) {
+        for (int a = 0; a < 3; ++a) number(path + "/" + std::to_string(a), v[a], f.lo, f.hi);
+      } else if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
+        integer(path, int64_t(v), int64_t(f.lo), int64_t(f.hi));
+      }
+    });
+  }
+
   void shadows() const {
     const ShadowSettings& sh = s.shadows;
-    number("/shadows/epsilon", sh.epsilon, 0.0, 1.0);
-    integer("/shadows/resolution", sh.resolution, 4, 8192);
-    number("/shadows/bias_constant", sh.bias_constant, 0.0, 10.0);
-    number("/shadows/bias_slope", sh.bias_slope, 0.0, 100.0);
-    integer("/shadows/clusters", sh.max_clusters, 1, kMaxMapsPerLight);
-    number("/shadows/d0", sh.d0, 0.0, 4.0);
+    // Rules a range cannot say, before the ranges (their messages are the more precise).
     if (sh.parallel_splits != 0 && (sh.parallel_splits < 2 || sh.parallel_splits > kMaxMapsPerLight - 1))
       fail("/shadows/parallel_splits", "must be 0 (off) or within [2, " + std::to_string(kMaxMapsPerLight - 1) +
                                            "], got " + std::to_string(sh.parallel_splits));
-    integer("/shadows/fixed_layers", sh.fixed_layers, 2, 4096);
-    integer("/shadows/chunk_nodes", sh.chunk_nodes, 1, 4096);
-    integer("/shadows/max_memory", sh.max_memory_mib, 0, int64_t(1) << 30);
     const float p = sh.method_param;
     switch (sh.method) {
       case ShadowMethod::ShadowMap:
@@ -102,7 +116,7 @@ struct Checker {
       default:
         if (!std::isfinite(p)) fail("/shadows/method_param", "has a NaN or infinite value");
     }
-    color("/shadows/ambient", sh.ambient_light);
+    fields(sh, "/shadows");
   }
 
   void volumes() const {

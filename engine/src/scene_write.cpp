@@ -14,11 +14,13 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "cdsm/config.h"
 #include "cdsm/error.h"
 #include "cdsm/loaders.h"
+#include "cdsm/fields.h"
 #include "cdsm/scene_io.h"
 
 namespace cdsm {
@@ -354,26 +356,24 @@ struct Writer {
   }
 
   std::string shadows() const {
-    const ShadowSettings& sh = s.shadows;
     Fields f;
-    f.add("epsilon", num(sh.epsilon, "/shadows/epsilon"));
-    f.add("resolution", std::to_string(sh.resolution));
-    f.add("filtering", boolean(sh.filtering));
-    f.add("receiver", quoted(sh.receiver));
-    f.add("bias_constant", num(sh.bias_constant, "/shadows/bias_constant"));
-    f.add("bias_slope", num(sh.bias_slope, "/shadows/bias_slope"));
-    f.add("clusters", std::to_string(sh.max_clusters));
-    f.add("parallel_splits", std::to_string(sh.parallel_splits));
-    f.add("d0", num(sh.d0, "/shadows/d0"));
-    f.add("layout", quoted(sh.layout));
-    f.add("fixed_layers", std::to_string(sh.fixed_layers));
-    f.add("chunk_nodes", std::to_string(sh.chunk_nodes));
-    f.add("method", quoted(sh.method));
-    f.add("method_param", num(sh.method_param, "/shadows/method_param"));
-    f.add("ambient", vec(sh.ambient_light, "/shadows/ambient"));
-    f.add("rgb_maps", boolean(sh.rgb_maps));
-    f.add("max_memory", std::to_string(sh.max_memory_mib));
+    write_fields(f, s.shadows, "/shadows");
     return f.done();
+  }
+
+  // Every field of S's table, by its key, in table order.
+  template <class S>
+  void write_fields(Fields& f, const S& value, const std::string& at) const {
+    for_each_field<S>([&](const auto& field) {
+      const auto& v = value.*field.member;
+      using T = std::remove_cv_t<std::remove_reference_t<decltype(v)>>;
+      const std::string path = at + "/" + field.key;
+      if constexpr (std::is_enum_v<T>) f.add(field.key, quoted(v));
+      else if constexpr (std::is_same_v<T, bool>) f.add(field.key, boolean(v));
+      else if constexpr (std::is_same_v<T, float>) f.add(field.key, num(v, path));
+      else if constexpr (std::is_same_v<T, Vec3>) f.add(field.key, vec(v, path));
+      else f.add(field.key, std::to_string(v));
+    });
   }
 
   // What only the reader checks (validate_scene has checked the ranges).

@@ -1,5 +1,6 @@
 // The persistent shadow system (cdsm/shadow_system.h): edits mark what they
 // invalidate; update() compiles only that and runs the frame.
+#include "cdsm/fields.h"
 #include "cdsm/shadow_system.h"
 
 #include <algorithm>
@@ -823,15 +824,6 @@ bool same_camera(const Camera& a, const Camera& b) {
          a.width == b.width && a.height == b.height;
 }
 
-bool same_settings(const ShadowSettings& a, const ShadowSettings& b) {
-  return same_bytes(a.epsilon, b.epsilon) && a.resolution == b.resolution && a.filtering == b.filtering &&
-         same_bytes(a.bias_constant, b.bias_constant) && same_bytes(a.bias_slope, b.bias_slope) &&
-         a.receiver == b.receiver && a.max_clusters == b.max_clusters && a.parallel_splits == b.parallel_splits &&
-         same_bytes(a.d0, b.d0) && a.layout == b.layout && a.fixed_layers == b.fixed_layers &&
-         a.chunk_nodes == b.chunk_nodes && a.method == b.method && same_bytes(a.method_param, b.method_param) &&
-         same_bytes(a.ambient_light, b.ambient_light) && a.max_memory_mib == b.max_memory_mib &&
-         a.rgb_maps == b.rgb_maps;
-}
 
 int32_t volume_of(const Object& o) { return o.interior == InteriorKind::Volume ? o.volume : -1; }
 
@@ -841,7 +833,7 @@ void sync_scene(ShadowSystem& system, const Scene& scene) {
   ShadowSystem::Impl& I = system.internals();
   I.scene.source = scene.source;
   if (!same_camera(I.scene.camera, scene.camera)) system.set_camera(scene.camera);
-  if (!same_settings(I.scene.shadows, scene.shadows)) system.set_settings(scene.shadows);
+  if (!same_fields(I.scene.shadows, scene.shadows)) system.set_settings(scene.shadows);
   system.set_background(scene.background);
   // Volumes keep their place: a different count, or objects whose volume
   // changed, re-add every object and volume (rare: scene files do not do it

@@ -6,12 +6,14 @@
 // tests.
 #pragma once
 
+#include <type_traits>
 #include <cmath>
 #include <cstring>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "cdsm/fields.h"
 #include "cdsm/scene.h"
 
 namespace cdsm_test {
@@ -140,20 +142,24 @@ struct SceneComparer {
            i("/camera/width", a.width, b.width) && i("/camera/height", a.height, b.height);
   }
 
-  bool shadows(const cdsm::ShadowSettings& a, const cdsm::ShadowSettings& b) {
-    const std::string at = "/shadows";
-    return f(at + "/epsilon", a.epsilon, b.epsilon) && i(at + "/resolution", a.resolution, b.resolution) &&
-           i(at + "/filtering", a.filtering, b.filtering) && f(at + "/bias_constant", a.bias_constant, b.bias_constant) &&
-           f(at + "/bias_slope", a.bias_slope, b.bias_slope) &&
-           i(at + "/receiver", uint32_t(a.receiver), uint32_t(b.receiver)) &&
-           i(at + "/clusters", a.max_clusters, b.max_clusters) &&
-           i(at + "/parallel_splits", a.parallel_splits, b.parallel_splits) && f(at + "/d0", a.d0, b.d0) &&
-           i(at + "/layout", uint32_t(a.layout), uint32_t(b.layout)) &&
-           i(at + "/fixed_layers", a.fixed_layers, b.fixed_layers) && i(at + "/chunk_nodes", a.chunk_nodes, b.chunk_nodes) &&
-           i(at + "/method", uint32_t(a.method), uint32_t(b.method)) &&
-           f(at + "/method_param", a.method_param, b.method_param) && v(at + "/ambient", a.ambient_light, b.ambient_light) &&
-           i(at + "/rgb_maps", a.rgb_maps, b.rgb_maps) && i(at + "/max_memory", a.max_memory_mib, b.max_memory_mib);
+  // Every field of S's table (cdsm/fields.h).
+  template <class S>
+  bool fields(const std::string& at, const S& a, const S& b) {
+    bool same = true;
+    cdsm::for_each_field<S>([&](const auto& fd) {
+      const auto &x = a.*fd.member, &y = b.*fd.member;
+      using T = std::remove_cv_t<std::remove_reference_t<decltype(x)>>;
+      const std::string path = at + "/" + fd.key;
+      if (!same) return;
+      if constexpr (std::is_same_v<T, float>) same = f(path, x, y);
+      else if constexpr (std::is_same_v<T, cdsm::Vec3>) same = v(path, x, y);
+      else if constexpr (std::is_enum_v<T>) same = i(path, uint32_t(x), uint32_t(y));
+      else same = i(path, x, y);
+    });
+    return same;
   }
+
+  bool shadows(const cdsm::ShadowSettings& a, const cdsm::ShadowSettings& b) { return fields("/shadows", a, b); }
 
   bool scene(const cdsm::Scene& a, const cdsm::Scene& b) {
     if (!camera(a.camera, b.camera) || !shadows(a.shadows, b.shadows) || !v("/background", a.background, b.background) ||

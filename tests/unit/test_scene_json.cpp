@@ -322,7 +322,7 @@ TEST(SceneJson, RangesOfEveryKindOfField) {
       {[](json& j) { j["shadows"]["d0"] = 9; }, "/shadows/d0", "within [0, 4], got 9"},
       {[](json& j) { j["shadows"]["bias_slope"] = 1000; }, "/shadows/bias_slope", "within [0, 100], got 1000"},
       {[](json& j) { j["shadows"]["receiver"] = "normal_offset"; }, "/shadows/receiver",
-       "unknown receiver lookup 'normal_offset' (plane or slope_bias)"},
+       "unknown receiver 'normal_offset' (plane or slope_bias)"},
       {[](json& j) { j["shadows"]["epsilon"] = 2; }, "/shadows/epsilon", "within [0, 1], got 2"},
       {[](json& j) { j["shadows"]["max_memory"] = -5; }, "/shadows/max_memory", "got -5"},
       {[](json& j) { j["lights"][0]["intensity"] = -1; }, "/lights/0/intensity", "got -1"},
