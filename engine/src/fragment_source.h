@@ -30,8 +30,8 @@ class FragmentSourceSelector {
   // (an exec backend; the cuda one). Call before the first choose().
   void use_backend(ShadowBackend* backend) { backend_ = backend; }
   // Picks the producer on the first call (GL, when wanted and a context
-  // can be made); later calls keep it unless `want` changes. `name` is "gl"
-  // or "cpu", `reason` says why. Throws cdsm::Error when GL is requested
+  // can be made); later calls keep it unless `want` changes. `name` is "gl",
+  // "cuda" or "cpu", `reason` says why. Throws cdsm::Error when GL is requested
   // and unavailable.
   void choose(FragmentSource want, std::string& name, std::string& reason);
   // Tells the producer what changed in `sb`; returns the bytes sent to GL.

@@ -1,6 +1,6 @@
 // The compiled scene as the kernels see it: flat arrays of plain structs,
 // the same bytes on the CPU and on a GPU (STYLE.md 4). Built on the host by
-// cpu/scene_buffers.h from a cdsm::Scene.
+// scene/scene_buffers.h from a cdsm::Scene.
 #pragma once
 
 #include "cdsm/math.h"

@@ -1,7 +1,9 @@
-// The renderer: one call renders a scene's camera view with clustered deep
-// shadow maps and reports what it cost and, on request, how wrong it is
-// against the exact reference. Keeps state across frames (compiled scene,
-// GL context), so an engine calls render() every frame.
+// The research harness's renderer (cdsm render, cdsm bench, the tests): one
+// call renders a scene's camera view with clustered deep shadow maps and
+// reports what it cost and, on request, how wrong it is against the exact
+// reference. It drives a ShadowSystem (cdsm/shadow_system.h, what an engine
+// links) and keeps it across calls, so a sequence of render() calls
+// rebuilds only what changed.
 #pragma once
 
 #include <atomic>
@@ -240,7 +242,7 @@ struct FrameStats {
   PoppingStats popping;
   uint64_t light_fragments = 0;
   uint64_t camera_fragments = 0;
-  std::string fragment_source;         // "gl" or "cpu"
+  std::string fragment_source;         // "gl", "cuda" or "cpu"
   std::string fragment_source_reason;  // why it was chosen
   // Segment walker counters over the frame's maps and camera pass:
   uint64_t unmatched_fragments = 0;    // entries/exits without partner (open meshes), ignored

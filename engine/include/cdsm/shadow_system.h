@@ -28,8 +28,9 @@
 // Content identity is taken when content is given: every object carries a
 // generation counter bumped by each edit of it; meshes and grids are held
 // (shared_ptr) as given and must not be modified in place afterwards — give
-// a new mesh or grid (set_mesh, set_volume) instead. Nothing is hashed or
-// compared per frame.
+// a new mesh or grid (set_mesh, set_volume) instead. No mesh, grid or
+// scene content is hashed or compared per frame; each map's key (its view,
+// its members' ids and generations, the map settings) is.
 //
 // Threading: one thread at a time calls a ShadowSystem (it is not
 // thread-safe); update() and render() use every core internally (TBB). With
