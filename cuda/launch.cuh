@@ -208,6 +208,22 @@ class CudaExec {
     if (size < bytes) throw std::out_of_range("with_gl_buffer: the mapped GL buffer is smaller than said");
     f(p);
   }
+  // f(pointer) with GL buffer `name` mapped read-only on the stream (the
+  // fragment rasterizer's pool: registered once per buffer object), unmapped
+  // after, in stream order: GL work issued later waits for what f launched.
+  template <class F>
+  void with_gl_source(unsigned name, uint64_t bytes, uint64_t generation, F&& f) {
+    check_usable("with_gl_source");
+    if (source_generation_ != generation) source_link_.reset();
+    source_generation_ = generation;
+    source_link_.bind(name, size_t(bytes), GlAccess::ReadOnly);
+    GlBufferLink* links[] = {&source_link_};
+    GlMapScope mapped(links, 1, stream());
+    size_t size = 0;
+    const void* p = mapped.pointer(0, &size);
+    if (size < bytes) throw std::out_of_range("with_gl_source: the mapped GL buffer is smaller than said");
+    f(p);
+  }
   // GL buffer `name` is about to be deleted or replaced by its owner
   // (ShadowBackend::gl_buffer_released): unregistered now, while it exists;
   // the next write registers its successor.
@@ -215,11 +231,12 @@ class CudaExec {
     for (GlBufferLink& l : gl_links_)
       if (l.registered() && l.name() == name) l.reset();
     if (image_link_.registered() && image_link_.name() == name) image_link_.reset();
+    if (source_link_.registered() && source_link_.name() == name) source_link_.reset();
   }
   uint64_t gl_registrations() const {
     uint64_t r = 0;
     for (const GlBufferLink& l : gl_links_) r += l.registrations();
-    return r + image_link_.registrations();
+    return r + image_link_.registrations() + source_link_.registrations();
   }
 #endif
 
@@ -266,6 +283,8 @@ class CudaExec {
   uint64_t gl_generation_[kStorageArrays] = {};
   GlBufferLink image_link_;  // camera_pass_to_gl's target
   uint64_t image_generation_ = 0;
+  GlBufferLink source_link_;  // lists_from_gl's source (the rasterizer's fragment pool)
+  uint64_t source_generation_ = 0;
 #endif
   std::vector<Launch> pending_;
   std::vector<exec::StageTime> folded_;

@@ -81,6 +81,12 @@ struct FragmentRasterizer::Impl {
   uint32_t chunk_tris = 0;  // triangles per bound normal range
   int32_t fbo_width = 0, fbo_height = 0;
   RasterStats stats;
+  uint64_t pool_generation = 1;                  // a new pool buffer object: a new generation
+  std::function<void(uint32_t)> release_hook;  // before the pool is deleted
+  // The pool, once its old object (if any) was announced to the hook.
+  void release_pool() noexcept {
+    if (release_hook && pool.id() != 0) release_hook(pool.id());
+  }
 
   Impl(Context& c, const RasterOptions& o)
       : context(c),
@@ -302,7 +308,9 @@ struct FragmentRasterizer::Impl {
     uint64_t need = fragments * kFragmentBytes;
     if (need <= pool.capacity()) return;
     uint64_t grown = std::min(max_pool_bytes(), std::max(need, 2 * pool.capacity()));
+    release_pool();
     pool.reserve(grown);
+    ++pool_generation;
     ++stats.pool_grows;
     stats.pool_bytes = pool.capacity();
     CDSM_GL(glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kFragments, pool.id()));
@@ -320,10 +328,11 @@ struct FragmentRasterizer::Impl {
                                 " fill slots (count and fill passes rasterized differently)");
   }
 
-  void rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out);
+  void rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out, const TileSink* sink);
 };
 
-void FragmentRasterizer::Impl::rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out) {
+void FragmentRasterizer::Impl::rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out,
+                                         const TileSink* sink) {
   auto t0 = std::chrono::steady_clock::now();
   context.make_current();
   const Limits& lim = context.limits();
@@ -379,7 +388,7 @@ void FragmentRasterizer::Impl::rasterize(const PinholeView& view, ObjectMask mas
     if (total + band_total > 0xffffffffull)
       throw Error(kWhere, "more than 2^32-1 fragments in the view (offsets are 32-bit)");
     const uint32_t base = uint32_t(total);
-    out.fragments.resize(total + band_total);
+    if (!sink) out.fragments.resize(total + band_total);
 
     // Fill tiles: whole rows while they fit the pool cap, else row pieces.
     bind_pipeline(W, H);
@@ -412,7 +421,8 @@ void FragmentRasterizer::Impl::rasterize(const PinholeView& view, ObjectMask mas
         scissor(H, row_a, row_b, col_a, col_b);
         draw();
         CDSM_GL(glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT));
-        pool.download(out.fragments.data() + total + off(p), tile_fragments * kFragmentBytes);
+        if (sink) (*sink)(total + off(p), tile_fragments, pool.id(), pool.capacity(), pool_generation);
+        else pool.download(out.fragments.data() + total + off(p), tile_fragments * kFragmentBytes);
       }
       p = end;
     }
@@ -451,8 +461,15 @@ uint64_t FragmentRasterizer::scene_buffer_bytes() const {
 }
 
 void FragmentRasterizer::rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out) {
-  impl_->rasterize(view, mask, out);
+  impl_->rasterize(view, mask, out, nullptr);
 }
+
+void FragmentRasterizer::rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out, const TileSink& sink) {
+  out.fragments.clear();
+  impl_->rasterize(view, mask, out, &sink);
+}
+
+void FragmentRasterizer::set_release_hook(std::function<void(uint32_t)> hook) { impl_->release_hook = std::move(hook); }
 
 const RasterStats& FragmentRasterizer::stats() const { return impl_->stats; }
 const RasterOptions& FragmentRasterizer::options() const { return impl_->options; }

@@ -40,6 +40,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -105,6 +106,22 @@ class FragmentRasterizer {
   // not fit 32-bit offsets. (With near <= 0, geometry closer than 1e-6 on
   // the view axis is dropped: GL cannot project points at the eye.)
   void rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out);
+
+  // Where the fragments go instead of the host: each tile's fragments lie
+  // at the start of GL buffer `gl_buffer` (`gl_buffer_bytes` long, this
+  // context's) and belong at fragments [first, first + count) of the view's
+  // lists; tiles come in order (first is the fragments before them). The
+  // buffer is written again after the call returns: the sink copies them
+  // before (CUDA-GL interop: mapped, copied on the device, unmapped).
+  // `generation` changes whenever the buffer is a new object.
+  using TileSink = std::function<void(uint64_t first, uint64_t count, uint32_t gl_buffer, uint64_t gl_buffer_bytes,
+                                      uint64_t generation)>;
+  // rasterize() handing every tile to `sink`: out.offsets as above,
+  // out.fragments left empty.
+  void rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out, const TileSink& sink);
+  // Called with a buffer's name before this rasterizer deletes or replaces
+  // it (a sink that registered it with CUDA lets go of it then).
+  void set_release_hook(std::function<void(uint32_t)> hook);
 
   const RasterStats& stats() const;
   const RasterOptions& options() const;

@@ -67,7 +67,15 @@ void FragmentSourceSelector::choose(FragmentSource want, std::string& name, std:
         gl_ = std::make_unique<Gl>();
         gl_->own = std::move(ctx);
         gl_->context = external_ ? external_ : gl_->own.get();
-        gl_->raster = std::make_unique<gl::FragmentRasterizer>(*gl_->context);
+        gl::RasterOptions ro;
+        if (pool_initial_) ro.initial_pool_bytes = pool_initial_;
+        ro.max_pool_bytes = pool_max_;
+        gl_->raster = std::make_unique<gl::FragmentRasterizer>(*gl_->context, ro);
+        // A pool the backend registered (lists_from_gl) is let go of before
+        // the rasterizer replaces it.
+        gl_->raster->set_release_hook([this](uint32_t name) {
+          if (backend_) backend_->gl_buffer_released(name);
+        });
       } else {
         gl_failure_ = why.empty() ? "no OpenGL 4.5 context" : why;
       }
@@ -114,13 +122,28 @@ uint64_t FragmentSourceSelector::scene_changed(const SceneBuffers& sb, const Sce
 
 FragmentProducer FragmentSourceSelector::producer(const SceneBuffers& sb) const {
   if (use_cuda_) {
-    ShadowBackend* b = backend_;
-    return [b](const PinholeView& view, ObjectMask mask, FragmentBuffers& out) { b->cast_fragments(view, mask, out); };
+    // The backend's ray caster: the lists never leave the device.
+    return [](ShadowBackend& backend, const PinholeView& view, ObjectMask mask) { return backend.cast_lists(view, mask); };
   }
 #if CDSM_HAVE_GL
   if (use_gl_) {
     gl::FragmentRasterizer* r = gl_->raster.get();
-    return [r](const PinholeView& view, ObjectMask mask, FragmentBuffers& out) { r->rasterize(view, mask, out); };
+    gl::Context* context = gl_->context;
+    return [r, context](ShadowBackend& backend, const PinholeView& view, ObjectMask mask) {
+      context->make_current();
+      // The backend's memory is where this context's buffers live (the cuda
+      // backend, CUDA-GL interop): each tile copied there on the device,
+      // nothing read back.
+      if (backend.can_write_gl_maps())
+        return backend.lists_from_gl([&](const ShadowBackend::GlTileSink& sink, FragmentBuffers& out) {
+          r->rasterize(view, mask, out, sink);
+        });
+      // Else read back once per view and handed over (moved in on the cpu
+      // backend).
+      FragmentBuffers fb;
+      r->rasterize(view, mask, fb);
+      return backend.adopt_lists(std::move(fb));
+    };
   }
 #endif
   return cpu_fragment_producer(sb.view());

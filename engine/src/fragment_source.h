@@ -5,6 +5,7 @@
 // after a move), never per frame.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -27,8 +28,17 @@ class FragmentSourceSelector {
   // before the first choose().
   void use_context(gl::Context* context) { external_ = context; }
   // The backend whose device casts the fragments for FragmentSource::Cuda
-  // (an exec backend; the cuda one). Call before the first choose().
+  // (an exec backend; the cuda one), told when the rasterizer replaces a
+  // buffer it may have registered (lists_from_gl). Call before the first
+  // choose().
   void use_backend(ShadowBackend* backend) { backend_ = backend; }
+  // The rasterizer's fragment pool: its first and largest size in bytes (0:
+  // the defaults). Tests use it to reach pool growth and tiling; call
+  // before the first choose().
+  void limit_pool(uint64_t initial_bytes, uint64_t max_bytes) {
+    pool_initial_ = initial_bytes;
+    pool_max_ = max_bytes;
+  }
   // Picks the producer on the first call (GL, when wanted and a context
   // can be made); later calls keep it unless `want` changes. `name` is "gl",
   // "cuda" or "cpu", `reason` says why. Throws cdsm::Error when GL is requested
@@ -52,6 +62,7 @@ class FragmentSourceSelector {
   ShadowBackend* backend_ = nullptr;
   bool use_cuda_ = false;
   bool gl_tried_ = false;
+  uint64_t pool_initial_ = 0, pool_max_ = 0;
   std::string gl_failure_;
 };
 

@@ -90,8 +90,10 @@ LightData light_data(const Light& l) {
 }
 
 FragmentProducer cpu_fragment_producer(const SceneView& scene) {
-  return [scene](const PinholeView& view, ObjectMask mask, FragmentBuffers& out) {
-    cast_fragments(scene, view, mask, out);
+  return [scene](ShadowBackend& backend, const PinholeView& view, ObjectMask mask) {
+    FragmentBuffers fb;
+    cast_fragments(scene, view, mask, fb);
+    return backend.adopt_lists(std::move(fb));
   };
 }
 
@@ -437,6 +439,7 @@ RebuildReason rebuild_reason(const MapCache::Entry* before, const MapCache::Entr
 void MapCache::clear(ShadowBackend& backend) {
   for (const Entry& e : entries) backend.free_map(e.id);
   for (MapId id : retired) backend.free_map(id);
+  for (const KeptFragments& k : fragments) backend.free_lists(k.lists);
   entries.clear();
   retired.clear();
   lights.clear();
@@ -517,68 +520,111 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
   const bool layout_changed = layout.layout != cache.layout.layout || layout.fixed_layers != cache.layout.fixed_layers ||
                               layout.chunk_nodes != cache.layout.chunk_nodes;
   frame.previous_kept = in.keep_previous && !layout_changed;
-  for (size_t c = 0; c < cache.entries.size(); ++c) {
-    if (taken[c]) continue;
-    if (frame.previous_kept) {
-      cache.retired.push_back(cache.entries[c].id);
-    } else {
-      backend.free_map(cache.entries[c].id);
-      ++frame.freed;
-    }
-  }
-  FragmentBuffers fb;
+  // From here on a failure (a build refused by the memory budget, an
+  // allocation) leaves nothing of this frame: the maps it built are freed,
+  // and so is the cache (its maps and lists), so the backend's store holds
+  // no map nothing refers to and the next frame builds afresh.
+  std::vector<uint8_t> released(cache.entries.size(), 0);  // freed or retired below
+  std::vector<uint8_t> built(n, 0);
   std::vector<MapCache::KeptFragments> kept;  // the next frame's MapCache::fragments
-  if (in.maps_built) in.maps_built->store(0);
-  if (in.maps_to_build) in.maps_to_build->store(uint32_t(n - size_t(std::count(found.begin(), found.end(), 1))));
-  for (size_t k = 0; k < n; ++k) {
-    MapCache::Entry& e = next[k];
-    const MapPlan& plan = frame.setup.maps[k];
-    MapCache::KeptFragments* cached = nullptr;
-    const uint64_t fkey = in.keep_fragments ? fragment_key(plan, in) : 0;
-    if (in.keep_fragments)
-      for (MapCache::KeptFragments& c : cache.fragments)
-        if (!c.taken && c.key == fkey) cached = &c;
-    if (cached) cached->taken = true;  // (kept for the next frame below, where it is free again)
-    if (found[k]) {
-      frame.map_rebuilt.push_back(0);
-      ++frame.reused;
-      if (cached) kept.push_back(std::move(*cached));
-    } else {
-      std::vector<uint32_t> words = mask_words(plan.members, sb.objects.size());
-      ObjectMask mask{{words.data(), words.size()}};
-      auto t0 = std::chrono::steady_clock::now();
-      if (cached) {
-        fb = cached->lists;  // a copy: the light pass sorts its lists in place
-        kept.push_back(std::move(*cached));
-        ++frame.fragment_lists_reused;
-      } else {
-        produce(plan.view, mask, fb);
-        if (in.keep_fragments) kept.push_back({fkey, fb, false});
+  std::vector<ListsId> reading;               // lists a build is reading
+  reading.reserve(1);
+  auto abandon = [&] {
+    auto quietly = [](auto f) {
+      try {
+        f();
+      } catch (...) {  // freeing a map may compact the store, whose failure leaves holes only
       }
-      frame.fragments_ms += ms_since(t0);
-      frame.fragments += fb.total();
-      t0 = std::chrono::steady_clock::now();
-      std::vector<uint32_t> inside = objects_containing(sv, plan.view.eye, mask);
-      LightPassParams lp{plan.view, s.epsilon, {inside.data(), inside.size()}, s.method, s.method_param};
-      // RGB nodes only where a member is coloured (deep shadow maps; the
-      // baselines are grey).
-      lp.rgb = s.rgb_maps && s.method == ShadowMethod::Dsm &&
-               std::any_of(plan.members.begin(), plan.members.end(),
-                           [&](uint32_t o) { return is_coloured(sv, sv.objects[o]); });
-      e.id = backend.build_map(lp, fb.lists(), dsm_layout_params(s), e.stats);
-      frame.build_ms += ms_since(t0);
-      frame.map_rebuilt.push_back(1);
-      ++frame.rebuilt;
-      if (in.maps_built) in.maps_built->fetch_add(1);
+    };
+    for (size_t k = 0; k < n; ++k)
+      if (built[k]) quietly([&] { backend.free_map(next[k].id); });
+    for (size_t c = 0; c < cache.entries.size(); ++c)
+      if (!released[c]) quietly([&] { backend.free_map(cache.entries[c].id); });
+    for (MapId id : cache.retired) quietly([&] { backend.free_map(id); });
+    for (const MapCache::KeptFragments& c : kept) quietly([&] { backend.free_lists(c.lists); });
+    for (const MapCache::KeptFragments& c : cache.fragments)
+      if (!c.taken) quietly([&] { backend.free_lists(c.lists); });
+    for (ListsId id : reading) quietly([&] { backend.free_lists(id); });
+    cache.entries.clear();
+    cache.retired.clear();
+    cache.lights.clear();
+    cache.fragments.clear();
+    frame = ShadowFrame{};
+  };
+  try {
+    for (size_t c = 0; c < cache.entries.size(); ++c) {
+      if (taken[c]) continue;
+      released[c] = 1;
+      if (frame.previous_kept) {
+        cache.retired.push_back(cache.entries[c].id);
+      } else {
+        backend.free_map(cache.entries[c].id);
+        ++frame.freed;
+      }
     }
-    frame.maps.push_back(e.id);
-    frame.map_stats.push_back(e.stats);
+    if (in.maps_built) in.maps_built->store(0);
+    if (in.maps_to_build) in.maps_to_build->store(uint32_t(n - size_t(std::count(found.begin(), found.end(), 1))));
+    for (size_t k = 0; k < n; ++k) {
+      MapCache::Entry& e = next[k];
+      const MapPlan& plan = frame.setup.maps[k];
+      MapCache::KeptFragments* cached = nullptr;
+      const uint64_t fkey = in.keep_fragments ? fragment_key(plan, in) : 0;
+      if (in.keep_fragments)
+        for (MapCache::KeptFragments& c : cache.fragments)
+          if (!c.taken && c.key == fkey) cached = &c;
+      if (cached) {  // (kept for the next frame below, where it is free again)
+        cached->taken = true;
+        kept.push_back(*cached);
+      }
+      if (found[k]) {
+        frame.map_rebuilt.push_back(0);
+        ++frame.reused;
+      } else {
+        std::vector<uint32_t> words = mask_words(plan.members, sb.objects.size());
+        ObjectMask mask{{words.data(), words.size()}};
+        auto t0 = std::chrono::steady_clock::now();
+        // The lists the build reads (and sorts in place): a copy of kept
+        // lists, or new ones of which a copy is kept — on the backend.
+        if (cached) {
+          reading.push_back(backend.copy_lists(cached->lists));
+          ++frame.fragment_lists_reused;
+        } else {
+          reading.push_back(produce(backend, plan.view, mask));
+          if (in.keep_fragments) kept.push_back({fkey, backend.copy_lists(reading.back()), false});
+        }
+        const ListsId lists = reading.back();
+        frame.fragments_ms += ms_since(t0);
+        frame.fragments += backend.lists_fragments(lists);
+        t0 = std::chrono::steady_clock::now();
+        std::vector<uint32_t> inside = objects_containing(sv, plan.view.eye, mask);
+        LightPassParams lp{plan.view, s.epsilon, {inside.data(), inside.size()}, s.method, s.method_param};
+        // RGB nodes only where a member is coloured (deep shadow maps; the
+        // baselines are grey).
+        lp.rgb = s.rgb_maps && s.method == ShadowMethod::Dsm &&
+                 std::any_of(plan.members.begin(), plan.members.end(),
+                             [&](uint32_t o) { return is_coloured(sv, sv.objects[o]); });
+        e.id = backend.build_map(lp, lists, dsm_layout_params(s), e.stats);
+        built[k] = 1;
+        reading.pop_back();
+        backend.free_lists(lists);
+        frame.build_ms += ms_since(t0);
+        frame.map_rebuilt.push_back(1);
+        ++frame.rebuilt;
+        if (in.maps_built) in.maps_built->fetch_add(1);
+      }
+      frame.maps.push_back(e.id);
+      frame.map_stats.push_back(e.stats);
+    }
+  } catch (...) {
+    abandon();
+    throw;
   }
   frame.refresh_headers();
+  for (const MapCache::KeptFragments& c : cache.fragments)
+    if (!c.taken) backend.free_lists(c.lists);  // lists of maps no longer planned
   for (MapCache::KeptFragments& c : kept) c.taken = false;
   cache.fragments = std::move(kept);
-  for (const MapCache::KeptFragments& c : cache.fragments)
-    frame.fragment_cache_bytes += c.lists.offsets.capacity() * sizeof(uint32_t) + c.lists.fragments.capacity() * sizeof(Fragment);
+  for (const MapCache::KeptFragments& c : cache.fragments) frame.fragment_cache_bytes += backend.lists_bytes(c.lists);
   cache.entries = std::move(next);
   cache.lights = std::move(lights);
   cache.layout = layout;

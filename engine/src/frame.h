@@ -24,9 +24,12 @@
 
 namespace cdsm {
 
-// Produces one view's fragment lists for the objects in the mask.
-using FragmentProducer = std::function<void(const PinholeView&, ObjectMask, FragmentBuffers&)>;
+// Produces one view's fragment lists for the objects in the mask into
+// `backend` (held there until the caller frees them).
+using FragmentProducer = std::function<ListsId(ShadowBackend& backend, const PinholeView&, ObjectMask)>;
 
+// The exact ray caster on the host's threads, its lists handed to the
+// backend (moved in where the backend's memory is host memory).
 FragmentProducer cpu_fragment_producer(const SceneView& scene);
 
 PinholeView camera_view(const Camera& cam);
@@ -115,14 +118,16 @@ struct MapCache {
   };
   std::unordered_map<uint64_t, LightState> lights;  // by light identity
   DsmLayoutParams layout;  // of the stored maps
-  // Unsorted fragment lists of the last frame's maps (keep_fragments).
+  // Unsorted fragment lists of the last frame's maps (keep_fragments), held
+  // by the backend.
   struct KeptFragments {
     uint64_t key = 0;  // view, members and their generations, geometry epoch
-    FragmentBuffers lists;
+    ListsId lists = 0;
     bool taken = false;
   };
   std::vector<KeptFragments> fragments;
-  // Frees every map (the backend's memory) and forgets the clusters.
+  // Frees every map and kept list (the backend's memory) and forgets the
+  // clusters.
   void clear(ShadowBackend& backend);
 };
 

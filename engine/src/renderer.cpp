@@ -183,6 +183,7 @@ struct Renderer::Impl {
     double cell = std::sqrt(double(w) * h / double(cells));
     int gx = std::max(1, int(std::ceil(w / cell))), gy = std::max(1, int(std::ceil(h / cell)));
     std::vector<std::vector<RecordedLookup>> per_row(static_cast<size_t>(gy));
+    const FragmentLists camera_lists = f.camera_fragments();
     // Cells finer than pixels (small images) pick the same pixel from
     // different rows: each walk sorts a copy of the pixel's list, never the
     // shared one (found by ThreadSanitizer).
@@ -193,7 +194,7 @@ struct Renderer::Impl {
         uint32_t hsh = hash32(uint32_t(cy * 7919 + cx * 104729 + 17));
         int px = std::min(w - 1, int((cx + (hsh & 0xffff) / 65536.0) * w / gx));
         int py = std::min(h - 1, int((cy + (hsh >> 16) / 65536.0) * h / gy));
-        Span<Fragment> shared = f.camera_frags.lists().pixel(px, py);
+        Span<Fragment> shared = camera_lists.pixel(px, py);
         frags.assign(shared.begin(), shared.end());
         record_pixel_lookups(sv, shv.lights, vis, f.cam, Span<Fragment>{frags.data(), frags.size()}, px, py,
                              per_row[size_t(cy)], ws);
@@ -304,7 +305,7 @@ struct Renderer::Impl {
     std::vector<Receiver> out;
     const int w = f.cam.view.width, h = f.cam.view.height;
     const int g = 48;
-    FragmentLists lists = f.camera_frags.lists();
+    FragmentLists lists = f.camera_fragments();
     for (int gy = 0; gy < g; ++gy)
       for (int gx = 0; gx < g; ++gx) {
         int px = std::min(w - 1, (2 * gx + 1) * w / (2 * g)), py = std::min(h - 1, (2 * gy + 1) * h / (2 * g));

@@ -4,6 +4,7 @@
 #include "cdsm/shadow_system.h"
 
 #include <algorithm>
+#include <stdexcept>
 #include <chrono>
 #include <cstring>
 
@@ -122,6 +123,15 @@ ShadowSystem::Impl::~Impl() {
   // GL buffers a backend registered with CUDA are unregistered with the
   // context current where it can be made so (the backend dies before `gl`).
   if (gl) try_make_current(*gl);
+}
+
+FragmentLists ShadowSystem::Impl::camera_fragments() {
+  if (!has_camera_lists) throw std::logic_error(scene.source + ": no camera fragment lists (render() first)");
+  if (!camera_frags_read) {
+    backend->read_lists(camera_lists, camera_frags);
+    camera_frags_read = true;
+  }
+  return camera_frags.lists();
 }
 
 size_t ShadowSystem::Impl::object_index(ObjectHandle h) const {
@@ -724,17 +734,21 @@ Image ShadowSystem::render(FrameStats* stats) {
   cam.ambient = I.scene.shadows.ambient_light;
   cam.background = I.scene.background;
   auto t0 = Clock::now();
-  I.fragments.producer(I.sb)(cam.view, ObjectMask{}, I.camera_frags);
+  if (I.has_camera_lists) I.backend->free_lists(I.camera_lists);
+  I.has_camera_lists = false;
+  I.camera_frags_read = false;
+  I.camera_lists = I.fragments.producer(I.sb)(*I.backend, cam.view, ObjectMask{});
+  I.has_camera_lists = true;
   st.times.camera_fragments_ms = ms_since(t0);
   take_kernel_times(*I.backend, st.times, st.times.kernel_camera_fragments_ms, st.times.kernel_camera_fragments_ms);
-  st.camera_fragments = I.camera_frags.total();
+  st.camera_fragments = I.backend->lists_fragments(I.camera_lists);
   Image img;
   img.width = cam.view.width;
   img.height = cam.view.height;
   t0 = Clock::now();
   WalkStats ws;
   // (the backend reads its own store: no host view of it is fetched)
-  I.backend->camera_pass(I.frame.view(I.scene.shadows, /*with_storage=*/false), cam, I.camera_frags.lists(), img.rgb, ws);
+  I.backend->camera_pass(I.frame.view(I.scene.shadows, /*with_storage=*/false), cam, I.camera_lists, img.rgb, ws);
   st.times.camera_ms = ms_since(t0);
   take_kernel_times(*I.backend, st.times, st.times.kernel_camera_ms, st.times.kernel_camera_ms);
   add_transfers(*I.backend, st.update);

@@ -70,7 +70,13 @@ struct ShadowSystem::Impl {
   // The last render()'s camera pass inputs (the error and popping probes use them).
   CameraPassParams cam{};
   std::vector<uint32_t> cam_inside;
-  FragmentBuffers camera_frags;
+  // The last render()'s camera fragment lists, held by the backend (sorted
+  // by its camera pass); read to the host only when a probe asks.
+  ListsId camera_lists = 0;
+  bool has_camera_lists = false;
+  FragmentBuffers camera_frags;  // camera_fragments()'s copy
+  bool camera_frags_read = false;
+  FragmentLists camera_fragments();
 
   explicit Impl(const SystemOptions& o);
   ~Impl();

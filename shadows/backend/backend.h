@@ -8,9 +8,11 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "exec/exec.h"
@@ -83,6 +85,8 @@ inline DsmStorage storage_sizes(DsmStorage s) {
 
 // A map the backend stores; valid until free_map().
 using MapId = uint32_t;
+// Fragment lists the backend holds; valid until free_lists().
+using ListsId = uint32_t;
 
 // The map ids of a backend that appends maps to one store: a slot per id
 // (freed ids are given again), and the bytes in live maps and in the store
@@ -135,6 +139,8 @@ struct MapStoreStats {
   uint64_t compactions = 0;      // cumulative
   uint64_t compacted_bytes = 0;  // cumulative bytes moved by compaction
   uint32_t maps = 0;             // maps stored
+  uint32_t lists = 0;            // fragment lists held (ListsId)
+  uint64_t list_bytes = 0;       // their bytes
 };
 
 class ShadowBackend {
@@ -146,9 +152,51 @@ class ShadowBackend {
   // (unchanged) until the next update_scene(); `change` says what moved.
   virtual void update_scene(const SceneBuffers& sb, const SceneChange& change) = 0;
 
-  // Builds one map from its light-view fragment lists (sorted in place) and
-  // keeps it; its stats (in its layout) go to `stats`.
-  virtual MapId build_map(const LightPassParams& params, FragmentLists frags, const DsmLayoutParams& layout,
+  // ---- fragment lists, held where they are used ----
+  // One view's lists in the backend's memory, made there (cast_lists) or
+  // handed over once (adopt_lists); build_map and camera_pass read them
+  // where they are, and a kept copy (copy_lists) never leaves the backend.
+  // Valid until free_lists().
+  // The backend's exact ray caster over the scene of the last update_scene
+  // (on a CUDA device the lists never leave it); `mask` a host mask.
+  virtual ListsId cast_lists(const PinholeView& view, ObjectMask mask) = 0;
+  // Lists made on the host (the GL rasterizer's read-back, the host ray
+  // caster): moved in where the backend's memory is host memory, else
+  // uploaded once (counted in take_transfers).
+  virtual ListsId adopt_lists(FragmentBuffers&& lists) = 0;
+  // A copy of lists `id` in the backend's memory (the light pass sorts the
+  // lists it reads in place; a copy kept for a later rebuild stays intact).
+  virtual ListsId copy_lists(ListsId id) = 0;
+  virtual void free_lists(ListsId id) = 0;
+  // Lists `id`'s fragment count and the bytes they hold (offsets included).
+  virtual uint64_t lists_fragments(ListsId id) const = 0;
+  virtual uint64_t lists_bytes(ListsId id) const = 0;
+  // Lists `id` to the host, on request (probes, inspection, tests): a copy,
+  // counted in take_transfers.
+  virtual void read_lists(ListsId id, FragmentBuffers& out) = 0;
+
+  // Each tile of fragments a GL rasterizer made: the first `count` fragments
+  // of GL buffer `gl_buffer` (current context, `gl_buffer_bytes` long,
+  // `generation` new with each new buffer object) are fragments [first,
+  // first + count) of the lists; tiles come in order.
+  using GlTileSink = std::function<void(uint64_t first, uint64_t count, uint32_t gl_buffer, uint64_t gl_buffer_bytes,
+                                        uint64_t generation)>;
+  // Lists rasterized by GL straight into the backend's memory, never
+  // through the host (CUDA-GL interop; only where can_write_gl_maps() holds
+  // for the current context, else std::logic_error): `rasterize(sink, out)`
+  // runs the rasterizer, handing each tile to `sink` (copied on the device
+  // before it returns), and leaves the lists' size and offsets in `out`
+  // (out.fragments empty); the offsets are uploaded.
+  using GlRasterize = std::function<void(const GlTileSink& sink, FragmentBuffers& out)>;
+  virtual ListsId lists_from_gl(const GlRasterize& rasterize) {
+    (void)rasterize;
+    throw std::logic_error(std::string(name()) + " backend: lists_from_gl is not supported (can_write_gl_maps is false)");
+  }
+
+  // Builds one map from the light-view fragment lists `lists` (sorted in
+  // place, still held afterwards) and keeps it; its stats (in its layout)
+  // go to `stats`.
+  virtual MapId build_map(const LightPassParams& params, ListsId lists, const DsmLayoutParams& layout,
                           DsmBuildStats& stats) = 0;
   // Releases a map's memory (the id is then invalid).
   virtual void free_map(MapId id) = 0;
@@ -191,9 +239,10 @@ class ShadowBackend {
   virtual void gl_buffer_released(uint32_t name) { (void)name; }
 
   // Shades every pixel of the camera view into `rgb` (3 floats per pixel,
-  // linear), read back to the host; fragments are sorted in place. The
-  // lookup reads the backend's own store: `shadows.storage` is not used.
-  virtual void camera_pass(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags,
+  // linear), read back to the host, from the camera's fragment lists
+  // `lists` (sorted in place). The lookup reads the backend's own store:
+  // `shadows.storage` is not used.
+  virtual void camera_pass(const ShadowView& shadows, const CameraPassParams& params, ListsId lists,
                            std::vector<float>& rgb, WalkStats& walk) = 0;
 
   // camera_pass() writing its image (the same 3 floats per pixel, in the
@@ -203,10 +252,10 @@ class ShadowBackend {
   // `gl_buffer_generation` changes whenever the application made a new
   // buffer object under that name. Only where can_write_gl_maps() holds (the
   // store and that context share memory); throws std::logic_error otherwise.
-  virtual void camera_pass_to_gl(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags,
+  virtual void camera_pass_to_gl(const ShadowView& shadows, const CameraPassParams& params, ListsId lists,
                                  uint32_t gl_buffer, uint64_t gl_buffer_bytes, uint64_t gl_buffer_generation,
                                  WalkStats& walk) {
-    (void)shadows, (void)params, (void)frags, (void)gl_buffer, (void)gl_buffer_bytes, (void)gl_buffer_generation, (void)walk;
+    (void)shadows, (void)params, (void)lists, (void)gl_buffer, (void)gl_buffer_bytes, (void)gl_buffer_generation, (void)walk;
     throw std::logic_error(std::string(name()) + " backend: camera_pass_to_gl is not supported (can_write_gl_maps is false)");
   }
 
@@ -215,12 +264,24 @@ class ShadowBackend {
   // Milliseconds per kernel launch name since the last call (CUDA events on
   // the cuda backend, the wall clock on CPU threads).
   virtual std::vector<exec::StageTime> take_stage_times() = 0;
-  // The exact ray-cast fragment producer run on the backend (the scene of
-  // the last update_scene), the lists read back to `out`; `mask` a host mask.
-  virtual void cast_fragments(const PinholeView& view, ObjectMask mask, FragmentBuffers& out) = 0;
   // Bytes moved between the host and the backend since the last call.
   virtual TransferBytes take_transfers() = 0;
 };
+
+// Host lists handed to `backend` for one build (adopt_lists, build_map,
+// free_lists): tests and tools that make their lists on the host.
+inline MapId build_map_from_host(ShadowBackend& backend, const LightPassParams& params, FragmentBuffers lists,
+                                 const DsmLayoutParams& layout, DsmBuildStats& stats) {
+  const ListsId id = backend.adopt_lists(std::move(lists));
+  try {
+    const MapId map = backend.build_map(params, id, layout, stats);
+    backend.free_lists(id);
+    return map;
+  } catch (...) {
+    backend.free_lists(id);
+    throw;
+  }
+}
 
 // The cpu backend: the exec backend (backend/exec_backend.h) over CPU
 // threads (exec/host_exec.h).

@@ -5,6 +5,10 @@
 // backend (cuda/cuda_backend.h): one class, so the CPU tests run the
 // GPU's code minus the CUDA glue.
 //
+// Fragment lists are held where the kernels read them (ListsId): cast by
+// the executor's ray caster, or handed over once from the host (moved in
+// over host memory); kept copies are made on the executor.
+//
 // Maps are appended to one store per node kind (as the cpu backend's),
 // freed maps leave holes that are compacted on the executor once they
 // exceed a quarter of the store. storage() is the host's view: over device
@@ -15,6 +19,7 @@
 #pragma once
 
 #include <algorithm>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -44,9 +49,9 @@ class ExecBackend final : public ExecShadowBackend {
   explicit ExecBackend(const char* name, Args&&... args)
       : name_(name), ex_(std::forward<Args>(args)...), tri_vertices_(ex_), tri_normals_(ex_), tri_object_(ex_),
         objects_(ex_), volumes_(ex_), voxels_(ex_), macro_max_(ex_), nano_pool_(ex_), bvh_(ex_), bvh_prims_(ex_),
-        grey_(ex_), rgb_(ex_), scratch_(ex_), cam_offsets_(ex_), cam_fragments_(ex_), cam_inside_(ex_),
-        cam_lights_(ex_), cam_maps_(ex_), cam_rgb_(ex_), cam_walk_(ex_), frag_counts_(ex_), frag_offsets_(ex_),
-        frag_lists_(ex_), frag_total_(ex_), frag_mask_(ex_) {}
+        grey_(ex_), rgb_(ex_), scratch_(ex_), cam_inside_(ex_),
+        cam_lights_(ex_), cam_maps_(ex_), cam_rgb_(ex_), cam_walk_(ex_), frag_counts_(ex_), frag_total_(ex_),
+        frag_mask_(ex_) {}
   ExecBackend(const ExecBackend&) = delete;
   ExecBackend& operator=(const ExecBackend&) = delete;
 
@@ -97,30 +102,26 @@ class ExecBackend final : public ExecShadowBackend {
     return t;
   }
 
-  MapId build_map(const LightPassParams& params, FragmentLists frags, const DsmLayoutParams& layout,
+  MapId build_map(const LightPassParams& params, ListsId lists, const DsmLayoutParams& layout,
                   DsmBuildStats& stats) override {
+    const FragmentLists frags = held(lists, "build_map").lists();
     check_layout(layout);
     if (params.rgb && params.method != ShadowMethod::Dsm) throw std::invalid_argument("build_map: the baselines are grey (no RGB maps)");
     if (slots_.live() == 0) reset_store();
     if (stored_any_ && !same_layout(layout_, layout))
       throw std::logic_error("exec backend: maps of different layouts cannot share the store");
-    // The map's inputs in executor memory: over host memory, as they are
-    // (sorted in place); else copied.
-    FragmentLists ef = frags;
+    // The lists are where the executor reads them (sorted in place); the
+    // few ids of objects containing the light, over device memory, copied.
     LightPassParams ep = params;
     if constexpr (!Ex::kHostMemory) {
-      scratch_.offsets.assign(frags.offsets.data(), frags.offsets.size());
-      scratch_.fragments.assign(frags.fragments.data(), frags.fragments.size());
       scratch_.inside.assign(params.inside.data(), params.inside.size());
-      ef.offsets = scratch_.offsets.cspan();
-      ef.fragments = scratch_.fragments.span();
       ep.inside = scratch_.inside.cspan();
     }
 
     ExecStoredMap m;
     m.live = true;
-    if (params.rgb) m = build_kind(ep, ef, layout, rgb_, stats);
-    else m = build_kind(ep, ef, layout, grey_, stats);
+    if (params.rgb) m = build_kind(ep, frags, layout, rgb_, stats);
+    else m = build_kind(ep, frags, layout, grey_, stats);
     layout_ = layout;
     stored_any_ = true;
     mirror_dirty_ = true;
@@ -209,8 +210,9 @@ class ExecBackend final : public ExecShadowBackend {
     else (void)name;
   }
 
-  void camera_pass(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags,
+  void camera_pass(const ShadowView& shadows, const CameraPassParams& params, ListsId lists,
                    std::vector<float>& rgb, WalkStats& walk) override {
+    const FragmentLists frags = camera_lists(lists, params);
     const uint64_t n = uint64_t(params.view.width) * uint64_t(params.view.height);
     cam_rgb_.resize_discard(n * 3);
     shade(shadows, params, frags, cam_rgb_.data(), walk);
@@ -219,10 +221,11 @@ class ExecBackend final : public ExecShadowBackend {
 
   // The same pass shading straight into the mapped GL buffer (CUDA-GL
   // interop): no image in executor memory, no read-back.
-  void camera_pass_to_gl(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags,
+  void camera_pass_to_gl(const ShadowView& shadows, const CameraPassParams& params, ListsId lists,
                          uint32_t gl_buffer, uint64_t gl_buffer_bytes, uint64_t gl_buffer_generation,
                          WalkStats& walk) override {
     if constexpr (Ex::kGlInterop) {
+      const FragmentLists frags = camera_lists(lists, params);
       if (!ex_.gl_context_on_device())
         throw std::logic_error(std::string(name_) + " backend: camera_pass_to_gl needs the current GL context on its device");
       const uint64_t bytes = uint64_t(params.view.width) * uint64_t(params.view.height) * 3 * sizeof(float);
@@ -232,7 +235,7 @@ class ExecBackend final : public ExecShadowBackend {
       ex_.with_gl_buffer(gl_buffer, gl_buffer_bytes, gl_buffer_generation,
                          [&](void* p) { shade(shadows, params, frags, static_cast<float*>(p), walk); });
     } else {
-      ShadowBackend::camera_pass_to_gl(shadows, params, frags, gl_buffer, gl_buffer_bytes, gl_buffer_generation, walk);
+      ShadowBackend::camera_pass_to_gl(shadows, params, lists, gl_buffer, gl_buffer_bytes, gl_buffer_generation, walk);
     }
   }
 
@@ -243,22 +246,110 @@ class ExecBackend final : public ExecShadowBackend {
     s.compactions = compactions_;
     s.compacted_bytes = compacted_bytes_;
     s.maps = slots_.live();
+    for (const std::unique_ptr<HeldLists>& h : held_)
+      if (h) {
+        const FragmentLists l = h->lists();
+        ++s.lists;
+        s.list_bytes += l.offsets.size() * sizeof(uint32_t) + l.fragments.size() * sizeof(Fragment);
+      }
     return s;
   }
 
   LightPassOptions& light_pass() override { return options_; }
   std::vector<StageTime> take_stage_times() override { return ex_.take_stage_times(); }
 
-  void cast_fragments(const PinholeView& view, ObjectMask mask, FragmentBuffers& out) override {
-    if (!host_scene_) throw std::logic_error("cast_fragments: no scene (update_scene first)");
+  ListsId cast_lists(const PinholeView& view, ObjectMask mask) override {
+    if (!host_scene_) throw std::logic_error("cast_lists: no scene (update_scene first)");
     const bool any_media = mask_has_media(host_scene_->view(), mask);
     frag_mask_.assign(mask.words.data(), mask.words.size());
-    cast_fragments_exec(ex_, scene_view(), view, ObjectMask{frag_mask_.cspan()}, any_media, frag_counts_, frag_offsets_,
-                        frag_lists_, frag_total_);
-    out.width = view.width;
-    out.height = view.height;
-    frag_offsets_.read(out.offsets);
-    frag_lists_.read(out.fragments);
+    auto h = std::make_unique<HeldLists>(ex_);
+    cast_fragments_exec(ex_, scene_view(), view, ObjectMask{frag_mask_.cspan()}, any_media, frag_counts_, h->offsets,
+                        h->fragments, frag_total_);
+    h->width = view.width;
+    h->height = view.height;
+    return hold(std::move(h));
+  }
+
+  ListsId adopt_lists(FragmentBuffers&& lists) override {
+    check_lists(lists.width, lists.height, lists.offsets.size(), lists.fragments.size(), "adopt_lists");
+    auto h = std::make_unique<HeldLists>(ex_);
+    h->width = lists.width;
+    h->height = lists.height;
+    if constexpr (Ex::kHostMemory) {
+      h->host = std::move(lists);  // moved in: no copy
+      h->on_host = true;
+    } else {
+      h->offsets.assign(lists.offsets);
+      h->fragments.assign(lists.fragments);
+    }
+    return hold(std::move(h));
+  }
+
+  ListsId copy_lists(ListsId id) override {
+    const FragmentLists from = held(id, "copy_lists").lists();
+    auto h = std::make_unique<HeldLists>(ex_);
+    h->width = from.width;
+    h->height = from.height;
+    h->offsets.resize_discard(from.offsets.size());
+    h->fragments.resize_discard(from.fragments.size());
+    if (from.offsets.size()) ex_.copy(h->offsets.data(), from.offsets.data(), from.offsets.size() * sizeof(uint32_t));
+    if (from.fragments.size()) ex_.copy(h->fragments.data(), from.fragments.data(), from.fragments.size() * sizeof(Fragment));
+    return hold(std::move(h));
+  }
+
+  void free_lists(ListsId id) override {
+    held(id, "free_lists");
+    held_[id].reset();
+    free_held_.push_back(id);
+  }
+
+  uint64_t lists_fragments(ListsId id) const override { return held(id, "lists_fragments").lists().fragments.size(); }
+  uint64_t lists_bytes(ListsId id) const override {
+    const FragmentLists l = held(id, "lists_bytes").lists();
+    return l.offsets.size() * sizeof(uint32_t) + l.fragments.size() * sizeof(Fragment);
+  }
+
+  // Each tile mapped (read-only) and copied on the executor into the
+  // lists' fragments, which grow as tiles come; then the offsets uploaded.
+  ListsId lists_from_gl(const GlRasterize& rasterize) override {
+    if constexpr (Ex::kGlInterop) {
+      if (!ex_.gl_context_on_device())
+        throw std::logic_error(std::string(name_) + " backend: lists_from_gl needs the current GL context on its device");
+      auto h = std::make_unique<HeldLists>(ex_);
+      FragmentBuffers out;
+      rasterize(
+          [&](uint64_t first, uint64_t count, uint32_t gl_buffer, uint64_t gl_buffer_bytes, uint64_t generation) {
+            if (first != h->fragments.size()) throw std::logic_error("lists_from_gl: a tile out of order");
+            if (count * sizeof(Fragment) > gl_buffer_bytes)
+              throw std::out_of_range("lists_from_gl: a tile of " + std::to_string(count) + " fragments in a GL buffer of " +
+                                      std::to_string(gl_buffer_bytes) + " bytes");
+            h->fragments.resize(first + count);
+            Fragment* dst = h->fragments.data() + first;
+            ex_.with_gl_source(gl_buffer, gl_buffer_bytes, generation,
+                               [&](const void* src) { ex_.copy(dst, src, count * sizeof(Fragment)); });
+          },
+          out);
+      check_lists(out.width, out.height, out.offsets.size(), h->fragments.size(), "lists_from_gl");
+      if (out.offsets.back() != h->fragments.size())
+        throw std::logic_error("lists_from_gl: " + std::to_string(h->fragments.size()) + " fragments copied, the offsets count " +
+                               std::to_string(out.offsets.back()));
+      h->width = out.width;
+      h->height = out.height;
+      h->offsets.assign(out.offsets);
+      return hold(std::move(h));
+    } else {
+      return ShadowBackend::lists_from_gl(rasterize);
+    }
+  }
+
+  void read_lists(ListsId id, FragmentBuffers& out) override {
+    const FragmentLists l = held(id, "read_lists").lists();
+    out.width = l.width;
+    out.height = l.height;
+    out.offsets.resize(l.offsets.size());
+    out.fragments.resize(l.fragments.size());
+    if (l.offsets.size()) ex_.download(out.offsets.data(), l.offsets.data(), l.offsets.size() * sizeof(uint32_t));
+    if (l.fragments.size()) ex_.download(out.fragments.data(), l.fragments.data(), l.fragments.size() * sizeof(Fragment));
   }
 
   void read_map(MapId id, uint32_t cap, std::vector<uint32_t>& counts, std::vector<DsmNode>& nodes) override {
@@ -268,29 +359,79 @@ class ExecBackend final : public ExecShadowBackend {
   }
 
  private:
+  // Fragment lists held for the frame: adopted host lists kept as they came
+  // where the executor's memory is host memory, else (and cast or copied
+  // lists) in executor arrays.
+  struct HeldLists {
+    explicit HeldLists(Ex& ex) : offsets(ex), fragments(ex) {}
+    int32_t width = 0, height = 0;
+    bool on_host = false;
+    FragmentBuffers host;
+    ExecArray<uint32_t, Ex> offsets;
+    ExecArray<Fragment, Ex> fragments;
+    FragmentLists lists() {
+      if (on_host) return host.lists();
+      FragmentLists l;
+      l.width = width;
+      l.height = height;
+      l.offsets = offsets.cspan();
+      l.fragments = fragments.span();
+      return l;
+    }
+  };
+
+  // Lists of width x height pixels: width * height + 1 offsets, the last the
+  // fragment count (the only entry checked here: the rest is the producer's).
+  static void check_lists(int32_t width, int32_t height, uint64_t offsets, uint64_t fragments, const char* what) {
+    if (width < 0 || height < 0 || offsets != uint64_t(width) * uint64_t(height) + 1)
+      throw std::invalid_argument(std::string(what) + ": " + std::to_string(offsets) + " offsets for lists of " +
+                                  std::to_string(width) + "x" + std::to_string(height) + " pixels (width * height + 1 expected)");
+    if (fragments > 0xffffffffull) throw std::length_error(std::string(what) + ": more than 2^32-1 fragments");
+  }
+  ListsId hold(std::unique_ptr<HeldLists> h) {
+    if (free_held_.empty()) {
+      held_.push_back(std::move(h));
+      return ListsId(held_.size() - 1);
+    }
+    const ListsId id = free_held_.back();
+    free_held_.pop_back();
+    held_[id] = std::move(h);
+    return id;
+  }
+  HeldLists& held(ListsId id, const char* what) const {
+    if (id >= held_.size() || !held_[id])
+      throw std::logic_error(std::string(what) + ": fragment lists " + std::to_string(id) + " are not held");
+    return *held_[id];
+  }
+  // Lists `id`, which must cover the camera view.
+  FragmentLists camera_lists(ListsId id, const CameraPassParams& params) const {
+    const FragmentLists l = held(id, "camera_pass").lists();
+    if (l.width != params.view.width || l.height != params.view.height)
+      throw std::invalid_argument("camera_pass: fragment lists of " + std::to_string(l.width) + "x" +
+                                  std::to_string(l.height) + " pixels for a view of " + std::to_string(params.view.width) +
+                                  "x" + std::to_string(params.view.height));
+    return l;
+  }
+
   // The camera pass into `out` (executor memory: 3 floats per pixel).
   void shade(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags, float* out,
              WalkStats& walk) {
     cam_walk_.resize_discard(4);
     ex_.fill_zero(cam_walk_.data(), cam_walk_.bytes());
-    // The pass's inputs in executor memory: over host memory, as they are.
-    FragmentLists ef = frags;
+    // The pass's small inputs in executor memory: over host memory, as they
+    // are (the lists are the executor's already).
     ShadowView sv = shadows;
     sv.storage = exec_storage();
     CameraPassParams cp = params;
     if constexpr (!Ex::kHostMemory) {
-      cam_offsets_.assign(frags.offsets.data(), frags.offsets.size());
-      cam_fragments_.assign(frags.fragments.data(), frags.fragments.size());
       cam_inside_.assign(params.inside.data(), params.inside.size());
       cam_lights_.assign(shadows.lights.data(), shadows.lights.size());
       cam_maps_.assign(shadows.maps.data(), shadows.maps.size());
-      ef.offsets = cam_offsets_.cspan();
-      ef.fragments = cam_fragments_.span();
       sv.lights = cam_lights_.cspan();
       sv.maps = cam_maps_.cspan();
       cp.inside = cam_inside_.cspan();
     }
-    shade_pixels(ex_, scene_view(), sv, cp, ef, out, cam_walk_.data());
+    shade_pixels(ex_, scene_view(), sv, cp, frags, out, cam_walk_.data());
     uint32_t w[4];
     ex_.download(w, cam_walk_.data(), sizeof w);
     walk.enclosing_overflow += w[0];
@@ -435,17 +576,16 @@ class ExecBackend final : public ExecShadowBackend {
   KindStore<DsmNode, Ex> grey_;
   KindStore<DsmNodeRgb, Ex> rgb_;
   LightPassScratch<Ex> scratch_;
-  ExecArray<uint32_t, Ex> cam_offsets_;
-  ExecArray<Fragment, Ex> cam_fragments_;
   ExecArray<uint32_t, Ex> cam_inside_;
   ExecArray<LightData, Ex> cam_lights_;
   ExecArray<DsmMap, Ex> cam_maps_;
   ExecArray<float, Ex> cam_rgb_;
   ExecArray<uint32_t, Ex> cam_walk_;
-  ExecArray<uint32_t, Ex> frag_counts_, frag_offsets_;
-  ExecArray<Fragment, Ex> frag_lists_;
+  ExecArray<uint32_t, Ex> frag_counts_;
   ExecArray<unsigned long long, Ex> frag_total_;
   ExecArray<uint32_t, Ex> frag_mask_;
+  std::vector<std::unique_ptr<HeldLists>> held_;  // by ListsId (null: free)
+  std::vector<ListsId> free_held_;
 
   const SceneBuffers* host_scene_ = nullptr;
   uint64_t taken_up_ = 0, taken_down_ = 0;  // the executor's byte counts at the last take_transfers

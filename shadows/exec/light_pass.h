@@ -129,7 +129,7 @@ template <class Ex>
 struct LightPassScratch {
   explicit LightPassScratch(Ex& ex)
       : counts(ex), spilled(ex), extra(ex), heads(ex), tile_first(ex), staging(ex), staging_tags(ex), walk(ex),
-        spill(ex), spill_texels(ex), counters(ex), offsets(ex), fragments(ex), inside(ex) {}
+        spill(ex), spill_texels(ex), counters(ex), inside(ex) {}
   ExecArray<uint32_t, Ex> counts;        // per texel of the map: its nodes before the layout
   ExecArray<uint32_t, Ex> spilled;       // per texel of the map: 1 walked again, 2 and re-compressed
   ExecArray<float, Ex> extra;            // per texel of the map: error the large buffer's bound added
@@ -141,9 +141,7 @@ struct LightPassScratch {
   ExecArray<unsigned char, Ex> spill;    // the second walk's buffers of one chunk
   ExecArray<uint32_t, Ex> spill_texels;  // the batch's texels listed for the second walk
   ExecArray<BuildCounters, Ex> counters;
-  ExecArray<uint32_t, Ex> offsets;       // the map's fragment lists, in executor memory
-  ExecArray<Fragment, Ex> fragments;
-  ExecArray<uint32_t, Ex> inside;
+  ExecArray<uint32_t, Ex> inside;        // the objects containing the light (over device memory)
 };
 
 // Nodes a baseline texel can hold at once (hd/baselines.h): a first walk

@@ -40,7 +40,7 @@ inline DsmBuildStats build_host_map(const SceneBuffers& sb, const LightPassParam
   out.backend->light_pass().max_nodes = max_nodes;
   out.backend->light_pass().walk_nodes = walk_nodes < max_nodes ? walk_nodes : max_nodes;
   DsmBuildStats stats;
-  const MapId id = out.backend->build_map(params, frags.lists(), layout, stats);
+  const MapId id = build_map_from_host(*out.backend, params, frags, layout, stats);
   out.maps.push_back(out.backend->map_header(id));
   const DsmStorage s = out.backend->storage();
   out.texels.assign(s.texels.begin(), s.texels.end());

@@ -473,7 +473,14 @@ class InPlaceBackend final : public ShadowBackend {
   explicit InPlaceBackend(std::unique_ptr<ShadowBackend> inner) : inner_(std::move(inner)) {}
   const char* name() const override { return "in-place test double"; }
   void update_scene(const SceneBuffers& sb, const SceneChange& c) override { inner_->update_scene(sb, c); }
-  MapId build_map(const LightPassParams& p, FragmentLists f, const DsmLayoutParams& l, DsmBuildStats& st) override {
+  ListsId cast_lists(const PinholeView& v, ObjectMask m) override { return inner_->cast_lists(v, m); }
+  ListsId adopt_lists(FragmentBuffers&& f) override { return inner_->adopt_lists(std::move(f)); }
+  ListsId copy_lists(ListsId id) override { return inner_->copy_lists(id); }
+  void free_lists(ListsId id) override { inner_->free_lists(id); }
+  uint64_t lists_fragments(ListsId id) const override { return inner_->lists_fragments(id); }
+  uint64_t lists_bytes(ListsId id) const override { return inner_->lists_bytes(id); }
+  void read_lists(ListsId id, FragmentBuffers& out) override { inner_->read_lists(id, out); }
+  MapId build_map(const LightPassParams& p, ListsId f, const DsmLayoutParams& l, DsmBuildStats& st) override {
     return inner_->build_map(p, f, l, st);
   }
   void free_map(MapId id) override { inner_->free_map(id); }
@@ -481,14 +488,13 @@ class InPlaceBackend final : public ShadowBackend {
   DsmStorage storage() const override { return inner_->storage(); }
   uint64_t storage_epoch() const override { return inner_->storage_epoch(); }
   DsmStorage storage_extent() const override { return storage_sizes(inner_->storage()); }
-  void camera_pass(const ShadowView& v, const CameraPassParams& p, FragmentLists f, std::vector<float>& rgb,
+  void camera_pass(const ShadowView& v, const CameraPassParams& p, ListsId f, std::vector<float>& rgb,
                    WalkStats& w) override {
     inner_->camera_pass(v, p, f, rgb, w);
   }
   MapStoreStats map_store() const override { return inner_->map_store(); }
   std::vector<exec::StageTime> take_stage_times() override { return inner_->take_stage_times(); }
   TransferBytes take_transfers() override { return inner_->take_transfers(); }
-  void cast_fragments(const PinholeView& v, ObjectMask m, FragmentBuffers& out) override { inner_->cast_fragments(v, m, out); }
 
   bool can_write_gl_maps() const override { return true; }
   void write_gl_maps(const GlMapWrite* w, int n) override {
@@ -514,14 +520,43 @@ class InPlaceBackend final : public ShadowBackend {
       ++writes;
     }
   }
+  // Like the cuda backend's interop: each tile taken from the GL buffer
+  // before the rasterizer writes it again (here read with
+  // glGetNamedBufferSubData), in order, then handed to the inner backend.
+  ListsId lists_from_gl(const GlRasterize& rasterize) override {
+    ++gl_lists;
+    std::vector<Fragment> fragments;
+    FragmentBuffers out;
+    rasterize(
+        [&](uint64_t first, uint64_t count, uint32_t buffer, uint64_t bytes, uint64_t generation) {
+          if (first != fragments.size()) violations.push_back("a tile out of order");
+          if (!glIsBuffer(buffer)) violations.push_back("a tile in no GL buffer");
+          GLint64 size = 0;
+          glGetNamedBufferParameteri64v(buffer, GL_BUFFER_SIZE, &size);
+          if (uint64_t(size) != bytes || count * sizeof(Fragment) > bytes) violations.push_back("a tile's buffer size");
+          const auto known = pools.find(buffer);
+          if (known != pools.end() && known->second != generation)
+            violations.push_back("pool " + std::to_string(buffer) + " under a new generation, never released");
+          pools[buffer] = generation;
+          fragments.resize(first + count);
+          glGetNamedBufferSubData(buffer, 0, GLsizeiptr(count * sizeof(Fragment)), fragments.data() + first);
+          ++tiles;
+        },
+        out);
+    if (!out.fragments.empty()) violations.push_back("fragments read back to the host by the rasterizer");
+    out.fragments = std::move(fragments);
+    return inner_->adopt_lists(std::move(out));
+  }
   void gl_buffer_released(uint32_t name) override {
     ++releases;
     if (!glIsBuffer(name)) violations.push_back("buffer " + std::to_string(name) + " released after GL deleted it");
     registered.erase(name);
+    pool_releases += pools.erase(name);
   }
-  uint64_t writes = 0, releases = 0;
+  uint64_t writes = 0, releases = 0, gl_lists = 0, tiles = 0, pool_releases = 0;
   bool fail_next = false;
   std::map<uint32_t, uint64_t> registered;  // GL name -> gl_buffer_generation
+  std::map<uint32_t, uint64_t> pools;       // the fragment pools tiles came from: GL name -> generation
   std::vector<std::string> violations;
 
  private:
@@ -537,6 +572,39 @@ InPlaceBackend* use_in_place_backend(ShadowSystem& sys) {
   I.backend = std::move(in_place);
   I.fragments.use_backend(I.backend.get());
   return ip;
+}
+
+// GL fragment lists into a backend whose memory is where GL's is
+// (lists_from_gl: the cuda backend's interop; the stand-in reads each tile
+// with glGetNamedBufferSubData), through a pool small enough to grow and to
+// fill views in tiles: the image equals that from lists read back to the
+// host, every view's lists came tile by tile in order, and each pool the
+// rasterizer replaced was announced before GL deleted it.
+TEST_F(GlSystem, GlListsHandedOverTileByTileEqualListsReadBack) {
+  Scene scene = load_scene(scene_path("teapot_omni.json"));
+  scene.shadows.resolution = 96;
+  ShadowSystem host(app_options(FragmentSource::Gl));
+  host.internals().fragments.limit_pool(4096, 64 * 1024);
+  sync_scene(host, scene);
+  FrameStats hs;
+  const Image want = host.render(&hs);
+  ASSERT_EQ(hs.fragment_source, "gl");
+
+  ShadowSystem dev(app_options(FragmentSource::Gl));
+  InPlaceBackend* ip = use_in_place_backend(dev);
+  dev.internals().fragments.limit_pool(4096, 64 * 1024);
+  sync_scene(dev, scene);
+  FrameStats st;
+  const Image got = dev.render(&st);
+  EXPECT_EQ(st.fragment_source, "gl");
+  EXPECT_EQ(ip->gl_lists, uint64_t(st.maps_rebuilt) + 1) << "every light view and the camera's";
+  EXPECT_GT(ip->tiles, ip->gl_lists) << "views larger than the pool came in tiles";
+  EXPECT_GE(ip->pool_releases, 2u) << "the pool grew from 4 KiB to 64 KiB: each old one let go of first";
+  for (const auto& [name, generation] : ip->pools)
+    EXPECT_TRUE(glIsBuffer(name)) << "pool " << name << " (generation " << generation << ") deleted unannounced";
+  EXPECT_EQ(ip->violations, std::vector<std::string>{});
+  ASSERT_EQ(got.rgb.size(), want.rgb.size());
+  EXPECT_EQ(std::memcmp(got.rgb.data(), want.rgb.data(), got.rgb.size() * sizeof(float)), 0);
 }
 
 // The figures of one update and whether the GL buffers then equal storage().

@@ -110,14 +110,14 @@ nlohmann::json fragment_producers(const Scene& s, const SceneBuffers& sb, int re
   std::unique_ptr<exec::ExecShadowBackend> gpu = cuda::make_cuda_backend();
   gpu->update_scene(sb, SceneChange::all());
   const PinholeView cam = camera_view(s.camera);
-  FragmentBuffers fb;
-  gpu->cast_fragments(cam, ObjectMask{}, fb);  // warm-up
+  gpu->free_lists(gpu->cast_lists(cam, ObjectMask{}));  // warm-up
   gpu->take_stage_times();
   std::vector<double> wall;
   for (int i = 0; i < repeat; ++i) {
     const auto t0 = Clock::now();
-    gpu->cast_fragments(cam, ObjectMask{}, fb);
+    const ListsId id = gpu->cast_lists(cam, ObjectMask{});  // stays on the device
     wall.push_back(ms_since(t0));
+    gpu->free_lists(id);
   }
   double kernels = 0.0;
   for (const exec::StageTime& t : gpu->take_stage_times())

@@ -58,7 +58,9 @@ inline void run(const Scene& scene, const SceneBuffers& sb, ShadowBackend& backe
   cam.background = scene.background;
   FragmentBuffers fb;
   cast_fragments(sv, cam.view, ObjectMask{}, fb);
-  backend.camera_pass(f.frame.view(scene.shadows), cam, fb.lists(), f.rgb, f.walk);
+  const ListsId lists = backend.adopt_lists(std::move(fb));
+  backend.camera_pass(f.frame.view(scene.shadows), cam, lists, f.rgb, f.walk);
+  backend.free_lists(lists);
 }
 
 // Node lists of texel (tx, ty) of a map from host-readable storage (any layout, either kind).

@@ -89,7 +89,7 @@ TEST(CudaBackend, SpilledTexelsMatchTheBoundedBuffer) {
   gpu->light_pass().walk_nodes = 8;
   gpu->light_pass().max_nodes = 16;
   DsmBuildStats gs;
-  const MapId id = gpu->build_map(lp, f2.lists(), {}, gs);
+  const MapId id = build_map_from_host(*gpu, lp, f2, {}, gs);
   const parity::MapComparison c = parity::compare_maps(ref.storage(), ref.maps[0], gpu->storage(), gpu->map_header(id));
   EXPECT_GE(double(c.identical) / double(c.texels), 0.999) << c.first_difference;
   EXPECT_GT(gs.overflow_texels, 0u);
@@ -110,7 +110,9 @@ TEST(CudaBackend, FragmentsEqualTheCpuRayCaster) {
     const PinholeView cam = camera_view(s.camera);
     FragmentBuffers ref, got;
     cast_fragments(sb.view(), cam, ObjectMask{}, ref);
-    gpu->cast_fragments(cam, ObjectMask{}, got);
+    const ListsId id = gpu->cast_lists(cam, ObjectMask{});
+    gpu->read_lists(id, got);
+    gpu->free_lists(id);
     EXPECT_EQ(got.offsets, ref.offsets) << name;
     ASSERT_EQ(got.fragments.size(), ref.fragments.size()) << name;
     size_t differ = 0;

@@ -184,7 +184,7 @@ TEST(ExecBackend, MapsEqualASerialWalk) {
         ex.update_scene(v.sb, SceneChange::all());
         FragmentBuffers f = v.frags;
         DsmBuildStats st;
-        const MapId id = ex.build_map(v.params, f.lists(), layout_params(kind), st);
+        const MapId id = build_map_from_host(ex, v.params, f, layout_params(kind), st);
         expect_map_equals_serial(ex, id, serial, layout_params(kind), v.params.epsilon, what);
         const SerialTotals t = totals(serial);
         EXPECT_EQ(st.max_built_nodes, t.max_nodes) << what;
@@ -213,7 +213,7 @@ TEST(ExecBackend, SecondWalkOnlyForTexelsThatNeedIt) {
         ex.light_pass().batch_bytes = batch;
         FragmentBuffers f = v.frags;
         DsmBuildStats st;
-        const MapId id = ex.build_map(v.params, f.lists(), layout_params(DsmLayout::Packed), st);
+        const MapId id = build_map_from_host(ex, v.params, f, layout_params(DsmLayout::Packed), st);
         expect_map_equals_serial(ex, id, serial, layout_params(DsmLayout::Packed), v.params.epsilon, what);
         uint64_t need = 0;
         for (const SerialTexel& s : serial) need += s.size() > size_t(node_limit(K));
@@ -241,7 +241,7 @@ TEST(ExecBackend, RecompressionEqualsTheBoundedBuffer) {
       ex.light_pass().max_nodes = K;
       FragmentBuffers f = v.frags;
       DsmBuildStats st;
-      const MapId id = ex.build_map(v.params, f.lists(), layout_params(kind), st);
+      const MapId id = build_map_from_host(ex, v.params, f, layout_params(kind), st);
       expect_map_equals_serial(ex, id, serial, layout_params(kind), v.params.epsilon, what);
       const SerialTotals t = totals(serial);
       EXPECT_GT(t.recompressed, 100u) << what;
@@ -259,7 +259,7 @@ TEST(ExecBackend, DeepTexelsKeepEveryNode) {
   HostBackend ex("cpu");
   ex.update_scene(v.sb, SceneChange::all());
   DsmBuildStats st;
-  ex.build_map(v.params, v.frags.lists(), layout_params(DsmLayout::Packed), st);
+  build_map_from_host(ex, v.params, v.frags, layout_params(DsmLayout::Packed), st);
   EXPECT_EQ(st.overflow_texels, 0u);
   EXPECT_GT(st.max_nodes, 200u);
   EXPECT_GT(st.rewalked_texels, 0u);
@@ -279,7 +279,7 @@ TEST(ExecBackend, BaselinesEqualASerialWalk) {
       ex.update_scene(v.sb, SceneChange::all());
       FragmentBuffers f = v.frags;
       DsmBuildStats st;
-      const MapId id = ex.build_map(v.params, f.lists(), layout_params(DsmLayout::Packed), st);
+      const MapId id = build_map_from_host(ex, v.params, f, layout_params(DsmLayout::Packed), st);
       expect_map_equals_serial(ex, id, serial, layout_params(DsmLayout::Packed), v.params.epsilon,
                                "method " + std::to_string(int(m)) + " param " + std::to_string(param));
       EXPECT_EQ(st.rewalked_texels, 0u) << "a baseline's buffer holds all its nodes";
@@ -301,7 +301,7 @@ TEST(ExecBackend, FreeAndCompactKeepTheOtherMaps) {
       p.rgb = (i % 2) == 1;
       DsmBuildStats st;
       FragmentBuffers f = v.frags;
-      ids.push_back(ex.build_map(p, f.lists(), layout_params(kind), st));
+      ids.push_back(build_map_from_host(ex, p, f, layout_params(kind), st));
       params.push_back(p);
     }
     for (int i : {0, 1, 3, 4}) ex.free_map(ids[size_t(i)]);
@@ -340,7 +340,7 @@ TEST(ExecBackend, AFailedBuildLeavesTheStoreAsItWas) {
         p.rgb = i == 1;
         DsmBuildStats st;
         FragmentBuffers f = v.frags;
-        ids.push_back(ex.build_map(p, f.lists(), layout_params(kind), st));
+        ids.push_back(build_map_from_host(ex, p, f, layout_params(kind), st));
       }
       const auto before = store_bytes(ex.storage());
       const DsmMap h0 = ex.map_header(ids[0]), h1 = ex.map_header(ids[1]);
@@ -350,7 +350,7 @@ TEST(ExecBackend, AFailedBuildLeavesTheStoreAsItWas) {
       DsmBuildStats st;
       try {
         FragmentBuffers f = v.frags;
-        ex.build_map(v.params, f.lists(), layout_params(kind), st);
+        build_map_from_host(ex, v.params, f, layout_params(kind), st);
       } catch (const std::runtime_error&) {
         threw = true;
       }
@@ -370,7 +370,7 @@ TEST(ExecBackend, AFailedBuildLeavesTheStoreAsItWas) {
       EXPECT_EQ(ex.map_store().maps, ms.maps) << what;
       // The store works on: the map builds, and reads as the serial walk.
       FragmentBuffers f = v.frags;
-      const MapId id = ex.build_map(v.params, f.lists(), layout_params(kind), st);
+      const MapId id = build_map_from_host(ex, v.params, f, layout_params(kind), st);
       expect_map_equals_serial(ex, id, serial_map(v.sb, v.params, v.frags, kTexelNodeCapacity), layout_params(kind),
                                v.params.epsilon, what);
     }
@@ -388,7 +388,7 @@ TEST(ExecBackend, CompactionFollowsHolesNotArrayCapacity) {
   for (int i = 0; i < 5; ++i) {
     DsmBuildStats st;
     FragmentBuffers f = v.frags;
-    ids.push_back(b.build_map(v.params, f.lists(), layout_params(DsmLayout::Packed), st));
+    ids.push_back(build_map_from_host(b, v.params, f, layout_params(DsmLayout::Packed), st));
   }
   const uint64_t one = b.map_store().live_bytes / 5;
   EXPECT_GT(b.map_store().allocated_bytes, b.map_store().live_bytes) << "growth slack to ignore";
@@ -453,7 +453,9 @@ TEST(ExecBackend, FragmentsEqualASerialRayCast) {
           offsets.push_back(uint32_t(fragments.size()));
         }
       FragmentBuffers got;
-      ex.cast_fragments(cam, mask, got);
+      const ListsId id = ex.cast_lists(cam, mask);
+      ex.read_lists(id, got);
+      ex.free_lists(id);
       EXPECT_EQ(got.offsets, offsets) << name;
       ASSERT_EQ(got.fragments.size(), fragments.size()) << name;
       size_t differ = 0;
@@ -462,6 +464,88 @@ TEST(ExecBackend, FragmentsEqualASerialRayCast) {
       EXPECT_EQ(differ, 0u) << name;
     }
   }
+}
+
+// Fragment lists are held by the backend where its kernels read them: host
+// lists are moved in on CPU threads (no bytes), copies are made on the
+// executor (no bytes), only a read to the host moves them; a freed or
+// unknown id, malformed lists and lists of another size than the camera's
+// view are refused by name.
+TEST(ExecBackend, FragmentListsAreHeldWhereTheyAreUsed) {
+  Scene s = parity::load("default", 48, 40, 30);
+  SceneBuffers sb = compile_scene(s);
+  HostBackend ex("cpu");
+  ex.update_scene(sb, SceneChange::all());
+  ex.take_transfers();
+  const PinholeView cam = camera_view(s.camera);
+  FragmentBuffers host;
+  cast_fragments(sb.view(), cam, ObjectMask{}, host);
+  ASSERT_GT(host.total(), 0u);
+  const FragmentBuffers original = host;
+
+  const ListsId adopted = ex.adopt_lists(std::move(host));
+  const ListsId cast = ex.cast_lists(cam, ObjectMask{});
+  const ListsId copy = ex.copy_lists(adopted);
+  EXPECT_EQ(ex.take_transfers().host_to_backend, 0u) << "moved in, cast and copied in the executor's memory";
+  const uint64_t bytes = (original.offsets.size()) * sizeof(uint32_t) + original.total() * sizeof(Fragment);
+  for (ListsId id : {adopted, cast, copy}) {
+    EXPECT_EQ(ex.lists_fragments(id), original.total());
+    EXPECT_EQ(ex.lists_bytes(id), bytes);
+    FragmentBuffers back;
+    ex.read_lists(id, back);
+    EXPECT_EQ(back.offsets, original.offsets) << "lists " << id;
+    ASSERT_EQ(back.fragments.size(), original.fragments.size());
+    EXPECT_EQ(std::memcmp(back.fragments.data(), original.fragments.data(), back.fragments.size() * sizeof(Fragment)), 0);
+  }
+  EXPECT_EQ(ex.take_transfers().backend_to_host, 3 * bytes) << "reads to the host are counted";
+  EXPECT_EQ(ex.map_store().lists, 3u);
+  EXPECT_EQ(ex.map_store().list_bytes, 3 * bytes);
+
+  // The camera pass sorts the lists it reads, in place: the adopted vector
+  // itself on CPU threads; the copy stays as it was.
+  CameraPassParams cp;
+  cp.view = cam;
+  std::vector<float> rgb;
+  WalkStats w;
+  ex.camera_pass(ShadowView{}, cp, adopted, rgb, w);
+  FragmentBuffers sorted, unsorted;
+  ex.read_lists(adopted, sorted);
+  ex.read_lists(copy, unsorted);
+  EXPECT_EQ(std::memcmp(unsorted.fragments.data(), original.fragments.data(), original.total() * sizeof(Fragment)), 0);
+  size_t out_of_order = 0, moved = 0;
+  for (int p = 0; p < cam.width * cam.height; ++p)
+    for (uint32_t i = sorted.offsets[p] + 1; i < sorted.offsets[p + 1]; ++i)
+      out_of_order += sorted.fragments[i].depth < sorted.fragments[i - 1].depth;
+  for (size_t i = 0; i < original.total(); ++i) moved += sorted.fragments[i].depth != original.fragments[i].depth;
+  EXPECT_EQ(out_of_order, 0u);
+  EXPECT_GT(moved, 0u) << "the camera pass sorted the held lists";
+
+  ex.free_lists(copy);
+  EXPECT_EQ(ex.map_store().lists, 2u);
+  auto message = [](auto f) {
+    try {
+      f();
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message([&] { ex.free_lists(copy); }), "free_lists: fragment lists " + std::to_string(copy) + " are not held");
+  EXPECT_EQ(message([&] { ex.lists_fragments(99); }), "lists_fragments: fragment lists 99 are not held");
+  FragmentBuffers bad;
+  bad.width = 4;
+  bad.height = 4;
+  bad.offsets.assign(16, 0u);
+  EXPECT_EQ(message([&] { ex.adopt_lists(std::move(bad)); }),
+            "adopt_lists: 16 offsets for lists of 4x4 pixels (width * height + 1 expected)");
+  cp.view.width = cam.width + 1;
+  EXPECT_EQ(message([&] { ex.camera_pass(ShadowView{}, cp, cast, rgb, w); }),
+            "camera_pass: fragment lists of " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
+                " pixels for a view of " + std::to_string(cam.width + 1) + "x" + std::to_string(cam.height));
+  ex.free_lists(adopted);
+  ex.free_lists(cast);
+  EXPECT_EQ(ex.map_store().lists, 0u);
+  EXPECT_EQ(ex.map_store().list_bytes, 0u);
 }
 
 TEST(ExecScan, ExclusiveSumAcrossChunks) {
@@ -542,5 +626,5 @@ TEST(ExecBackend, CameraPassToGlNeedsInterop) {
   std::unique_ptr<ShadowBackend> cpu = make_cpu_backend();
   WalkStats w;
   EXPECT_FALSE(cpu->can_write_gl_maps());
-  EXPECT_THROW(cpu->camera_pass_to_gl(ShadowView{}, CameraPassParams{}, FragmentLists{}, 1u, 16u, 1u, w), std::logic_error);
+  EXPECT_THROW(cpu->camera_pass_to_gl(ShadowView{}, CameraPassParams{}, ListsId{0}, 1u, 16u, 1u, w), std::logic_error);
 }

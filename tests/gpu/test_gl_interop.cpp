@@ -134,7 +134,7 @@ TEST_F(GlInterop, CudaCameraPassWritesAPixelBuffer) {
   glNamedBufferData(pbo, GLsizeiptr(bytes), nullptr, GL_STREAM_DRAW);
   for (int pass = 0; pass < 2; ++pass) {
     WalkStats ws;
-    I.backend->camera_pass_to_gl(I.shadow_view(), I.cam, I.camera_frags.lists(), pbo, bytes, 1, ws);
+    I.backend->camera_pass_to_gl(I.shadow_view(), I.cam, I.camera_lists, pbo, bytes, 1, ws);
     std::vector<float> back(img.rgb.size());
     glGetNamedBufferSubData(pbo, 0, GLsizeiptr(bytes), back.data());
     EXPECT_EQ(std::memcmp(back.data(), img.rgb.data(), bytes), 0) << "pass " << pass;

@@ -13,6 +13,8 @@
 #include "cdsm/renderer.h"
 #include "cdsm/scene_io.h"
 #include "cdsm/shadow_system.h"
+#include "backend/exec_backend.h"
+#include "exec/host_exec.h"
 #include "shadow_system_impl.h"
 
 using namespace cdsm;
@@ -222,6 +224,11 @@ TEST(ShadowSystem, KeptFragmentListsServeEpsilonEditsAndNeverOutliveAContentEdit
   ASSERT_GE(maps, 2u);
   EXPECT_EQ(st.update.fragment_lists_reused, 0u);
   EXPECT_GT(st.update.fragment_cache_bytes, 0u);
+  // The backend holds a kept copy per map and the camera's lists, nothing else.
+  const ShadowBackend& backend = *sys.internals().backend;
+  EXPECT_EQ(backend.map_store().lists, maps + 1);
+  EXPECT_EQ(backend.map_store().list_bytes - st.update.fragment_cache_bytes,
+            (uint64_t(s.camera.width) * uint64_t(s.camera.height) + 1) * sizeof(uint32_t) + st.camera_fragments * sizeof(Fragment));
   auto fresh = [](const Scene& scene) {
     ShadowSystem f;
     add_scene(f, scene);
@@ -258,6 +265,58 @@ TEST(ShadowSystem, KeptFragmentListsServeEpsilonEditsAndNeverOutliveAContentEdit
   a = sys.render(&st);
   EXPECT_EQ(st.update.fragment_lists_reused, 0u);
   EXPECT_TRUE(same_pixels(a, fresh(s))) << "after a move";
+  EXPECT_EQ(backend.map_store().lists, maps + 1) << "the dropped lists were freed";
+}
+
+// A frame whose build fails anywhere (here: a failure injected into the
+// executor at each allocation and launch in turn) leaves no map and no
+// fragment list behind in the backend, and the next frame renders what a
+// fresh system renders.
+TEST(ShadowSystem, AFailedBuildLeavesNothingBehind) {
+  Scene s = shipped("default", 48, 36, 48);
+  s.shadows.max_clusters = 4;
+  SystemOptions o;
+  o.keep_fragment_lists = true;
+  o.fragments = FragmentSource::Cpu;
+  o.backend = Backend::Cpu;
+  ShadowSystem sys(o);
+  add_scene(sys, s);
+  sys.render();
+  auto* host = dynamic_cast<exec::ExecBackend<exec::HostExec>*>(sys.internals().backend.get());
+  ASSERT_NE(host, nullptr);
+  const float eps[2] = {0.02f, 0.04f};
+  Image want[2];
+  for (int i = 0; i < 2; ++i) {
+    Scene f = s;
+    f.shadows.epsilon = eps[i];
+    ShadowSystem fresh(o);
+    add_scene(fresh, f);
+    want[i] = fresh.render();
+  }
+  int failures = 0;
+  for (int64_t k = 0; k < 1000; ++k) {
+    SCOPED_TRACE("failure injected at call " + std::to_string(k));
+    s.shadows.epsilon = eps[k % 2];
+    sys.set_settings(s.shadows);
+    host->executor().fail_after = k;
+    bool failed = false;
+    try {
+      sys.update();
+    } catch (const std::exception& e) {
+      failed = true;
+      EXPECT_NE(std::string(e.what()).find("injected failure"), std::string::npos) << e.what();
+    }
+    host->executor().fail_after = -1;
+    if (failed) {
+      ++failures;
+      const MapStoreStats m = host->map_store();
+      EXPECT_EQ(m.maps, 0u) << "maps left in the store";
+      EXPECT_EQ(m.lists, 1u) << "only the last render's camera lists";
+    }
+    EXPECT_TRUE(same_pixels(sys.render(), want[k % 2]));
+    if (!failed) break;  // past the frame's last call
+  }
+  EXPECT_GT(failures, 20) << "every step of four builds was reached";
 }
 
 TEST(ShadowSystem, MovedLightRebuildsOnlyItsMaps) {
