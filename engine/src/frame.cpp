@@ -98,13 +98,14 @@ FragmentProducer cpu_fragment_producer(const SceneView& scene) {
 }
 
 PinholeView camera_view(const Camera& cam) {
+  // The eye's axes are the view matrix's rows: one basis for the camera
+  // pass, the clustering and an engine's GL view (Camera::view_matrix).
+  const Mat4 m = cam.view_matrix();
   PinholeView v;
   v.eye = cam.position;
-  v.forward = normalize(cam.target - cam.position);
-  Vec3 r = cross(v.forward, cam.up);
-  if (length(r) < 1e-6f) r = cross(v.forward, any_perpendicular(v.forward));
-  v.right = normalize(r);
-  v.up = cross(v.right, v.forward);
+  v.right = {m.m[0][0], m.m[0][1], m.m[0][2]};
+  v.up = {m.m[1][0], m.m[1][1], m.m[1][2]};
+  v.forward = -Vec3{m.m[2][0], m.m[2][1], m.m[2][2]};
   v.tan_half_y = std::tan(cam.fov_y_deg * 0.5f * 3.14159265f / 180.0f);
   v.tan_half_x = v.tan_half_y * float(cam.width) / float(cam.height);
   v.width = cam.width;

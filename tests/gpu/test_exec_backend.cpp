@@ -218,7 +218,9 @@ TEST(ExecBackend, SecondWalkOnlyForTexelsThatNeedIt) {
         uint64_t need = 0;
         for (const SerialTexel& s : serial) need += s.size() > size_t(node_limit(K));
         EXPECT_EQ(st.rewalked_texels, need) << what;
-        if (K == 8) EXPECT_GT(need, 100u) << what << ": the scene must make texels walk twice";
+        if (K == 8) {
+          EXPECT_GT(need, 100u) << what << ": the scene must make texels walk twice";
+        }
         EXPECT_EQ(st.slack_bytes, 0u) << what << ": packed: exact allocation";
       }
   }
@@ -357,7 +359,7 @@ TEST(ExecBackend, AFailedBuildLeavesTheStoreAsItWas) {
       ex.executor().fail_after = -1;
       if (!threw) {
         EXPECT_GE(failures, 6) << "kind " << tag_name(kind) << ": a build has that many steps to fail";
-        std::printf("[ failure  ] layout %u: a failure injected at each of %d steps left the store intact\n", kind, failures);
+        std::printf("[ failure  ] layout %u: a failure injected at each of %d steps left the store intact\n", unsigned(kind), failures);
         break;
       }
       ++failures;

@@ -72,34 +72,8 @@ cdsm::Mat4 inverse(const cdsm::Mat4& m) {
   return inv;
 }
 
-// The camera as GL sees it: the library's pinhole (forward, right, up
-// from target and up; vertical field of view) as view and projection.
-cdsm::Mat4 view_projection(const cdsm::Camera& c) {
-  using cdsm::Vec3;
-  const Vec3 f = cdsm::normalize(c.target - c.position);
-  Vec3 r = cdsm::cross(f, c.up);
-  if (cdsm::length(r) < 1e-6f) r = cdsm::cross(f, std::fabs(f.x) < 0.9f ? Vec3{1, 0, 0} : Vec3{0, 1, 0});
-  r = cdsm::normalize(r);
-  const Vec3 u = cdsm::cross(r, f);
-  cdsm::Mat4 view;
-  const Vec3 rows[3] = {r, u, -f};
-  for (int i = 0; i < 3; ++i) {
-    view.m[i][0] = rows[i].x;
-    view.m[i][1] = rows[i].y;
-    view.m[i][2] = rows[i].z;
-    view.m[i][3] = -cdsm::dot(rows[i], c.position);
-  }
-  const float ty = std::tan(c.fov_y_deg * 0.5f * 3.14159265f / 180.0f);
-  const float tx = ty * float(c.width) / float(c.height);
-  cdsm::Mat4 proj;
-  proj.m[0][0] = 1.0f / tx;
-  proj.m[1][1] = 1.0f / ty;
-  proj.m[2][2] = -(c.far + c.near) / (c.far - c.near);
-  proj.m[2][3] = -2.0f * c.far * c.near / (c.far - c.near);
-  proj.m[3][2] = -1.0f;
-  proj.m[3][3] = 0.0f;
-  return proj * view;
-}
+// The camera as GL sees it (OpenGL's clip depth).
+cdsm::Mat4 view_projection(const cdsm::Camera& c) { return c.projection_matrix() * c.view_matrix(); }
 
 bool passes_all(const cdsm::SurfaceMaterial& s) {
   return s.opacity <= 0.0f && s.transmission_color.x >= 1.0f && s.transmission_color.y >= 1.0f &&

@@ -147,6 +147,14 @@ struct Light {
   float intensity = 1.0f;
 };
 
+// Clip-space depth of a projection matrix: OpenGL's [-1, 1] (glm's default)
+// or [0, 1] (Direct3D, Vulkan, glm with GLM_FORCE_DEPTH_ZERO_TO_ONE).
+// Reversed depth (near at the top of the range) is read from the matrix.
+enum class ClipDepth : uint32_t { MinusOneToOne, ZeroToOne };
+
+// The camera the shadows are built for: where it is, where it looks, its
+// symmetric perspective and its image size. Maps are clustered and focused
+// on what it sees; render() shades its view.
 struct Camera {
   Vec3 position{0, 2, 6};
   Vec3 target{0, 0.5f, 0};
@@ -156,6 +164,23 @@ struct Camera {
   float far = 200.0f;
   int32_t width = 720;
   int32_t height = 480;
+
+  // The camera of an engine's own matrices (row-major cdsm::Mat4: m[row][col];
+  // transpose a column-major glm::mat4): `view` world -> eye, a rigid motion
+  // with the eye looking down -Z and +Y up (OpenGL's convention);
+  // `projection` a symmetric perspective with clip depth `depth`, normal or
+  // reversed, finite or infinite far plane (far is then kMaxFar). Throws
+  // cdsm::Error naming what does not fit (a scaled or sheared view, an
+  // off-centre or orthographic projection, an aspect ratio other than
+  // width / height beyond 0.1%).
+  static Camera from_matrices(const Mat4& view, const Mat4& projection, int32_t width, int32_t height,
+                              ClipDepth depth = ClipDepth::MinusOneToOne);
+  // This camera as matrices (OpenGL's conventions, row-major): world -> eye,
+  // and eye -> clip with clip depth `depth`.
+  Mat4 view_matrix() const;
+  Mat4 projection_matrix(ClipDepth depth = ClipDepth::MinusOneToOne) const;
+  // Far planes beyond this are taken as this (an infinite projection).
+  static constexpr float kMaxFar = 1e7f;
 };
 
 struct ShadowSettings {
