@@ -197,32 +197,16 @@ class CudaExec {
   // registered write-discard once per buffer object), unmapped after.
   template <class F>
   void with_gl_buffer(unsigned name, uint64_t bytes, uint64_t generation, F&& f) {
-    check_usable("with_gl_buffer");
-    if (image_generation_ != generation) image_link_.reset();
-    image_generation_ = generation;
-    image_link_.bind(name, size_t(bytes), GlAccess::WriteDiscard);
-    GlBufferLink* links[] = {&image_link_};
-    GlMapScope mapped(links, 1, stream());
-    size_t size = 0;
-    void* p = mapped.pointer(0, &size);
-    if (size < bytes) throw std::out_of_range("with_gl_buffer: the mapped GL buffer is smaller than said");
-    f(p);
+    with_mapped("with_gl_buffer", image_link_, image_generation_, GlAccess::WriteDiscard, name, bytes, generation,
+                [&](void* p) { f(p); });
   }
   // f(pointer) with GL buffer `name` mapped read-only on the stream (the
   // fragment rasterizer's pool: registered once per buffer object), unmapped
   // after, in stream order: GL work issued later waits for what f launched.
   template <class F>
   void with_gl_source(unsigned name, uint64_t bytes, uint64_t generation, F&& f) {
-    check_usable("with_gl_source");
-    if (source_generation_ != generation) source_link_.reset();
-    source_generation_ = generation;
-    source_link_.bind(name, size_t(bytes), GlAccess::ReadOnly);
-    GlBufferLink* links[] = {&source_link_};
-    GlMapScope mapped(links, 1, stream());
-    size_t size = 0;
-    const void* p = mapped.pointer(0, &size);
-    if (size < bytes) throw std::out_of_range("with_gl_source: the mapped GL buffer is smaller than said");
-    f(p);
+    with_mapped("with_gl_source", source_link_, source_generation_, GlAccess::ReadOnly, name, bytes, generation,
+                [&](void* p) { f(static_cast<const void*>(p)); });
   }
   // GL buffer `name` is about to be deleted or replaced by its owner
   // (ShadowBackend::gl_buffer_released): unregistered now, while it exists;
@@ -246,6 +230,24 @@ class CudaExec {
   }
 
  private:
+#if defined(CDSM_HAVE_CUDA_GL)
+  // `link` (re)registered for buffer `name` of this generation, mapped on
+  // the stream around f(pointer).
+  template <class F>
+  void with_mapped(const char* what, GlBufferLink& link, uint64_t& link_generation, GlAccess access, unsigned name,
+                   uint64_t bytes, uint64_t generation, F&& f) {
+    check_usable(what);
+    if (link_generation != generation) link.reset();  // a new buffer object, maybe under an old name
+    link_generation = generation;
+    link.bind(name, size_t(bytes), access);
+    GlBufferLink* links[] = {&link};
+    GlMapScope mapped(links, 1, stream());
+    size_t size = 0;
+    void* p = mapped.pointer(0, &size);
+    if (size < bytes) throw std::out_of_range(std::string(what) + ": the mapped GL buffer is smaller than said");
+    f(p);
+  }
+#endif
   struct Launch {
     const char* name;  // a string literal
     cudaEvent_t start, stop;

@@ -18,15 +18,10 @@ bool same(const T& a, const T& b) {
   static_assert(std::is_trivially_copyable_v<T>);
   return std::memcmp(&a, &b, sizeof(T)) == 0;
 }
-bool same(const std::string& a, const std::string& b) { return a == b; }
 bool same(const Interior& a, const Interior& b) {
   return a.kind == b.kind && same(a.sigma, b.sigma) && a.volume == b.volume;
 }
-bool same(const SurfaceMaterial& a, const SurfaceMaterial& b) {
-  return same(a.color, b.color) && same(a.opacity, b.opacity) && same(a.transmission_color, b.transmission_color) &&
-         same(a.ambient, b.ambient) && same(a.diffuse, b.diffuse) && same(a.specular, b.specular) &&
-         same(a.shininess, b.shininess);
-}
+bool same(const SurfaceMaterial& a, const SurfaceMaterial& b) { return same_fields(a, b); }
 bool same(const TransferPoint& a, const TransferPoint& b) {
   return same(a.density, b.density) && same(a.extinction, b.extinction) && same(a.color, b.color);
 }
@@ -48,35 +43,11 @@ struct Diff {
 
 Diff settings_diff(const ShadowSettings& a, const ShadowSettings& b) { return {changed_fields(a, b)}; }
 
-Diff light_diff(const Light& a, const Light& b) {
-  Diff d;
-  d.field("name", a.name, b.name);
-  d.field("type", a.type, b.type);
-  d.field("position", a.position, b.position);
-  d.field("direction", a.direction, b.direction);
-  d.field("outer_cone", a.outer_cone_deg, b.outer_cone_deg);
-  d.field("inner_cone", a.inner_cone_deg, b.inner_cone_deg);
-  d.field("color", a.color, b.color);
-  d.field("intensity", a.intensity, b.intensity);
-  return d;
-}
+Diff light_diff(const Light& a, const Light& b) { return {changed_fields(a, b)}; }
 
-Diff surface_diff(const SurfaceMaterial& a, const SurfaceMaterial& b) {
-  Diff d;
-  d.field("color", a.color, b.color);
-  d.field("opacity", a.opacity, b.opacity);
-  d.field("transmission_color", a.transmission_color, b.transmission_color);
-  d.field("ambient", a.ambient, b.ambient);
-  d.field("diffuse", a.diffuse, b.diffuse);
-  d.field("specular", a.specular, b.specular);
-  d.field("shininess", a.shininess, b.shininess);
-  return d;
-}
+Diff surface_diff(const SurfaceMaterial& a, const SurfaceMaterial& b) { return {changed_fields(a, b)}; }
 
-bool camera_same(const Camera& a, const Camera& b) {
-  return same(a.position, b.position) && same(a.target, b.target) && same(a.up, b.up) && same(a.fov_y_deg, b.fov_y_deg) &&
-         same(a.near, b.near) && same(a.far, b.far) && a.width == b.width && a.height == b.height;
-}
+bool camera_same(const Camera& a, const Camera& b) { return same_fields(a, b); }
 
 bool light_same(const Light& a, const Light& b) { return light_diff(a, b).fields.empty(); }
 

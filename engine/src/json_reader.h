@@ -51,6 +51,7 @@ class JsonNode {
   int get(const char* key, int def) const { return has(key) ? at(key).as_int() : def; }
   bool get(const char* key, bool def) const { return has(key) ? at(key).as_bool() : def; }
   std::string get(const char* key, const char* def) const { return has(key) ? at(key).as_string() : def; }
+  std::string get(const char* key, const std::string& def) const { return has(key) ? at(key).as_string() : def; }
   Vec3 get(const char* key, Vec3 def) const { return has(key) ? at(key).as_vec3() : def; }
   int64_t get(const char* key, int64_t def) const { return has(key) ? at(key).as_int() : def; }
   // A tag by its name (cdsm/tags.h); `what` names it in the error.

@@ -95,16 +95,10 @@ struct Parser {
   }
 
   Camera camera(const JsonNode& n) {
-    n.expect_object({"position", "target", "up", "fov_y", "near", "far", "width", "height"});
     Camera c;
-    c.position = n.at("position").as_vec3();
-    c.target = n.at("target").as_vec3();
-    c.up = n.get("up", c.up);
-    c.fov_y_deg = n.get("fov_y", c.fov_y_deg);
-    c.near = n.get("near", c.near);
-    c.far = n.get("far", c.far);
-    c.width = n.get("width", c.width);
-    c.height = n.get("height", c.height);
+    n.read_fields(c);
+    n.at("position");  // required
+    n.at("target");
     return c;  // ranges: validate_scene
   }
 
@@ -407,16 +401,7 @@ struct Parser {
     if (n.has("transform")) o.transform = transform(n.at("transform"));
     o.casts_shadows = n.get("casts_shadows", true);
     if (n.has("material")) {
-      JsonNode m = n.at("material");
-      m.expect_object({"color", "opacity", "transmission_color", "ambient", "diffuse", "specular", "shininess"});
-      SurfaceMaterial& s = o.surface;
-      s.color = m.get("color", s.color);
-      s.opacity = m.get("opacity", s.opacity);
-      s.transmission_color = m.get("transmission_color", s.transmission_color);
-      s.ambient = m.get("ambient", s.ambient);
-      s.diffuse = m.get("diffuse", s.diffuse);
-      s.specular = m.get("specular", s.specular);
-      s.shininess = m.get("shininess", s.shininess);  // ranges: validate_scene
+      n.at("material").read_fields(o.surface);  // ranges: validate_scene
     }
     if (n.has("interior")) {
       JsonNode in = n.at("interior");
@@ -457,13 +442,11 @@ struct Parser {
   }
 
   Light light(const JsonNode& n) {
-    n.expect_object({"name", "type", "position", "direction", "target", "outer_cone", "inner_cone", "color",
-                     "intensity"});
     Light l;
-    l.name = n.get("name", "");
     n.at("type");  // required
-    l.type = n.get_tag("type", l.type, "light type");
-    l.position = n.at("position").as_vec3();
+    l.type = n.get_tag("type", l.type, "light type");  // (named in its error as such)
+    n.read_fields(l, {"target"});
+    n.at("position");
     // A point light keeps a direction and cones when given (unused; they
     // come back when it is made a spot again, and a saved scene keeps them).
     if (l.type == LightType::Spot || n.has("target") || n.has("direction")) {
@@ -474,10 +457,7 @@ struct Parser {
       // Unit length already (a saved scene): kept bit for bit.
       if (len > 0 && std::fabs(len - 1.0f) > 1e-6f) l.direction = normalize(l.direction);
     }
-    l.outer_cone_deg = n.get("outer_cone", l.outer_cone_deg);
-    l.inner_cone_deg = n.get("inner_cone", std::min(l.inner_cone_deg, l.outer_cone_deg));
-    l.color = n.get("color", l.color);
-    l.intensity = n.get("intensity", l.intensity);
+    if (!n.has("inner_cone")) l.inner_cone_deg = std::min(Light{}.inner_cone_deg, l.outer_cone_deg);
     return l;  // ranges: validate_scene
   }
 

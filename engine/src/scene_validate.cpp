@@ -54,12 +54,9 @@ struct Checker {
 
   void camera() const {
     const Camera& c = s.camera;
-    finite("/camera/position", c.position);
-    finite("/camera/target", c.target);
-    finite("/camera/up", c.up);
-    integer("/camera/width", c.width, 1, 16384);
-    integer("/camera/height", c.height, 1, 16384);
-    if (!std::isfinite(c.near) || !std::isfinite(c.far) || !(c.near > 0.0f) || !(c.far > c.near))
+    fields(c, "/camera");
+    // What a range cannot say.
+    if (!(c.near > 0.0f) || !(c.far > c.near))
       fail("/camera", "needs 0 < near < far (finite), got near " + format_number(c.near) + ", far " + format_number(c.far));
     number("/camera/fov_y", c.fov_y_deg, 0.0, 179.0, true, true);
     Vec3 d = c.target - c.position;
@@ -83,6 +80,7 @@ struct Checker {
       } else if constexpr (std::is_same_v<T, float>) {
         number(path, v, f.lo, f.hi);
       } else if constexpr (std::is_same_v<T, Vec3>) {
+        finite(path, v);
         for (int a = 0; a < 3; ++a) number(path + "/" + std::to_string(a), v[a], f.lo, f.hi);
       } else if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
         integer(path, int64_t(v), int64_t(f.lo), int64_t(f.hi));
@@ -143,14 +141,7 @@ struct Checker {
     for (size_t i = 0; i < s.objects.size(); ++i) {
       const Object& o = s.objects[i];
       const std::string at = "/objects/" + std::to_string(i);
-      const SurfaceMaterial& m = o.surface;
-      color(at + "/material/color", m.color);
-      number(at + "/material/opacity", m.opacity, 0.0, 1.0);
-      channels(at + "/material/transmission_color", m.transmission_color, 0.0, 1.0);
-      number(at + "/material/ambient", m.ambient, 0.0, 100.0);
-      number(at + "/material/diffuse", m.diffuse, 0.0, 100.0);
-      number(at + "/material/specular", m.specular, 0.0, 100.0);
-      number(at + "/material/shininess", m.shininess, 0.0, 1e4);
+      fields(o.surface, at + "/material");
       if (o.interior == InteriorKind::Constant) channels(at + "/interior/sigma", o.sigma, 0.0, 1e38);
       if (o.interior == InteriorKind::Volume && (o.volume < 0 || size_t(o.volume) >= s.volumes.size()))
         fail(at + "/interior/volume", "volume " + std::to_string(o.volume) + " does not exist");
@@ -163,11 +154,9 @@ struct Checker {
     for (size_t i = 0; i < s.lights.size(); ++i) {
       const Light& l = s.lights[i];
       const std::string at = "/lights/" + std::to_string(i);
-      finite(at + "/position", l.position);
-      color(at + "/color", l.color);
-      number(at + "/intensity", l.intensity, 0.0, 1e9);
+      fields(l, at);
+      // What a range cannot say.
       if (l.type == LightType::Spot) {
-        finite(at + "/direction", l.direction);
         if (!(length(l.direction) > 0.0f)) fail(at + "/direction", "spot direction is zero");
         number(at + "/outer_cone", l.outer_cone_deg, 0.0, 89.5, true);
         number(at + "/inner_cone", l.inner_cone_deg, 0.0, l.outer_cone_deg);

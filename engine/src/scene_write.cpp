@@ -194,13 +194,7 @@ struct Writer {
 
   std::string material(const SurfaceMaterial& m, const std::string& pointer) const {
     Fields f;
-    f.add("color", vec(m.color, pointer + "/color"));
-    f.add("opacity", num(m.opacity, pointer + "/opacity"));
-    f.add("transmission_color", vec(m.transmission_color, pointer + "/transmission_color"));
-    f.add("ambient", num(m.ambient, pointer + "/ambient"));
-    f.add("diffuse", num(m.diffuse, pointer + "/diffuse"));
-    f.add("specular", num(m.specular, pointer + "/specular"));
-    f.add("shininess", num(m.shininess, pointer + "/shininess"));
+    write_fields(f, m, pointer);
     return f.done();
   }
 
@@ -328,30 +322,14 @@ struct Writer {
   }
 
   std::string light(const Light& l, size_t i) const {
-    const std::string at = "/lights/" + std::to_string(i);
     Fields f;
-    f.add("name", str(l.name, at + "/name"));
-    f.add("type", quoted(l.type));
-    f.add("position", vec(l.position, at + "/position"));
-    f.add("direction", vec(l.direction, at + "/direction"));
-    f.add("outer_cone", num(l.outer_cone_deg, at + "/outer_cone"));
-    f.add("inner_cone", num(l.inner_cone_deg, at + "/inner_cone"));
-    f.add("color", vec(l.color, at + "/color"));
-    f.add("intensity", num(l.intensity, at + "/intensity"));
+    write_fields(f, l, "/lights/" + std::to_string(i));
     return f.done();
   }
 
   std::string camera() const {
-    const Camera& c = s.camera;
     Fields f;
-    f.add("position", vec(c.position, "/camera/position"));
-    f.add("target", vec(c.target, "/camera/target"));
-    f.add("up", vec(c.up, "/camera/up"));
-    f.add("fov_y", num(c.fov_y_deg, "/camera/fov_y"));
-    f.add("near", num(c.near, "/camera/near"));
-    f.add("far", num(c.far, "/camera/far"));
-    f.add("width", std::to_string(c.width));
-    f.add("height", std::to_string(c.height));
+    write_fields(f, s.camera, "/camera");
     return f.done();
   }
 
@@ -372,6 +350,7 @@ struct Writer {
       else if constexpr (std::is_same_v<T, bool>) f.add(field.key, boolean(v));
       else if constexpr (std::is_same_v<T, float>) f.add(field.key, num(v, path));
       else if constexpr (std::is_same_v<T, Vec3>) f.add(field.key, vec(v, path));
+      else if constexpr (std::is_same_v<T, std::string>) f.add(field.key, str(v, path));
       else f.add(field.key, std::to_string(v));
     });
   }

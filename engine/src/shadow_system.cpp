@@ -805,11 +805,7 @@ bool same_bytes(const T& a, const T& b) {
   return std::memcmp(&a, &b, sizeof(T)) == 0;
 }
 
-bool same_surface(const SurfaceMaterial& a, const SurfaceMaterial& b) {
-  return same_bytes(a.color, b.color) && same_bytes(a.opacity, b.opacity) && same_bytes(a.ambient, b.ambient) &&
-         same_bytes(a.diffuse, b.diffuse) && same_bytes(a.specular, b.specular) && same_bytes(a.shininess, b.shininess) &&
-         same_bytes(a.transmission_color, b.transmission_color);
-}
+bool same_surface(const SurfaceMaterial& a, const SurfaceMaterial& b) { return same_fields(a, b); }
 
 bool same_transfer(const std::vector<TransferPoint>& a, const std::vector<TransferPoint>& b) {
   if (a.size() != b.size()) return false;
@@ -826,17 +822,9 @@ bool same_volume(const Volume& a, const Volume& b) {
          same_bytes(a.gradient_scale, b.gradient_scale);
 }
 
-bool same_light(const Light& a, const Light& b) {
-  return a.type == b.type && same_bytes(a.position, b.position) && same_bytes(a.direction, b.direction) &&
-         same_bytes(a.outer_cone_deg, b.outer_cone_deg) && same_bytes(a.inner_cone_deg, b.inner_cone_deg) &&
-         same_bytes(a.color, b.color) && same_bytes(a.intensity, b.intensity);
-}
-
-bool same_camera(const Camera& a, const Camera& b) {
-  return same_bytes(a.position, b.position) && same_bytes(a.target, b.target) && same_bytes(a.up, b.up) &&
-         same_bytes(a.fov_y_deg, b.fov_y_deg) && same_bytes(a.near, b.near) && same_bytes(a.far, b.far) &&
-         a.width == b.width && a.height == b.height;
-}
+// (names included: a renamed light is set again, which rebuilds nothing)
+bool same_light(const Light& a, const Light& b) { return same_fields(a, b); }
+bool same_camera(const Camera& a, const Camera& b) { return same_fields(a, b); }
 
 
 int32_t volume_of(const Object& o) { return o.interior == InteriorKind::Volume ? o.volume : -1; }

@@ -94,10 +94,7 @@ struct SceneComparer {
   }
 
   bool surface(const std::string& at, const cdsm::SurfaceMaterial& a, const cdsm::SurfaceMaterial& b) {
-    return v(at + "/color", a.color, b.color) && f(at + "/opacity", a.opacity, b.opacity) &&
-           v(at + "/transmission_color", a.transmission_color, b.transmission_color) &&
-           f(at + "/ambient", a.ambient, b.ambient) && f(at + "/diffuse", a.diffuse, b.diffuse) &&
-           f(at + "/specular", a.specular, b.specular) && f(at + "/shininess", a.shininess, b.shininess);
+    return fields(at, a, b);
   }
 
   bool object(const std::string& at, const cdsm::Object& a, const cdsm::Object& b) {
@@ -127,20 +124,8 @@ struct SceneComparer {
     return true;
   }
 
-  bool light(const std::string& at, const cdsm::Light& a, const cdsm::Light& b) {
-    return s(at + "/name", a.name, b.name) && i(at + "/type", uint32_t(a.type), uint32_t(b.type)) &&
-           v(at + "/position", a.position, b.position) && v(at + "/direction", a.direction, b.direction) &&
-           f(at + "/outer_cone", a.outer_cone_deg, b.outer_cone_deg) &&
-           f(at + "/inner_cone", a.inner_cone_deg, b.inner_cone_deg) && v(at + "/color", a.color, b.color) &&
-           f(at + "/intensity", a.intensity, b.intensity);
-  }
-
-  bool camera(const cdsm::Camera& a, const cdsm::Camera& b) {
-    return v("/camera/position", a.position, b.position) && v("/camera/target", a.target, b.target) &&
-           v("/camera/up", a.up, b.up) && f("/camera/fov_y", a.fov_y_deg, b.fov_y_deg) &&
-           f("/camera/near", a.near, b.near) && f("/camera/far", a.far, b.far) &&
-           i("/camera/width", a.width, b.width) && i("/camera/height", a.height, b.height);
-  }
+  bool light(const std::string& at, const cdsm::Light& a, const cdsm::Light& b) { return fields(at, a, b); }
+  bool camera(const cdsm::Camera& a, const cdsm::Camera& b) { return fields("/camera", a, b); }
 
   // Every field of S's table (cdsm/fields.h).
   template <class S>
@@ -154,6 +139,7 @@ struct SceneComparer {
       if constexpr (std::is_same_v<T, float>) same = f(path, x, y);
       else if constexpr (std::is_same_v<T, cdsm::Vec3>) same = v(path, x, y);
       else if constexpr (std::is_enum_v<T>) same = i(path, uint32_t(x), uint32_t(y));
+      else if constexpr (std::is_same_v<T, std::string>) same = s(path, x, y);
       else same = i(path, x, y);
     });
     return same;

@@ -12,6 +12,7 @@
 
 #include "cdsm/error.h"
 #include "cdsm/fields.h"
+#include "cdsm/procedural.h"
 #include "cdsm/scene_io.h"
 #include "json_reader.h"
 #include "unit_util.h"
@@ -96,29 +97,43 @@ T outside(double lo, double hi) {
   (void)lo;
 }
 
-TEST(Fields, EveryShadowSettingsFieldIsWrittenReadAndRangeChecked) {
-  Scene base = cdsm_test::empty_scene("fields");
-  base.lights.push_back(cdsm_test::spot_light({0, 5, 0}, {0, -1, 0}, 30, 25));
-  for_each_field<ShadowSettings>([&](const auto& f) {
-    using T = std::remove_cv_t<std::remove_reference_t<decltype(base.shadows.*f.member)>>;
-    SCOPED_TRACE(f.key);
-    // Written under its key, and read back equal.
+// Every field of S's table (reached in a scene by `of`, at JSON path `at`)
+// is written under its key and read back equal, and a value outside its
+// range is refused with the field's path in the message.
+template <class S, class Of>
+void check_table(const Scene& base, Of of, const std::string& at) {
+  for_each_field<S>([&](const auto& f) {
+    Scene probe = base;
+    using T = std::remove_cv_t<std::remove_reference_t<decltype(of(probe).*f.member)>>;
+    SCOPED_TRACE(at + "/" + f.key);
     const std::string text = scene_to_json(base);
     EXPECT_NE(text.find("\"" + std::string(f.key) + "\""), std::string::npos);
-    const Scene back = parse_scene(text, "round_trip.json", ".");
-    EXPECT_TRUE(same_field_value(back.shadows.*f.member, base.shadows.*f.member));
-    // Outside its range (bools have none): refused, the message naming the field.
-    if constexpr (!std::is_same_v<T, bool>) {
+    Scene back = parse_scene(text, "round_trip.json", ".");
+    EXPECT_TRUE(same_field_value(of(back).*f.member, of(probe).*f.member));
+    // Outside its range (booleans and strings have none): refused, naming the field.
+    if constexpr (!std::is_same_v<T, bool> && !std::is_same_v<T, std::string>) {
       Scene bad = base;
-      bad.shadows.*f.member = outside<T>(f.lo, f.hi);
+      of(bad).*f.member = outside<T>(f.lo, f.hi);
       try {
         validate_scene(bad);
         ADD_FAILURE() << "out of range accepted";
       } catch (const Error& e) {
-        EXPECT_NE(std::string(e.what()).find("/shadows/" + std::string(f.key)), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find(at + "/" + std::string(f.key)), std::string::npos) << e.what();
       }
     }
   });
+}
+
+TEST(Fields, EveryFieldOfEveryTableIsWrittenReadAndRangeChecked) {
+  Scene base = cdsm_test::empty_scene("fields");
+  base.lights.push_back(cdsm_test::spot_light({0, 5, 0}, {0, -1, 0}, 30, 25));
+  base.lights[0].name = "lamp";
+  check_table<ShadowSettings>(base, [](Scene& s) -> ShadowSettings& { return s.shadows; }, "/shadows");
+  check_table<Camera>(base, [](Scene& s) -> Camera& { return s.camera; }, "/camera");
+  check_table<Light>(base, [](Scene& s) -> Light& { return s.lights[0]; }, "/lights/0");
+  base.objects.push_back(cdsm_test::make_object("ground", make_quad(4.0f, 4.0f)));
+  check_table<SurfaceMaterial>(base, [](Scene& s) -> SurfaceMaterial& { return s.objects[0].surface; },
+                               "/objects/0/material");
 }
 
 }  // namespace

@@ -29,8 +29,9 @@ enum FieldEffect : uint32_t {
 };
 
 // One field of struct S, of type T. Numbers and integers lie within
-// [lo, hi]; a colour's channels within [lo, hi]; tags (cdsm/tags.h) are one
-// of their names; booleans are true or false.
+// [lo, hi]; a vector is finite and each of its components within [lo, hi];
+// tags (cdsm/tags.h) are one of their names; booleans are true or false;
+// strings are free text (lo, hi unused).
 template <class S, class T>
 struct Field {
   const char* key;
@@ -61,9 +62,10 @@ void for_each_field(F&& f) {
 // from +0), so an edit that changes any bit reaches the system.
 template <class T>
 bool same_field_value(const T& a, const T& b) {
-  static_assert(std::is_trivially_copyable_v<T>, "fields are plain values");
+  static_assert(std::is_trivially_copyable_v<T>, "fields are plain values or strings");
   return std::memcmp(&a, &b, sizeof(T)) == 0;
 }
+inline bool same_field_value(const std::string& a, const std::string& b) { return a == b; }
 
 template <class S>
 bool same_fields(const S& a, const S& b) {
@@ -92,11 +94,14 @@ std::string changed_fields(const S& a, const S& b) {
   return keys;
 }
 
-// h.pod(value) for every field with one of the `affects` bits.
+// h.pod(value) for every field with one of the `affects` bits (names and
+// other strings affect nothing built and are never hashed).
 template <class S, class Hash>
 void hash_fields(Hash& h, const S& s, uint32_t affects) {
   for_each_field<S>([&](const auto& f) {
-    if (f.affects & affects) h.pod(s.*f.member);
+    using T = std::remove_cv_t<std::remove_reference_t<decltype(s.*f.member)>>;
+    if constexpr (!std::is_same_v<T, std::string>)
+      if (f.affects & affects) h.pod(s.*f.member);
   });
 }
 
@@ -128,6 +133,57 @@ struct FieldTable<ShadowSettings> {
       field("rgb_maps", &S::rgb_maps, 0, 1, kAffectsMaps, "RGB nodes where a caster is coloured"),
       field("max_memory", &S::max_memory_mib, 0, double(int64_t(1) << 30), kAffectsNothing,
             "MiB a frame may use (0: half the physical memory)"));
+};
+
+// Rules a range cannot say stay beside the tables, in the validator
+// (scene_validate.cpp) and reader (scene_json.cpp): a spot's nonzero
+// direction, 0 < outer_cone and inner_cone <= outer_cone; 0 < near < far,
+// 0 < fov_y < 179, target != position; the reader's `target` for a light.
+template <>
+struct FieldTable<Light> {
+  using S = Light;
+  static constexpr double kBig = 1e30;
+  static constexpr uint32_t kShape = kAffectsPlan | kAffectsClusters | kAffectsMaps;  // where its maps are
+  static constexpr auto fields = std::make_tuple(
+      field("name", &S::name, 0, 0, kAffectsNothing, "shown in the editor and in messages"),
+      field("type", &S::type, 0, 0, kShape, "spot or point"),
+      field("position", &S::position, -kBig, kBig, kShape, "world position"),
+      field("direction", &S::direction, -kBig, kBig, kShape, "spot: the cone's axis (a file may give a target instead)"),
+      field("outer_cone", &S::outer_cone_deg, 0.0, 89.5, kShape, "spot: half-angle where the light ends, degrees"),
+      field("inner_cone", &S::inner_cone_deg, 0.0, 89.5, kAffectsLookup,
+            "spot: half-angle of full intensity, degrees (at most outer_cone)"),
+      field("color", &S::color, 0.0, 100.0, kAffectsLookup, "linear RGB"),
+      field("intensity", &S::intensity, 0.0, 1e9, kAffectsLookup, "scales the colour"));
+};
+
+template <>
+struct FieldTable<SurfaceMaterial> {
+  using S = SurfaceMaterial;
+  static constexpr auto fields = std::make_tuple(
+      field("color", &S::color, 0.0, 100.0, kAffectsLookup, "Phong colour, linear RGB"),
+      field("opacity", &S::opacity, 0.0, 1.0, kAffectsMaps, "coverage a at each crossing: 1 opaque, 0 a pure filter"),
+      field("transmission_color", &S::transmission_color, 0.0, 1.0, kAffectsMaps,
+            "filter of the uncovered part, linear RGB (one number: grey)"),
+      field("ambient", &S::ambient, 0.0, 100.0, kAffectsLookup, "k_a"),
+      field("diffuse", &S::diffuse, 0.0, 100.0, kAffectsLookup, "k_d"),
+      field("specular", &S::specular, 0.0, 100.0, kAffectsLookup, "k_s"),
+      field("shininess", &S::shininess, 0.0, 1e4, kAffectsLookup, "n_s"));
+};
+
+template <>
+struct FieldTable<Camera> {
+  using S = Camera;
+  static constexpr double kBig = 1e30;
+  static constexpr uint32_t kView = kAffectsLookup | kAffectsClusters;  // what is seen; maps focus on it
+  static constexpr auto fields = std::make_tuple(
+      field("position", &S::position, -kBig, kBig, kView, "the eye"),
+      field("target", &S::target, -kBig, kBig, kView, "a point the eye looks at"),
+      field("up", &S::up, -kBig, kBig, kView, "the image's up (any vector off the view direction)"),
+      field("fov_y", &S::fov_y_deg, 0.0, 179.0, kView, "vertical field of view, degrees (0 and 179 excluded)"),
+      field("near", &S::near, 0.0, kBig, kView, "the nearest distance seen (> 0)"),
+      field("far", &S::far, 0.0, kBig, kView, "the farthest distance seen (> near)"),
+      field("width", &S::width, 1, 16384, kView, "image pixels across"),
+      field("height", &S::height, 1, 16384, kView, "image pixels down"));
 };
 
 }  // namespace cdsm
