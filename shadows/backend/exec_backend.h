@@ -1,7 +1,7 @@
 // The ShadowBackend (shadows/backend/backend.h): every kernel runs through
 // an executor (shadows/exec/exec.h), scene buffers, maps and the camera
 // pass live in the executor's memory. Over HostExec it is the cpu backend
-// (shadows/exec/host_exec.h: make_host_backend), over CudaExec the cuda
+// (backend.h: make_cpu_backend), over CudaExec the cuda
 // backend (cuda/cuda_backend.h): one class, so the CPU tests run the
 // GPU's code minus the CUDA glue.
 //
@@ -9,7 +9,7 @@
 // the executor's ray caster, or handed over once from the host (moved in
 // over host memory); kept copies are made on the executor.
 //
-// Maps are appended to one store per node kind (as the cpu backend's),
+// Maps are appended to one store per node kind,
 // freed maps leave holes that are compacted on the executor once they
 // exceed a quarter of the store. storage() is the host's view: over device
 // memory, a host mirror downloaded when the maps changed since the last
