@@ -8,7 +8,7 @@ packages=(
   clang-14 libclang-rt-14-dev
   libglfw3-dev libglm-dev
   libegl-dev libgl-dev libgl1-mesa-dri libegl-mesa0 mesa-utils-bin
-  libimgui-dev libstb-dev libtinygltf-dev nlohmann-json3-dev
+  libimgui-dev libstb-dev libtinygltf-dev nlohmann-json3-dev libcli11-dev
   libopenvdb-dev libnanovdb-dev libboost-iostreams-dev libtbb-dev libblosc-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   xvfb xauth python3-matplotlib
