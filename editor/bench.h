@@ -39,7 +39,9 @@ std::vector<MethodSpec> parse_methods(const std::string& list);
 std::vector<std::string> parse_layouts(const std::string& list);
 std::vector<std::string> parse_backends(const std::string& list);
 std::vector<MethodSpec> default_methods();
-// Lines for --help: what each sweep axis accepts in this build.
+// Lines for --help: what --sweep takes (the ranges of the settings it
+// sets), and what each sweep axis accepts in this build.
+std::string sweep_help();
 std::string capabilities_text();
 
 // One configuration to measure.

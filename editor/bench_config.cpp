@@ -4,24 +4,16 @@
 #include <sstream>
 
 #include "bench.h"
-#include "commands.h"
+#include "options.h"
 
 namespace cdsm::cli::bench {
 namespace {
 
-// What this build can sweep. When a layout, a backend or a cluster count
-// lands, flipping its entry here is the whole change.
-struct LayoutChoice {
-  const char* name;
-  DsmLayout layout;
-  bool available;
-};
-constexpr LayoutChoice kLayouts[] = {
-    {"packed", DsmLayout::Packed, true},
-    {"fixed", DsmLayout::Fixed, true},      // thesis §4.2.1 "3D texture", L = ShadowSettings::fixed_layers
-    {"chunked", DsmLayout::Chunked, true},  // thesis §4.2.2 linked chunks of ShadowSettings::chunk_nodes
-};
-
+// What this build can sweep. When a backend or a cluster count lands,
+// flipping its entry here is the whole change. Every layout (cdsm/tags.h)
+// is available: packed, fixed (thesis §4.2.1 "3D texture", L =
+// ShadowSettings::fixed_layers), chunked (§4.2.2 linked chunks of
+// ShadowSettings::chunk_nodes).
 struct BackendChoice {
   const char* name;
   Backend backend;
@@ -50,12 +42,16 @@ std::string fmt(float v) {
   return b;
 }
 
-int count_param(const std::string& label, size_t prefix, int lo, int hi) {
-  std::string digits = label.substr(prefix);
-  int n = parse_int("--methods " + label, digits);
-  if (n < lo || n > hi)
-    throw Error("--methods " + label, "the count must be within [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
-  return n;
+int count_param(const std::string& label, size_t prefix, double lo, double hi) {
+  return int(parse_number("--methods " + label, label.substr(prefix), lo, hi, true));
+}
+
+// The range of field `key` of the shadow settings (cdsm/fields.h).
+std::pair<double, double> settings_range(const char* key) {
+  std::pair<double, double> r;
+  if (!with_field<ShadowSettings>(key, [&](const auto& f) { r = {f.lo, f.hi}; }))
+    throw std::logic_error(std::string("no shadow setting '") + key + "'");
+  return r;
 }
 
 }  // namespace
@@ -72,14 +68,14 @@ std::vector<MethodSpec> parse_methods(const std::string& list) {
       s.grey_maps = true;
     } else if (m == "sm" || m.rfind("sm:", 0) == 0) {
       s.method = ShadowMethod::ShadowMap;
-      s.param = m == "sm" ? 0.5f : parse_float("--methods " + m, m.substr(3));
-      if (!(s.param > 0.0f && s.param <= 1.0f)) throw Error("--methods " + m, "the opacity threshold must be within (0, 1]");
+      s.param = m == "sm" ? 0.5f : float(parse_number("--methods " + m, m.substr(3), 0.0, 1.0, false));
+      if (!(s.param > 0.0f)) throw Error("--methods " + m, "the opacity threshold must be within (0, 1]");
     } else if (m.rfind("osm", 0) == 0 && m.size() > 3) {
       s.method = ShadowMethod::OpacitySlices;
       s.param = float(count_param(m, 3, 1, 512));
     } else if (m.rfind("pssm", 0) == 0 && m.size() > 4) {
       s.method = ShadowMethod::Dsm;  // deep shadow maps in parallel-split cascades
-      s.splits = count_param(m, 4, 2, 8);
+      s.splits = count_param(m, 4, 2, settings_range("parallel_splits").second);  // up to the scene's limit
     } else if (m.rfind("avsm", 0) == 0 && m.size() > 4) {
       s.method = ShadowMethod::FixedNodes;
       s.param = float(count_param(m, 4, 2, 512));
@@ -98,11 +94,8 @@ std::vector<MethodSpec> default_methods() {
 std::vector<std::string> parse_layouts(const std::string& list) {
   std::vector<std::string> out;
   for (const std::string& v : split(list, "--layouts")) {
-    const LayoutChoice* c = nullptr;
-    for (const LayoutChoice& l : kLayouts)
-      if (v == l.name) c = &l;
-    if (!c) throw Error("--layouts " + v, "unknown layout (packed, fixed, chunked)");
-    if (!c->available) throw Error("--layouts " + v, "the " + v + " layout is not available yet");
+    DsmLayout layout;
+    if (!parse_tag(v, layout)) throw Error("--layouts " + v, "unknown layout (" + tag_choices<DsmLayout>() + ")");
     out.push_back(v);
   }
   return out;
@@ -128,26 +121,20 @@ void parse_sweep(const std::string& spec, Sweep& sweep) {
   if (eq == std::string::npos) throw Error("--sweep " + spec, "expected NAME=V1,V2,... (eps, res, clusters)");
   std::string name = spec.substr(0, eq), values = spec.substr(eq + 1);
   std::string opt = "--sweep " + name;
+  // The three number axes take the ranges of the settings they set.
   if (name == "eps") {
+    const auto [lo, hi] = settings_range("epsilon");
     sweep.eps.clear();
-    for (const std::string& v : split(values, opt)) {
-      float e = parse_float(opt, v);
-      if (e < 0.0f) throw Error(opt, "epsilon must be >= 0, got " + v);
-      sweep.eps.push_back(e);
-    }
+    for (const std::string& v : split(values, opt)) sweep.eps.push_back(float(parse_number(opt, v, lo, hi, false)));
   } else if (name == "res") {
+    const auto [lo, hi] = settings_range("resolution");
     sweep.res.clear();
-    for (const std::string& v : split(values, opt)) {
-      int r = parse_int(opt, v);
-      if (r < 4 || r > 8192) throw Error(opt, "resolution must be within [4, 8192], got " + v);
-      sweep.res.push_back(r);
-    }
+    for (const std::string& v : split(values, opt)) sweep.res.push_back(int(parse_number(opt, v, lo, hi, true)));
   } else if (name == "clusters") {
+    const auto [lo, hi] = settings_range("clusters");
     sweep.clusters.clear();
     for (const std::string& v : split(values, opt)) {
-      int m = parse_int(opt, v);
-      if (m < 1 || m > kMaxMapsPerLight)
-        throw Error(opt, "cluster count must be within [1, " + std::to_string(kMaxMapsPerLight) + "], got " + v);
+      const int m = int(parse_number(opt, v, lo, hi, true));
       if (m > kMaxClustersAvailable)
         throw Error(opt, "clusters=" + v + " is not available yet (at most " + std::to_string(kMaxClustersAvailable) + ")");
       sweep.clusters.push_back(m);
@@ -163,9 +150,25 @@ void parse_sweep(const std::string& spec, Sweep& sweep) {
   }
 }
 
+std::string sweep_help() {
+  auto range = [](const char* key, bool integer) {
+    const auto [lo, hi] = settings_range(key);
+    return range_text(lo, hi, integer);
+  };
+  return "an axis and its comma-separated values; every combination is measured:\n"
+         "  eps=0,0.001,0.01,0.1  DSM error bound, each within " + range("epsilon", false) +
+         " (default: the\n"
+         "                        scene's); baselines are measured once per resolution, not per eps\n"
+         "  res=256,512,1024      shadow-map texels per side, each within " + range("resolution", true) + "\n"
+         "                        (default: the scene's)\n"
+         "  clusters=1,2,4,8      at most m clustered maps per light, each within " + range("clusters", true) + "\n"
+         "                        (default: the scene's)\n"
+         "  layouts=, backends=, methods=  as --layouts, --backends, --methods";
+}
+
 std::string capabilities_text() {
   std::string s = "  layouts in this build:  ";
-  for (const LayoutChoice& l : kLayouts) s += std::string(l.name) + (l.available ? "" : " (not available yet)") + "  ";
+  for (uint32_t i = 0; i < tag_count<DsmLayout>(); ++i) s += std::string(TagNames<DsmLayout>::names[i]) + "  ";
   s += "\n  backends in this build: ";
   for (const BackendChoice& b : kBackends) s += std::string(b.name) + (b.available ? "" : " (not available yet)") + "  ";
   s += "\n  clusters in this build: 1.." + std::to_string(kMaxClustersAvailable) + "\n";
@@ -219,8 +222,7 @@ void apply(const Config& c, Scene& scene, RenderOptions& opt) {
   s.max_clusters = c.method.splits > 0 ? 1 : c.clusters;
   s.parallel_splits = c.method.splits;
   s.rgb_maps = !c.method.grey_maps;
-  for (const LayoutChoice& l : kLayouts)
-    if (c.layout == l.name) s.layout = l.layout;
+  parse_tag(c.layout, s.layout);
   for (const BackendChoice& b : kBackends)
     if (c.backend == b.name) opt.backend = b.backend;
 }

@@ -12,7 +12,6 @@
 #include <map>
 
 #include "bench.h"
-#include "cmd_bench.h"
 #include "commands.h"
 
 namespace cdsm::cli {
@@ -21,74 +20,47 @@ namespace {
 namespace fs = std::filesystem;
 using namespace bench;
 
-const char* kBenchHelp =
-    "usage: cdsm bench SCENE.json... [options]\n"
-    "\n"
-    "Speed against error. For every scene and every configuration of the sweep, renders the\n"
-    "scene's camera view N times (each with a fresh renderer, so every map is built) and reports\n"
-    "median and spread (min, max, quartiles) of the DSM build and camera-pass times, DSM memory\n"
-    "(index, nodes, slack), nodes per texel (average, max), and the error against the exact\n"
-    "reference of the same view (DESIGN.md §7): transmittance |T - T_ref| at sampled shaded\n"
-    "points (mean, p99, max, RMSE) and the image RMSE / PSNR. The reference image of a view is\n"
-    "rendered once (progress bar on stderr) and cached on disk under a hash of the scene content\n"
-    "and the view. The baselines are built from the same light rays and read by the same lookup.\n"
-    "Colour: every error figure is the largest over the R, G, B channels of that figure per\n"
-    "channel (results.csv also has t_mean_r/g/b); the baselines are grey (one alpha per node, a\n"
-    "coloured caster by its channel mean), deep shadow maps store RGB nodes where a map holds\n"
-    "colour (rgb_maps, rgb_map_bytes, grey_map_bytes in results.csv).\n"
-    "\n"
-    "sweeps (each list is a comma-separated set of values; every combination is measured):\n"
-    "  --sweep eps=0,0.001,0.005,0.01,0.05,0.1,0.2   DSM error bound (default: the scene's);\n"
-    "                           baselines are measured once per resolution, not per eps\n"
-    "  --sweep res=256,512,1024 shadow-map texels per side (default: the scene's)\n"
-    "  --sweep clusters=1,2,4,8 at most m clustered maps per light (default: the scene's)\n"
-    "  --methods LIST           shadow representations (default: all of these):\n"
-    "                             dsm     deep shadow maps, epsilon-bounded (the product)\n"
-    "                             dsmgrey the same with every map scalar (rgb_maps off): what RGB\n"
-    "                                     maps cost on a coloured scene (grey scenes: identical)\n"
-    "                             sm      conventional shadow map: opaque where the opacity reaches\n"
-    "                                     0.5 (a surface's own, or the media's accumulated); sm:T for\n"
-    "                                     another threshold T in (0, 1]\n"
-    "                             osmN    opacity shadow maps, N uniform slices over each ray's extent\n"
-    "                                     through the casters (osm16, osm32, osm64)\n"
-    "                             avsmN   AVSM-style fixed-node maps, at most N nodes, greedy\n"
-    "                                     smallest-area node removal (avsm4, avsm8, avsm16)\n"
-    "                             pssmN   parallel-split (cascaded) deep shadow maps: N maps along the\n"
-    "                                     camera's view, epsilon-bounded (pssm4: what clustering with\n"
-    "                                     m = 4 competes with); ignores --sweep clusters\n"
-    "  --layouts LIST           DSM storage layouts (default: packed)\n"
-    "  --backends LIST          backends (default: cpu)\n"
-    "%s"
-    "\n"
-    "measurement:\n"
-    "  --repeat N               timed runs per configuration (default 5); runs are interleaved: each\n"
-    "                           round renders every configuration of a scene once, so a changing\n"
-    "                           machine load affects all configurations alike\n"
-    "  --warmup N               untimed rounds before them (default 1)\n"
-    "  --width W --height H     image size (default: the scene camera's); the reference is rendered\n"
-    "                           at this size, so keep it small (e.g. 240x160)\n"
-    "  --fragments auto|gl|cpu  fragment producer (default auto: gl when a context can be made)\n"
-    "  --error-samples N        shaded points for the transmittance error (default 20000)\n"
-    "\n"
-    "output:\n"
-    "  --max-memory N[M|G]      refuse runs estimated to need more than N MiB (default: half the memory)\n"
-    "  --out DIR                where to write (default bench-out): results.csv (every row),\n"
-    "                           results.md (a table per scene), and per scene NAME.csv and NAME.png\n"
-    "                           (time and memory against transmittance RMSE, Pareto front marked)\n"
-    "  --cache DIR              reference cache (default $CDSM_CACHE_DIR, else $XDG_CACHE_HOME/cdsm,\n"
-    "                           else ~/.cache/cdsm)\n"
-    "  --no-cache               render the reference every time, store nothing\n"
-    "  --refresh-reference      render the reference again and replace the cached one\n"
-    "  --no-plot                skip the PNG plots\n"
-    "  --python PATH            interpreter for the plots (default /usr/bin/python3; needs matplotlib)\n"
-    "  --plot-script PATH       the plot script (default scripts/plot_bench.py of this source tree,\n"
-    "                           or $CDSM_PLOT_SCRIPT)\n"
-    "  --help                   this text\n"
-    "\n"
-    "The reference row of each scene is the reference renderer's own time (exact shadow rays).\n"
-    "Example (the checked-in report, docs/bench/, is made by scripts/bench_report.sh):\n"
-    "  cdsm bench content/scenes/default.json --sweep eps=0.01,0.1 --sweep res=256,512 \\\n"
-    "             --methods dsm,sm,osm32,avsm8 --repeat 3 --width 240 --height 160 --out bench-out\n";
+// The paragraphs of cdsm bench --help around its options.
+std::string bench_footer() {
+  return "Speed against error. For every scene and every configuration of the sweep, renders the\n"
+         "scene's camera view N times (each with a fresh renderer, so every map is built) and reports\n"
+         "median and spread (min, max, quartiles) of the DSM build and camera-pass times, DSM memory\n"
+         "(index, nodes, slack), nodes per texel (average, max), and the error against the exact\n"
+         "reference of the same view (DESIGN.md §7): transmittance |T - T_ref| at sampled shaded\n"
+         "points (mean, p99, max, RMSE) and the image RMSE / PSNR. The reference image of a view is\n"
+         "rendered once (progress bar on stderr) and cached on disk under a hash of the scene content\n"
+         "and the view. The baselines are built from the same light rays and read by the same lookup.\n"
+         "Colour: every error figure is the largest over the R, G, B channels of that figure per\n"
+         "channel (results.csv also has t_mean_r/g/b); the baselines are grey (one alpha per node, a\n"
+         "coloured caster by its channel mean), deep shadow maps store RGB nodes where a map holds\n"
+         "colour (rgb_maps, rgb_map_bytes, grey_map_bytes in results.csv).\n"
+         "\n" +
+         capabilities_text() +
+         "\n"
+         "Runs are interleaved: each round renders every configuration of a scene once, so a changing\n"
+         "machine load affects all configurations alike. The reference is rendered at the image size\n"
+         "(--width, --height), so keep it small (e.g. 240x160). The reference row of each scene is the\n"
+         "reference renderer's own time (exact shadow rays).\n"
+         "Example (the checked-in report, docs/bench/, is made by scripts/bench_report.sh):\n"
+         "  cdsm bench content/scenes/default.json --sweep eps=0.01,0.1 --sweep res=256,512 \\\n"
+         "             --methods dsm,sm,osm32,avsm8 --repeat 3 --width 240 --height 160 --out bench-out";
+}
+
+const char* kMethodsHelp =
+    "shadow representations (default: all of these):\n"
+    "  dsm     deep shadow maps, epsilon-bounded (the product)\n"
+    "  dsmgrey the same with every map scalar (rgb_maps off): what RGB\n"
+    "          maps cost on a coloured scene (grey scenes: identical)\n"
+    "  sm      conventional shadow map: opaque where the opacity reaches\n"
+    "          0.5 (a surface's own, or the media's accumulated); sm:T for\n"
+    "          another threshold T in (0, 1]\n"
+    "  osmN    opacity shadow maps, N uniform slices over each ray's extent\n"
+    "          through the casters (osm16, osm32, osm64)\n"
+    "  avsmN   AVSM-style fixed-node maps, at most N nodes, greedy\n"
+    "          smallest-area node removal (avsm4, avsm8, avsm16)\n"
+    "  pssmN   parallel-split (cascaded) deep shadow maps: N maps along the\n"
+    "          camera's view, epsilon-bounded (pssm4: what clustering with\n"
+    "          m = 4 competes with); ignores --sweep clusters";
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -190,81 +162,24 @@ void print_fronts(const std::vector<Result>& results) {
   }
 }
 
-}  // namespace
-
-int cmd_bench(const std::vector<std::string>& args) {
+// What `cdsm bench` was given.
+struct BenchArgs {
   std::vector<std::string> scenes;
+  std::vector<std::string> sweeps;  // as given; parsed into `sweep`
   Sweep sweep;
-  RenderOptions opt;
-  int repeat = 5, warmup = 1, width = 0, height = 0;
+  FrameOptions frame;
+  int repeat = 5, warmup = 1;
   std::string out_dir = "bench-out", cache_dir = default_cache_dir(), python = "/usr/bin/python3";
   std::string plot_script = default_plot_script();
-  bool refresh = false, do_plot = true;
-  std::string command = "cdsm bench";
-  for (const std::string& a : args) command += " " + a;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= args.size()) throw Error(a, "needs a value");
-      return args[++i];
-    };
-    if (a == "--help" || a == "-h") {
-      std::printf(kBenchHelp, capabilities_text().c_str());
-      return 0;
-    } else if (a == "--sweep") {
-      parse_sweep(value(), sweep);
-    } else if (a == "--methods") {
-      sweep.methods = parse_methods(value());
-    } else if (a == "--layouts") {
-      sweep.layouts = parse_layouts(value());
-    } else if (a == "--backends") {
-      sweep.backends = parse_backends(value());
-    } else if (a == "--repeat") {
-      repeat = parse_int(a, value());
-      if (repeat < 1 || repeat > 1000) throw Error("--repeat", "must be within [1, 1000]");
-    } else if (a == "--warmup") {
-      warmup = parse_int(a, value());
-      if (warmup < 0 || warmup > 100) throw Error("--warmup", "must be within [0, 100]");
-    } else if (a == "--width") {
-      width = parse_int(a, value());
-      if (width < 1 || width > 16384) throw Error("--width", "must be within [1, 16384]");
-    } else if (a == "--height") {
-      height = parse_int(a, value());
-      if (height < 1 || height > 16384) throw Error("--height", "must be within [1, 16384]");
-    } else if (a == "--fragments") {
-      std::string v = value();
-      if (v == "auto") opt.fragments = FragmentSource::Auto;
-      else if (v == "gl") opt.fragments = FragmentSource::Gl;
-      else if (v == "cpu") opt.fragments = FragmentSource::Cpu;
-      else if (v == "cuda") opt.fragments = FragmentSource::Cuda;
-      else throw Error("--fragments", "unknown producer '" + v + "' (auto, gl, cpu or cuda)");
-    } else if (a == "--error-samples") {
-      opt.error_samples = parse_int(a, value());
-      if (opt.error_samples < 1 || opt.error_samples > 10000000) throw Error("--error-samples", "must be within [1, 1e7]");
-    } else if (a == "--max-memory") {
-      set_memory_limit_mib(parse_memory_mib(a, value()));
-    } else if (a == "--out") {
-      out_dir = value();
-    } else if (a == "--cache") {
-      cache_dir = value();
-    } else if (a == "--no-cache") {
-      cache_dir.clear();
-    } else if (a == "--refresh-reference") {
-      refresh = true;
-    } else if (a == "--no-plot") {
-      do_plot = false;
-    } else if (a == "--python") {
-      python = value();
-    } else if (a == "--plot-script") {
-      plot_script = value();
-    } else if (!a.empty() && a[0] == '-') {
-      throw Error(a, "unknown option (try cdsm bench --help)");
-    } else {
-      scenes.push_back(a);
-    }
-  }
-  if (scenes.empty()) throw Error("cdsm bench", "needs at least one scene file (try cdsm bench --help)");
-  for (const std::string& s : scenes) {
+  bool no_cache = false, refresh = false, no_plot = false;
+  std::string command;
+};
+
+int run_bench(const BenchArgs& a) {
+  const RenderOptions& opt = a.frame.render;
+  const std::string& out_dir = a.out_dir;
+  const std::string cache_dir = a.no_cache ? "" : a.cache_dir;
+  for (const std::string& s : a.scenes) {
     std::error_code ec;
     if (fs::exists(out_dir, ec) && fs::equivalent(out_dir, s, ec)) throw Error(out_dir, "the output directory is a scene file");
   }
@@ -272,27 +187,28 @@ int cmd_bench(const std::vector<std::string>& args) {
   fs::create_directories(out_dir, ec);
   if (ec) throw Error(out_dir, "cannot create the output directory: " + ec.message());
   check_writable((fs::path(out_dir) / "results.csv").string());
+  a.frame.limit_memory();
 
   RunInfo info;
-  info.command = command;
+  info.command = a.command;
   info.date = utc_now();
-  info.repeat = repeat;
-  info.warmup = warmup;
+  info.repeat = a.repeat;
+  info.warmup = a.warmup;
   info.error_samples = opt.error_samples;
 
   std::vector<Result> results;
   std::map<std::string, int> used_names;
   auto t_all = std::chrono::steady_clock::now();
-  for (const std::string& path : scenes) {
+  for (const std::string& path : a.scenes) {
     Scene scene = load_scene(path);
-    if (width > 0) scene.camera.width = width;
-    if (height > 0) scene.camera.height = height;
+    a.frame.apply(scene);
     info.width = scene.camera.width;
     info.height = scene.camera.height;
     std::string name = unique_name(path, used_names);
-    std::vector<Config> configs = expand(sweep, scene);
+    std::vector<Config> configs = expand(a.sweep, scene);
 
-    Reference ref = reference_for(scene, opt, cache_dir, refresh);
+    Reference ref = reference_for(scene, opt, cache_dir, a.refresh);
+
     Result rr;
     rr.scene = path;
     rr.scene_name = name;
@@ -301,7 +217,7 @@ int cmd_bench(const std::vector<std::string>& args) {
     rr.reference_cached = ref.cached;
     results.push_back(rr);
 
-    for (Result& r : measure(scene, opt, configs, ref, warmup, repeat, name)) {
+    for (Result& r : measure(scene, opt, configs, ref, a.warmup, a.repeat, name)) {
       r.scene = path;
       results.push_back(std::move(r));
     }
@@ -317,9 +233,64 @@ int cmd_bench(const std::vector<std::string>& args) {
   write_csv(results, csv);
   write_markdown(results, info, md);
   std::printf("wrote %s, %s and per-scene CSVs (%.1f s)\n", csv.c_str(), md.c_str(), ms_since(t_all) / 1000.0);
-  if (do_plot && plot(python, plot_script, csv, out_dir)) std::printf("wrote the plots in %s\n", out_dir.c_str());
+  if (!a.no_plot && plot(a.python, a.plot_script, csv, out_dir))
+    std::printf("wrote the plots in %s\n", out_dir.c_str());
   print_fronts(results);
   return 0;
+}
+
+}  // namespace
+
+Command add_bench(CLI::App& cdsm, const std::string& command_line) {
+  auto a = std::make_shared<BenchArgs>();
+  a->command = command_line;
+  CLI::App* app = cdsm.add_subcommand("bench",
+                                      "speed against error: sweep epsilon, resolution, clusters and the\n"
+                                      "baselines (shadow map, opacity slices, AVSM); CSV, Markdown, plot");
+  app->footer(bench_footer());
+  app->add_option("SCENE", a->scenes, "JSON scenes (or glTF / GLB files)")->required();
+  // One axis a --sweep, each given as often as there are axes.
+  app->add_option("--sweep", a->sweeps, sweep_help())
+      ->type_name("NAME=V1,V2,...")
+      ->allow_extra_args(false)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
+      ->each([a](const std::string& spec) { parse_sweep(spec, a->sweep); });
+  app->add_option_function<std::string>(
+         "--methods", [a](const std::string& v) { a->sweep.methods = parse_methods(v); }, kMethodsHelp)
+      ->type_name("LIST");
+  app->add_option_function<std::string>(
+         "--layouts", [a](const std::string& v) { a->sweep.layouts = parse_layouts(v); },
+         "DSM storage layouts (default: packed)")
+      ->type_name("LIST");
+  app->add_option_function<std::string>(
+         "--backends", [a](const std::string& v) { a->sweep.backends = parse_backends(v); }, "backends (default: cpu)")
+      ->type_name("LIST");
+  app->add_option("--repeat", a->repeat, "timed runs per configuration")
+      ->check(within(1, 1000, true))
+      ->capture_default_str();
+  app->add_option("--warmup", a->warmup, "untimed rounds before them")
+      ->check(within(0, 100, true))
+      ->capture_default_str();
+  add_frame_options(*app, a->frame);
+  app->add_option("--out", a->out_dir,
+                  "where to write: results.csv (every row), results.md (a table per scene), and per\n"
+                  "scene NAME.csv and NAME.png (time and memory against transmittance RMSE, Pareto front\n"
+                  "marked)")
+      ->type_name("DIR")
+      ->capture_default_str();
+  app->add_option("--cache", a->cache_dir,
+                  "reference cache (default $CDSM_CACHE_DIR, else $XDG_CACHE_HOME/cdsm, else\n~/.cache/cdsm)")
+      ->type_name("DIR");
+  app->add_flag("--no-cache", a->no_cache, "render the reference every time, store nothing (over --cache)");
+  app->add_flag("--refresh-reference", a->refresh, "render the reference again and replace the cached one");
+  app->add_flag("--no-plot", a->no_plot, "skip the PNG plots");
+  app->add_option("--python", a->python, "interpreter for the plots (needs matplotlib)")
+      ->type_name("PATH")
+      ->capture_default_str();
+  app->add_option("--plot-script", a->plot_script,
+                  "the plot script (default scripts/plot_bench.py of this source tree, or\n$CDSM_PLOT_SCRIPT)")
+      ->type_name("PATH");
+  return {app, [a] { return run_bench(*a); }};
 }
 
 }  // namespace cdsm::cli

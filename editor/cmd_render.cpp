@@ -1,54 +1,27 @@
-// cdsm render: one frame, its cost, and (on request) its error.
+// cdsm render: one frame, its cost, and (on request) its error; cdsm info.
 #include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <optional>
-#include <unistd.h>
 
 #include "cdsm/cdsm.h"
 #include "commands.h"
+#include "options.h"
 
 namespace cdsm::cli {
 namespace {
 
-const char* kRenderHelp =
-    "usage: cdsm render SCENE.json -o OUT.png [options]\n"
-    "\n"
+const char* kRenderFooter =
     "Renders the scene's camera view with deep shadow maps and prints per-stage times\n"
-    "(fragments, DSM build, camera pass), DSM memory and nodes per texel.\n"
-    "\n"
-    "options:\n"
-    "  -o, --output PATH        PNG to write (required; never the scene file itself)\n"
-    "  --backend cuda|cpu|reference  deep shadow maps on a CUDA device or on the CPU, or the exact\n"
-    "                           reference (shadow rays, no maps). Default: cuda when a CUDA device\n"
-    "                           exists, else cpu (stderr says which and why)\n"
-    "  --fragments auto|gl|cpu|cuda  fragment producer: OpenGL rasterizer, CPU ray caster, or the ray\n"
-    "                           caster on the CUDA device (with --backend cuda) (default auto:\n"
-    "                           gl when an OpenGL 4.5 context can be created)\n"
-    "  --eps E                  compression error bound epsilon (>= 0), overrides the scene\n"
-    "  --dsm-res N              DSM resolution per side (4..8192), overrides the scene\n"
-    "  --width W --height H     image size, overrides the scene camera\n"
-    "  --filtering on|off       bilinear DSM lookups (default: the scene's setting)\n"
-    "  --clusters M             at most M clustered DSMs per light (1 = unclustered), overrides the scene\n"
-    "  --d0 D                   clustering distance threshold in normalized light-map units\n"
-    "  --splits N               baseline: N parallel-split (cascaded) maps per spot light instead of clusters\n"
-    "  --layout packed|fixed|chunked  DSM memory layout (packed: exact allocation; fixed: res x res x L,\n"
-    "                           --fixed-layers L; chunked: 64-node chunks linked per texel)\n"
-    "  --fixed-layers L         node layers of the fixed layout (default 32)\n"
-    "  --receiver plane|slope_bias  how surfaces look themselves up: per-tap receiver planes (default),\n"
-    "                           or the previous constant + slope-scaled bias (a baseline)\n"
-    "  --compare-reference      also render the exact reference of the same view; report the\n"
-    "                           transmittance error at sampled shaded points (mean, p99, max, RMSE)\n"
-    "                           and the image RMSE/PSNR; write OUT.error.png (heat map) and\n"
-    "                           OUT.reference.png beside the output\n"
-    "  --error-samples N        shaded points for the transmittance error (default 20000)\n"
-    "  --max-memory N[M|G]      refuse scenes and settings estimated to need more than N MiB (or GiB);\n"
-    "                           default: the scene's shadows.max_memory, else half the physical memory\n"
-    "  --stats PATH             write every figure as JSON\n"
-    "  --help                   this text\n";
+    "(fragments, DSM build, camera pass), DSM memory and nodes per texel.";
+
+// What `cdsm render` was given.
+struct RenderArgs {
+  std::string scene_path, out, stats_path;
+  FrameOptions frame;
+};
 
 std::string sibling(const std::string& out, const std::string& suffix) {
   std::string base = out;
@@ -239,155 +212,10 @@ void print_summary(const FrameStats& s, const Scene& scene, bool reference_backe
   }
 }
 
-}  // namespace
 
-float parse_float(const std::string& opt, const std::string& v) {
-  try {
-    size_t n = 0;
-    float f = std::stof(v, &n);
-    if (n != v.size() || !std::isfinite(f)) throw 0;
-    return f;
-  } catch (...) {
-    throw Error(opt, "expected a finite number, got '" + v + "'");
-  }
-}
-
-int64_t parse_memory_mib(const std::string& opt, const std::string& v) {
-  std::string digits = v;
-  int64_t unit = 1;
-  if (!digits.empty() && (digits.back() == 'G' || digits.back() == 'g')) {
-    unit = 1024;
-    digits.pop_back();
-  } else if (!digits.empty() && (digits.back() == 'M' || digits.back() == 'm')) {
-    digits.pop_back();
-  }
-  int n = 0;
-  try {
-    n = parse_int(opt, digits);
-  } catch (const Error&) {
-    throw Error(opt, "expected a size in MiB (or with M or G), got '" + v + "'");
-  }
-  if (n < 1 || int64_t(n) * unit > (int64_t(1) << 30)) throw Error(opt, "must be within [1 MiB, 1 PiB], got '" + v + "'");
-  return int64_t(n) * unit;
-}
-
-int parse_int(const std::string& opt, const std::string& v) {
-  try {
-    size_t n = 0;
-    long x = std::stol(v, &n);
-    if (n != v.size() || x < -2147483647L || x > 2147483647L) throw 0;
-    return int(x);
-  } catch (...) {
-    throw Error(opt, "expected an integer, got '" + v + "'");
-  }
-}
-
-void check_writable(const std::string& path) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  fs::path p(path);
-  if (fs::is_directory(p, ec)) throw Error(path, "is a directory, not a file that can be written");
-  fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
-  if (!fs::is_directory(dir, ec)) throw Error(path, "cannot be written: the directory '" + dir.string() + "' does not exist");
-  if (fs::exists(p, ec) ? ::access(path.c_str(), W_OK) != 0 : ::access(dir.c_str(), W_OK) != 0)
-    throw Error(path, "cannot be written: permission denied");
-}
-
-int cmd_render(const std::vector<std::string>& args) {
-  std::string scene_path, out, stats_path;
-  RenderOptions opt;
-  opt.backend = Backend::Auto;  // cuda when a CUDA device exists, else cpu
-  float eps = -1.0f;
-  int res = 0, width = 0, height = 0;
-  int filtering = -1;
-  int clusters = 0;
-  float d0 = -1.0f;
-  std::optional<DsmLayout> layout;
-  std::optional<ReceiverLookup> receiver;
-  int fixed_layers = 0;
-  int splits = -1;
-  int64_t max_memory = 0;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= args.size()) throw Error(a, "needs a value");
-      return args[++i];
-    };
-    if (a == "--help" || a == "-h") {
-      std::fputs(kRenderHelp, stdout);
-      return 0;
-    } else if (a == "-o" || a == "--output") {
-      out = value();
-    } else if (a == "--backend") {
-      std::string v = value();
-      if (v == "cpu") opt.backend = Backend::Cpu;
-      else if (v == "reference") opt.backend = Backend::Reference;
-      else if (v == "cuda") opt.backend = Backend::Cuda;
-      else throw Error("--backend", "unknown backend '" + v + "' (cuda, cpu or reference)");
-    } else if (a == "--fragments") {
-      std::string v = value();
-      if (v == "auto") opt.fragments = FragmentSource::Auto;
-      else if (v == "gl") opt.fragments = FragmentSource::Gl;
-      else if (v == "cpu") opt.fragments = FragmentSource::Cpu;
-      else if (v == "cuda") opt.fragments = FragmentSource::Cuda;
-      else throw Error("--fragments", "unknown producer '" + v + "' (auto, gl, cpu or cuda)");
-    } else if (a == "--eps") {
-      eps = parse_float(a, value());
-      if (eps < 0) throw Error("--eps", "must be >= 0");
-    } else if (a == "--dsm-res") {
-      res = parse_int(a, value());
-      if (res < 4 || res > 8192) throw Error("--dsm-res", "must be within [4, 8192]");
-    } else if (a == "--width") {
-      width = parse_int(a, value());
-      if (width < 1 || width > 16384) throw Error("--width", "must be within [1, 16384]");
-    } else if (a == "--height") {
-      height = parse_int(a, value());
-      if (height < 1 || height > 16384) throw Error("--height", "must be within [1, 16384]");
-    } else if (a == "--filtering") {
-      std::string v = value();
-      if (v == "on") filtering = 1;
-      else if (v == "off") filtering = 0;
-      else throw Error("--filtering", "expected on or off, got '" + v + "'");
-    } else if (a == "--clusters") {
-      clusters = parse_int(a, value());
-      if (clusters < 1 || clusters > 8) throw Error("--clusters", "must be within [1, 8]");
-    } else if (a == "--d0") {
-      d0 = parse_float(a, value());
-      if (d0 < 0) throw Error("--d0", "must be >= 0");
-    } else if (a == "--splits") {
-      splits = parse_int(a, value());
-      if (splits != 0 && (splits < 2 || splits > 7)) throw Error("--splits", "must be 0 (off) or within [2, 7]");
-    } else if (a == "--layout") {
-      const std::string v = value();
-      layout = DsmLayout::Packed;
-      if (!parse_tag(v, *layout)) throw Error("--layout", "unknown layout '" + v + "' (" + tag_choices<DsmLayout>() + ")");
-    } else if (a == "--receiver") {
-      const std::string v = value();
-      receiver = ReceiverLookup::Plane;
-      if (!parse_tag(v, *receiver))
-        throw Error("--receiver", "unknown receiver lookup '" + v + "' (" + tag_choices<ReceiverLookup>() + ")");
-    } else if (a == "--fixed-layers") {
-      fixed_layers = parse_int(a, value());
-      if (fixed_layers < 2 || fixed_layers > 4096) throw Error("--fixed-layers", "must be within [2, 4096]");
-    } else if (a == "--compare-reference") {
-      opt.compare_reference = true;
-    } else if (a == "--error-samples") {
-      opt.error_samples = parse_int(a, value());
-      if (opt.error_samples < 1 || opt.error_samples > 10000000) throw Error("--error-samples", "must be within [1, 1e7]");
-    } else if (a == "--stats") {
-      stats_path = value();
-    } else if (a == "--max-memory") {
-      max_memory = parse_memory_mib(a, value());
-    } else if (!a.empty() && a[0] == '-') {
-      throw Error(a, "unknown option (try cdsm render --help)");
-    } else if (scene_path.empty()) {
-      scene_path = a;
-    } else {
-      throw Error(a, "unexpected argument: only one scene per render");
-    }
-  }
-  if (scene_path.empty()) throw Error("cdsm render", "needs a scene file (try cdsm render --help)");
-  if (out.empty()) throw Error("cdsm render", "needs -o OUT.png");
+int run_render(const RenderArgs& a) {
+  const std::string& out = a.out;
+  RenderOptions opt = a.frame.render;
   // Which backend, and why: no CUDA device means the cpu backend, unless
   // cuda was asked for by name (then the same reason is an error).
   const BackendResolution backend = resolve_backend(opt.backend, opt.fragments);  // (no GL with the ray caster)
@@ -399,30 +227,20 @@ int cmd_render(const std::vector<std::string>& args) {
   namespace fs = std::filesystem;
   std::error_code ec;
   std::vector<std::string> outputs{out};
-  if (!stats_path.empty()) outputs.push_back(stats_path);
+  if (!a.stats_path.empty()) outputs.push_back(a.stats_path);
   if (opt.compare_reference && opt.backend != Backend::Reference) {
     outputs.push_back(sibling(out, ".reference.png"));
     outputs.push_back(sibling(out, ".error.png"));
   }
   for (const std::string& p : outputs) {
-    if (fs::exists(p, ec) && fs::equivalent(p, scene_path, ec)) throw Error(p, "refusing to overwrite the scene file");
+    if (fs::exists(p, ec) && fs::equivalent(p, a.scene_path, ec))
+      throw Error(p, "refusing to overwrite the scene file");
     check_writable(p);
   }
 
-  if (max_memory > 0) set_memory_limit_mib(max_memory);  // also for what the scene reader generates
-  Scene scene = load_scene(scene_path);
-  if (max_memory > 0) scene.shadows.max_memory_mib = 0;  // the command line over the scene: its limit applies
-  if (eps >= 0) scene.shadows.epsilon = eps;
-  if (res > 0) scene.shadows.resolution = res;
-  if (width > 0) scene.camera.width = width;
-  if (height > 0) scene.camera.height = height;
-  if (filtering >= 0) scene.shadows.filtering = filtering == 1;
-  if (clusters > 0) scene.shadows.max_clusters = clusters;
-  if (d0 >= 0) scene.shadows.d0 = d0;
-  if (layout) scene.shadows.layout = *layout;
-  if (receiver) scene.shadows.receiver = *receiver;
-  if (fixed_layers > 0) scene.shadows.fixed_layers = fixed_layers;
-  if (splits >= 0) scene.shadows.parallel_splits = splits;
+  a.frame.limit_memory();
+  Scene scene = load_scene(a.scene_path);
+  a.frame.apply(scene);
 
   std::fprintf(stderr, "cdsm: backend %s: %s\n", backend.name.c_str(), backend.reason.c_str());
   Renderer renderer;
@@ -440,21 +258,17 @@ int cmd_render(const std::vector<std::string>& args) {
     write_png(error_heatmap(img, renderer.last_reference()), sibling(out, ".error.png"));
     std::printf("wrote        %s, %s\n", sibling(out, ".reference.png").c_str(), sibling(out, ".error.png").c_str());
   }
-  if (!stats_path.empty()) {
-    std::ofstream f(stats_path);
-    if (!f) throw Error(stats_path, "cannot write stats file");
+  if (!a.stats_path.empty()) {
+    std::ofstream f(a.stats_path);
+    if (!f) throw Error(a.stats_path, "cannot write stats file");
     f << stats_json(stats, scene, backend.name).dump(2) << "\n";
-    std::printf("wrote        %s\n", stats_path.c_str());
+    std::printf("wrote        %s\n", a.stats_path.c_str());
   }
   return 0;
 }
 
-int cmd_info(const std::vector<std::string>& args) {
-  if (args.size() != 1 || args[0] == "--help") {
-    std::puts("usage: cdsm info SCENE.json");
-    return args.size() == 1 ? 0 : 2;
-  }
-  Scene s = load_scene(args[0]);
+int run_info(const std::string& path) {
+  Scene s = load_scene(path);
   size_t tris = 0;
   for (const Object& o : s.objects) tris += o.mesh ? o.mesh->triangle_count() : 0;
   std::printf("%s: %zu objects (%zu triangles), %zu volumes, %zu lights, camera %dx%d\n", s.source.c_str(),
@@ -477,6 +291,53 @@ int cmd_info(const std::vector<std::string>& args) {
                   (unsigned long long)v.sparse->active_voxels);
   }
   return 0;
+}
+
+}  // namespace
+
+Command add_render(CLI::App& cdsm) {
+  auto a = std::make_shared<RenderArgs>();
+  a->frame.render.backend = Backend::Auto;  // cuda when a CUDA device exists, else cpu
+  CLI::App* app = cdsm.add_subcommand("render",
+                                      "render a scene with deep shadow maps, print times and memory; with\n"
+                                      "--compare-reference also the error against the exact reference");
+  app->footer(kRenderFooter);
+  app->add_option("SCENE", a->scene_path, "a JSON scene (content/scenes/*.json), or a glTF / GLB file")->required();
+  app->add_option("-o,--output", a->out, "PNG to write (never the scene file itself)")->required();
+  add_choice_option(*app, "--backend", a->frame.render.backend,
+                    Choices<Backend>{{"cuda", Backend::Cuda}, {"cpu", Backend::Cpu}, {"reference", Backend::Reference}},
+                    "backend",
+                    "deep shadow maps on a CUDA device or on the CPU, or the exact reference (shadow rays, no\n"
+                    "maps); default: cuda when a CUDA device exists, else cpu (stderr says which and why)");
+  add_frame_options(*app, a->frame);
+  SceneOverrides& scene = a->frame.overrides;
+  scene.add(*app, "--eps", &Scene::shadows, "epsilon");
+  scene.add(*app, "--dsm-res", &Scene::shadows, "resolution");
+  scene.add(*app, "--filtering", &Scene::shadows, "filtering");
+  scene.add(*app, "--clusters", &Scene::shadows, "clusters", "1: unclustered");
+  scene.add(*app, "--d0", &Scene::shadows, "d0");
+  scene.add(*app, "--splits", &Scene::shadows, "parallel_splits", "instead of clusters")
+      ->check(CLI::Validator(  // what the range cannot say (as the scene's validator)
+          [](std::string& s) { return std::stoll(s) == 1 ? "must be 0 (off) or at least 2, got " + s : ""; }, ""));
+  scene.add(*app, "--layout", &Scene::shadows, "layout",
+            "packed: exact allocation; fixed: res x res x L, --fixed-layers L;\n"
+            "chunked: 64-node chunks linked per texel");
+  scene.add(*app, "--fixed-layers", &Scene::shadows, "fixed_layers");
+  scene.add(*app, "--receiver", &Scene::shadows, "receiver",
+            "plane: per-tap receiver planes; slope_bias: the previous\nconstant + slope-scaled bias (a baseline)");
+  app->add_flag("--compare-reference", a->frame.render.compare_reference,
+                "also render the exact reference of the same view; report the transmittance error at\n"
+                "sampled shaded points (mean, p99, max, RMSE) and the image RMSE/PSNR; write OUT.error.png\n"
+                "(heat map) and OUT.reference.png beside the output");
+  app->add_option("--stats", a->stats_path, "write every figure as JSON")->type_name("PATH");
+  return {app, [a] { return run_render(*a); }};
+}
+
+Command add_info(CLI::App& cdsm) {
+  auto path = std::make_shared<std::string>();
+  CLI::App* app = cdsm.add_subcommand("info", "print what a scene holds (objects, triangles, volumes, lights)");
+  app->add_option("SCENE", *path, "a JSON scene, or a glTF / GLB file")->required();
+  return {app, [path] { return run_info(*path); }};
 }
 
 }  // namespace cdsm::cli

@@ -1,26 +1,19 @@
-// Headless commands of the cdsm program.
+// The verbs of the cdsm program, each a subcommand of its command line
+// (main.cpp); their options are built from options.h.
 #pragma once
 
-#include <cstdint>
 #include <string>
-#include <vector>
+
+#include "options.h"
 
 namespace cdsm::cli {
 
-// Each returns the process exit code.
-int cmd_render(const std::vector<std::string>& args);
-int cmd_info(const std::vector<std::string>& args);
-int cmd_edit(const std::vector<std::string>& args);  // editor/edit/cmd_edit.cpp (CDSM_HAVE_EDITOR)
-
-// Parsing helpers shared by commands: a bad value throws cdsm::Error naming the option.
-float parse_float(const std::string& opt, const std::string& v);
-int parse_int(const std::string& opt, const std::string& v);
-// "N", "NM" (MiB) or "NG" (GiB) -> MiB within [1, 2^30].
-int64_t parse_memory_mib(const std::string& opt, const std::string& v);
-
-// Throws cdsm::Error naming `path` unless a file can be written there: its
-// folder exists and is writable, and it is not a directory or a read-only
-// file. Called before any work, so a bad path costs nothing.
-void check_writable(const std::string& path);
+// Each declares its subcommand on `cdsm`, with every option, and returns it
+// with what runs it.
+Command add_render(CLI::App& cdsm);  // cmd_render.cpp
+Command add_info(CLI::App& cdsm);    // cmd_render.cpp
+// `command_line` is recorded in results.md.
+Command add_bench(CLI::App& cdsm, const std::string& command_line);  // cmd_bench.cpp
+Command add_edit(CLI::App& cdsm);  // editor/edit/cmd_edit.cpp (CDSM_HAVE_EDITOR)
 
 }  // namespace cdsm::cli

@@ -4,52 +4,68 @@
 #include <vector>
 
 #include "cdsm/error.h"
-#include "cmd_bench.h"
 #include "commands.h"
 
 namespace {
 
-const char* kHelp =
-    "cdsm - clustered deep shadow maps\n"
-    "\n"
-    "usage: cdsm <command> [options]\n"
-    "\n"
-    "commands:\n"
-    "  render SCENE -o OUT.png [options]  render a scene with deep shadow maps, print times and memory;\n"
-    "                                     with --compare-reference also the error against the exact\n"
-    "                                     reference (cdsm render --help for all options)\n"
-    "  bench SCENE... [options]           speed against error: sweep epsilon, resolution, clusters and the\n"
-    "                                     baselines (shadow map, opacity slices, AVSM); CSV, Markdown, plot\n"
-    "                                     (cdsm bench --help for all options)\n"
-    "  info SCENE                         print what a scene holds (objects, triangles, volumes, lights)\n"
-    "  edit SCENE [--script FILE]         the interactive editor: tune epsilon, d0 and clusters live, see what\n"
-    "                                     each does (cdsm edit --help)\n"
-    "  --help                             this text\n"
-    "\n"
-    "SCENE is a JSON scene file (content/scenes/*.json).\n";
+// A command line CLI11 refuses: one line naming the option and the problem.
+int refuse(const CLI::App& app, const CLI::ParseError& e) {
+  if (dynamic_cast<const CLI::ExtrasError*>(&e)) {
+    const CLI::App* where = &app;
+    for (const CLI::App* sub : app.get_subcommands()) where = sub;
+    const std::vector<std::string> extra = where->remaining();
+    const std::string first = extra.empty() ? "?" : extra.front();
+    if (where == &app) {
+      std::fprintf(stderr, "cdsm: unknown command '%s' (try cdsm --help)\n", first.c_str());
+      return 2;
+    }
+    const std::string verb = where->get_name();
+    std::fprintf(stderr, "cdsm: error: %s: %s (try cdsm %s --help)\n", first.c_str(),
+                 first.size() > 1 && first[0] == '-' ? "unknown option" : "unexpected argument", verb.c_str());
+    return 1;
+  }
+  std::fprintf(stderr, "cdsm: error: %s\n", e.what());
+  return 1;
+}
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::vector<std::string> args(argv + 1, argv + argc);
-  if (args.empty() || args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
-    std::fputs(kHelp, stdout);
-    return args.empty() ? 2 : 0;
-  }
-  std::string cmd = args[0];
-  args.erase(args.begin());
+  CLI::App app("cdsm - clustered deep shadow maps", "cdsm");
+  app.get_formatter()->column_width(34);
+  // A repeated option: the last one counts (lists such as --sweep collect every one).
+  app.option_defaults()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
+  std::string command_line = "cdsm";
+  for (int i = 1; i < argc; ++i) command_line += std::string(" ") + argv[i];
   try {
-    if (cmd == "render") return cdsm::cli::cmd_render(args);
-    if (cmd == "info") return cdsm::cli::cmd_info(args);
-    if (cmd == "bench") return cdsm::cli::cmd_bench(args);
-    if (cmd == "edit") {
+    std::vector<cdsm::cli::Command> commands{cdsm::cli::add_render(app), cdsm::cli::add_bench(app, command_line),
+                                             cdsm::cli::add_info(app)};
 #if CDSM_HAVE_EDITOR
-      return cdsm::cli::cmd_edit(args);
+    commands.push_back(cdsm::cli::add_edit(app));
 #else
-      throw cdsm::Error("cdsm edit", "this build has no editor (it needs OpenGL, GLFW 3.3 and libimgui-dev)");
+    CLI::App* edit = app.add_subcommand("edit", "the interactive editor (not in this build)");
+    edit->allow_extras();
+    commands.push_back({edit, []() -> int {
+                          throw cdsm::Error("cdsm edit",
+                                            "this build has no editor (it needs OpenGL, GLFW 3.3 and libimgui-dev)");
+                        }});
 #endif
+    app.footer("SCENE is a JSON scene file (content/scenes/*.json).");  // after the verbs: theirs are their own
+    if (argc < 2) {
+      std::fputs(app.help().c_str(), stdout);
+      return 2;
     }
-    std::fprintf(stderr, "cdsm: unknown command '%s' (try cdsm --help)\n", cmd.c_str());
+    try {
+      app.parse(argc, argv);
+    } catch (const CLI::CallForHelp&) {
+      std::fputs(app.help().c_str(), stdout);  // of the subcommand that asked
+      return 0;
+    } catch (const CLI::ParseError& e) {
+      return refuse(app, e);
+    }
+    for (const cdsm::cli::Command& c : commands)
+      if (c.app->parsed()) return c.run();
+    std::fputs(app.help().c_str(), stdout);
     return 2;
   } catch (const cdsm::Error& e) {
     std::fprintf(stderr, "cdsm: error: %s\n", e.what());

@@ -25,61 +25,28 @@
 namespace cdsm::cli {
 
 namespace {
-const char* const kEditHelp =
-    "usage: cdsm edit SCENE [options]\n"
-    "  SCENE               a JSON scene, or a glTF / GLB file\n"
-    "  --script FILE       run the commands of FILE (see editor/edit/script.h) instead of waiting for a person\n"
-    "  --width W --height H  window size (default 1600 x 900)\n"
-    "  --hidden            no visible window (scripts)\n"
-    "\n"
+
+const char* const kEditFooter =
     "Viewport: left drag orbits, middle drag pans, wheel zooms, right drag + W/A/S/D/Q/E flies, F frames the scene,\n"
     "a click selects an object and plots its light ray's alpha(z); shift + left drag moves the selected light.\n"
-    "Ctrl+Z / Ctrl+Y undo and redo. Needs a display (X11, or xvfb-run).\n";
-}  // namespace
+    "Ctrl+Z / Ctrl+Y undo and redo. Needs a display (X11, or xvfb-run).";
 
-int cmd_edit(const std::vector<std::string>& args) {
+// What `cdsm edit` was given.
+struct EditArgs {
   std::string scene_path, script_path;
-  int width = 1600, height = 900;
+  int width = 1600, height = 900;  // the window
   bool hidden = false;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&]() -> const std::string& {
-      if (i + 1 >= args.size()) throw Error(a, "needs a value");
-      return args[++i];
-    };
-    if (a == "--help" || a == "-h") {
-      std::fputs(kEditHelp, stdout);
-      return 0;
-    } else if (a == "--script") {
-      script_path = value();
-    } else if (a == "--width") {
-      width = parse_int(a, value());
-    } else if (a == "--height") {
-      height = parse_int(a, value());
-    } else if (a == "--hidden") {
-      hidden = true;
-    } else if (!a.empty() && a[0] == '-') {
-      throw Error(a, "unknown option (cdsm edit --help)");
-    } else if (scene_path.empty()) {
-      scene_path = a;
-    } else {
-      throw Error(a, "one scene at a time");
-    }
-  }
-  if (scene_path.empty()) {
-    std::fputs(kEditHelp, stderr);
-    return 2;
-  }
-  if (width < 640 || height < 400 || width > 8192 || height > 8192)
-    throw Error("--width/--height", "the window must be 640x400 .. 8192x8192");
+};
+
+int run_edit(const EditArgs& a) {
   // Bad input fails before any window: a missing or broken scene file (the
   // error names it and the place in it), then a missing script.
-  editor::Document document = editor::open_document(scene_path);
+  editor::Document document = editor::open_document(a.scene_path);
   std::unique_ptr<editor::ScriptRunner> script;
-  if (!script_path.empty()) script = std::make_unique<editor::ScriptRunner>(script_path);
+  if (!a.script_path.empty()) script = std::make_unique<editor::ScriptRunner>(a.script_path);
 
   std::string why;
-  auto context = GlContext::create_window(width, height, "cdsm edit - " + scene_path, !hidden, &why);
+  auto context = GlContext::create_window(a.width, a.height, "cdsm edit - " + a.scene_path, !a.hidden, &why);
   if (!context) throw Error("cdsm edit", "no window with OpenGL 4.5 (needs a display: X11, or run under xvfb-run): " + why);
   GLFWwindow* window = static_cast<GLFWwindow*>(context->native_window());
   glfwSwapInterval(script ? 0 : 1);
@@ -96,7 +63,7 @@ int cmd_edit(const std::vector<std::string>& args) {
     session.set_wake([] { glfwPostEmptyEvent(); });  // a finished build ends the wait below at once
     editor::UiState ui;
     ui.recent = editor::load_recent();
-    editor::remember_recent(ui.recent, scene_path);
+    editor::remember_recent(ui.recent, a.scene_path);
     std::fprintf(stderr, "cdsm edit: %s\n", context->description().c_str());
     bool running = true;
     while (running) {
@@ -136,6 +103,24 @@ int cmd_edit(const std::vector<std::string>& args) {
   ImGui_ImplGlfw_Shutdown();
   ImGui::DestroyContext();
   return rc;
+}
+
+}  // namespace
+
+Command add_edit(CLI::App& cdsm) {
+  auto a = std::make_shared<EditArgs>();
+  CLI::App* app = cdsm.add_subcommand("edit",
+                                      "the interactive editor: tune epsilon, d0 and clusters live, see what\n"
+                                      "each does");
+  app->footer(kEditFooter);
+  app->add_option("SCENE", a->scene_path, "a JSON scene, or a glTF / GLB file")->required();
+  app->add_option("--script", a->script_path,
+                  "run the commands of FILE (see editor/edit/script.h) instead of waiting for a person")
+      ->type_name("FILE");
+  app->add_option("--width", a->width, "window width")->check(within(640, 8192, true))->capture_default_str();
+  app->add_option("--height", a->height, "window height")->check(within(400, 8192, true))->capture_default_str();
+  app->add_flag("--hidden", a->hidden, "no visible window (scripts)");
+  return {app, [a] { return run_edit(*a); }};
 }
 
 }  // namespace cdsm::cli

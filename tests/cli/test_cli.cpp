@@ -11,6 +11,8 @@
 #include <sstream>
 #include <string>
 
+#include "cdsm/fields.h"
+
 namespace {
 
 struct CliRun {
@@ -32,7 +34,7 @@ std::string slurp(const std::string& path) {
 }
 
 // Runs `cdsm ARGS` (a shell word list) and captures its streams.
-CliRun cdsm(const std::string& args) {
+CliRun run_cdsm(const std::string& args) {
   const std::string out = output_dir() + "/stdout.txt", err = output_dir() + "/stderr.txt";
   std::string cmd = std::string("'") + CDSM_EXE + "' " + args + " >'" + out + "' 2>'" + err + "'";
   int status = std::system(cmd.c_str());
@@ -63,7 +65,7 @@ TEST(Cli, UnwritableOutputsFailBeforeRendering) {
       {"-o '" + dir + "/a_directory.png' --compare-reference", dir + "/a_directory.png"},
   };
   for (const Case& c : cases) {
-    CliRun r = cdsm("render '" + kScene + "' --width 32 --height 24 " + c.args);
+    CliRun r = run_cdsm("render '" + kScene + "' --width 32 --height 24 " + c.args);
     EXPECT_EQ(r.code, 1) << c.args << "\n" << r.err;
     EXPECT_NE(r.err.find("cdsm: error: " + c.names), std::string::npos) << c.args << ": " << r.err;
     EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "one line: " << r.err;
@@ -71,7 +73,7 @@ TEST(Cli, UnwritableOutputsFailBeforeRendering) {
   }
   // The sibling images of --compare-reference are checked too.
   ::mkdir((dir + "/sib.reference.png").c_str(), 0755);
-  CliRun r = cdsm("render '" + kScene + "' --width 32 --height 24 -o '" + dir + "/sib.png' --compare-reference");
+  CliRun r = run_cdsm("render '" + kScene + "' --width 32 --height 24 -o '" + dir + "/sib.png' --compare-reference");
   EXPECT_EQ(r.code, 1) << r.err;
   EXPECT_NE(r.err.find(dir + "/sib.reference.png"), std::string::npos) << r.err;
   EXPECT_EQ(r.out.find("scene "), std::string::npos);
@@ -80,8 +82,8 @@ TEST(Cli, UnwritableOutputsFailBeforeRendering) {
 // The walker's counters are in the summary and in --stats.
 TEST(Cli, SummaryAndStatsReportTheSegmentCounters) {
   const std::string dir = output_dir();
-  CliRun r = cdsm("render '" + kScene + "' --width 48 --height 32 --dsm-res 64 --fragments cpu -o '" + dir +
-               "/counters.png' --stats '" + dir + "/counters.json'");
+  CliRun r = run_cdsm("render '" + kScene + "' --width 48 --height 32 --dsm-res 64 --fragments cpu -o '" + dir +
+                      "/counters.png' --stats '" + dir + "/counters.json'");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("segments     unmatched fragments 0, enclosing overflow 0, rays with > 32 objects 0, "
                        "march steps lengthened 0"),
@@ -96,17 +98,78 @@ TEST(Cli, SummaryAndStatsReportTheSegmentCounters) {
 // setting that needs the memory; a bad value is an error naming the option.
 TEST(Cli, MaxMemory) {
   const std::string dir = output_dir();
-  CliRun r = cdsm("render '" + kScene + "' --max-memory 8 -o '" + dir + "/mem.png'");
+  CliRun r = run_cdsm("render '" + kScene + "' --max-memory 8 -o '" + dir + "/mem.png'");
   EXPECT_EQ(r.code, 1) << r.err;
   EXPECT_NE(r.err.find("needs an estimated"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("more than the limit of 8 MiB (--max-memory)"), std::string::npos) << r.err;
   EXPECT_EQ(r.out.find("scene "), std::string::npos);
   for (const char* bad : {"abc", "0", "-5", "2T"}) {
-    r = cdsm("render '" + kScene + "' --max-memory " + bad + " -o '" + dir + "/mem.png'");
+    r = run_cdsm("render '" + kScene + "' --max-memory " + bad + " -o '" + dir + "/mem.png'");
     EXPECT_EQ(r.code, 1) << bad;
     EXPECT_NE(r.err.find("cdsm: error: --max-memory"), std::string::npos) << bad << ": " << r.err;
   }
-  r = cdsm("render '" + kScene + "' --max-memory 4G --width 32 --height 24 --dsm-res 64 --fragments cpu -o '" + dir +
-           "/mem.png'");
+  r = run_cdsm("render '" + kScene + "' --max-memory 4G --width 32 --height 24 --dsm-res 64 --fragments cpu -o '" +
+               dir + "/mem.png'");
   EXPECT_EQ(r.code, 0) << r.err;
+}
+
+// Options that override a scene setting take their range from its row of
+// the field table (cdsm/fields.h): the check and --help say the table's
+// range, whatever it is (tests/cli/test_options.cpp: with another table).
+TEST(Cli, OptionRangesAreTheFieldTables) {
+  const std::string help = run_cdsm("render --help").out;
+  auto check = [&](const std::string& option, const auto& row) {
+    const std::string range = "[" + std::to_string(int64_t(row.lo)) + ", " + std::to_string(int64_t(row.hi)) + "]";
+    EXPECT_NE(help.find(option + " INT:" + range), std::string::npos) << option << " " << range << "\n" << help;
+    for (const int64_t bad : {int64_t(row.lo) - 1, int64_t(row.hi) + 1}) {
+      CliRun r = run_cdsm("render '" + kScene + "' -o '" + output_dir() + "/range.png' " + option + " " +
+                          std::to_string(bad));
+      EXPECT_EQ(r.code, 1) << option << " " << bad;
+      EXPECT_EQ(r.err, "cdsm: error: " + option + ": must be within " + range + ", got " + std::to_string(bad) + "\n");
+      EXPECT_EQ(r.out.find("scene "), std::string::npos) << "rendered before refusing: " << r.out;
+    }
+  };
+  auto row = [&](auto table, const char* key, const std::string& option) {
+    cdsm::for_each_field<decltype(table)>([&](const auto& f) {
+      if (std::string(f.key) == key) check(option, f);
+    });
+  };
+  row(cdsm::ShadowSettings{}, "resolution", "--dsm-res");
+  row(cdsm::ShadowSettings{}, "clusters", "--clusters");
+  row(cdsm::ShadowSettings{}, "fixed_layers", "--fixed-layers");
+  row(cdsm::Camera{}, "width", "--width");
+}
+
+// A command line the program cannot use is one line naming the option (or
+// the argument) and the problem, exit 1, before any work.
+TEST(Cli, BadCommandLinesAreOneLineNamingTheOption) {
+  const std::string out = " -o '" + output_dir() + "/bad.png'";
+  struct Case {
+    std::string args, starts;
+  } cases[] = {
+      {"render '" + kScene + "'" + out + " --eps", "cdsm: error: --eps: "},
+      {"render '" + kScene + "'" + out + " --eps 2", "cdsm: error: --eps: must be within ["},
+      {"render '" + kScene + "'" + out + " --dsm-res 64x", "cdsm: error: --dsm-res: expected an integer, got '64x'"},
+      {"render '" + kScene + "'" + out + " --layout tiled",
+       "cdsm: error: --layout: unknown layout 'tiled' (packed, fixed or chunked)"},
+      {"render '" + kScene + "'" + out + " --filtering maybe", "cdsm: error: --filtering: unknown value 'maybe'"},
+      {"render '" + kScene + "'" + out + " --splits 1", "cdsm: error: --splits: must be 0 (off) or at least 2, got 1"},
+      {"render '" + kScene + "'" + out + " --no-such-option", "cdsm: error: --no-such-option: unknown option"},
+      {"render '" + kScene + "' second.json" + out, "cdsm: error: second.json: unexpected argument"},
+      {"render '" + kScene + "'", "cdsm: error: --output is required"},
+      {"bench '" + kScene + "' --sweep res=2 --out '" + output_dir() + "/bench'",
+       "cdsm: error: --sweep res: must be within ["},
+      {"bench '" + kScene + "' --methods osm0 --out '" + output_dir() + "/bench'", "cdsm: error: --methods osm0: "},
+      {"bench '" + kScene + "' --repeat 0", "cdsm: error: --repeat: must be within [1, 1000], got 0"},
+#if CDSM_HAVE_EDITOR
+      {"edit '" + kScene + "' --width 10", "cdsm: error: --width: must be within [640, 8192], got 10"},
+#endif
+  };
+  for (const Case& c : cases) {
+    CliRun r = run_cdsm(c.args);
+    EXPECT_EQ(r.code, 1) << c.args << "\n" << r.err;
+    EXPECT_EQ(r.err.rfind(c.starts, 0), 0u) << c.args << ": " << r.err;
+    EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "one line: " << r.err;
+    EXPECT_TRUE(r.out.empty()) << c.args << ": " << r.out;
+  }
 }
