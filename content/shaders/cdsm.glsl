@@ -207,108 +207,6 @@ vec3 cdsm_view_direction(CdsmView view, float u, float v) {
 
 // ---- one texel's visibility function (shadows/hd/dsm.h) ----------------------
 
-float cdsm_alpha_nodes(uint off, uint count, float z) {
-  uint lo = 0u, hi = count;
-  while (lo < hi) {
-    uint mid = (lo + hi) >> 1;
-    if (cdsm_nodes[off + mid].x < z) lo = mid + 1u;
-    else hi = mid;
-  }
-  if (lo >= count) return count > 0u ? cdsm_nodes[off + count - 1u].y : 0.0;
-  vec2 b = cdsm_nodes[off + lo];
-  if (b.x == z) return b.y;
-  if (lo == 0u) return 0.0;
-  vec2 a = cdsm_nodes[off + lo - 1u];
-  return cdsm_lerp(a.y, b.y, (z - a.x) / (b.x - a.x));
-}
-
-vec3 cdsm_alpha_nodes_rgb(uint off, uint count, float z) {
-  uint lo = 0u, hi = count;
-  while (lo < hi) {
-    uint mid = (lo + hi) >> 1;
-    if (cdsm_rgb_nodes[off + mid].x < z) lo = mid + 1u;
-    else hi = mid;
-  }
-  if (lo >= count) return count > 0u ? cdsm_rgb_nodes[off + count - 1u].yzw : vec3(0.0);
-  vec4 b = cdsm_rgb_nodes[off + lo];
-  if (b.x == z) return b.yzw;
-  if (lo == 0u) return vec3(0.0);
-  vec4 a = cdsm_rgb_nodes[off + lo - 1u];
-  float w = (z - a.x) / (b.x - a.x);
-  return vec3(cdsm_lerp(a.y, b.y, w), cdsm_lerp(a.z, b.z, w), cdsm_lerp(a.w, b.w, w));
-}
-
-// Chunked texels: a linear walk along the links.
-float cdsm_alpha_chunked(uvec2 head, float z) {
-  float pz = 0.0, pa = 0.0;
-  uint slot = head.x;
-  for (uint i = 0u; i < head.y; ++i) {
-    CdsmChunk c = cdsm_chunks[slot];
-    if (c.z >= z) {
-      if (c.z == z) return c.alpha;
-      if (i == 0u) return 0.0;
-      return cdsm_lerp(pa, c.alpha, (z - pz) / (c.z - pz));
-    }
-    pz = c.z;
-    pa = c.alpha;
-    slot = c.next;
-  }
-  return pa;
-}
-
-vec3 cdsm_alpha_chunked_rgb(uvec2 head, float z) {
-  float pz = 0.0;
-  vec3 pa = vec3(0.0);
-  uint slot = head.x;
-  for (uint i = 0u; i < head.y; ++i) {
-    CdsmChunkRgb c = cdsm_rgb_chunks[slot];
-    if (c.z >= z) {
-      if (c.z == z) return vec3(c.r, c.g, c.b);
-      if (i == 0u) return vec3(0.0);
-      float w = (z - pz) / (c.z - pz);
-      return vec3(cdsm_lerp(pa.x, c.r, w), cdsm_lerp(pa.y, c.g, w), cdsm_lerp(pa.z, c.b, w));
-    }
-    pz = c.z;
-    pa = vec3(c.r, c.g, c.b);
-    slot = c.next;
-  }
-  return pa;
-}
-
-// α(z) of texel (tx, ty) of map m per channel (a grey map: its value in every channel).
-// The packed and fixed layouts share one search: a texel's nodes start at
-// its header's offset, or at a fixed stride.
-vec3 cdsm_texel_alpha(CdsmMap m, int tx, int ty, float z) {
-  uint t = m.texel_offset + uint(ty) * m.res + uint(tx);
-  if (CDSM_LAYOUT_IS(CDSM_LAYOUT_CHUNKED)) {
-    if (m.rgb == 0u) return vec3(cdsm_alpha_chunked(cdsm_texels[t], z));
-    return cdsm_alpha_chunked_rgb(cdsm_rgb_texels[t], z);
-  }
-  uvec2 span = CDSM_LAYOUT_IS(CDSM_LAYOUT_FIXED) ? uvec2(t * cdsm_layers, cdsm_layers) : m.rgb == 0u ? cdsm_texels[t] : cdsm_rgb_texels[t];
-  if (m.rgb == 0u) return vec3(cdsm_alpha_nodes(span.x, span.y, z));
-  return cdsm_alpha_nodes_rgb(span.x, span.y, z);
-}
-
-// ---- receivers (shadows/hd/lights.h) ----------------------------------------
-
-float cdsm_texel_footprint(CdsmMap m, float axial) { return 2.0 * m.view.tan_half_x * axial / float(m.res); }
-
-// The depth at which tap (tx, ty) reads its texel: where its texel-centre ray
-// crosses the receiver's plane (within a reach of the point's depth), or
-// the point's own depth (volume samples, the slope-bias baseline).
-float cdsm_tap_depth(CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, int tx, int ty) {
-  if (cdsm_receiver == CDSM_RECEIVER_SLOPE_BIAS || !(cdsm_dot(plane, plane) > 0.0)) return pr.depth;
-  float reach = CDSM_PLANE_REACH_TEXELS * cdsm_texel_footprint(m, pr.axial);
-  vec3 d = cdsm_normalize(cdsm_view_direction(m.view, float(tx) + 0.5, float(ty) + 0.5));
-  float dn = cdsm_dot(d, plane);
-  float t = dn != 0.0 ? cdsm_dot(p - m.view.eye, plane) / dn : pr.depth + reach;
-  if (!(t > pr.depth - reach)) t = pr.depth - reach;
-  if (!(t < pr.depth + reach)) t = pr.depth + reach;
-  return t;
-}
-
-// ---- what a surface receives: its own step left out (shadows/hd/dsm.h) ------
-
 // Slot i's surface tag in the grey or the RGB pool.
 uint cdsm_tag(bool rgb, uint i) {
   uint w = rgb ? cdsm_rgb_tags[i >> 1u] : cdsm_tags[i >> 1u];
@@ -341,6 +239,80 @@ void cdsm_slot(bool rgb, uint i, out float z, out vec3 a, out uint next) {
     a = vec3(n.y);
   }
 }
+
+vec3 cdsm_lerp3(vec3 a, vec3 b, float t) { return vec3(cdsm_lerp(a.x, b.x, t), cdsm_lerp(a.y, b.y, t), cdsm_lerp(a.z, b.z, t)); }
+
+// α(z) of texel (tx, ty) of map m per channel (a grey map: its value in
+// every channel), either node kind through cdsm_slot (one search, as
+// hd/dsm.h alpha_at_index and lookup_alpha_chunked are one over N). The
+// packed and fixed layouts share one binary search: a texel's nodes start
+// at its header's offset, or at a fixed stride; chunked texels are walked
+// along their links.
+vec3 cdsm_texel_alpha(CdsmMap m, int tx, int ty, float z) {
+  uint t = m.texel_offset + uint(ty) * m.res + uint(tx);
+  bool rgb = m.rgb != 0u;
+  float nz;
+  vec3 na;
+  uint next;
+  if (CDSM_LAYOUT_IS(CDSM_LAYOUT_CHUNKED)) {
+    uvec2 head = rgb ? cdsm_rgb_texels[t] : cdsm_texels[t];
+    float pz = 0.0;
+    vec3 pa = vec3(0.0);
+    uint slot = head.x;
+    for (uint i = 0u; i < head.y; ++i) {
+      cdsm_slot(rgb, slot, nz, na, next);
+      if (nz >= z) {
+        if (nz == z) return na;
+        if (i == 0u) return vec3(0.0);
+        return cdsm_lerp3(pa, na, (z - pz) / (nz - pz));
+      }
+      pz = nz;
+      pa = na;
+      slot = next;
+    }
+    return pa;
+  }
+  uvec2 span = CDSM_LAYOUT_IS(CDSM_LAYOUT_FIXED) ? uvec2(t * cdsm_layers, cdsm_layers) : rgb ? cdsm_rgb_texels[t] : cdsm_texels[t];
+  uint lo = 0u, hi = span.y;
+  while (lo < hi) {
+    uint mid = (lo + hi) >> 1;
+    cdsm_slot(rgb, span.x + mid, nz, na, next);
+    if (nz < z) lo = mid + 1u;
+    else hi = mid;
+  }
+  if (lo >= span.y) {
+    if (span.y == 0u) return vec3(0.0);
+    cdsm_slot(rgb, span.x + span.y - 1u, nz, na, next);
+    return na;
+  }
+  cdsm_slot(rgb, span.x + lo, nz, na, next);
+  if (nz == z) return na;
+  if (lo == 0u) return vec3(0.0);
+  float bz = nz;
+  vec3 ba = na;
+  cdsm_slot(rgb, span.x + lo - 1u, nz, na, next);
+  return cdsm_lerp3(na, ba, (z - nz) / (bz - nz));
+}
+
+// ---- receivers (shadows/hd/lights.h) ----------------------------------------
+
+float cdsm_texel_footprint(CdsmMap m, float axial) { return 2.0 * m.view.tan_half_x * axial / float(m.res); }
+
+// The depth at which tap (tx, ty) reads its texel: where its texel-centre ray
+// crosses the receiver's plane (within a reach of the point's depth), or
+// the point's own depth (volume samples, the slope-bias baseline).
+float cdsm_tap_depth(CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, int tx, int ty) {
+  if (cdsm_receiver == CDSM_RECEIVER_SLOPE_BIAS || !(cdsm_dot(plane, plane) > 0.0)) return pr.depth;
+  float reach = CDSM_PLANE_REACH_TEXELS * cdsm_texel_footprint(m, pr.axial);
+  vec3 d = cdsm_normalize(cdsm_view_direction(m.view, float(tx) + 0.5, float(ty) + 0.5));
+  float dn = cdsm_dot(d, plane);
+  float t = dn != 0.0 ? cdsm_dot(p - m.view.eye, plane) / dn : pr.depth + reach;
+  if (!(t > pr.depth - reach)) t = pr.depth - reach;
+  if (!(t < pr.depth + reach)) t = pr.depth + reach;
+  return t;
+}
+
+// ---- what a surface receives: its own step left out (shadows/hd/dsm.h) ------
 
 vec3 cdsm_layer_between(vec3 prev, vec3 a) {
   vec3 r;
@@ -428,7 +400,7 @@ vec3 cdsm_texel_receive(CdsmMap m, uint t, float depth, float window, float copl
     if (z > hi) {
       if (have_prev && pz < hi) {
         float w = (hi - pz) / (z - pz);
-        vec3 at_hi = vec3(cdsm_lerp(pa.x, a.x, w), cdsm_lerp(pa.y, a.y, w), cdsm_lerp(pa.z, a.z, w));
+        vec3 at_hi = cdsm_lerp3(pa, a, w);
         alpha = cdsm_over_layer(alpha, cdsm_layer_between(pa, at_hi));
       }
       break;
@@ -461,7 +433,7 @@ float cdsm_slope_bias_offset(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, 
   return CDSM_SLOPE_BIAS_CONSTANT + CDSM_SLOPE_BIAS_TEXELS * cdsm_texel_footprint(m, pr.axial) * tan_inc;
 }
 
-// One map's α at the receiver (hd/lights.h map_alpha_rgb): its bilinear taps
+// One map's α at the receiver (hd/lights.h map_alpha): its bilinear taps
 // (thesis eq. 4.18-4.19), volume samples each at the point's depth, surfaces
 // each at its plane depth with their own step left out; taps outside the map
 // count as 0.

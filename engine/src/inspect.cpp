@@ -4,6 +4,7 @@
 // against the same light ray walked with epsilon 0.
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 
 #include "cdsm/error.h"
 #include "cdsm/shadow_system.h"
@@ -38,15 +39,12 @@ PinholeView texel_view(const PinholeView& v, int tx, int ty) {
   return t;
 }
 
-// Per channel, for both node kinds (grey: the one value).
-Vec3 alpha_rgb_of(const DsmNode& n) { return vec3(n.alpha); }
-Vec3 alpha_rgb_of(const DsmNodeRgb& n) { return {n.r, n.g, n.b}; }
-
-// alpha per channel just before / at z (lookup_alpha) and just after z.
-Vec3 before_rgb(Span<const DsmNode> n, float z) { return vec3(lookup_alpha(n, z)); }
-Vec3 before_rgb(Span<const DsmNodeRgb> n, float z) { return lookup_alpha(n, z); }
-Vec3 after_rgb(Span<const DsmNode> n, float z) { return vec3(alpha_after(n, z)); }
-Vec3 after_rgb(Span<const DsmNodeRgb> n, float z) { return alpha_after(n, z); }
+// alpha per channel just before / at z (lookup_alpha) and just after z
+// (a grey list: its one value in every channel).
+template <int N>
+Vec3 alpha_before_in_colour(Span<const DsmNodeN<N>> n, float z) { return to_rgb(lookup_alpha(n, z)); }
+template <int N>
+Vec3 alpha_after_in_colour(Span<const DsmNodeN<N>> n, float z) { return to_rgb(alpha_after(n, z)); }
 
 // sup over depths and channels of how far one visibility function lies
 // outside the other's range within +-tol(z) of the same depth: |f - g| where
@@ -63,8 +61,8 @@ float deviation(Span<const Node> f, Span<const Node> g, float rel_tol) {
       const Span<const Node> at = list == 0 ? a : b;
       for (uint64_t i = 0; i < at.size(); ++i) {
         const float z = at[i].z, tol = rel_tol * fabsf(z);
-        const Vec3 lo = before_rgb(b, z - tol), hi = after_rgb(b, z + tol);
-        for (const Vec3& v : {before_rgb(a, z), after_rgb(a, z)})
+        const Vec3 lo = alpha_before_in_colour(b, z - tol), hi = alpha_after_in_colour(b, z + tol);
+        for (const Vec3& v : {alpha_before_in_colour(a, z), alpha_after_in_colour(a, z)})
           for (int k = 0; k < 3; ++k) worst = fmaxf(worst, fmaxf(lo[k] - v[k], v[k] - hi[k]));
       }
     }
@@ -79,7 +77,7 @@ std::vector<ShadowSystem::AlphaSample> samples_of(const Node* n, uint32_t count,
   std::vector<ShadowSystem::AlphaSample> out;
   for (uint32_t i = 0; i < count; ++i) {
     const uint32_t o = tags ? tag_object_of(tags[i]) : 0u;
-    out.push_back({n[i].z, alpha_rgb_of(n[i]), o ? int(o) - 1 : -1});
+    out.push_back({n[i].z, to_rgb(n[i].alpha), o ? int(o) - 1 : -1});
   }
   return out;
 }
@@ -126,8 +124,7 @@ std::vector<uint32_t> ShadowSystem::map_node_counts(int map) const {
   std::vector<uint32_t> out(size_t(m.res) * m.res);
   for (int ty = 0; ty < int(m.res); ++ty)
     for (int tx = 0; tx < int(m.res); ++tx)
-      out[size_t(ty) * m.res + tx] =
-          m.rgb ? read_texel_rgb(st, m, tx, ty, nullptr, 0) : read_texel(st, m, tx, ty, nullptr, 0);
+      out[size_t(ty) * m.res + tx] = texel_node_count(st, m, tx, ty);
   return out;
 }
 
@@ -138,7 +135,7 @@ std::vector<float> ShadowSystem::map_alpha(int map, float depth) const {
   std::vector<float> out(size_t(m.res) * m.res);
   for (int ty = 0; ty < int(m.res); ++ty)
     for (int tx = 0; tx < int(m.res); ++tx) {
-      const Vec3 a = texel_alpha_rgb(st, m, tx, ty, depth);
+      const Vec3 a = texel_alpha_in_colour(st, m, tx, ty, depth);
       out[size_t(ty) * m.res + tx] = (a.x + a.y + a.z) / 3.0f;
     }
   return out;
@@ -168,7 +165,7 @@ ShadowSystem::TexelInspection ShadowSystem::inspect_texel(int light, Vec3 p, int
     const DsmMap& m = f.headers[k];
     const ViewProjection pr = project(m.view, p);
     if (pr.axial <= 0.0f || pr.u < 0.0f || pr.v < 0.0f || pr.u >= float(m.res) || pr.v >= float(m.res)) continue;
-    const float a = grey_of(map_alpha_rgb(sv, L, m, pr, Receiver{p, Vec3{0, 0, 0}, kNoObject}));
+    const float a = grey_of(map_alpha_in_colour(sv, L, m, pr, Receiver{p, Vec3{0, 0, 0}, kNoObject}));
     if (a > best) {
       best = a;
       r.map = int(k);
@@ -188,61 +185,54 @@ ShadowSystem::TexelInspection ShadowSystem::inspect_texel(int light, Vec3 p, int
   r.epsilon = I.scene.shadows.epsilon;
   r.rgb = m.rgb != 0u;
 
-  // The stored nodes.
-  const uint32_t n = r.rgb ? read_texel_rgb(st, m, r.tx, r.ty, nullptr, 0) : read_texel(st, m, r.tx, r.ty, nullptr, 0);
-  std::vector<DsmNode> grey(n);
-  std::vector<DsmNodeRgb> rgb(n);
-  std::vector<SurfaceTag> tags(n);
-  if (r.rgb) read_texel_rgb(st, m, r.tx, r.ty, rgb.data(), n, tags.data());
-  else read_texel(st, m, r.tx, r.ty, grey.data(), n, tags.data());
+  // The stored nodes, compared with the texel walked again at epsilon 0.
+  const auto inspect_nodes = [&](auto kind) {
+    constexpr int N = decltype(kind)::value;
+    const uint32_t n = read_texel<N>(st, m, r.tx, r.ty, nullptr, 0);
+    std::vector<DsmNodeN<N>> nodes(n);
+    std::vector<SurfaceTag> tags(n);
+    read_texel(st, m, r.tx, r.ty, nodes.data(), n, tags.data());
 
-  // What the clicked surface reads from the texel: its plane along the
-  // texel's centre ray, its own step (if it casts) left out.
-  if (object >= 0 && size_t(object) < I.scene.objects.size() && dot(plane, plane) > 0.0f) {
-    const Receiver rc{p, plane, I.scene.objects[size_t(object)].casts_shadows ? uint32_t(object) : kNoObject};
-    r.receiver = true;
-    r.receiver_depth = tap_depth(sv, m, pr, rc, r.tx, r.ty);
-    const TexelRead tr = receiver_read_at(sv, m, pr, rc, r.receiver_depth);
-    r.received = texel_receive_rgb(st, m, r.tx, r.ty, tr);
-    OwnStepSearch own(tr);
-    if (tr.own != 0u)
-      for (uint32_t i = 0; i < n; ++i)
-        if (!own.visit(r.rgb ? rgb[i].z : grey[i].z, tags[i])) break;
-    r.own_node = own.index == 0xffffffffu ? -1 : int(own.index);
-  }
+    // What the clicked surface reads from the texel: its plane along the
+    // texel's centre ray, its own step (if it casts) left out.
+    if (object >= 0 && size_t(object) < I.scene.objects.size() && dot(plane, plane) > 0.0f) {
+      const Receiver rc{p, plane, I.scene.objects[size_t(object)].casts_shadows ? uint32_t(object) : kNoObject};
+      r.receiver = true;
+      r.receiver_depth = tap_depth(sv, m, pr, rc, r.tx, r.ty);
+      const TexelRead tr = receiver_read_at(sv, m, pr, rc, r.receiver_depth);
+      r.received = to_rgb(texel_receive<N>(st, m, r.tx, r.ty, tr));
+      OwnStepSearch own(tr);
+      if (tr.own != 0u)
+        for (uint32_t i = 0; i < n; ++i)
+          if (!own.visit(nodes[i].z, tags[i])) break;
+      r.own_node = own.index == 0xffffffffu ? -1 : int(own.index);
+    }
 
-  // The same ray, epsilon 0: the texel's one-pixel view, its members' fragments.
-  const MapPlan& plan = f.setup.maps[k];
-  const SceneView scene = I.sb.view();
-  std::vector<uint32_t> words = I.sb.mask_where([&](uint32_t o) {
-    return std::find(plan.members.begin(), plan.members.end(), o) != plan.members.end();
-  });
-  const ObjectMask mask{{words.data(), words.size()}};
-  const PinholeView one = texel_view(m.view, r.tx, r.ty);
-  FragmentBuffers fb;
-  cast_fragments(scene, one, mask, fb);
-  std::vector<uint32_t> inside = objects_containing(scene, one.eye, mask);
-  LightPassParams lp{one, 0.0f, {inside.data(), inside.size()}, ShadowMethod::Dsm, 0.0f};
-  lp.rgb = r.rgb;
-  WalkStats ws;
-  constexpr int kCapacity = 1 << 16;  // every sample of a long march
-  if (r.rgb) {
-    std::vector<DsmNodeRgb> exact(kCapacity);
-    RgbNodeBuffer buf{exact.data(), kCapacity};
+    // The same ray, epsilon 0: the texel's one-pixel view, its members' fragments.
+    const MapPlan& plan = f.setup.maps[k];
+    const SceneView scene = I.sb.view();
+    std::vector<uint32_t> words = I.sb.mask_where([&](uint32_t o) {
+      return std::find(plan.members.begin(), plan.members.end(), o) != plan.members.end();
+    });
+    const ObjectMask mask{{words.data(), words.size()}};
+    const PinholeView one = texel_view(m.view, r.tx, r.ty);
+    FragmentBuffers fb;
+    cast_fragments(scene, one, mask, fb);
+    std::vector<uint32_t> inside = objects_containing(scene, one.eye, mask);
+    LightPassParams lp{one, 0.0f, {inside.data(), inside.size()}, ShadowMethod::Dsm, 0.0f};
+    lp.rgb = r.rgb;
+    WalkStats ws;
+    constexpr int kCapacity = 1 << 16;  // every sample of a long march
+    std::vector<DsmNodeN<N>> exact(kCapacity);
+    NodeBufferN<N> buf{exact.data(), kCapacity};
     build_texel(scene, lp, fb.lists().pixel(0, 0), 0, 0, buf, ws);
-    r.nodes = samples_of(rgb.data(), n, tags.data());
+    r.nodes = samples_of(nodes.data(), n, tags.data());
     r.exact = samples_of(exact.data(), uint32_t(buf.count));
-    r.max_deviation = deviation(Span<const DsmNodeRgb>{rgb.data(), n}, Span<const DsmNodeRgb>{exact.data(), uint64_t(buf.count)},
-                                kRelativeDepthOffset);
-  } else {
-    std::vector<DsmNode> exact(kCapacity);
-    NodeBuffer buf{exact.data(), kCapacity};
-    build_texel(scene, lp, fb.lists().pixel(0, 0), 0, 0, buf, ws);
-    r.nodes = samples_of(grey.data(), n, tags.data());
-    r.exact = samples_of(exact.data(), uint32_t(buf.count));
-    r.max_deviation = deviation(Span<const DsmNode>{grey.data(), n}, Span<const DsmNode>{exact.data(), uint64_t(buf.count)},
-                                kRelativeDepthOffset);
-  }
+    r.max_deviation = deviation(Span<const DsmNodeN<N>>{nodes.data(), n},
+                                Span<const DsmNodeN<N>>{exact.data(), uint64_t(buf.count)}, kRelativeDepthOffset);
+  };
+  if (r.rgb) inspect_nodes(std::integral_constant<int, 3>{});
+  else inspect_nodes(std::integral_constant<int, 1>{});
   r.found = true;
   return r;
 }

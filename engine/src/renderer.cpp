@@ -342,8 +342,8 @@ struct Renderer::Impl {
       for (const Receiver& r : previous.receivers)
         for (uint32_t li = 0; li < now.lights.size(); ++li) {
           if (cone_factor(now.lights[li], r.p) <= 0.0f) continue;
-          const Vec3 a = shadow_alpha_rgb(now, now.lights[li], r);
-          const Vec3 b = shadow_alpha_rgb(before, before.lights[li], r);
+          const Vec3 a = shadow_alpha(now, now.lights[li], r);
+          const Vec3 b = shadow_alpha(before, before.lights[li], r);
           const Vec3 diff = a - b;
           double d = double(max_channel(vmax(diff, -diff)));  // the largest channel's change
           sum += d;

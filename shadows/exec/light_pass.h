@@ -67,25 +67,24 @@ struct LightPassOptions {
   uint64_t batch_bytes = 0;
 };
 
-// Per node kind: the chunk slot, the bounded buffer and its memory.
-template <class Node>
-struct NodeKind;
-// A bounded buffer of K nodes in executor memory: the nodes, (scalar
-// nodes, with `heap`) the removal heap's six arrays, then the nodes' tags;
+// Per node kind (DsmNodeN<N>): the chunk slot, the bounded buffer and its
+// memory. A bounded buffer of K nodes in executor memory: the nodes, (with
+// `heap`) the removal heap's six arrays, then the nodes' tags;
 // buffer_bytes() long, a multiple of 16 so buffers can follow each other.
-template <>
-struct NodeKind<DsmNode> {
-  using Chunk = ChunkNode;
-  using Buffer = NodeBuffer;
-  using Visitor = DsmVisitor;
+template <class Node>
+struct NodeKind {
+  static constexpr int N = Node::kChannels;
+  using Chunk = ChunkNodeN<N>;
+  using Buffer = NodeBufferN<N>;
+  using Visitor = DsmVisitorOf<Buffer>;
   static constexpr size_t heap_bytes_per_slot = 4 * sizeof(uint32_t) + 2 * sizeof(float);
   static CDSM_HD uint64_t buffer_bytes(int k, bool heap) {
-    const uint64_t b = uint64_t(k) * (sizeof(DsmNode) + (heap ? heap_bytes_per_slot : 0) + sizeof(SurfaceTag));
+    const uint64_t b = uint64_t(k) * (sizeof(Node) + (heap ? heap_bytes_per_slot : 0) + sizeof(SurfaceTag));
     return (b + 15) & ~uint64_t(15);
   }
-  static CDSM_HD NodeBuffer buffer(unsigned char* p, int k, bool heap) {
-    NodeBuffer b{reinterpret_cast<DsmNode*>(p), k};
-    unsigned char* after = p + size_t(k) * sizeof(DsmNode);
+  static CDSM_HD Buffer buffer(unsigned char* p, int k, bool heap) {
+    Buffer b{reinterpret_cast<Node*>(p), k};
+    unsigned char* after = p + size_t(k) * sizeof(Node);
     if (heap) {
       uint32_t* w = reinterpret_cast<uint32_t*>(after);
       float* f = reinterpret_cast<float*>(w + 4 * size_t(k));
@@ -93,21 +92,6 @@ struct NodeKind<DsmNode> {
       after += size_t(k) * heap_bytes_per_slot;
     }
     b.tags = reinterpret_cast<SurfaceTag*>(after);
-    return b;
-  }
-};
-template <>
-struct NodeKind<DsmNodeRgb> {
-  using Chunk = ChunkNodeRgb;
-  using Buffer = RgbNodeBuffer;
-  using Visitor = DsmVisitorRgb;
-  static CDSM_HD uint64_t buffer_bytes(int k, bool) {
-    const uint64_t b = uint64_t(k) * (sizeof(DsmNodeRgb) + sizeof(SurfaceTag));
-    return (b + 15) & ~uint64_t(15);
-  }
-  static CDSM_HD RgbNodeBuffer buffer(unsigned char* p, int k, bool) {
-    RgbNodeBuffer b{reinterpret_cast<DsmNodeRgb*>(p), k};
-    b.tags = reinterpret_cast<SurfaceTag*>(p + size_t(k) * sizeof(DsmNodeRgb));
     return b;
   }
 };
@@ -256,8 +240,8 @@ struct BaselineWalk {
   }
 };
 
-// Second walk of a listed texel into the large buffer (scalar nodes remove
-// through the heap, RGB ones by scan), reserved exactly in the pool and
+// Second walk of a listed texel into the large buffer (either kind removes
+// through the heap: one overflow policy), reserved exactly in the pool and
 // written there.
 template <class Node>
 struct SecondWalk {
@@ -265,7 +249,7 @@ struct SecondWalk {
   CDSM_HD void operator()(uint64_t idx) const {
     const uint64_t i = w.spill_texels[w.first + idx];
     const int tx = int(i % uint64_t(w.res)), ty = int(i / uint64_t(w.res));
-    auto buf = NodeKind<Node>::buffer(w.buffers + idx * w.slot_bytes, w.K, sizeof(Node) == sizeof(DsmNode));
+    auto buf = NodeKind<Node>::buffer(w.buffers + idx * w.slot_bytes, w.K, true);
     WalkStats st;
     build_texel(w.scene, w.params, w.frags.pixel(tx, ty), tx, ty, buf, st);
     const uint32_t n = uint32_t(buf.count);
@@ -373,7 +357,7 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
   work.ctr = ctr;
 
   const uint64_t walk_bytes = Kind::buffer_bytes(K, false);
-  const uint64_t rewalk_bytes = Kind::buffer_bytes(K2, sizeof(Node) == sizeof(DsmNode));
+  const uint64_t rewalk_bytes = Kind::buffer_bytes(K2, true);
   const uint64_t row_texels = uint64_t(tiles_x) * kDsmTile * kDsmTile;  // a row of tiles, its edge included
   const uint64_t batch_bytes = opt.batch_bytes ? opt.batch_bytes : Ex::kLightPassBatchBytes;
   const uint64_t rows_per_batch = std::max<uint64_t>(1, batch_bytes / std::max<uint64_t>(1, row_texels * walk_bytes));

@@ -58,7 +58,7 @@ struct NoRecorder {
 struct DsmVisibility {
   const ShadowView& sv;
   CDSM_HD Vec3 operator()(int light, const Receiver& r) const {
-    return one_minus(shadow_alpha_rgb(sv, sv.lights[uint32_t(light)], r));
+    return one_minus(shadow_alpha(sv, sv.lights[uint32_t(light)], r));
   }
 };
 

@@ -3,21 +3,34 @@
 // physical: slopes >= 0 and the line never exceeds 1 (DESIGN.md §2.4).
 // Guarantee: at every pushed sample |alpha'(z) - alpha(z)| <= eps (+ float
 // rounding); alpha' is monotone and within [0, 1].
+// Written once over N colour channels (hd/channels.h): a coloured map's
+// channels share node depths, each keeps its own admissible slopes and
+// stays within eps; a line closes as soon as any channel's would empty.
+// With N = 1 every operation is the scalar one, in the same order.
 #pragma once
 
 #include "cdsm/math.h"
+#include "hd/channels.h"
 #include "hd/fragment.h"
 #include "hd/span.h"
 
 namespace cdsm {
 
-// One node of a visibility function: accumulated opacity alpha at depth z.
-// Two nodes with equal z form a step (a surface). std430: 8 bytes.
-struct DsmNode {
-  float z;      // radial depth from the light, world units
-  float alpha;  // accumulated opacity 1 - V(z), in [0, 1]
+// One node of a visibility function: accumulated opacity alpha at depth z,
+// per channel. Two nodes with equal z form a step (a surface). std430:
+// 8 bytes (grey) or 16 (RGB: a vec4 z, r, g, b).
+template <int N>
+struct DsmNodeN {
+  static constexpr int kChannels = N;
+  float z;              // radial depth from the light, world units
+  Channels<N> alpha;    // accumulated opacity 1 - V_k(z), each in [0, 1]
 };
+using DsmNode = DsmNodeN<1>;
+using DsmNodeRgb = DsmNodeN<3>;
 static_assert(sizeof(DsmNode) == 8, "DsmNode is 8 bytes");
+static_assert(sizeof(DsmNodeRgb) == 16, "DsmNodeRgb is 16 bytes (std430 vec4)");
+CDSM_HD CDSM_INLINE float node_alpha(const DsmNode& n) { return n.alpha; }
+CDSM_HD CDSM_INLINE Vec3 node_alpha(const DsmNodeRgb& n) { return n.alpha; }
 
 // Which surface a step belongs to (DESIGN.md §8: receivers leave out their
 // own surface by identity). Kept per node beside the nodes (one 16-bit tag
@@ -74,9 +87,13 @@ struct RemovalScratch {
 // nodes: O(log K) per node. Without scratch the same nodes are chosen by a
 // scan and the slots shifted, O(K) per node, and the bound is the sum of the
 // changes instead of the per-span one (looser, still never below the truth).
-// Capacity >= 4.
-struct NodeBuffer {
-  DsmNode* nodes;
+// Capacity >= 4. Either node kind: the removal cost of an RGB node is the
+// largest over its channels (removal_cost_of below).
+template <int N>
+struct NodeBufferN {
+  using Node = DsmNodeN<N>;
+  using Alpha = Channels<N>;
+  Node* nodes;
   int capacity;
   int count = 0;             // slots used (with scratch after an overflow: removed ones among them)
   float extra_error = 0.0f;  // bound of the change of alpha(z) caused by removals (max over spans)
@@ -94,56 +111,73 @@ struct NodeBuffer {
   int alive = 0;             // nodes of the function when linked
   uint32_t heap_size = 0;
 
-  CDSM_HD inline void emit(float z, float a, SurfaceTag tag = kNoSurface);
-  CDSM_HD inline CDSM_NOINLINE void emit_full(float z, float a, SurfaceTag tag);  // emit() past node_limit or once linked
+  CDSM_HD inline void emit(float z, Alpha a, SurfaceTag tag = kNoSurface);
+  CDSM_HD inline CDSM_NOINLINE void emit_full(float z, Alpha a, SurfaceTag tag);  // emit() past node_limit or once linked
   CDSM_HD int size() const { return linked ? alive : count; }  // nodes of the function
-  CDSM_HD DsmNode& last() { return nodes[count - 1]; }           // the last node is always slot count - 1
+  CDSM_HD Node& last() { return nodes[count - 1]; }              // the last node is always slot count - 1
   CDSM_HD SurfaceTag last_tag() const { return last_tag_; }
-  CDSM_HD DsmNode& before_last() { return nodes[linked ? scratch.prev[count - 1] : uint32_t(count - 2)]; }
-  CDSM_HD inline void raise_last(float a);  // a coincident surface raises the last node
+  CDSM_HD Node& before_last() { return nodes[linked ? scratch.prev[count - 1] : uint32_t(count - 2)]; }
+  CDSM_HD inline void raise_last(Alpha a);  // a coincident surface raises the last node
   CDSM_HD inline void compact();            // the function's nodes into slots [0, size()), in order
 };
+using NodeBuffer = NodeBufferN<1>;
+using RgbNodeBuffer = NodeBufferN<3>;
 
 // The clamped wedge. Feed samples in non-decreasing z with push(); a surface
 // is push(z, before) followed by step(z, after, tag); finish() closes the
 // function. Sink: emit(z, a, tag), size(), last(), last_tag(), before_last(),
-// raise_last(a) (NodeBuffer, or hd/dsm_fixed.h's FixedSlotSink). A step's
-// upper node carries its surface's tag; coincident steps of one object
-// share their upper node (with the first one's tag: an edge or silhouette
-// crossed twice), those of different objects each keep their own (so a
-// receiver can leave out exactly its own, DESIGN.md §8).
+// raise_last(a) over nodes of N channels (NodeBufferN, or hd/dsm_fixed.h's
+// FixedSlotSink); the wedge keeps per channel k its admissible slopes
+// (lo_k, hi_k), accepts a sample while every channel's interval stays
+// non-empty and closes the line of all channels as soon as one's would
+// empty. A step's upper node carries its surface's tag; coincident steps
+// of one object share their upper node (with the first one's tag: an edge
+// or silhouette crossed twice), those of different objects each keep their
+// own (so a receiver can leave out exactly its own, DESIGN.md §8).
 template <class Sink>
 struct Wedge {
+  static constexpr int N = Sink::Node::kChannels;
+  using Alpha = Channels<N>;
   float eps = 0.0f;
   bool has_origin = false;
-  float z0 = 0.0f, a0 = 0.0f;    // origin: the last emitted node
-  float lo = 0.0f, hi = 0.0f;    // admissible slopes of the current line
+  float z0 = 0.0f;
+  Alpha a0{};                    // origin: the last emitted node
+  float lo[N] = {}, hi[N] = {};  // admissible slopes of the current line, per channel
   bool pending = false;          // samples accepted since the origin
-  float zl = 0.0f, al = 0.0f;    // last accepted sample
+  float zl = 0.0f;
+  Alpha al{};                    // last accepted sample
 
   CDSM_HD explicit Wedge(float e) : eps(e) {}
 
-  CDSM_HD void set_origin(Sink& buf, float z, float a, SurfaceTag tag = kNoSurface) {
+  CDSM_HD void set_origin(Sink& buf, float z, Alpha a, SurfaceTag tag = kNoSurface) {
     buf.emit(z, a, tag);
     z0 = z;
     a0 = buf.last().alpha;
     pending = false;
   }
 
-  // Value of the current line at the last accepted sample, chosen inside the
-  // wedge as close as possible to that sample (exact when the wedge allows;
-  // the thesis takes the wedge's midpoint, equally admissible).
-  CDSM_HD float line_end() const {
-    float dz = zl - z0;
-    return fminf(clampf(al, a0 + lo * dz, a0 + hi * dz), 1.0f);  // the bounds can round past 1
+  // Value of each channel's line at the last accepted sample, chosen inside
+  // its wedge as close as possible to that sample (exact when the wedge
+  // allows; the thesis takes the wedge's midpoint, equally admissible).
+  CDSM_HD Alpha line_end() const {
+    const float dz = zl - z0;
+    Alpha e{};
+    for (int k = 0; k < N; ++k) {
+      const float a0k = channel(a0, k);
+      set_channel(e, k, fminf(clampf(channel(al, k), a0k + lo[k] * dz, a0k + hi[k] * dz), 1.0f));  // the bounds can round past 1
+    }
+    return e;
   }
 
   // Starts a new wedge from the origin through sample (z, a), z > z0.
-  CDSM_HD void restart(float z, float a) {
-    float dz = z - z0;
-    lo = fmaxf(0.0f, (a - eps - a0) / dz);
-    hi = fminf((a + eps - a0) / dz, (1.0f - a0) / dz);
-    if (hi < lo) hi = lo;  // only by rounding
+  CDSM_HD void restart(float z, Alpha a) {
+    const float dz = z - z0;
+    for (int k = 0; k < N; ++k) {
+      const float ak = channel(a, k), a0k = channel(a0, k);
+      lo[k] = fmaxf(0.0f, (ak - eps - a0k) / dz);
+      hi[k] = fminf((ak + eps - a0k) / dz, (1.0f - a0k) / dz);
+      if (hi[k] < lo[k]) hi[k] = lo[k];  // only by rounding
+    }
     zl = z;
     al = a;
     pending = true;
@@ -153,15 +187,23 @@ struct Wedge {
   // narrows it. Every other case (the first sample, a new line, a jump at
   // one depth) goes out of line: a walk pushes from many places, and a
   // GPU kernel would otherwise carry a copy of all of it at each.
-  CDSM_HD void push(Sink& buf, float z, float a) {
-    a = clampf(a, 0.0f, 1.0f);
+  CDSM_HD void push(Sink& buf, float z, Alpha a) {
+    a = clamp01(a);
     if (has_origin && pending && !(z <= zl)) {  // (as push_rest tests it: a NaN z too)
-      float dz = z - z0;
-      float nlo = fmaxf(lo, (a - eps - a0) / dz);
-      float nhi = fminf(hi, fminf((a + eps - a0) / dz, (1.0f - a0) / dz));
-      if (nlo <= nhi) {
-        lo = nlo;
-        hi = nhi;
+      const float dz = z - z0;
+      float nlo[N], nhi[N];
+      bool fits = true;
+      for (int k = 0; k < N; ++k) {
+        const float ak = channel(a, k), a0k = channel(a0, k);
+        nlo[k] = fmaxf(lo[k], (ak - eps - a0k) / dz);
+        nhi[k] = fminf(hi[k], fminf((ak + eps - a0k) / dz, (1.0f - a0k) / dz));
+        fits = fits && nlo[k] <= nhi[k];
+      }
+      if (fits) {
+        for (int k = 0; k < N; ++k) {
+          lo[k] = nlo[k];
+          hi[k] = nhi[k];
+        }
         zl = z;
         al = a;
         return;
@@ -171,7 +213,7 @@ struct Wedge {
   }
 
   // push() of a sample the current wedge does not narrow to.
-  CDSM_HD CDSM_NOINLINE void push_rest(Sink& buf, float z, float a) {
+  CDSM_HD CDSM_NOINLINE void push_rest(Sink& buf, float z, Alpha a) {
     if (!has_origin) {
       has_origin = true;
       set_origin(buf, z, a);
@@ -179,34 +221,34 @@ struct Wedge {
     }
     if (!pending) {
       if (z <= z0) {  // same depth as the origin: a jump is a step
-        if (a > a0) step(buf, z, a);
+        if (rises(a, a0)) step(buf, z, a);
         return;
       }
       restart(z, a);
       return;
     }
     if (z <= zl) {  // same depth as the last sample
-      if (a != al) {
+      if (!same_channels(a, al)) {
         set_origin(buf, zl, line_end());
         step(buf, z, a);
       }
       return;
     }
-    // Beyond the last sample: push() found that the wedge does not admit it.
-    set_origin(buf, zl, line_end());  // the wedge emptied: close the line
+    // Beyond the last sample: push() found that some channel's wedge is empty.
+    set_origin(buf, zl, line_end());  // close the line
     restart(z, a);
   }
 
   // A surface (tag: which one) at depth z raises alpha to `after`
   // (push(z, before) came first).
-  CDSM_HD CDSM_NOINLINE void step(Sink& buf, float z, float after, SurfaceTag tag = kNoSurface) {
-    after = clampf(after, 0.0f, 1.0f);
+  CDSM_HD CDSM_NOINLINE void step(Sink& buf, float z, Alpha after, SurfaceTag tag = kNoSurface) {
+    after = clamp01(after);
     if (!has_origin) {
       has_origin = true;
-      set_origin(buf, z, 0.0f);
+      set_origin(buf, z, Alpha{});
     }
     if (pending) set_origin(buf, zl, line_end());
-    after = fmaxf(after, a0);  // monotone
+    after = channel_max(after, a0);  // monotone, per channel
     // Coincident crossings of one surface: raise the step's upper node
     // instead of adding one.
     if (buf.size() >= 2 && buf.last().z == z && buf.before_last().z == z &&
@@ -225,6 +267,7 @@ struct Wedge {
 };
 
 using WedgeCompressor = Wedge<NodeBuffer>;
+using WedgeCompressorRgb = Wedge<RgbNodeBuffer>;
 
 // Cost of removing node m between a and b: the area of the triangle the
 // three span (what the function loses), and the change of alpha at m. A
@@ -232,10 +275,17 @@ using WedgeCompressor = Wedge<NodeBuffer>;
 struct RemovalCost {
   float area, change;
 };
-CDSM_HD CDSM_INLINE RemovalCost removal_cost_of(DsmNode a, DsmNode m, DsmNode b) {
+// Over channels: the largest channel's change (and so its area).
+template <int N>
+CDSM_HD CDSM_INLINE RemovalCost removal_cost_of(const DsmNodeN<N>& a, const DsmNodeN<N>& m, const DsmNodeN<N>& b) {
   if (!(b.z > a.z)) return {0.0f, 0.0f};
-  float w = clampf((m.z - a.z) / (b.z - a.z), 0.0f, 1.0f);
-  float change = fabsf(m.alpha - (a.alpha + (b.alpha - a.alpha) * w));
+  const float w = clampf((m.z - a.z) / (b.z - a.z), 0.0f, 1.0f);
+  float change = 0.0f;
+  for (int k = 0; k < N; ++k) {
+    const float ak = channel(a.alpha, k);
+    const float ck = fabsf(channel(m.alpha, k) - (ak + (channel(b.alpha, k) - ak) * w));
+    change = k == 0 ? ck : fmaxf(change, ck);
+  }
   return {0.5f * change * (b.z - a.z), change};
 }
 // Smaller area first; at equal area the smaller change (then the first node).
@@ -250,8 +300,7 @@ CDSM_HD CDSM_INLINE bool cheaper(RemovalCost x, RemovalCost y) {
 // `incoming` follows it), the first of equally cheap ones, and adds its
 // change to the error bound (without per-span memory, the sum of the
 // changes bounds the total).
-// Either node kind (removal_cost_of is overloaded for RGB nodes: the
-// largest channel's cost, hd/compress_rgb.h).
+// Either node kind (removal_cost_of: the largest channel's cost).
 template <class Node>
 CDSM_HD inline void remove_cheapest_scan(Node* n, int& count, Node incoming, float& extra_error,
                                          SurfaceTag* tags = nullptr) {
@@ -277,7 +326,8 @@ namespace node_heap {
 
 // Heap order of two linked interior nodes: cost[] holds the area; equal
 // areas compare the change (recomputed: ties are rare), then the slot.
-CDSM_HD inline bool less(const RemovalScratch& w, const DsmNode* n, uint32_t x, uint32_t y) {
+template <class Node>
+CDSM_HD inline bool less(const RemovalScratch& w, const Node* n, uint32_t x, uint32_t y) {
   if (w.cost[x] != w.cost[y]) return w.cost[x] < w.cost[y];
   float cx = removal_cost_of(n[w.prev[x]], n[x], n[w.next[x]]).change;
   float cy = removal_cost_of(n[w.prev[y]], n[y], n[w.next[y]]).change;
@@ -287,7 +337,8 @@ CDSM_HD CDSM_INLINE void place(const RemovalScratch& w, uint32_t slot, uint32_t 
   w.heap[slot] = node;
   w.pos[node] = slot;
 }
-CDSM_HD inline void sift_up(const RemovalScratch& w, const DsmNode* n, uint32_t slot) {
+template <class Node>
+CDSM_HD inline void sift_up(const RemovalScratch& w, const Node* n, uint32_t slot) {
   uint32_t node = w.heap[slot];
   while (slot > 0) {
     uint32_t parent = (slot - 1) / 2;
@@ -297,7 +348,8 @@ CDSM_HD inline void sift_up(const RemovalScratch& w, const DsmNode* n, uint32_t 
   }
   place(w, slot, node);
 }
-CDSM_HD inline void sift_down(const RemovalScratch& w, const DsmNode* n, uint32_t slot, uint32_t size) {
+template <class Node>
+CDSM_HD inline void sift_down(const RemovalScratch& w, const Node* n, uint32_t slot, uint32_t size) {
   uint32_t node = w.heap[slot];
   for (;;) {
     uint32_t c = 2 * slot + 1;
@@ -315,10 +367,12 @@ inline constexpr uint32_t kNone = 0xffffffffu;
 }  // namespace node_heap
 
 // The heap's key: the area (node_heap::less breaks ties as the scan does).
-CDSM_HD CDSM_INLINE float removal_key(DsmNode a, DsmNode m, DsmNode b) { return removal_cost_of(a, m, b).area; }
+template <class Node>
+CDSM_HD CDSM_INLINE float removal_key(const Node& a, const Node& m, const Node& b) { return removal_cost_of(a, m, b).area; }
 
 // (Re)computes the heap key of interior node m and restores heap order.
-CDSM_HD inline void update_node(NodeBuffer& b, uint32_t m) {
+template <int N>
+CDSM_HD inline void update_node(NodeBufferN<N>& b, uint32_t m) {
   const RemovalScratch& w = b.scratch;
   w.cost[m] = removal_key(b.nodes[w.prev[m]], b.nodes[m], b.nodes[w.next[m]]);
   if (w.pos[m] == node_heap::kNone) {
@@ -329,7 +383,8 @@ CDSM_HD inline void update_node(NodeBuffer& b, uint32_t m) {
 }
 
 // Links the nodes in slots [0, count) and builds the heap of the interior.
-CDSM_HD inline void link_nodes(NodeBuffer& b, bool keep_span_errors) {
+template <int N>
+CDSM_HD inline void link_nodes(NodeBufferN<N>& b, bool keep_span_errors) {
   const RemovalScratch& w = b.scratch;
   const uint32_t n = uint32_t(b.count);
   for (uint32_t i = 0; i < n; ++i) {
@@ -349,7 +404,8 @@ CDSM_HD inline void link_nodes(NodeBuffer& b, bool keep_span_errors) {
 }
 
 // Removes the cheapest interior node of a linked buffer.
-CDSM_HD inline void remove_cheapest_linked(NodeBuffer& b) {
+template <int N>
+CDSM_HD inline void remove_cheapest_linked(NodeBufferN<N>& b) {
   const RemovalScratch& w = b.scratch;
   uint32_t i = w.heap[0];
   w.pos[i] = node_heap::kNone;
@@ -370,7 +426,8 @@ CDSM_HD inline void remove_cheapest_linked(NodeBuffer& b) {
   if (w.next[c] != node_heap::kNone) update_node(b, c);
 }
 
-CDSM_HD inline void NodeBuffer::compact() {
+template <int N>
+CDSM_HD inline void NodeBufferN<N>::compact() {
   if (!linked) return;
   const RemovalScratch& w = scratch;
   int out = 0;
@@ -384,7 +441,8 @@ CDSM_HD inline void NodeBuffer::compact() {
   linked = false;
 }
 
-CDSM_HD inline void NodeBuffer::raise_last(float a) {
+template <int N>
+CDSM_HD inline void NodeBufferN<N>::raise_last(Alpha a) {
   nodes[count - 1].alpha = a;
   if (linked && scratch.prev[count - 1] != node_heap::kNone && scratch.pos[scratch.prev[count - 1]] != node_heap::kNone)
     update_node(*this, scratch.prev[count - 1]);
@@ -395,7 +453,8 @@ CDSM_HD inline void NodeBuffer::raise_last(float a) {
 // scan version keeps the same limit, so both choose the same nodes.
 CDSM_HD CDSM_INLINE int node_limit(int capacity) { return capacity - (capacity / 8 > 1 ? capacity / 8 : 1); }
 
-CDSM_HD inline void NodeBuffer::emit(float z, float a, SurfaceTag tag) {
+template <int N>
+CDSM_HD inline void NodeBufferN<N>::emit(float z, Alpha a, SurfaceTag tag) {
   const int limit = node_limit(capacity);
   if (stop_when_full && count >= limit) {
     ++removed;
@@ -404,22 +463,23 @@ CDSM_HD inline void NodeBuffer::emit(float z, float a, SurfaceTag tag) {
   last_tag_ = tag;
   if (!linked && count < limit) {  // room: appended as emitted (with or without scratch)
     if (tags) tags[count] = tag;
-    nodes[count++] = DsmNode{z, a};
+    nodes[count++] = Node{z, a};
     return;
   }
   emit_full(z, a, tag);
 }
 
-CDSM_HD void NodeBuffer::emit_full(float z, float a, SurfaceTag tag) {
+template <int N>
+CDSM_HD void NodeBufferN<N>::emit_full(float z, Alpha a, SurfaceTag tag) {
   const int limit = node_limit(capacity);
   if (scratch.empty()) {
     if (count >= limit && count >= 2) {
-      remove_cheapest_scan(nodes, count, DsmNode{z, a}, extra_error, tags);
+      remove_cheapest_scan(nodes, count, Node{z, a}, extra_error, tags);
       ++removed;
     }
     if (count < capacity) {
       if (tags) tags[count] = tag;
-      nodes[count++] = DsmNode{z, a};
+      nodes[count++] = Node{z, a};
     }
     return;
   }
@@ -429,7 +489,7 @@ CDSM_HD void NodeBuffer::emit_full(float z, float a, SurfaceTag tag) {
     link_nodes(*this, true);
   }
   const uint32_t t = uint32_t(count);
-  nodes[t] = DsmNode{z, a};
+  nodes[t] = Node{z, a};
   if (tags) tags[t] = tag;
   scratch.prev[t] = t - 1;
   scratch.next[t] = node_heap::kNone;

@@ -17,7 +17,6 @@
 #pragma once
 
 #include "hd/compress.h"
-#include "hd/compress_rgb.h"
 #include "hd/view.h"
 
 namespace cdsm {
@@ -36,30 +35,27 @@ static_assert(sizeof(TexelRange) == 8, "TexelRange is 8 bytes");
 
 // One slot of the chunked pool: a node and the slot of the same texel's next
 // node. The thesis's C_next / L_next pair is one slot index u = C c + l
-// (eq. 4.13). std430: three scalars, stride 12 (no vec3).
-struct ChunkNode {
-  float z;        // radial depth from the light, world units
-  float alpha;    // accumulated opacity in [0, 1]
-  uint32_t next;  // pool slot of the texel's next node; kChunkEnd after its last
+// (eq. 4.13). std430: scalars only, stride 12 (grey) or 20 (RGB; no vec3).
+template <int N>
+struct ChunkNodeN {
+  static constexpr int kChannels = N;
+  float z;            // radial depth from the light, world units
+  Channels<N> alpha;  // accumulated opacity per channel, in [0, 1]
+  uint32_t next;      // pool slot of the texel's next node; kChunkEnd after its last
 };
+using ChunkNode = ChunkNodeN<1>;
+using ChunkNodeRgb = ChunkNodeN<3>;
 static_assert(sizeof(ChunkNode) == 12, "ChunkNode is 12 bytes");
 static_assert(alignof(ChunkNode) == 4, "ChunkNode is three scalars");
-inline constexpr uint32_t kChunkEnd = 0xffffffffu;
-
-// The chunked slot of an RGB map. std430: five scalars, stride 20.
-struct ChunkNodeRgb {
-  float z;
-  float r, g, b;
-  uint32_t next;
-};
 static_assert(sizeof(ChunkNodeRgb) == 20, "ChunkNodeRgb is 20 bytes");
 static_assert(alignof(ChunkNodeRgb) == 4, "ChunkNodeRgb is five scalars");
+inline constexpr uint32_t kChunkEnd = 0xffffffffu;
 
-// A node's slot in the chunked pool, and back (both kinds).
-CDSM_HD CDSM_INLINE ChunkNode chunk_of(const DsmNode& n, uint32_t next) { return {n.z, n.alpha, next}; }
-CDSM_HD CDSM_INLINE ChunkNodeRgb chunk_of(const DsmNodeRgb& n, uint32_t next) { return {n.z, n.r, n.g, n.b, next}; }
-CDSM_HD CDSM_INLINE DsmNode node_of(const ChunkNode& c) { return {c.z, c.alpha}; }
-CDSM_HD CDSM_INLINE DsmNodeRgb node_of(const ChunkNodeRgb& c) { return {c.z, c.r, c.g, c.b}; }
+// A node's slot in the chunked pool, and back.
+template <int N>
+CDSM_HD CDSM_INLINE ChunkNodeN<N> chunk_of(const DsmNodeN<N>& n, uint32_t next) { return {n.z, n.alpha, next}; }
+template <int N>
+CDSM_HD CDSM_INLINE DsmNodeN<N> node_of(const ChunkNodeN<N>& c) { return {c.z, c.alpha}; }
 
 // Depth of the pads that fill a fixed-layout texel's unused slots (FLT_MAX);
 // a pad's alpha repeats the texel's last alpha (0 for an empty texel), so a
@@ -81,6 +77,15 @@ struct DsmMap {
 };
 static_assert(sizeof(DsmMap) == 96, "DsmMap is 96 bytes");
 
+// One node kind's arrays of a storage (views).
+template <int N>
+struct NodeArrays {
+  Span<const TexelRange> texels;    // packed, chunked: per-texel headers, map by map; fixed: empty
+  Span<const DsmNodeN<N>> nodes;    // packed: the exact pool; fixed: `layers` slots per texel
+  Span<const ChunkNodeN<N>> chunks; // chunked: the slot pool, chunk after chunk
+  Span<const SurfaceTag> tags;      // per slot of nodes (packed, fixed) or chunks (chunked); empty: none
+};
+
 // All maps' texels and nodes in one layout (views; the owner is the backend).
 struct DsmStorage {
   Span<const TexelRange> texels;  // packed, chunked: per-texel headers, map by map; fixed: empty
@@ -97,7 +102,18 @@ struct DsmStorage {
   Span<const SurfaceTag> rgb_tags;
   DsmLayout layout = DsmLayout::Packed;
   uint32_t layers = 0;            // fixed: L, node slots per texel
+
+  template <int N>
+  CDSM_HD inline NodeArrays<N> arrays() const;  // one node kind's arrays (N = 1 grey, 3 RGB)
 };
+template <>
+CDSM_HD inline NodeArrays<1> DsmStorage::arrays<1>() const {
+  return {texels, nodes, chunks, tags};
+}
+template <>
+CDSM_HD inline NodeArrays<3> DsmStorage::arrays<3>() const {
+  return {rgb_texels, rgb_nodes, rgb_chunks, rgb_tags};
+}
 
 // Slot i's tag (kNoSurface where the storage keeps none).
 CDSM_HD CDSM_INLINE SurfaceTag tag_of(Span<const SurfaceTag> tags, uint64_t i) {
@@ -118,8 +134,9 @@ CDSM_HD CDSM_INLINE uint32_t lower_bound_z(Span<const Node> n, float z) {
   return lo;
 }
 
-// alpha at z on the line between consecutive nodes a.z < z < b.z.
-CDSM_HD CDSM_INLINE float alpha_between(DsmNode a, DsmNode b, float z) {
+// alpha at z on the line between consecutive nodes a.z < z < b.z (per channel).
+template <int N>
+CDSM_HD CDSM_INLINE Channels<N> alpha_between(const DsmNodeN<N>& a, const DsmNodeN<N>& b, float z) {
   return lerpf(a.alpha, b.alpha, (z - a.z) / (b.z - a.z));
 }
 
@@ -127,46 +144,47 @@ CDSM_HD CDSM_INLINE float alpha_between(DsmNode a, DsmNode b, float z) {
 // last value after the last, linear between; exactly at a node depth the
 // first node there (for a step: the value before it — a surface exactly at
 // a step is lit by the light arriving at it). Zero-width intervals are never
-// interpolated. j is the first node with z_j >= z. Scalar nodes give a
-// float, RGB nodes the same rules per channel (a Vec3).
-template <class Node>
-CDSM_HD CDSM_INLINE auto alpha_at_index(Span<const Node> n, float z, uint32_t j) {
-  using Alpha = decltype(node_alpha(n[0]));
-  if (j >= n.size()) return n.size() ? node_alpha(n[n.size() - 1]) : Alpha{};
-  if (n[j].z == z) return node_alpha(n[j]);
-  if (j == 0) return Alpha{};
-  return Alpha(alpha_between(n[j - 1], n[j], z));
+// interpolated. j is the first node with z_j >= z. Per channel.
+template <int N>
+CDSM_HD CDSM_INLINE Channels<N> alpha_at_index(Span<const DsmNodeN<N>> n, float z, uint32_t j) {
+  if (j >= n.size()) return n.size() ? n[n.size() - 1].alpha : Channels<N>{};
+  if (n[j].z == z) return n[j].alpha;
+  if (j == 0) return Channels<N>{};
+  return alpha_between(n[j - 1], n[j], z);
 }
 
-template <class Node>
-CDSM_HD CDSM_INLINE auto lookup_alpha(Span<const Node> n, float z) {
+template <int N>
+CDSM_HD CDSM_INLINE Channels<N> lookup_alpha(Span<const DsmNodeN<N>> n, float z) {
   return alpha_at_index(n, z, lower_bound_z(n, z));
 }
 
 // alpha just after z (the right limit): after a step at z, its upper value.
-CDSM_HD CDSM_INLINE float alpha_after(Span<const DsmNode> n, float z) {
+template <int N>
+CDSM_HD CDSM_INLINE Channels<N> alpha_after(Span<const DsmNodeN<N>> n, float z) {
   uint32_t lo = 0, hi = uint32_t(n.size());  // first node with z_j > z
   while (lo < hi) {
     uint32_t mid = (lo + hi) >> 1;
     if (n[mid].z <= z) lo = mid + 1;
     else hi = mid;
   }
-  if (lo == 0) return 0.0f;
+  if (lo == 0) return Channels<N>{};
   if (lo == n.size() || n[lo - 1].z == z) return n[lo - 1].alpha;
   return alpha_between(n[lo - 1], n[lo], z);
 }
 
-// sup over z of |f(z) - g(z)| for two node lists: both are piecewise
-// linear with breakpoints at their nodes, so the largest difference of the
-// values before (lookup_alpha) or after (alpha_after) some node's depth.
-CDSM_HD inline float max_change(Span<const DsmNode> f, Span<const DsmNode> g) {
+// sup over z (and channels) of |f(z) - g(z)| for two node lists: both are
+// piecewise linear with breakpoints at their nodes, so the largest
+// difference of the values before (lookup_alpha) or after (alpha_after)
+// some node's depth.
+template <int N>
+CDSM_HD inline float max_change(Span<const DsmNodeN<N>> f, Span<const DsmNodeN<N>> g) {
   float worst = 0.0f;
   for (int list = 0; list < 2; ++list) {
-    Span<const DsmNode> n = list == 0 ? f : g;
+    Span<const DsmNodeN<N>> n = list == 0 ? f : g;
     for (uint64_t i = 0; i < n.size(); ++i) {
       float z = n[i].z;
-      worst = fmaxf(worst, fabsf(lookup_alpha(f, z) - lookup_alpha(g, z)));
-      worst = fmaxf(worst, fabsf(alpha_after(f, z) - alpha_after(g, z)));
+      worst = fmaxf(worst, max_channel(abs_channels(lookup_alpha(f, z) - lookup_alpha(g, z))));
+      worst = fmaxf(worst, max_channel(abs_channels(alpha_after(f, z) - alpha_after(g, z))));
     }
   }
   return worst;
@@ -174,7 +192,8 @@ CDSM_HD inline float max_change(Span<const DsmNode> f, Span<const DsmNode> g) {
 
 // The same, starting a galloping search at a hint (the previous sample's
 // index when marching along a ray); updates the hint.
-CDSM_HD CDSM_INLINE float lookup_alpha_from(Span<const DsmNode> n, float z, uint32_t& hint) {
+template <int N>
+CDSM_HD CDSM_INLINE Channels<N> lookup_alpha_from(Span<const DsmNodeN<N>> n, float z, uint32_t& hint) {
   uint32_t size = uint32_t(n.size());
   uint32_t j = hint > size ? size : hint;
   if (j < size && n[j].z < z) {
@@ -188,25 +207,22 @@ CDSM_HD CDSM_INLINE float lookup_alpha_from(Span<const DsmNode> n, float z, uint
 
 // The same function read from a chunked texel: a linear walk along the
 // texel's links (the thesis's layout allows no binary search). Same
-// arithmetic as alpha_at_index, so the layouts agree bit for bit. Scalar
-// (ChunkNode) or RGB (ChunkNodeRgb) pools.
-template <class Chunk>
-CDSM_HD CDSM_INLINE auto lookup_alpha_chunked(Span<const Chunk> pool, TexelRange head, float z) {
-  using Node = decltype(node_of(pool[0]));
-  using Alpha = decltype(node_alpha(Node{}));
-  Node prev{};
+// arithmetic as alpha_at_index, so the layouts agree bit for bit.
+template <int N>
+CDSM_HD CDSM_INLINE Channels<N> lookup_alpha_chunked(Span<const ChunkNodeN<N>> pool, TexelRange head, float z) {
+  DsmNodeN<N> prev{};
   uint32_t slot = head.offset;
   for (uint32_t i = 0; i < head.count; ++i) {
-    const Chunk c = pool[slot];
+    const ChunkNodeN<N> c = pool[slot];
     if (c.z >= z) {
-      if (c.z == z) return node_alpha(node_of(c));
-      if (i == 0) return Alpha{};
-      return Alpha(alpha_between(prev, node_of(c), z));
+      if (c.z == z) return c.alpha;
+      if (i == 0) return Channels<N>{};
+      return alpha_between(prev, node_of(c), z);
     }
     prev = node_of(c);
     slot = c.next;
   }
-  return node_alpha(prev);  // beyond the last node; 0 for an empty texel
+  return prev.alpha;  // beyond the last node; 0 for an empty texel
 }
 
 // ---- what a surface receives: its own step left out, by identity ------------
@@ -277,7 +293,7 @@ struct OwnStepSearch {
 // Pass 2, fed the same nodes from the same first one.
 template <class Node>
 struct ReceiverScan {
-  using Alpha = decltype(node_alpha(Node{}));
+  using Alpha = Channels<Node::kChannels>;
   TexelRead r;
   OwnStepSearch own;
   float lo, hi;        // the band of surfaces touching the receiver
@@ -295,10 +311,10 @@ struct ReceiverScan {
 
   CDSM_HD bool visit(const Node& n, SurfaceTag tag) {
     const uint32_t i = seen++;
-    const Alpha a = node_alpha(n);
+    const Alpha a = n.alpha;
     bool counts;
     if (n.z > hi) {  // past the band: a stretch crossing its end counts up to it
-      if (have_prev && prev.z < hi) alpha = over_layer(alpha, layer_between(node_alpha(prev), Alpha(alpha_between(prev, n, hi))));
+      if (have_prev && prev.z < hi) alpha = over_layer(alpha, layer_between(prev.alpha, alpha_between(prev, n, hi)));
       return false;
     }
     if (n.z < prefix_end) {  // in front of everything the rules below decide: the value itself
@@ -314,7 +330,7 @@ struct ReceiverScan {
     } else {
       counts = true;
     }
-    if (counts) alpha = over_layer(alpha, layer_between(have_prev ? node_alpha(prev) : Alpha{}, a));
+    if (counts) alpha = over_layer(alpha, layer_between(have_prev ? prev.alpha : Alpha{}, a));
     prev = n;
     have_prev = true;
     return true;
@@ -362,80 +378,92 @@ CDSM_HD inline auto receiver_read_chunked(Span<const Chunk> pool, Span<const Sur
 }
 
 // ---- a texel of a map, any layout -------------------------------------------
+// Templated on the map's node kind N (1: grey, DsmStorage's grey arrays;
+// 3: RGB); texel_alpha_in_colour and friends below read either kind in colour.
 
 CDSM_HD CDSM_INLINE uint64_t texel_index(const DsmMap& m, int tx, int ty) {
   return m.texel_offset + uint64_t(ty) * m.res + uint64_t(tx);
 }
 
 // The L slots of a fixed-layout texel (nodes, then pads).
-CDSM_HD CDSM_INLINE Span<const DsmNode> fixed_slots(const DsmStorage& st, uint64_t texel) {
-  return st.nodes.subspan(texel * st.layers, st.layers);
+template <int N>
+CDSM_HD CDSM_INLINE Span<const DsmNodeN<N>> fixed_slots(const NodeArrays<N>& a, const DsmStorage& st, uint64_t texel) {
+  return a.nodes.subspan(texel * st.layers, st.layers);
 }
 
 // A texel's nodes as one contiguous span: packed and fixed only (fixed: all
 // L slots, pads included — lookups on it are exact).
-CDSM_HD CDSM_INLINE Span<const DsmNode> texel_nodes(const DsmStorage& st, const DsmMap& m, int tx,
-                                                    int ty) {
+template <int N>
+CDSM_HD CDSM_INLINE Span<const DsmNodeN<N>> texel_nodes(const DsmStorage& st, const DsmMap& m, int tx, int ty) {
   CDSM_HD_ASSERT(st.layout != DsmLayout::Chunked);
+  const NodeArrays<N> a = st.arrays<N>();
   uint64_t t = texel_index(m, tx, ty);
-  if (st.layout == DsmLayout::Fixed) return fixed_slots(st, t);
-  TexelRange r = st.texels[t];
-  return st.nodes.subspan(r.offset, r.count);
+  if (st.layout == DsmLayout::Fixed) return fixed_slots(a, st, t);
+  TexelRange r = a.texels[t];
+  return a.nodes.subspan(r.offset, r.count);
 }
 
-// alpha(z) of texel (tx, ty) of map m.
-CDSM_HD CDSM_INLINE float texel_alpha(const DsmStorage& st, const DsmMap& m, int tx, int ty, float z) {
+// alpha(z) of texel (tx, ty) of map m (of node kind N).
+template <int N>
+CDSM_HD CDSM_INLINE Channels<N> texel_alpha(const DsmStorage& st, const DsmMap& m, int tx, int ty, float z) {
+  const NodeArrays<N> a = st.arrays<N>();
   uint64_t t = texel_index(m, tx, ty);
   switch (st.layout) {
     case DsmLayout::Fixed:
-      return lookup_alpha(fixed_slots(st, t), z);
+      return lookup_alpha(fixed_slots(a, st, t), z);
     case DsmLayout::Chunked:
-      return lookup_alpha_chunked(st.chunks, st.texels[t], z);
+      return lookup_alpha_chunked(a.chunks, a.texels[t], z);
     default: {
-      TexelRange r = st.texels[t];
-      return lookup_alpha(st.nodes.subspan(r.offset, r.count), z);
+      TexelRange r = a.texels[t];
+      return lookup_alpha(a.nodes.subspan(r.offset, r.count), z);
     }
   }
 }
 
-// What receiver read `tr` gives from texel (tx, ty) of a grey map.
-CDSM_HD CDSM_INLINE float texel_receive(const DsmStorage& st, const DsmMap& m, int tx, int ty, const TexelRead& tr) {
+// What receiver read `tr` gives from texel (tx, ty) of map m (of kind N).
+template <int N>
+CDSM_HD CDSM_INLINE Channels<N> texel_receive(const DsmStorage& st, const DsmMap& m, int tx, int ty,
+                                              const TexelRead& tr) {
+  const NodeArrays<N> a = st.arrays<N>();
   uint64_t t = texel_index(m, tx, ty);
   switch (st.layout) {
     case DsmLayout::Fixed:
-      return receiver_read(fixed_slots(st, t), st.tags, t * st.layers, tr);
+      return receiver_read(fixed_slots(a, st, t), a.tags, t * st.layers, tr);
     case DsmLayout::Chunked:
-      return receiver_read_chunked(st.chunks, st.tags, st.texels[t], tr);
+      return receiver_read_chunked(a.chunks, a.tags, a.texels[t], tr);
     default: {
-      TexelRange r = st.texels[t];
-      return receiver_read(st.nodes.subspan(r.offset, r.count), st.tags, r.offset, tr);
+      TexelRange r = a.texels[t];
+      return receiver_read(a.nodes.subspan(r.offset, r.count), a.tags, r.offset, tr);
     }
   }
 }
 
 // Copies texel (tx, ty)'s nodes (pads excluded) to out[0 .. min(count, cap))
 // and their tags to out_tags (when not null), and returns the texel's node
-// count, in any layout (tests, inspection, CPU/GPU parity).
-CDSM_HD inline uint32_t read_texel(const DsmStorage& st, const DsmMap& m, int tx, int ty, DsmNode* out,
+// count, in any layout (tests, inspection, CPU/GPU parity). `out` may be
+// null with cap 0 (only the count).
+template <int N>
+CDSM_HD inline uint32_t read_texel(const DsmStorage& st, const DsmMap& m, int tx, int ty, DsmNodeN<N>* out,
                                    uint32_t cap, SurfaceTag* out_tags = nullptr) {
+  const NodeArrays<N> a = st.arrays<N>();
   uint64_t t = texel_index(m, tx, ty);
   if (st.layout == DsmLayout::Chunked) {
-    TexelRange h = st.texels[t];
+    TexelRange h = a.texels[t];
     uint32_t slot = h.offset;
     for (uint32_t i = 0; i < h.count; ++i) {
-      ChunkNode c = st.chunks[slot];
-      if (i < cap) out[i] = DsmNode{c.z, c.alpha};
-      if (i < cap && out_tags) out_tags[i] = tag_of(st.tags, slot);
+      const ChunkNodeN<N> c = a.chunks[slot];
+      if (i < cap) out[i] = node_of(c);
+      if (i < cap && out_tags) out_tags[i] = tag_of(a.tags, slot);
       slot = c.next;
     }
     return h.count;
   }
-  Span<const DsmNode> n = texel_nodes(st, m, tx, ty);
+  Span<const DsmNodeN<N>> n = texel_nodes<N>(st, m, tx, ty);
   uint32_t count = st.layout == DsmLayout::Fixed ? lower_bound_z(n, kFixedPadZ) : uint32_t(n.size());
-  const uint64_t first = st.layout == DsmLayout::Fixed ? t * st.layers : uint64_t(st.texels[t].offset);
+  const uint64_t first = st.layout == DsmLayout::Fixed ? t * st.layers : uint64_t(a.texels[t].offset);
   for (uint32_t i = 0; i < count && i < cap; ++i) {
     out[i] = n[i];
-    if (out_tags) out_tags[i] = tag_of(st.tags, first + i);
+    if (out_tags) out_tags[i] = tag_of(a.tags, first + i);
   }
   return count;
 }
@@ -466,126 +494,29 @@ CDSM_HD CDSM_INLINE void for_each_tap(const DsmMap& m, float u, float v, bool fi
 }
 
 // alpha at light-space position (u, v) in texels, radial depth z (every tap
-// at the same depth).
-CDSM_HD CDSM_INLINE float lookup_map(const DsmStorage& st, const DsmMap& m, float u, float v, float z,
-                                     bool filtering) {
-  float acc = 0.0f;
-  for_each_tap(m, u, v, filtering, [&](int tx, int ty, float w) { acc += w * texel_alpha(st, m, tx, ty, z); });
+// at the same depth), of a map of kind N.
+template <int N>
+CDSM_HD CDSM_INLINE Channels<N> lookup_map(const DsmStorage& st, const DsmMap& m, float u, float v, float z,
+                                           bool filtering) {
+  Channels<N> acc{};
+  for_each_tap(m, u, v, filtering, [&](int tx, int ty, float w) { acc = acc + texel_alpha<N>(st, m, tx, ty, z) * w; });
   return acc;
 }
 
-// ---- RGB maps: the same functions per channel --------------------------------
-// Every channel reads exactly as a scalar map would (alpha_at_index and
-// lookup_alpha_chunked above are written for both kinds), so a grey RGB map
-// reads what its scalar map reads.
+// ---- either kind in colour -----------------------------------------------------
+// A grey map's one value in every channel; a grey RGB map reads what its
+// scalar map reads (every function above is the same arithmetic per channel).
 
-CDSM_HD CDSM_INLINE Vec3 alpha_between(const DsmNodeRgb& a, const DsmNodeRgb& b, float z) {
-  const float w = (z - a.z) / (b.z - a.z);
-  return {lerpf(a.r, b.r, w), lerpf(a.g, b.g, w), lerpf(a.b, b.b, w)};
+CDSM_HD CDSM_INLINE Vec3 texel_alpha_in_colour(const DsmStorage& st, const DsmMap& m, int tx, int ty, float z) {
+  return m.rgb ? texel_alpha<3>(st, m, tx, ty, z) : to_rgb(texel_alpha<1>(st, m, tx, ty, z));
 }
-
-// alpha just after z, per channel (hd/dsm.h alpha_after).
-CDSM_HD inline Vec3 alpha_after(Span<const DsmNodeRgb> n, float z) {
-  uint32_t lo = 0, hi = uint32_t(n.size());
-  while (lo < hi) {
-    uint32_t mid = (lo + hi) >> 1;
-    if (n[mid].z <= z) lo = mid + 1;
-    else hi = mid;
-  }
-  if (lo == 0) return Vec3{0, 0, 0};
-  if (lo == n.size() || n[lo - 1].z == z) return rgb_of(n[lo - 1]);
-  return alpha_between(n[lo - 1], n[lo], z);
+CDSM_HD CDSM_INLINE Vec3 texel_receive_in_colour(const DsmStorage& st, const DsmMap& m, int tx, int ty,
+                                                 const TexelRead& tr) {
+  return m.rgb ? texel_receive<3>(st, m, tx, ty, tr) : to_rgb(texel_receive<1>(st, m, tx, ty, tr));
 }
-
-// sup over z and channels of |f_k(z) - g_k(z)|.
-CDSM_HD inline float max_change(Span<const DsmNodeRgb> f, Span<const DsmNodeRgb> g) {
-  float worst = 0.0f;
-  for (int list = 0; list < 2; ++list) {
-    Span<const DsmNodeRgb> n = list == 0 ? f : g;
-    for (uint64_t i = 0; i < n.size(); ++i) {
-      const float z = n[i].z;
-      const Vec3 d0 = lookup_alpha(f, z) - lookup_alpha(g, z), d1 = alpha_after(f, z) - alpha_after(g, z);
-      worst = fmaxf(worst, fmaxf(max_channel(vmax(d0, -d0)), max_channel(vmax(d1, -d1))));
-    }
-  }
-  return worst;
-}
-
-// alpha(z) of texel (tx, ty) of map m per channel: RGB maps channel by
-// channel, grey maps their one value in every channel.
-CDSM_HD CDSM_INLINE Vec3 texel_alpha_rgb(const DsmStorage& st, const DsmMap& m, int tx, int ty, float z) {
-  if (m.rgb == 0u) return vec3(texel_alpha(st, m, tx, ty, z));
-  const uint64_t t = texel_index(m, tx, ty);
-  switch (st.layout) {
-    case DsmLayout::Fixed:
-      return lookup_alpha(st.rgb_nodes.subspan(t * st.layers, st.layers), z);
-    case DsmLayout::Chunked:
-      return lookup_alpha_chunked(st.rgb_chunks, st.rgb_texels[t], z);
-    default: {
-      const TexelRange r = st.rgb_texels[t];
-      return lookup_alpha(st.rgb_nodes.subspan(r.offset, r.count), z);
-    }
-  }
-}
-
-// What receiver read `tr` gives from texel (tx, ty) of map m per channel
-// (a grey map: its one value in every channel).
-CDSM_HD CDSM_INLINE Vec3 texel_receive_rgb(const DsmStorage& st, const DsmMap& m, int tx, int ty, const TexelRead& tr) {
-  if (m.rgb == 0u) return vec3(texel_receive(st, m, tx, ty, tr));
-  const uint64_t t = texel_index(m, tx, ty);
-  switch (st.layout) {
-    case DsmLayout::Fixed:
-      return receiver_read(st.rgb_nodes.subspan(t * st.layers, st.layers), st.rgb_tags, t * st.layers, tr);
-    case DsmLayout::Chunked:
-      return receiver_read_chunked(st.rgb_chunks, st.rgb_tags, st.rgb_texels[t], tr);
-    default: {
-      const TexelRange r = st.rgb_texels[t];
-      return receiver_read(st.rgb_nodes.subspan(r.offset, r.count), st.rgb_tags, r.offset, tr);
-    }
-  }
-}
-
-// Copies texel (tx, ty)'s nodes of an RGB map (pads excluded) like read_texel.
-CDSM_HD inline uint32_t read_texel_rgb(const DsmStorage& st, const DsmMap& m, int tx, int ty, DsmNodeRgb* out,
-                                       uint32_t cap, SurfaceTag* out_tags = nullptr) {
-  const uint64_t t = texel_index(m, tx, ty);
-  if (st.layout == DsmLayout::Chunked) {
-    const TexelRange h = st.rgb_texels[t];
-    uint32_t slot = h.offset;
-    for (uint32_t i = 0; i < h.count; ++i) {
-      const ChunkNodeRgb c = st.rgb_chunks[slot];
-      if (i < cap) out[i] = node_of(c);
-      if (i < cap && out_tags) out_tags[i] = tag_of(st.rgb_tags, slot);
-      slot = c.next;
-    }
-    return h.count;
-  }
-  Span<const DsmNodeRgb> n;
-  uint32_t count;
-  uint64_t first;
-  if (st.layout == DsmLayout::Fixed) {
-    n = st.rgb_nodes.subspan(t * st.layers, st.layers);
-    count = lower_bound_z(n, kFixedPadZ);
-    first = t * st.layers;
-  } else {
-    const TexelRange r = st.rgb_texels[t];
-    n = st.rgb_nodes.subspan(r.offset, r.count);
-    count = r.count;
-    first = r.offset;
-  }
-  for (uint32_t i = 0; i < count && i < cap; ++i) {
-    out[i] = n[i];
-    if (out_tags) out_tags[i] = tag_of(st.rgb_tags, first + i);
-  }
-  return count;
-}
-
-// alpha per channel at light-space position (u, v), radial depth z.
-CDSM_HD CDSM_INLINE Vec3 lookup_map_rgb(const DsmStorage& st, const DsmMap& m, float u, float v, float z,
-                                        bool filtering) {
-  Vec3 acc{0, 0, 0};
-  for_each_tap(m, u, v, filtering, [&](int tx, int ty, float w) { acc = acc + texel_alpha_rgb(st, m, tx, ty, z) * w; });
-  return acc;
+// A texel's node count, either kind.
+CDSM_HD CDSM_INLINE uint32_t texel_node_count(const DsmStorage& st, const DsmMap& m, int tx, int ty) {
+  return m.rgb ? read_texel<3>(st, m, tx, ty, nullptr, 0) : read_texel<1>(st, m, tx, ty, nullptr, 0);
 }
 
 }  // namespace cdsm

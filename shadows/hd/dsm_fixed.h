@@ -17,20 +17,12 @@
 
 namespace cdsm {
 
-// Both node kinds through one set of names (scalar: float alpha; RGB: Vec3).
-CDSM_HD CDSM_INLINE DsmNode make_node(float z, float a) { return {z, a}; }
-CDSM_HD CDSM_INLINE DsmNodeRgb make_node(float z, Vec3 a) { return {z, a.x, a.y, a.z}; }
-CDSM_HD CDSM_INLINE bool rises(float a, float b) { return a > b; }                      // a above b
-CDSM_HD CDSM_INLINE bool rises(Vec3 a, Vec3 b) { return a.x > b.x || a.y > b.y || a.z > b.z; }  // in any channel
-template <class Node, class Sink> struct WedgeOf;
-template <class Sink> struct WedgeOf<DsmNode, Sink> { using type = Wedge<Sink>; };
-template <class Sink> struct WedgeOf<DsmNodeRgb, Sink> { using type = WedgeRgb<Sink>; };
-
 // A wedge sink over the L slots: the first L nodes land in the slots, later
 // ones are only counted (a two-node ring keeps what the wedge reads back).
-template <class Node>
+template <class NodeT>
 struct FixedSlotSink {
-  using Alpha = decltype(node_alpha(Node{}));
+  using Node = NodeT;
+  using Alpha = Channels<Node::kChannels>;
   struct Nodes {
     FixedSlotSink* s;
     CDSM_HD Node& operator[](int i) const { return i < s->cap ? s->slots[i] : s->spill[i & 1]; }
@@ -49,13 +41,13 @@ struct FixedSlotSink {
   CDSM_HD void emit(float z, Alpha a, SurfaceTag tag = kNoSurface) {
     if (tags && count < cap) tags[count] = tag;
     last_tag_ = tag;
-    nodes[count++] = make_node(z, a);
+    nodes[count++] = Node{z, a};
   }
   CDSM_HD SurfaceTag last_tag() const { return last_tag_; }
   CDSM_HD int size() const { return count; }
   CDSM_HD Node& last() { return nodes[count - 1]; }
   CDSM_HD Node& before_last() { return nodes[count - 2]; }
-  CDSM_HD void raise_last(Alpha a) { last() = make_node(last().z, a); }
+  CDSM_HD void raise_last(Alpha a) { last().alpha = a; }
   CDSM_HD void compact() {}
 };
 
@@ -67,31 +59,25 @@ CDSM_HD CDSM_INLINE SurfaceTag tag_at(const SurfaceTag* tags, uint64_t i) { retu
 // stays within e (+ float rounding) of the output.
 template <class Node, class Sink>
 CDSM_HD void rewedge_nodes(Span<const Node> in, const SurfaceTag* tags, float e, Sink& out) {
-  typename WedgeOf<Node, Sink>::type c(e);
+  Wedge<Sink> c(e);
   for (uint64_t i = 0; i < in.size(); ++i) {
     const Node nd = in[i];
-    if (i > 0 && nd.z == in[i - 1].z && (rises(node_alpha(nd), node_alpha(in[i - 1])) || tag_at(tags, i) != kNoSurface))
-      c.step(out, nd.z, node_alpha(nd), tag_at(tags, i));
+    if (i > 0 && nd.z == in[i - 1].z && (rises(nd.alpha, in[i - 1].alpha) || tag_at(tags, i) != kNoSurface))
+      c.step(out, nd.z, nd.alpha, tag_at(tags, i));
     else
-      c.push(out, nd.z, node_alpha(nd));
+      c.push(out, nd.z, nd.alpha);
   }
   c.finish(out);
 }
 
 // How much alpha changes (at z_m, where it changes most) when node m is
-// removed from between its neighbours a and b.
-CDSM_HD CDSM_INLINE float removal_cost(DsmNode a, DsmNode m, DsmNode b) {
+// removed from between its neighbours a and b; of RGB nodes, the largest
+// channel's change.
+template <int N>
+CDSM_HD CDSM_INLINE float removal_cost(const DsmNodeN<N>& a, const DsmNodeN<N>& m, const DsmNodeN<N>& b) {
   if (b.z <= a.z) return 0.0f;  // all three at one depth: m is never seen
-  float line = m.z <= a.z ? a.alpha : (m.z >= b.z ? b.alpha : alpha_between(a, b, m.z));
-  return fabsf(m.alpha - line);
-}
-// The same for RGB nodes: the largest channel's change.
-CDSM_HD CDSM_INLINE float removal_cost(const DsmNodeRgb& a, const DsmNodeRgb& m, const DsmNodeRgb& b) {
-  float worst = 0.0f;
-  for (int k = 0; k < 3; ++k)
-    worst = fmaxf(worst, removal_cost(DsmNode{a.z, channel(rgb_of(a), k)}, DsmNode{m.z, channel(rgb_of(m), k)},
-                                      DsmNode{b.z, channel(rgb_of(b), k)}));
-  return worst;
+  const Channels<N> line = m.z <= a.z ? a.alpha : (m.z >= b.z ? b.alpha : alpha_between(a, b, m.z));
+  return max_channel(abs_channels(m.alpha - line));
 }
 
 // Stage 2: keeps at most L >= 2 nodes of `in` in `slots`, streaming; the

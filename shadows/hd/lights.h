@@ -181,59 +181,46 @@ CDSM_HD CDSM_INLINE auto combine_maps(const ShadowView& sv, const LightData& L, 
   return alpha;
 }
 
-// Opacity between light L and receiver r from one map, per channel (a grey
-// map's value is computed as scalar and given to every channel): its taps,
-// volume samples each at the point's depth, surfaces each at its plane
-// depth with their own step left out (receiver_read_at); the slope-bias
-// baseline at the point's depth less its offset.
-CDSM_HD inline Vec3 map_alpha_rgb(const ShadowView& sv, const LightData& L, const DsmMap& m, const ViewProjection& pr,
-                                  const Receiver& r) {
+// Opacity between light L and receiver r from one map of node kind N: its
+// taps, volume samples each at the point's depth, surfaces each at its
+// plane depth with their own step left out (receiver_read_at); the
+// slope-bias baseline at the point's depth less its offset.
+template <int N>
+CDSM_HD inline Channels<N> map_alpha(const ShadowView& sv, const LightData& L, const DsmMap& m, const ViewProjection& pr,
+                                     const Receiver& r) {
   const bool surface = dot(r.plane, r.plane) > 0.0f;
+  Channels<N> a{};
   if (sv.receiver == ReceiverLookup::SlopeBias || !surface) {
     const float z = pr.depth - (sv.receiver == ReceiverLookup::SlopeBias ? slope_bias_offset(L, m, pr, r) : 0.0f);
-    if (m.rgb == 0u) {
-      float a = 0.0f;
-      for_each_tap(m, pr.u, pr.v, sv.filtering, [&](int tx, int ty, float w) { a += w * texel_alpha(sv.storage, m, tx, ty, z); });
-      return vec3(a);
-    }
-    Vec3 a{0, 0, 0};
     for_each_tap(m, pr.u, pr.v, sv.filtering,
-                 [&](int tx, int ty, float w) { a = a + texel_alpha_rgb(sv.storage, m, tx, ty, z) * w; });
+                 [&](int tx, int ty, float w) { a = a + texel_alpha<N>(sv.storage, m, tx, ty, z) * w; });
     return a;
   }
-  if (m.rgb == 0u) {
-    float a = 0.0f;
-    for_each_tap(m, pr.u, pr.v, sv.filtering, [&](int tx, int ty, float w) {
-      a += w * texel_receive(sv.storage, m, tx, ty, receiver_read_at(sv, m, pr, r, tap_depth(sv, m, pr, r, tx, ty)));
-    });
-    return vec3(a);
-  }
-  Vec3 a{0, 0, 0};
   for_each_tap(m, pr.u, pr.v, sv.filtering, [&](int tx, int ty, float w) {
-    a = a + texel_receive_rgb(sv.storage, m, tx, ty, receiver_read_at(sv, m, pr, r, tap_depth(sv, m, pr, r, tx, ty))) * w;
+    a = a + texel_receive<N>(sv.storage, m, tx, ty, receiver_read_at(sv, m, pr, r, tap_depth(sv, m, pr, r, tx, ty))) * w;
   });
   return a;
 }
 
-// Opacity per channel between light L and receiver r from the light's DSMs.
-CDSM_HD inline Vec3 shadow_alpha_rgb(const ShadowView& sv, const LightData& L, const Receiver& r) {
+// The same per colour channel for a map of either kind (a grey map's value,
+// computed as a scalar, in every channel).
+CDSM_HD inline Vec3 map_alpha_in_colour(const ShadowView& sv, const LightData& L, const DsmMap& m,
+                                        const ViewProjection& pr, const Receiver& r) {
+  return m.rgb ? map_alpha<3>(sv, L, m, pr, r) : to_rgb(map_alpha<1>(sv, L, m, pr, r));
+}
+
+// Opacity per channel between light L and receiver r from the light's DSMs
+// (grey_of() of it: exactly the one value where every channel agrees, grey
+// casters, else the channel mean).
+CDSM_HD inline Vec3 shadow_alpha(const ShadowView& sv, const LightData& L, const Receiver& r) {
   return combine_maps(sv, L, r.p, [&](uint32_t, const DsmMap& m, const ViewProjection& pr) {
-    return map_alpha_rgb(sv, L, m, pr, r);
+    return map_alpha_in_colour(sv, L, m, pr, r);
   });
 }
 
-// The grey opacity: exactly the one value where every channel agrees (grey
-// casters), else the channel mean. Per-channel callers use shadow_alpha_rgb.
-CDSM_HD inline float shadow_alpha(const ShadowView& sv, const LightData& L, const Receiver& r) {
-  return grey_of(shadow_alpha_rgb(sv, L, r));
-}
-
 // A point lookup at p's own depth (volume samples, probes).
-CDSM_HD CDSM_INLINE float shadow_alpha(const ShadowView& sv, const LightData& L, Vec3 p) {
+CDSM_HD CDSM_INLINE Vec3 shadow_alpha(const ShadowView& sv, const LightData& L, Vec3 p) {
   return shadow_alpha(sv, L, Receiver{p, Vec3{0, 0, 0}, kNoObject});
-}
-CDSM_HD CDSM_INLINE Vec3 shadow_alpha_rgb(const ShadowView& sv, const LightData& L, Vec3 p) {
-  return shadow_alpha_rgb(sv, L, Receiver{p, Vec3{0, 0, 0}, kNoObject});
 }
 
 }  // namespace cdsm

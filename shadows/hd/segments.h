@@ -4,6 +4,7 @@
 // with empty-space skipping is a helper the visitors call.
 #pragma once
 
+#include "hd/channels.h"
 #include "hd/explog.h"
 #include "hd/fragment.h"
 #include "hd/sort.h"
@@ -368,10 +369,15 @@ struct MarchSample {
 };
 
 // The opacity of one march sample per channel: 1 - exp(-sigma_k dt).
-CDSM_HD CDSM_INLINE Vec3 sample_alpha(const MarchSample& ms) {
-  const float dt = ms.t1 - ms.t0;
-  return {1.0f - expf_hd(-ms.extinction.x * dt), 1.0f - expf_hd(-ms.extinction.y * dt), 1.0f - expf_hd(-ms.extinction.z * dt)};
+// (With the extinction in N channels, hd/channels.h: a grey map's one value.)
+CDSM_HD CDSM_INLINE float sample_alpha(const MarchSample& ms, float extinction) {
+  return 1.0f - expf_hd(-extinction * (ms.t1 - ms.t0));
 }
+CDSM_HD CDSM_INLINE Vec3 sample_alpha(const MarchSample& ms, Vec3 extinction) {
+  const float dt = ms.t1 - ms.t0;
+  return {1.0f - expf_hd(-extinction.x * dt), 1.0f - expf_hd(-extinction.y * dt), 1.0f - expf_hd(-extinction.z * dt)};
+}
+CDSM_HD CDSM_INLINE Vec3 sample_alpha(const MarchSample& ms) { return sample_alpha(ms, ms.extinction); }
 
 // The parameter interval [enter, leave] of the index-space ray qo + t qd
 // inside box [lo, hi] (enter > leave: it misses).
@@ -658,38 +664,25 @@ inline constexpr float kConstantTail = 1e-5f;     // transmittance where samplin
 inline constexpr int kMaxConstantSamples = 1024;  // bound against float luck; the spacing needs about 224
 
 // The samples of a constant medium from t0 (transmittance T0 there) to t1,
-// chord error `e`: calls emit(z, alpha) for each; stops at kConstantTail.
-template <class Emit>
-CDSM_HD void sample_constant_medium(float t0, float t1, float T0, float sigma, float e, Emit&& emit) {
-  float z = t0, T = T0;
-  for (int i = 0; i < kMaxConstantSamples && z < t1 && T > kConstantTail; ++i) {
-    float h = sqrtf(8.0f * e / T) / sigma;
-    float zn = fminf(z + h, t1);
-    if (!(zn > z)) zn = fminf(nextafterf(z, 3.0e38f), t1);  // sigma beyond float resolution: a jump
-    if (i + 1 == kMaxConstantSamples) zn = t1;
-    T = T0 * expf_hd(-sigma * (zn - t0));
-    emit(zn, 1.0f - T);
-    z = zn;
-  }
-}
-
-// The same for a medium whose extinction differs between channels: the
+// chord error `e`, in N channels (hd/channels.h: a float, or a Vec3 when the
+// extinction differs between channels): calls emit(z, alpha) for each. The
 // spacing is the smallest any channel still above the tail needs
 // (sqrt(8 e / T_k) / sigma_k), so every channel's chord stays within e;
-// sampling ends when every channel reaches kConstantTail. emit(z, alpha).
-template <class Emit>
-CDSM_HD void sample_constant_medium_rgb(float t0, float t1, Vec3 T0, Vec3 sigma, float e, Emit&& emit) {
+// sampling ends when every channel reaches kConstantTail.
+template <class Alpha, class Emit>
+CDSM_HD void sample_constant_medium(float t0, float t1, Alpha T0, Alpha sigma, float e, Emit&& emit) {
+  constexpr int N = sizeof(Alpha) / sizeof(float);
   float z = t0;
-  Vec3 T = T0;
+  Alpha T = T0;
   for (int i = 0; i < kMaxConstantSamples && z < t1 && max_channel(T) > kConstantTail; ++i) {
     float h = 3.0e38f;
-    for (int k = 0; k < 3; ++k)
-      if (sigma[k] > 0.0f && T[k] > kConstantTail) h = fminf(h, sqrtf(8.0f * e / T[k]) / sigma[k]);
+    for (int k = 0; k < N; ++k)
+      if (channel(sigma, k) > 0.0f && channel(T, k) > kConstantTail) h = fminf(h, sqrtf(8.0f * e / channel(T, k)) / channel(sigma, k));
     float zn = fminf(z + h, t1);
     if (!(zn > z)) zn = fminf(nextafterf(z, 3.0e38f), t1);  // sigma beyond float resolution: a jump
     if (i + 1 == kMaxConstantSamples) zn = t1;
     const float d = zn - t0;
-    T = {T0.x * expf_hd(-sigma.x * d), T0.y * expf_hd(-sigma.y * d), T0.z * expf_hd(-sigma.z * d)};
+    for (int k = 0; k < N; ++k) set_channel(T, k, channel(T0, k) * expf_hd(-channel(sigma, k) * d));
     emit(zn, one_minus(T));
     z = zn;
   }

@@ -180,7 +180,7 @@ TEST(OmniLight, RingOfCastersShadowsAllSidesWithoutSeams) {
   for (int i = 0; i <= kSamples; ++i) {
     float a = 2.0f * 3.14159265f * float(i) / kSamples;
     Vec3 p{3.5f * std::cos(a), 0.0f, 3.5f * std::sin(a)};
-    float t_dsm = 1.0f - shadow_alpha(shv, shv.lights[0], Receiver{p, {0, 1, 0}, kNoObject});
+    float t_dsm = 1.0f - grey_of(shadow_alpha(shv, shv.lights[0], Receiver{p, {0, 1, 0}, kNoObject}));
     float t_ref = ref.transmittance(0, p);
     if (t_ref < 0.9f) ++shadowed;
     ++n;
@@ -203,8 +203,8 @@ TEST(OmniLight, RingOfCastersShadowsAllSidesWithoutSeams) {
       Vec3 pl{r * std::cos(a - 2e-4f), 0.0f, r * std::sin(a - 2e-4f)};
       Vec3 pr{r * std::cos(a + 2e-4f), 0.0f, r * std::sin(a + 2e-4f)};
       ASSERT_NE(cube_face_of(pl - omni.position), cube_face_of(pr - omni.position));
-      float dl = 1.0f - shadow_alpha(shv, shv.lights[0], Receiver{pl, {0, 1, 0}, kNoObject});
-      float dr = 1.0f - shadow_alpha(shv, shv.lights[0], Receiver{pr, {0, 1, 0}, kNoObject});
+      float dl = 1.0f - grey_of(shadow_alpha(shv, shv.lights[0], Receiver{pl, {0, 1, 0}, kNoObject}));
+      float dr = 1.0f - grey_of(shadow_alpha(shv, shv.lights[0], Receiver{pr, {0, 1, 0}, kNoObject}));
       float rl = ref.transmittance(0, pl), rr = ref.transmittance(0, pr);
       EXPECT_LT(rl, 0.9f) << "the border at " << k << " lies in a shadow";
       EXPECT_LE(std::fabs(dl - dr), std::fabs(rl - rr) + 2.0f * s.shadows.epsilon + 2e-3f)

@@ -66,7 +66,7 @@ void check_beer_lambert(TriangleMesh mesh, const char* what) {
     const double len = chord(scene, 0, L.position, dir, pr.depth);
     const Vec3 expect{float(std::exp(-kSigma.x * len)), float(std::exp(-kSigma.y * len)),
                       float(std::exp(-kSigma.z * len))};
-    dsm_err = std::max(dsm_err, worst_channel(one_minus(shadow_alpha_rgb(sv, L, p)), expect));
+    dsm_err = std::max(dsm_err, worst_channel(one_minus(shadow_alpha(sv, L, p)), expect));
     ref_err = std::max(ref_err, worst_channel(ref.transmittance_rgb(0, p), expect));
     deepest = std::min(deepest, double(expect.z));
     through += len > 0.0;
@@ -116,7 +116,7 @@ TEST(TintedFilters, ThreeStackedQuadsMultiplyPerChannel) {
       for (float x = -0.5f; x <= 0.5f; x += 0.05f)
         for (float z = -0.5f; z <= 0.5f; z += 0.07f) {
           const Vec3 p{x, y, z};
-          worst = std::max(worst, worst_channel(one_minus(shadow_alpha_rgb(sv, L, p)), expect));
+          worst = std::max(worst, worst_channel(one_minus(shadow_alpha(sv, L, p)), expect));
           worst = std::max(worst, worst_channel(ref.transmittance_rgb(0, p), expect));
         }
     }
@@ -139,8 +139,8 @@ TEST(TintedFilters, TerminationWaitsForEveryChannel) {
   ShadowFixture fx(s);
   const ShadowView sv = fx.view();
   const LightData& L = fx.frame.setup.lights[0];
-  const Vec3 between = one_minus(shadow_alpha_rgb(sv, L, Vec3{0.1f, 1.2f, 0.1f}));
-  const Vec3 below = one_minus(shadow_alpha_rgb(sv, L, Vec3{0.1f, 0.5f, 0.1f}));
+  const Vec3 between = one_minus(shadow_alpha(sv, L, Vec3{0.1f, 1.2f, 0.1f}));
+  const Vec3 below = one_minus(shadow_alpha(sv, L, Vec3{0.1f, 0.5f, 0.1f}));
   EXPECT_NEAR(between.x, 0.0f, 1e-6f);
   EXPECT_NEAR(between.z, 1.0f, 1e-6f);
   EXPECT_NEAR(below.x, 0.0f, 1e-6f);
@@ -298,7 +298,7 @@ TEST(DefaultScene, TintedShadowsMatchReferencePerChannel) {
   const Vec3 dir = normalize(c - L.position);
   const float t = -L.position.y / dir.y;  // where the light ray through the pane's centre meets the ground
   const Vec3 ground = L.position + dir * t;
-  const Vec3 T = one_minus(shadow_alpha_rgb(sv, L, Receiver{ground, {0, 1, 0}, kNoObject}));
+  const Vec3 T = one_minus(shadow_alpha(sv, L, Receiver{ground, {0, 1, 0}, kNoObject}));
   std::printf("under the amber pane: T = (%.3f, %.3f, %.3f)\n", T.x, T.y, T.z);
   // The pane is a thin box: the light crosses two faces, each passing
   // (1 - 0.5) f, f = (1, 0.6, 0.12).

@@ -182,7 +182,7 @@ class GlLookup : public GlTest {
       for (size_t i = 0; i < pts.size(); ++i) {
         const LookupPoint& q = pts[i];
         const Receiver r{q.p, q.surface ? q.plane : Vec3{0, 0, 0}, q.surface ? q.object : kNoObject};
-        const Vec3 c = one_minus(shadow_alpha_rgb(sv, sv.lights[uint32_t(l)], r));
+        const Vec3 c = one_minus(shadow_alpha(sv, sv.lights[uint32_t(l)], r));
         double d = 0.0;
         for (int k = 0; k < 3; ++k) d = std::max(d, double(std::fabs(c[k] - g[i][k])));
         if (!(d <= worst) || std::isnan(d)) worst = std::isnan(d) ? 1e9 : d, worst_at = i;

@@ -71,10 +71,10 @@ inline TexelList texel_list(const DsmStorage& st, const DsmMap& m, int tx, int t
   TexelList t;
   if (m.rgb) {
     std::vector<DsmNodeRgb> n(8192);
-    const uint32_t c = read_texel_rgb(st, m, tx, ty, n.data(), uint32_t(n.size()));
+    const uint32_t c = read_texel(st, m, tx, ty, n.data(), uint32_t(n.size()));
     for (uint32_t i = 0; i < c && i < n.size(); ++i) {
       t.z.push_back(n[i].z);
-      t.a.insert(t.a.end(), {n[i].r, n[i].g, n[i].b});
+      t.a.insert(t.a.end(), {n[i].alpha.x, n[i].alpha.y, n[i].alpha.z});
     }
   } else {
     std::vector<DsmNode> n(8192);
@@ -90,10 +90,10 @@ inline TexelList texel_list(const DsmStorage& st, const DsmMap& m, int tx, int t
 // alpha of a texel's node list at depth z (per channel for RGB).
 inline std::vector<float> alpha_at(const DsmStorage& st, const DsmMap& m, int tx, int ty, float z) {
   if (m.rgb) {
-    const Vec3 a = texel_alpha_rgb(st, m, tx, ty, z);
+    const Vec3 a = texel_alpha<3>(st, m, tx, ty, z);
     return {a.x, a.y, a.z};
   }
-  return {texel_alpha(st, m, tx, ty, z)};
+  return {texel_alpha<1>(st, m, tx, ty, z)};
 }
 
 struct MapComparison {

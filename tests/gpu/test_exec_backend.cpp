@@ -6,6 +6,7 @@
 // tags, the store's compaction, the camera pass and the ray-cast fragment
 // producer are checked texel by texel and pixel by pixel on the GPU suite's
 // three scenes. The GPU runs the same code (tests/gpu/test_cuda_backend.cpp).
+#include <type_traits>
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -48,8 +49,8 @@ struct OneView {
 // ---- the serial reference ----------------------------------------------------
 
 // One texel as a plain loop builds it: its light ray walked into a bounded
-// buffer of `capacity` nodes (scalar nodes with the removal heap, RGB nodes
-// by scan), kept in vectors.
+// buffer of `capacity` nodes with the removal heap (either kind), kept in
+// vectors.
 struct SerialTexel {
   std::vector<DsmNode> grey;
   std::vector<DsmNodeRgb> rgb;
@@ -70,27 +71,21 @@ std::vector<SerialTexel> serial_map(const SceneBuffers& sb, const LightPassParam
     for (int tx = 0; tx < p.view.width; ++tx) {
       SerialTexel& t = out[size_t(ty) * p.view.width + tx];
       t.tags.assign(size_t(capacity), kNoSurface);
-      WalkStats st;
-      if (p.rgb) {
-        t.rgb.resize(size_t(capacity));
-        RgbNodeBuffer b{t.rgb.data(), capacity};
-        b.tags = t.tags.data();
-        build_texel(sv, p, lists.pixel(tx, ty), tx, ty, b, st);
-        t.rgb.resize(size_t(b.count));
-        t.recompressed = b.removed > 0;
-        t.extra = b.extra_error;
-      } else {
-        t.grey.resize(size_t(capacity));
-        NodeBuffer b{t.grey.data(), capacity};
+      const auto walk = [&](auto& nodes) {
+        nodes.resize(size_t(capacity));
+        NodeBufferN<std::decay_t<decltype(nodes[0])>::kChannels> b{nodes.data(), capacity};
         b.tags = t.tags.data();
         const uint32_t k = uint32_t(capacity);
         b.scratch = RemovalScratch{words.data(), words.data() + k, words.data() + 2 * k, words.data() + 3 * k,
                                    floats.data(), floats.data() + k};
+        WalkStats st;
         build_texel(sv, p, lists.pixel(tx, ty), tx, ty, b, st);
-        t.grey.resize(size_t(b.count));
+        nodes.resize(size_t(b.count));
         t.recompressed = b.removed > 0;
         t.extra = b.extra_error;
-      }
+      };
+      if (p.rgb) walk(t.rgb);
+      else walk(t.grey);
       t.tags.resize(t.size());
     }
   return out;
@@ -122,10 +117,10 @@ uint64_t expect_map_equals_serial(const ShadowBackend& b, MapId id, const std::v
           want.assign(slots.begin(), slots.begin() + fit.count);
           want_tags.assign(slot_tags.begin(), slot_tags.begin() + fit.count);
         }
-        const uint32_t c = read_texel_rgb(st, m, tx, ty, got.data(), uint32_t(got.size()), tags.data());
+        const uint32_t c = read_texel(st, m, tx, ty, got.data(), uint32_t(got.size()), tags.data());
         same = c == want.size();
         for (uint32_t i = 0; same && i < c; ++i)
-          same = got[i].z == want[i].z && got[i].r == want[i].r && got[i].g == want[i].g && got[i].b == want[i].b &&
+          same = got[i].z == want[i].z && same_channels(got[i].alpha, want[i].alpha) &&
                  tags[i] == want_tags[i];
       } else {
         std::vector<DsmNode> got(8192), want = s.grey;

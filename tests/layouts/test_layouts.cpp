@@ -209,9 +209,9 @@ TEST(Layouts, SameLookupsAcrossLayouts) {
         EXPECT_EQ(np[i].alpha, nc[i].alpha);
       }
       for (float z : probe_depths(np)) {
-        float a = texel_alpha(sp, p.maps[0], tx, ty, z);
-        max_diff = std::max(max_diff, double(std::fabs(a - texel_alpha(sxs, x.maps[0], tx, ty, z))));
-        max_diff = std::max(max_diff, double(std::fabs(a - texel_alpha(scs, c.maps[0], tx, ty, z))));
+        float a = texel_alpha<1>(sp, p.maps[0], tx, ty, z);
+        max_diff = std::max(max_diff, double(std::fabs(a - texel_alpha<1>(sxs, x.maps[0], tx, ty, z))));
+        max_diff = std::max(max_diff, double(std::fabs(a - texel_alpha<1>(scs, c.maps[0], tx, ty, z))));
       }
     }
   EXPECT_LE(max_diff, 1e-6);
@@ -222,9 +222,9 @@ TEST(Layouts, SameLookupsAcrossLayouts) {
   for (int i = 0; i < 20000; ++i) {
     float u = uv(rng), v = uv(rng), z = depth(rng);
     for (bool filtering : {true, false}) {
-      float a = lookup_map(sp, p.maps[0], u, v, z, filtering);
-      max_map = std::max(max_map, double(std::fabs(a - lookup_map(sxs, x.maps[0], u, v, z, filtering))));
-      max_map = std::max(max_map, double(std::fabs(a - lookup_map(scs, c.maps[0], u, v, z, filtering))));
+      float a = lookup_map<1>(sp, p.maps[0], u, v, z, filtering);
+      max_map = std::max(max_map, double(std::fabs(a - lookup_map<1>(sxs, x.maps[0], u, v, z, filtering))));
+      max_map = std::max(max_map, double(std::fabs(a - lookup_map<1>(scs, c.maps[0], u, v, z, filtering))));
     }
   }
   EXPECT_LE(max_map, 1e-6);
@@ -267,7 +267,7 @@ TEST(Layouts, FixedWasteMatchesHandCount) {
   for (int ty = 0; ty < kRes; ++ty)
     for (int tx = 0; tx < kRes; ++tx) {
       used += packed_count(p, tx, ty);
-      Span<const DsmNode> slots = texel_nodes(x.storage(), x.maps[0], tx, ty);
+      Span<const DsmNode> slots = texel_nodes<1>(x.storage(), x.maps[0], tx, ty);
       ASSERT_EQ(slots.size(), uint64_t(L));
       for (const DsmNode& n : slots) pads += n.z == kFixedPadZ;
     }
@@ -357,7 +357,7 @@ TEST(Layouts, ChunkedLinksLongTexelsAcrossChunks) {
         EXPECT_EQ(a[i].alpha, b[i].alpha);
       }
       for (float z : probe_depths(a))
-        EXPECT_EQ(texel_alpha(p.storage(), p.maps[0], tx, ty, z), texel_alpha(c.storage(), c.maps[0], tx, ty, z));
+        EXPECT_EQ(texel_alpha<1>(p.storage(), p.maps[0], tx, ty, z), texel_alpha<1>(c.storage(), c.maps[0], tx, ty, z));
     }
   EXPECT_GT(long_texels, 0);
 }
@@ -557,7 +557,7 @@ TEST(Layouts, FixedSmallLayersRecordOverflow) {
       worst = std::max(worst, d);
       // Lookups through the padded slots agree with the stored nodes.
       for (float z : probe_depths(a))
-        EXPECT_EQ(texel_alpha(x.storage(), x.maps[0], tx, ty, z), lookup_alpha(Span<const DsmNode>{b.data(), b.size()}, z));
+        EXPECT_EQ(texel_alpha<1>(x.storage(), x.maps[0], tx, ty, z), lookup_alpha(Span<const DsmNode>{b.data(), b.size()}, z));
     }
   EXPECT_GT(worst, 0.0);
   EXPECT_LE(worst, double(st.max_extra_error) + 1e-5) << "the recorded error bounds the change";
@@ -586,8 +586,8 @@ TEST(Layouts, MapsShareTheStoreInEveryLayout) {
         for (int tx = 0; tx < res; tx += 2) {
           std::vector<DsmNode> n = nodes_of(one, tx, ty);
           for (float z : probe_depths(n))
-            ASSERT_EQ(texel_alpha(one.storage(), one.maps[0], tx, ty, z),
-                      texel_alpha(all.storage(), all.maps[size_t(m)], tx, ty, z))
+            ASSERT_EQ(texel_alpha<1>(one.storage(), one.maps[0], tx, ty, z),
+                      texel_alpha<1>(all.storage(), all.maps[size_t(m)], tx, ty, z))
                 << "layout " << uint32_t(lp.layout) << " map " << m;
         }
     }

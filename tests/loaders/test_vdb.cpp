@@ -99,7 +99,7 @@ float dsm_transmittance(const Scene& scene, Vec3 p) {
   ShadowFrame frame;
   build_shadow_frame(scene, sb, cpu_fragment_producer(sb.view()), cache, frame);
   ShadowView sv = frame.view(scene.shadows);
-  return 1.0f - shadow_alpha(sv, frame.setup.lights[0], p);
+  return 1.0f - grey_of(shadow_alpha(sv, frame.setup.lights[0], p));
 }
 
 float reference_transmittance(const Scene& scene, Vec3 a, Vec3 b) {

@@ -142,7 +142,7 @@ struct Rig {
   // Opacity between light `li` and p from the maps (no bias).
   float alpha(Vec3 p, int li = 0) const {
     ShadowView v = view();
-    return shadow_alpha(v, v.lights[size_t(li)], p);
+    return grey_of(shadow_alpha(v, v.lights[size_t(li)], p));
   }
   // Exact transmittance from the reference renderer.
   float reference_T(Vec3 p, int li = 0) const {
@@ -152,7 +152,7 @@ struct Rig {
   // Node list of one texel of map `map`.
   std::vector<DsmNode> texel(int map, int tx, int ty) const {
     ShadowView v = view();
-    Span<const DsmNode> n = texel_nodes(v.storage, v.maps[size_t(map)], tx, ty);
+    Span<const DsmNode> n = texel_nodes<1>(v.storage, v.maps[size_t(map)], tx, ty);
     return std::vector<DsmNode>(n.begin(), n.end());
   }
   // The texel of map `map` whose cell contains p's projection.

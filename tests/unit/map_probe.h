@@ -26,7 +26,7 @@ struct MapError {
 // through object 0's box, aimed at points `spread` of its extent out from
 // its centre (500 over its whole chord and beyond, 500 over the first
 // 15 / sigma_max of it, where a dense medium saturates): the map's
-// transmittance at the point's own depth (shadow_alpha_rgb, every channel)
+// transmittance at the point's own depth (shadow_alpha, every channel)
 // against the reference's (ReferenceRenderer::transmittance_segment_rgb:
 // exact for constant media, a fine Simpson integral for volumes).
 inline MapError map_error_along_rays(const Scene& scene, float sigma_max, float spread = 0.3f) {
@@ -62,7 +62,7 @@ inline MapError map_error_along_rays(const Scene& scene, float sigma_max, float 
         const float z = i < 500 ? t_in - 0.02f * len + 1.1f * len * (float(i) + 0.382f) / 500.0f
                                 : t_in + dense * (float(i - 500) + 0.382f) / 500.0f;
         const Vec3 p = lv.eye + dir * z;
-        const Vec3 map = one_minus(shadow_alpha_rgb(sv, light, p));
+        const Vec3 map = one_minus(shadow_alpha(sv, light, p));
         const Vec3 exact = ref.transmittance_segment_rgb(lv.eye, p);
         double err = 0.0;
         for (int k = 0; k < 3; ++k) err = std::max(err, std::fabs(double(map[k]) - double(exact[k])));

@@ -10,7 +10,6 @@
 #include <vector>
 
 #include "hd/compress.h"
-#include "hd/compress_rgb.h"
 #include "hd/dsm.h"
 #include "common/minimax_fit.h"
 #include "unit_util.h"
@@ -238,7 +237,7 @@ TEST(Compression, ErrorBoundMonotoneAndNodeCounts) {
   EXPECT_LT(count_sum[3], 0.5 * count_sum[0]) << "eps = 0.1 should compress";
 }
 
-// ---- three channels (hd/compress_rgb.h) ---------------------------------------
+// ---- three channels (hd/compress.h over N = 3) -------------------------------
 
 namespace {
 
@@ -267,7 +266,7 @@ std::vector<RgbSample> tint(const std::vector<Sample>& grey, std::mt19937& rng) 
 std::vector<DsmNodeRgb> compress_rgb(const std::vector<RgbSample>& seq, float eps) {
   std::vector<DsmNodeRgb> storage(3 * seq.size() + 16);  // two nodes per sample, below node_limit
   RgbNodeBuffer buf{storage.data(), int(storage.size())};
-  WedgeRgb<RgbNodeBuffer> c(eps);
+  Wedge<RgbNodeBuffer> c(eps);
   for (const RgbSample& s : seq) {
     if (s.step) c.step(buf, s.z, s.a);
     else c.push(buf, s.z, s.a);
@@ -286,7 +285,7 @@ std::vector<Sample> channel_of(const std::vector<RgbSample>& seq, int k) {
 }
 std::vector<DsmNode> channel_of(const std::vector<DsmNodeRgb>& nodes, int k) {
   std::vector<DsmNode> out;
-  for (const DsmNodeRgb& n : nodes) out.push_back({n.z, k == 0 ? n.r : (k == 1 ? n.g : n.b)});
+  for (const DsmNodeRgb& n : nodes) out.push_back({n.z, channel(n.alpha, k)});
   return out;
 }
 
@@ -349,9 +348,9 @@ TEST(CompressionRgb, GreyInputIsTheScalarWedgeBitForBit) {
       ASSERT_EQ(scalar.size(), coloured.size()) << "sequence " << q << " eps " << eps;
       for (size_t i = 0; i < scalar.size(); ++i) {
         ASSERT_EQ(scalar[i].z, coloured[i].z);
-        ASSERT_EQ(scalar[i].alpha, coloured[i].r);
-        ASSERT_EQ(coloured[i].r, coloured[i].g);
-        ASSERT_EQ(coloured[i].r, coloured[i].b);
+        ASSERT_EQ(scalar[i].alpha, coloured[i].alpha.x);
+        ASSERT_EQ(coloured[i].alpha.x, coloured[i].alpha.y);
+        ASSERT_EQ(coloured[i].alpha.x, coloured[i].alpha.z);
       }
     }
   }
@@ -572,6 +571,58 @@ TEST(Compression, StaircaseRecompressionWithinTwiceTheOptimum) {
     for (size_t i = 0; i < got.size(); ++i) {
       EXPECT_EQ(kept[0][i].z, got[i].z) << i;
       EXPECT_EQ(kept[0][i].alpha, got[i].alpha) << i;
+    }
+  }
+}
+
+// The RGB buffer overflows as the grey one does (one NodeBufferN over N):
+// a staircase tinted differently per channel into buffers of 8..64 nodes,
+// with the removal heap and without. Both keep the same nodes; each
+// recorded error covers the true change of every channel (hd/dsm.h
+// max_change over N); the heap's per-span bound is never looser than the
+// scan's sum.
+TEST(CompressionRgb, OverflowKeepsTheSameNodesWithHeapOrScan) {
+  for (int capacity : {8, 12, 16, 32, 64}) {
+    std::vector<DsmNodeRgb> exact, kept[2];
+    float recorded[2] = {0, 0};
+    for (int with_scratch = 0; with_scratch < 2; ++with_scratch) {
+      std::vector<DsmNodeRgb> storage(static_cast<size_t>(capacity));
+      std::vector<uint32_t> words(4 * static_cast<size_t>(capacity));
+      std::vector<float> floats(2 * static_cast<size_t>(capacity));
+      RgbNodeBuffer buf{storage.data(), capacity};
+      if (with_scratch)
+        buf.scratch = {words.data(), words.data() + capacity, words.data() + 2 * capacity,
+                       words.data() + 3 * capacity, floats.data(), floats.data() + capacity};
+      WedgeCompressorRgb c(0.0f);
+      exact.clear();
+      Vec3 a{0, 0, 0};
+      for (int z = 1; z <= 40; ++z) {
+        const Vec3 before = a;
+        const Vec3 layer{0.1f, 0.03f * float(z % 5), 0.2f * float(z % 2)};  // red even, green ramps, blue every other
+        a = a + layer * one_minus(a);
+        exact.push_back({float(z), before});
+        exact.push_back({float(z), a});
+        c.push(buf, float(z), before);
+        c.step(buf, float(z), a);
+      }
+      c.finish(buf);
+      EXPECT_GT(buf.removed, 0) << capacity;
+      kept[with_scratch].assign(buf.nodes, buf.nodes + buf.count);
+      recorded[with_scratch] = buf.extra_error;
+    }
+    const Span<const DsmNodeRgb> want{exact.data(), exact.size()};
+    const float change = max_change(want, Span<const DsmNodeRgb>{kept[1].data(), kept[1].size()});
+    std::printf("[ recompress rgb ] 40 tinted steps into %2d nodes: kept %2zu, true error %.4f, recorded %.4f "
+                "(scan: %.4f)\n",
+                capacity, kept[1].size(), change, recorded[1], recorded[0]);
+    EXPECT_GT(change, 0.0f);
+    EXPECT_GE(recorded[1] + 1e-6f, change) << "heap: recorded error below the true error, " << capacity;
+    EXPECT_GE(recorded[0] + 1e-6f, change) << "scan: recorded error below the true error, " << capacity;
+    EXPECT_LE(recorded[1], recorded[0] + 1e-6f) << capacity;
+    ASSERT_EQ(kept[0].size(), kept[1].size()) << "scan and heap keep different nodes, " << capacity;
+    for (size_t i = 0; i < kept[1].size(); ++i) {
+      EXPECT_EQ(kept[0][i].z, kept[1][i].z) << i;
+      EXPECT_TRUE(same_channels(kept[0][i].alpha, kept[1][i].alpha)) << i;
     }
   }
 }

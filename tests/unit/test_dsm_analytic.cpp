@@ -603,7 +603,7 @@ TEST(LightPass, SaturatedRayEndsAtOpaqueSurface) {
   int covered = 0;
   for (int ty = 0; ty < int(m.res); ++ty)
     for (int tx = 0; tx < int(m.res); ++tx) {
-      Span<const DsmNode> n = texel_nodes(st, m, tx, ty);
+      Span<const DsmNode> n = texel_nodes<1>(st, m, tx, ty);
       Vec3 dir = pixel_ray(m.view, tx, ty);
       double t_wall = (5.0 - 2.0) / -double(dir.y);
       Vec3 hit = m.view.eye + dir * float(t_wall);

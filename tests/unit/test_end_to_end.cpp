@@ -162,13 +162,13 @@ TEST(EndToEnd, DsmNodesPhysicalOnDefaultScene) {
         std::vector<DsmNode> channels[3];
         int kinds = 1;
         if (m.rgb == 0u) {
-          Span<const DsmNode> n = texel_nodes(st, m, tx, ty);
+          Span<const DsmNode> n = texel_nodes<1>(st, m, tx, ty);
           channels[0].assign(n.begin(), n.end());
         } else {
-          const uint32_t c = read_texel_rgb(st, m, tx, ty, rgb.data(), uint32_t(rgb.size()));
+          const uint32_t c = read_texel(st, m, tx, ty, rgb.data(), uint32_t(rgb.size()));
           ASSERT_LE(c, rgb.size());
           for (int k = 0; k < 3; ++k)
-            for (uint32_t i = 0; i < c; ++i) channels[k].push_back({rgb[i].z, channel(rgb_of(rgb[i]), k)});
+            for (uint32_t i = 0; i < c; ++i) channels[k].push_back({rgb[i].z, channel(rgb[i].alpha, k)});
           kinds = 3;
           ++rgb_texels;
         }

@@ -145,7 +145,7 @@ TEST(Lookup, BilinearWeightsOnTwoByTwo) {
   HandMap hm(2, {flat(0.1f), flat(0.2f), flat(0.4f), flat(0.8f)}, 5);
   DsmStorage st = hm.storage();
   const float z = 1.0f;
-  auto bil = [&](float u, float v) { return lookup_map(st, hm.map, u, v, z, true); };
+  auto bil = [&](float u, float v) { return lookup_map<1>(st, hm.map, u, v, z, true); };
   // Texel centres read their own value (thesis eq. 4.18: weights 1, 0, 0, 0).
   EXPECT_NEAR(bil(0.5f, 0.5f), 0.1f, 1e-6f);
   EXPECT_NEAR(bil(1.5f, 0.5f), 0.2f, 1e-6f);
@@ -165,12 +165,12 @@ TEST(Lookup, BilinearWeightsOnTwoByTwo) {
   EXPECT_EQ(bil(-1.0f, 0.5f), 0.0f);
   EXPECT_EQ(bil(0.5f, 3.0f), 0.0f);
   // Before every texel's first node: 0 everywhere.
-  EXPECT_EQ(lookup_map(st, hm.map, 1.0f, 1.0f, -0.5f, true), 0.0f);
+  EXPECT_EQ(lookup_map<1>(st, hm.map, 1.0f, 1.0f, -0.5f, true), 0.0f);
   // Nearest texel when filtering is off; outside the map 0.
-  EXPECT_EQ(lookup_map(st, hm.map, 0.99f, 1.01f, z, false), 0.4f);
-  EXPECT_EQ(lookup_map(st, hm.map, 1.0f, 0.0f, z, false), 0.2f);
-  EXPECT_EQ(lookup_map(st, hm.map, -0.01f, 0.5f, z, false), 0.0f);
-  EXPECT_EQ(lookup_map(st, hm.map, 0.5f, 2.0f, z, false), 0.0f);
+  EXPECT_EQ(lookup_map<1>(st, hm.map, 0.99f, 1.01f, z, false), 0.4f);
+  EXPECT_EQ(lookup_map<1>(st, hm.map, 1.0f, 0.0f, z, false), 0.2f);
+  EXPECT_EQ(lookup_map<1>(st, hm.map, -0.01f, 0.5f, z, false), 0.0f);
+  EXPECT_EQ(lookup_map<1>(st, hm.map, 0.5f, 2.0f, z, false), 0.0f);
 }
 
 // A 4x4 map whose texels hold different depth-dependent functions: the filter
@@ -198,8 +198,8 @@ TEST(Lookup, BilinearOnFourByFourWithDepth) {
     double wx = lx - x0, wy = ly - y0;
     double expect = (1 - wx) * (1 - wy) * texel_alpha(x0, y0, z) + wx * (1 - wy) * texel_alpha(x0 + 1, y0, z) +
                     (1 - wx) * wy * texel_alpha(x0, y0 + 1, z) + wx * wy * texel_alpha(x0 + 1, y0 + 1, z);
-    ASSERT_NEAR(lookup_map(st, hm.map, u, v, z, true), expect, 2e-6) << "u " << u << " v " << v << " z " << z;
+    ASSERT_NEAR(lookup_map<1>(st, hm.map, u, v, z, true), expect, 2e-6) << "u " << u << " v " << v << " z " << z;
     int tx = int(std::floor(u)), ty = int(std::floor(v));
-    ASSERT_EQ(lookup_map(st, hm.map, u, v, z, false), float(texel_alpha(tx, ty, z)));
+    ASSERT_EQ(lookup_map<1>(st, hm.map, u, v, z, false), float(texel_alpha(tx, ty, z)));
   }
 }

@@ -112,7 +112,7 @@ struct VolumeBiasedVisibility {
   Vec3 operator()(int light, const Receiver& r) const {
     if (dot(r.plane, r.plane) > 0.0f) return DsmVisibility{sv}(light, r);
     const Vec3 to_light = normalize(sv.lights[uint32_t(light)].position - r.p);
-    return one_minus(shadow_alpha_rgb(sv, sv.lights[uint32_t(light)], r.p + to_light * 0.05f));
+    return one_minus(shadow_alpha(sv, sv.lights[uint32_t(light)], r.p + to_light * 0.05f));
   }
 };
 

@@ -205,7 +205,7 @@ void check_light_views(const Producer& produce) {
           for (int k = 0; k <= 40; ++k) {
             float z = t_end * 1.2f * float(k) / 40.0f;
             double exact = 1.0 - std::exp(-0.6 * inside_length(hits, std::min(z, t_end)));
-            float a = lookup_alpha(texel_nodes(st, dsm.maps[0], tx, ty), z);
+            float a = lookup_alpha(texel_nodes<1>(st, dsm.maps[0], tx, ty), z);
             worst = std::max(worst, std::fabs(double(a) - exact));
             ++probed;
           }

@@ -143,7 +143,7 @@ Agreement compare(const Medium& m) {
   for (int ty = 2; ty < 46; ty += 3)
     for (int tx = 2; tx < 46; tx += 3) {
       Vec3 dir = pixel_ray(lv, tx, ty);
-      Span<const DsmNode> nodes = texel_nodes(dsm.storage(), dsm.maps[0], tx, ty);
+      Span<const DsmNode> nodes = texel_nodes<1>(dsm.storage(), dsm.maps[0], tx, ty);
       ++out.rays;
       for (int k = 1; k <= 8; ++k) {
         float z = length(c - eye) + (float(k) / 8.0f - 0.5f) * 1.8f * length(e);

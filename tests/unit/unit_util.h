@@ -157,7 +157,7 @@ inline float surface_visibility(const ShadowView& sv, int light, Vec3 p, Vec3 n,
 
 // A volume sample's visibility: looked up at its own depth.
 inline float sample_visibility(const ShadowView& sv, int light, Vec3 p) {
-  return 1.0f - shadow_alpha(sv, sv.lights[uint32_t(light)], p);
+  return 1.0f - grey_of(shadow_alpha(sv, sv.lights[uint32_t(light)], p));
 }
 
 }  // namespace cdsm_test
