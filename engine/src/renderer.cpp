@@ -241,14 +241,14 @@ struct Renderer::Impl {
           end.surface = dot(l.at.plane, l.at.plane) > 0.0f;
           end.own = l.at.object;
           end.own_window = receiver_read_at(exact_taps, m, pr, l.at, depth).window;
-          const Vec3 te = ref.transmittance_segment_rgb(L.position, q, members, end);
+          const Vec3 te = ref.transmittance_segment(L.position, q, members, end);
           tap_lo = vmin(tap_lo, te);
           tap_hi = vmax(tap_hi, te);
           a = a + one_minus(te) * w;
         });
         return a;
       });
-      const Vec3 t_f = one_minus(alpha_f), t_exact = ref.transmittance_rgb(l.light, l.at);
+      const Vec3 t_f = one_minus(alpha_f), t_exact = ref.transmittance(l.light, l.at);
       // Edge: the taps' exact transmittances, and the point's own, differ by
       // more than 0.05 in some channel (the point's own: a feature finer
       // than a texel, which all taps miss or all taps see).

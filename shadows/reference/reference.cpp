@@ -164,8 +164,8 @@ void for_each_inside_interval(const std::vector<float>& ts, float t_end, F&& f) 
 
 }  // namespace
 
-Vec3 ReferenceRenderer::transmittance_segment_rgb(Vec3 a, Vec3 b) const {
-  return transmittance_segment_rgb(a, b, ObjectMask{}, End{});
+Vec3 ReferenceRenderer::transmittance_segment(Vec3 a, Vec3 b) const {
+  return transmittance_segment(a, b, ObjectMask{}, End{});
 }
 
 ReferenceRenderer::End ReferenceRenderer::end_of(const Receiver& r, float dist) {
@@ -176,7 +176,7 @@ ReferenceRenderer::End ReferenceRenderer::end_of(const Receiver& r, float dist) 
   return e;
 }
 
-Vec3 ReferenceRenderer::transmittance_segment_rgb(Vec3 a, Vec3 b, ObjectMask members, const End& end) const {
+Vec3 ReferenceRenderer::transmittance_segment(Vec3 a, Vec3 b, ObjectMask members, const End& end) const {
   Vec3 d = b - a;
   float dist = length(d);
   if (dist <= 0.0f) return vec3(1.0f);
@@ -230,13 +230,13 @@ Vec3 ReferenceRenderer::transmittance_segment_rgb(Vec3 a, Vec3 b, ObjectMask mem
   return {float(T[0] * std::exp(-tau.r)), float(T[1] * std::exp(-tau.g)), float(T[2] * std::exp(-tau.b))};
 }
 
-Vec3 ReferenceRenderer::transmittance_rgb(int light, Vec3 p) const {
-  return transmittance_segment_rgb(lights_[size_t(light)].position, p);
+Vec3 ReferenceRenderer::transmittance(int light, Vec3 p) const {
+  return transmittance_segment(lights_[size_t(light)].position, p);
 }
 
-Vec3 ReferenceRenderer::transmittance_rgb(int light, const Receiver& r) const {
+Vec3 ReferenceRenderer::transmittance(int light, const Receiver& r) const {
   const Vec3 a = lights_[size_t(light)].position;
-  return transmittance_segment_rgb(a, r.p, ObjectMask{}, end_of(r, length(r.p - a)));
+  return transmittance_segment(a, r.p, ObjectMask{}, end_of(r, length(r.p - a)));
 }
 
 void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float>& rgb) const {
@@ -244,7 +244,7 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
   const int w = view.width, h = view.height;
   rgb.assign(size_t(w) * h * 3, 0.0f);
   Span<const LightData> lights{lights_.data(), lights_.size()};
-  auto visibility = [&](int light, const Receiver& r) { return transmittance_rgb(light, r); };
+  auto visibility = [&](int light, const Receiver& r) { return transmittance(light, r); };
   std::atomic<uint32_t> rows_started{0};
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     std::vector<Hit> hits;

@@ -49,19 +49,16 @@ class ReferenceRenderer {
   static End end_of(const Receiver& r, float dist);
 
   // Transmittance per colour channel from light `light` to receiver r
-  // through shadow casters (the float forms: grey_of, exact for grey casters,
-  // the channel mean otherwise). The Vec3 forms: a point (no surface).
-  Vec3 transmittance_rgb(int light, const Receiver& r) const;
-  Vec3 transmittance_rgb(int light, Vec3 p) const;
-  float transmittance(int light, const Receiver& r) const { return grey_of(transmittance_rgb(light, r)); }
-  float transmittance(int light, Vec3 p) const { return grey_of(transmittance_rgb(light, p)); }
+  // through shadow casters (grey_of() of it: exact for grey casters, the
+  // channel mean otherwise); or to a point (no surface).
+  Vec3 transmittance(int light, const Receiver& r) const;
+  Vec3 transmittance(int light, Vec3 p) const;
 
   // Transmittance along an arbitrary segment a -> b (casters only), b a point.
-  Vec3 transmittance_segment_rgb(Vec3 a, Vec3 b) const;
-  float transmittance_segment(Vec3 a, Vec3 b) const { return grey_of(transmittance_segment_rgb(a, b)); }
+  Vec3 transmittance_segment(Vec3 a, Vec3 b) const;
   // The same through the casters in `members` only (a cluster's objects),
   // with b's End (the error probe's taps: each on its receiver's plane).
-  Vec3 transmittance_segment_rgb(Vec3 a, Vec3 b, ObjectMask members, const End& end) const;
+  Vec3 transmittance_segment(Vec3 a, Vec3 b, ObjectMask members, const End& end) const;
 
   // Renders the camera view into rgb (3 floats per pixel).
   void render(const CameraPassParams& params, std::vector<float>& rgb) const;

@@ -55,7 +55,7 @@ Probe probe(const Scene& scene) {
   for (const RecordedLookup& l : lookups) {
     if (l.weight <= 1e-3f || l.light != 0) continue;
     const Vec3 p = l.at.p;
-    double err = std::fabs(double(grey_of(l.transmittance)) - double(ref.transmittance(0, p)));
+    double err = std::fabs(double(grey_of(l.transmittance)) - double(grey_of(ref.transmittance(0, p))));
     // Finest texel footprint among the maps whose window holds the point.
     double texel = 1e30;
     for (uint32_t k = 0; k < L.map_count; ++k) {

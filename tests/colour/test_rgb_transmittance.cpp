@@ -67,7 +67,7 @@ void check_beer_lambert(TriangleMesh mesh, const char* what) {
     const Vec3 expect{float(std::exp(-kSigma.x * len)), float(std::exp(-kSigma.y * len)),
                       float(std::exp(-kSigma.z * len))};
     dsm_err = std::max(dsm_err, worst_channel(one_minus(shadow_alpha(sv, L, p)), expect));
-    ref_err = std::max(ref_err, worst_channel(ref.transmittance_rgb(0, p), expect));
+    ref_err = std::max(ref_err, worst_channel(ref.transmittance(0, p), expect));
     deepest = std::min(deepest, double(expect.z));
     through += len > 0.0;
     ++probes;
@@ -117,7 +117,7 @@ TEST(TintedFilters, ThreeStackedQuadsMultiplyPerChannel) {
         for (float z = -0.5f; z <= 0.5f; z += 0.07f) {
           const Vec3 p{x, y, z};
           worst = std::max(worst, worst_channel(one_minus(shadow_alpha(sv, L, p)), expect));
-          worst = std::max(worst, worst_channel(ref.transmittance_rgb(0, p), expect));
+          worst = std::max(worst, worst_channel(ref.transmittance(0, p), expect));
         }
     }
     EXPECT_LE(worst, 1e-6) << "layout " << int(layout);

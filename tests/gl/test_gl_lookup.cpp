@@ -316,7 +316,7 @@ TEST_F(GlLookup, SurfacesInContactWithGlFragments) {
       for (int j = 0; j < 16; ++j) {
         const Vec3 p = c + Vec3{-0.35f + 0.7f * (i + 0.5f) / 16, 0, -0.35f + 0.7f * (j + 0.5f) / 16};
         const Receiver r{p, {0, 1, 0}, slab};
-        worst = std::max(worst, std::fabs(double(grey_of(vis(0, r))) - ref.transmittance(0, r)));
+        worst = std::max(worst, std::fabs(double(grey_of(vis(0, r))) - grey_of(ref.transmittance(0, r))));
         ++n;
       }
   for (float x = 6.5f; x <= 9.5f; x += 0.25f)

@@ -147,7 +147,7 @@ struct Rig {
   // Exact transmittance from the reference renderer.
   float reference_T(Vec3 p, int li = 0) const {
     ReferenceRenderer ref(sb.view(), frame.setup.lights);
-    return ref.transmittance(li, p);
+    return grey_of(ref.transmittance(li, p));
   }
   // Node list of one texel of map `map`.
   std::vector<DsmNode> texel(int map, int tx, int ty) const {

@@ -27,7 +27,7 @@ struct MapError {
 // its centre (500 over its whole chord and beyond, 500 over the first
 // 15 / sigma_max of it, where a dense medium saturates): the map's
 // transmittance at the point's own depth (shadow_alpha, every channel)
-// against the reference's (ReferenceRenderer::transmittance_segment_rgb:
+// against the reference's (ReferenceRenderer::transmittance_segment:
 // exact for constant media, a fine Simpson integral for volumes).
 inline MapError map_error_along_rays(const Scene& scene, float sigma_max, float spread = 0.3f) {
   ShadowFixture fx(scene);
@@ -63,7 +63,7 @@ inline MapError map_error_along_rays(const Scene& scene, float sigma_max, float 
                                 : t_in + dense * (float(i - 500) + 0.382f) / 500.0f;
         const Vec3 p = lv.eye + dir * z;
         const Vec3 map = one_minus(shadow_alpha(sv, light, p));
-        const Vec3 exact = ref.transmittance_segment_rgb(lv.eye, p);
+        const Vec3 exact = ref.transmittance_segment(lv.eye, p);
         double err = 0.0;
         for (int k = 0; k < 3; ++k) err = std::max(err, std::fabs(double(map[k]) - double(exact[k])));
         errors.push_back(err);

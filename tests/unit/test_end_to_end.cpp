@@ -73,7 +73,7 @@ ProbeResult texel_centre_probe() {
     ViewProjection pr = project(mv, p);
     if (int(std::floor(pr.u)) != tx || int(std::floor(pr.v)) != ty) continue;
     double T_dsm = sample_visibility(sv, 0, p);
-    double T_ref = ref.transmittance(0, p);
+    double T_ref = grey_of(ref.transmittance(0, p));
     double e = std::fabs(T_dsm - T_ref);
     bool constant = false;
     for (uint32_t o : constant_media) constant = constant || chord(sc, o, mv.eye, dir, pr.depth) > 0.0;

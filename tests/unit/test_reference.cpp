@@ -76,8 +76,8 @@ Convergence measure_convergence() {
   int shadowed = 0, in_volume_shadow = 0;
   for (size_t i = 0; i < points.size(); ++i) {
     for (int l = 0; l < int(lights.size()); ++l) {
-      double a = quarter.transmittance(l, points[i]), b = eighth.transmittance(l, points[i]);
-      worst_finer = std::max(worst_finer, std::fabs(b - double(sixteenth.transmittance(l, points[i]))));
+      double a = grey_of(quarter.transmittance(l, points[i])), b = grey_of(eighth.transmittance(l, points[i]));
+      worst_finer = std::max(worst_finer, std::fabs(b - double(grey_of(sixteenth.transmittance(l, points[i])))));
       if (std::fabs(a - b) > worst) {
         worst = std::fabs(a - b);
         worst_at = points[i];

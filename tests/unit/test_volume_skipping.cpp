@@ -150,7 +150,7 @@ Agreement compare(const Medium& m) {
         double exact = brute_alpha(sv, eye, dir, z, box.lo, box.hi);
         out.partial += exact > 0.02 && exact < 0.98;
         out.dsm = std::max(out.dsm, std::fabs(double(lookup_alpha(nodes, z)) - exact));
-        double t_ref = ref.transmittance_segment(eye, eye + dir * z);
+        double t_ref = grey_of(ref.transmittance_segment(eye, eye + dir * z));
         out.reference = std::max(out.reference, std::fabs((1.0 - t_ref) - exact));
       }
     }
