@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -329,6 +331,28 @@ struct FragmentRasterizer::Impl {
   }
 
   void rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out, const TileSink* sink);
+
+  // CDSM_GL_SYNC: passes wait for what came before them, so a fault that
+  // goes away with it is one of synchronization (the GL analogue of
+  // CDSM_CUDA_SYNC). "1" or "all": glMemoryBarrier(all) + glFinish at every
+  // point; "barrier": the barrier alone at every point; else a comma list
+  // of the points that finish: clear (after the counts are cleared), count
+  // (after the count pass), fill (after each fill tile).
+  const std::string sync_mode = [] {
+    const char* e = std::getenv("CDSM_GL_SYNC");
+    return std::string(e && std::strcmp(e, "0") != 0 ? e : "");
+  }();
+  void sync(const char* point) {
+    if (sync_mode.empty()) return;
+    const bool all = sync_mode == "1" || sync_mode == "all";
+    if (sync_mode == "barrier") {
+      CDSM_GL(glMemoryBarrier(GL_ALL_BARRIER_BITS));
+      return;
+    }
+    if (!all && ("," + sync_mode + ",").find("," + std::string(point) + ",") == std::string::npos) return;
+    CDSM_GL(glMemoryBarrier(GL_ALL_BARRIER_BITS));
+    CDSM_GL(glFinish());
+  }
 };
 
 void FragmentRasterizer::Impl::rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out,
@@ -376,12 +400,31 @@ void FragmentRasterizer::Impl::rasterize(const PinholeView& view, ObjectMask mas
     CDSM_GL(glProgramUniform1i(program.id(), kRow0, r0));
     CDSM_GL(glProgramUniform1i(program.id(), kPass, 0));
     scissor(H, r0, r1, 0, W);
+    sync("clear");
     draw();
+    sync("count");
 
     // Prefix sum -> band-local offsets, read back into out.offsets.
     scan.exclusive_scan(counts, offsets, n);
-    if (scan.overflowed())
-      throw Error(kWhere, "more than 2^32-1 fragments in one band of the view");
+    if (scan.overflowed()) {
+      // Say whether the counts overflow or the scan does (a driver or
+      // synchronization fault): the counts summed on the host.
+      CDSM_GL(glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT));
+      std::vector<uint32_t> c(n);
+      counts.download(c.data(), n * 4);
+      uint64_t sum = 0, largest = 0, at = 0;
+      for (uint64_t i = 0; i < n; ++i) {
+        sum += c[i];
+        if (c[i] > largest) largest = c[i], at = i;
+      }
+      const std::string band = "rows " + std::to_string(r0) + ".." + std::to_string(r1 - 1) + " of a " +
+                               std::to_string(W) + "x" + std::to_string(H) + " view: the counts sum to " +
+                               std::to_string(sum) + " (largest " + std::to_string(largest) + " at pixel (" +
+                               std::to_string(at % uint64_t(W)) + ", " + std::to_string(r0 + int32_t(at / uint64_t(W))) +
+                               "))";
+      if (sum > 0xffffffffull) throw Error(kWhere, "more than 2^32-1 fragments in one band of the view: " + band);
+      throw Error(kWhere, "internal: the prefix sum reported a carry out of 32 bits that the counts do not have; " + band);
+    }
     uint32_t* band_offsets = out.offsets.data() + uint64_t(r0) * uint64_t(W);
     offsets.download(band_offsets, (n + 1) * 4);
     const uint64_t band_total = band_offsets[n];
@@ -420,6 +463,7 @@ void FragmentRasterizer::Impl::rasterize(const PinholeView& view, ObjectMask mas
         CDSM_GL(glProgramUniform1ui(program.id(), kFragBase, GLuint(off(p))));
         scissor(H, row_a, row_b, col_a, col_b);
         draw();
+        sync("fill");
         CDSM_GL(glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT));
         if (sink) (*sink)(total + off(p), tile_fragments, pool.id(), pool.capacity(), pool_generation);
         else pool.download(out.fragments.data() + total + off(p), tile_fragments * kFragmentBytes);

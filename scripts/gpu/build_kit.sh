@@ -7,8 +7,9 @@
 #      no OpenVDB loader, no editor, no GLFW: nothing pulls X11 in) and no
 #      build RPATH: $CDSM_KIT_BUILD (default build-gpu) for bench_gpu, and
 #      the parity build (CDSM_FP_STRICT=ON) $CDSM_KIT_PARITY_BUILD (default
-#      build-gpu-parity) for test_cuda_backend, test_gl_interop and
-#      test_cuda_faults;
+#      build-gpu-parity) for test_cuda_backend, test_gl_interop,
+#      test_cuda_faults and the GL suite (test_fragment_raster,
+#      test_gl_default_scene, test_gl_system: run there on NVIDIA's GL);
 #   2. the binaries, stripped, into gpu-kit/bin (release) and gpu-kit/bin/parity;
 #   3. every shared library they load that is not on the allowed list
 #      (glibc, libstdc++, libgcc_s, and the NVIDIA driver's own: libcuda, the
@@ -232,6 +233,10 @@ common_args=(-G Ninja -DCMAKE_BUILD_TYPE=Release -DCDSM_CUDA=ON -DCMAKE_CUDA_COM
   -DCMAKE_DISABLE_FIND_PACKAGE_glfw3=ON -DCMAKE_SKIP_BUILD_RPATH=ON)
 # shellcheck disable=SC2206
 extra=(${CDSM_KIT_CMAKE_ARGS:-})
+# The GL suite, run there on the device's own OpenGL (run_kit.sh stage `gl`):
+# the rasterizer against the CPU ray caster, the default scene through GL,
+# the system on an application context.
+gl_tests=(test_fragment_raster test_gl_default_scene test_gl_system)
 if [[ ${1:-} != --no-build ]]; then
   start=$SECONDS
   for b in "$release" "$parity"; do
@@ -239,7 +244,7 @@ if [[ ${1:-} != --no-build ]]; then
     targets=(bench_gpu)
     if [[ $b == "$parity" ]]; then
       strict=ON
-      targets=(test_cuda_backend test_gl_interop test_cuda_faults)
+      targets=(test_cuda_backend test_gl_interop test_cuda_faults "${gl_tests[@]}")
     fi
     say "configure $b (CDSM_FP_STRICT=$strict)"
     mkdir -p "$b"
@@ -261,6 +266,10 @@ rm -rf "$kit"
 mkdir -p "$kit/bin/parity"
 cp "$release/tests/gpu/bench_gpu" "$kit/bin/"
 cp "$parity/tests/gpu/test_cuda_backend" "$parity/tests/gpu/test_gl_interop" "$parity/tests/gpu/test_cuda_faults" "$kit/bin/parity/"
+for t in "${gl_tests[@]}"; do
+  [[ -x $parity/tests/gl/$t ]] || die "$parity/tests/gl/$t missing: build first"
+  cp "$parity/tests/gl/$t" "$kit/bin/parity/"
+done
 strip --strip-unneeded "$kit/bin/bench_gpu" "$kit/bin/parity/"*
 gather_libraries "$kit" download
 write_manifest "$kit" device

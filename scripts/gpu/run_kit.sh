@@ -3,13 +3,16 @@
 # scripts/gpu/build_kit.sh made here carried along in gpu-kit/. Compiles
 # nothing: the binaries are the kit's, their libraries the kit's (through
 # LD_LIBRARY_PATH, for them only) and the driver's. Stages, in order, each
-# with its own time limit inside a total of $CDSM_KIT_BUDGET_S (default 450 s,
-# so the whole run stays under 8 minutes):
+# with its own time limit inside a total of $CDSM_KIT_BUDGET_S (default 540 s,
+# so the whole run stays under 9 minutes; run it with timeout_s 590):
 #
-#   tests       test_cuda_backend, test_gl_interop and test_cuda_faults (a
+#   tests       test_cuda_backend, test_gl_interop and (after every other
+#               stage: its fault breaks the device's GL) test_cuda_faults (a
 #               kernel faulting on purpose) of the parity build, once each,
 #               with CDSM_REQUIRE_GPU=1 and CDSM_REQUIRE_GL=1 (a missing
 #               device, a GL context off the device or any skip fails them);
+#   gl          the GL suite (test_fragment_raster, test_gl_default_scene,
+#               test_gl_system) on the device's own OpenGL;
 #   sanitizers  compute-sanitizer memcheck and initcheck on one small case;
 #   bench       bench_gpu (release build): per-stage times at 1280x720 and
 #               1920x1080, GL against CUDA fragments, the CPU/CUDA ratio.
@@ -20,7 +23,7 @@
 # bench_gpu.md and the two sanitizer logs. $OUT is the device tool's folder
 # that comes back (at most 8 files); elsewhere gpu-kit-results/.
 #
-# Usage: bash scripts/gpu/run_kit.sh [tests] [sanitizers] [bench]   (default: all three)
+# Usage: bash scripts/gpu/run_kit.sh [tests] [gl] [sanitizers] [bench]   (default: all four)
 set -uo pipefail
 cd "$(dirname "$0")/../.."
 root=$PWD
@@ -29,9 +32,9 @@ out=${OUT:-$root/gpu-kit-results}
 work=$(mktemp -d)
 mkdir -p "$out"
 exec > >(tee -a "$out/kit.log") 2>&1
-budget=${CDSM_KIT_BUDGET_S:-450}
+budget=${CDSM_KIT_BUDGET_S:-540}
 stages=("$@")
-((${#stages[@]})) || stages=(tests sanitizers bench)
+((${#stages[@]})) || stages=(tests gl sanitizers bench)
 wants() { [[ " ${stages[*]} " == *" $1 "* ]]; }
 step() { echo "== $(date +%T) +$SECONDS s: $*"; }
 
@@ -101,9 +104,13 @@ if wants tests; then
     "$kit/bin/parity/test_cuda_backend" --gtest_output=json:"$work/test_cuda_backend.json"
   run test_gl_interop 60 "$work/test_gl_interop.log" "${kit_env[@]}" \
     "$kit/bin/parity/test_gl_interop" --gtest_output=json:"$work/test_gl_interop.json"
-  # Last: a kernel that faults on purpose (its own process; CUDA is unusable after it).
-  run test_cuda_faults 30 "$work/test_cuda_faults.log" "${kit_env[@]}" \
-    "$kit/bin/parity/test_cuda_faults" --gtest_filter='CudaFaultsOnDevice.*' --gtest_output=json:"$work/test_cuda_faults.json"
+fi
+if wants gl; then
+  # The GL suite on the device's OpenGL (CI runs it on Mesa llvmpipe only).
+  # test_gl_system reads the shared data (../shared/data), which does not travel: not run here.
+  for t in test_fragment_raster test_gl_default_scene; do
+    run "$t" 60 "$work/$t.log" "${kit_env[@]}" "$kit/bin/parity/$t" --gtest_output=json:"$work/$t.json"
+  done
 fi
 if wants sanitizers; then
   small='CudaBackend.StageTimesFromEvents'  # the default scene, 128^2 maps, 160x120: every kernel once
@@ -119,9 +126,19 @@ if wants sanitizers; then
   done
 fi
 if wants bench; then
-  run bench_gpu 120 "$work/bench_gpu.log" env "LD_LIBRARY_PATH=$libs" \
+  run bench_gpu 240 "$work/bench_gpu.log" env "LD_LIBRARY_PATH=$libs" \
     "$kit/bin/bench_gpu" --out "$work/bench" --repeat 3 --scene "$root/content/scenes/default.json"
   [[ -f $work/bench/bench_gpu.md ]] && cp "$work/bench/bench_gpu.md" "$out/"
+fi
+
+# Last of all, after every other stage: a kernel that faults on purpose. Its
+# MMU fault (Xid 31) leaves the device's graphics engine broken for every
+# later process until the GPU is reset (measured 2026-12-04 on an H200: the
+# GL rasterizer passed all its tests before it and returned garbage counts
+# after it), so nothing may run on the machine after this test.
+if wants tests; then
+  run test_cuda_faults 30 "$work/test_cuda_faults.log" "${kit_env[@]}" \
+    "$kit/bin/parity/test_cuda_faults" --gtest_filter='CudaFaultsOnDevice.*' --gtest_output=json:"$work/test_cuda_faults.json"
 fi
 
 # ---- results.json -----------------------------------------------------------------

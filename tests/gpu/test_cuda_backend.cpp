@@ -31,14 +31,18 @@ void expect_parity(const Scene& s, const std::string& what) {
   ASSERT_FALSE(a.frame.maps.empty()) << what << ": no map built, nothing to compare";
   const DsmStorage sa = cpu->storage(), sg = gpu->storage();
   const double bound = 2.0 * double(s.shadows.epsilon) + 1e-5;
+  uint64_t nodes = 0;
   for (size_t k = 0; k < a.frame.maps.size(); ++k) {
-    const parity::MapComparison c = parity::compare_maps(sa, a.frame.headers[k], sg, b.frame.headers[k]);
+    const parity::MapComparison c = parity::compare_maps(sa, a.frame.headers[k], sg, b.frame.headers[k], true);
+    nodes += c.nodes_a + c.nodes_b;
     const double share = double(c.identical) / double(c.texels);
     EXPECT_GE(share, 0.999) << what << " map " << k << ": " << c.identical << " of " << c.texels
                             << " texels identical; first: " << c.first_difference;
     EXPECT_LE(c.max_alpha_diff, bound) << what << " map " << k;
     ::testing::Test::RecordProperty(what + " map " + std::to_string(k) + " identical", std::to_string(share));
+    ::testing::Test::RecordProperty(what + " map " + std::to_string(k) + " nodes", std::to_string(c.nodes_a));
   }
+  EXPECT_GT(nodes, 0u) << what << ": no map of the frame holds a node on either backend: nothing was compared";
   const double db = parity::psnr(a.rgb, b.rgb);
   EXPECT_GE(db, 50.0) << what;
   ::testing::Test::RecordProperty(what + " psnr", std::to_string(db));

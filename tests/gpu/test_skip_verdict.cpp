@@ -80,6 +80,10 @@ TEST(ParityGuards, MapsWithoutTexelsOrNodesCompareNothing) {
   EXPECT_NONFATAL_FAILURE(parity::compare_maps(m.storage(), m.map, DsmStorage{}, m.map), "lacks its map's texels");
   const SmallMap empty(4, 0);
   EXPECT_NONFATAL_FAILURE(parity::compare_maps(empty.storage(), empty.map, empty.storage(), empty.map), "holds a node");
+  // One map of a frame may be empty (a cube face seeing no caster): compared, not failed.
+  const parity::MapComparison empty_face = parity::compare_maps(empty.storage(), empty.map, empty.storage(), empty.map, true);
+  EXPECT_EQ(empty_face.nodes_a + empty_face.nodes_b, 0u);
+  EXPECT_EQ(empty_face.identical, empty_face.texels);
 
   parity::MapComparison nothing;
   EXPECT_NONFATAL_FAILURE(nothing = parity::compare_maps(none.storage(), none.map, none.storage(), none.map), "nothing");
