@@ -217,10 +217,8 @@ struct Parser {
   }
 
   Volume volume(const JsonNode& n) {
-    n.expect_object({"name", "grid", "voxel_size", "origin", "index_to_object", "transfer", "shading", "step_voxels",
-                     "gradient_scale", "proxy"});
     Volume v;
-    v.name = n.get("name", "");
+    n.read_fields(v, {"grid", "voxel_size", "origin", "index_to_object", "transfer", "proxy"});
     JsonNode gn = n.at("grid");
     std::string type = gn.at("type").as_string();
     bool has_spacing = false;
@@ -280,12 +278,6 @@ struct Parser {
       tp.color = p.get("color", tp.color);
       v.transfer.push_back(tp);  // ranges and order: validate_scene
     }
-    std::string shading = n.get("shading", "scatter");
-    if (shading == "scatter") v.shading = VolumeShading::Scatter;
-    else if (shading == "phong") v.shading = VolumeShading::Phong;
-    else n.at("shading").fail("unknown shading '" + shading + "' (scatter or phong)");
-    v.step_voxels = n.get("step_voxels", v.step_voxels);
-    v.gradient_scale = n.get("gradient_scale", v.gradient_scale);
     return v;
   }
 
@@ -395,11 +387,9 @@ struct Parser {
   }
 
   Object object(const JsonNode& n) {
-    n.expect_object({"name", "mesh", "transform", "casts_shadows", "material", "interior"});
     Object o;
-    o.name = n.get("name", "");
+    n.read_fields(o, {"mesh", "transform", "material", "interior"});
     if (n.has("transform")) o.transform = transform(n.at("transform"));
-    o.casts_shadows = n.get("casts_shadows", true);
     if (n.has("material")) {
       n.at("material").read_fields(o.surface);  // ranges: validate_scene
     }

@@ -121,8 +121,7 @@ struct Checker {
     for (size_t i = 0; i < s.volumes.size(); ++i) {
       const Volume& v = s.volumes[i];
       const std::string at = "/volumes/" + std::to_string(i);
-      number(at + "/step_voxels", v.step_voxels, 0.05, 8.0);
-      number(at + "/gradient_scale", v.gradient_scale, 0.0, 1e6);
+      fields(v, at);
       if (v.transfer.empty() || v.transfer.size() > size_t(kMaxTransferPoints))
         fail(at + "/transfer", "needs 1 to " + std::to_string(kMaxTransferPoints) + " control points, got " +
                                    std::to_string(v.transfer.size()));
@@ -141,6 +140,7 @@ struct Checker {
     for (size_t i = 0; i < s.objects.size(); ++i) {
       const Object& o = s.objects[i];
       const std::string at = "/objects/" + std::to_string(i);
+      fields(o, at);
       fields(o.surface, at + "/material");
       if (o.interior == InteriorKind::Constant) channels(at + "/interior/sigma", o.sigma, 0.0, 1e38);
       if (o.interior == InteriorKind::Volume && (o.volume < 0 || size_t(o.volume) >= s.volumes.size()))

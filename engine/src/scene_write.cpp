@@ -201,10 +201,9 @@ struct Writer {
   std::string object(const Object& o, size_t i) {
     const std::string at = "/objects/" + std::to_string(i);
     Fields f;
-    f.add("name", str(o.name, at + "/name"));
+    write_fields(f, o, at);
     f.add("mesh", mesh(o, at + "/mesh"));
     f.add("transform", matrix(o.transform, at + "/transform"));
-    f.add("casts_shadows", boolean(o.casts_shadows));
     f.add("material", material(o.surface, at + "/material"));
     Fields in;
     const InteriorKind kind = o.interior == InteriorKind::Constant || o.interior == InteriorKind::Volume ? o.interior
@@ -286,7 +285,7 @@ struct Writer {
   std::string volume(const Volume& v, size_t i) const {
     const std::string at = "/volumes/" + std::to_string(i);
     Fields f;
-    f.add("name", str(v.name, at + "/name"));
+    write_fields(f, v, at);
     if (bool(v.grid) == bool(v.sparse)) fail(at + "/grid", "a volume needs exactly one grid, dense or sparse");
     nlohmann::json source;
     bool described = false;
@@ -315,9 +314,6 @@ struct Writer {
       tf += (k ? ", " : "") + p.done();
     }
     f.add("transfer", tf + "]");
-    f.add("shading", v.shading == VolumeShading::Phong ? "\"phong\"" : "\"scatter\"");
-    f.add("step_voxels", num(v.step_voxels, at + "/step_voxels"));
-    f.add("gradient_scale", num(v.gradient_scale, at + "/gradient_scale"));
     return f.done();
   }
 

@@ -98,20 +98,17 @@ struct SceneComparer {
   }
 
   bool object(const std::string& at, const cdsm::Object& a, const cdsm::Object& b) {
-    return s(at + "/name", a.name, b.name) && mesh(at + "/mesh", a.mesh.get(), b.mesh.get()) &&
+    return fields(at, a, b) && mesh(at + "/mesh", a.mesh.get(), b.mesh.get()) &&
            s(at + "/mesh_source", a.mesh_source, b.mesh_source) && m(at + "/transform", a.transform, b.transform) &&
-           i(at + "/casts_shadows", a.casts_shadows, b.casts_shadows) && surface(at + "/material", a.surface, b.surface) &&
+           surface(at + "/material", a.surface, b.surface) &&
            i(at + "/interior", uint32_t(a.interior), uint32_t(b.interior)) && v(at + "/sigma", a.sigma, b.sigma) &&
            i(at + "/volume", a.volume, b.volume);
   }
 
   bool volume(const std::string& at, const cdsm::Volume& a, const cdsm::Volume& b) {
-    if (!s(at + "/name", a.name, b.name) || !dense(at + "/grid", a.grid.get(), b.grid.get()) ||
+    if (!fields(at, a, b) || !dense(at + "/grid", a.grid.get(), b.grid.get()) ||
         !sparse(at + "/grid", a.sparse.get(), b.sparse.get()) || !s(at + "/grid_source", a.grid_source, b.grid_source) ||
         !m(at + "/index_to_object", a.index_to_object, b.index_to_object) ||
-        !i(at + "/shading", uint32_t(a.shading), uint32_t(b.shading)) ||
-        !f(at + "/step_voxels", a.step_voxels, b.step_voxels) ||
-        !f(at + "/gradient_scale", a.gradient_scale, b.gradient_scale) ||
         !i(at + "/transfer (count)", a.transfer.size(), b.transfer.size()))
       return false;
     for (size_t k = 0; k < a.transfer.size(); ++k) {

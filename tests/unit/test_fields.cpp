@@ -134,6 +134,20 @@ TEST(Fields, EveryFieldOfEveryTableIsWrittenReadAndRangeChecked) {
   base.objects.push_back(cdsm_test::make_object("ground", make_quad(4.0f, 4.0f)));
   check_table<SurfaceMaterial>(base, [](Scene& s) -> SurfaceMaterial& { return s.objects[0].surface; },
                                "/objects/0/material");
+  base.objects[0].name = "ground";
+  check_table<Object>(base, [](Scene& s) -> Object& { return s.objects[0]; }, "/objects/0");
+  Volume smoke;
+  smoke.name = "smoke";
+  NoiseVolumeParams noise;
+  noise.nx = noise.ny = noise.nz = 6;
+  smoke.grid = make_noise_volume(noise);
+  smoke.transfer = {TransferPoint{}};
+  base.volumes.push_back(smoke);
+  Object box = cdsm_test::make_object("smoke box", make_box({6, 6, 6}));
+  box.interior = InteriorKind::Volume;
+  box.volume = 0;
+  base.objects.push_back(box);
+  check_table<Volume>(base, [](Scene& s) -> Volume& { return s.volumes[0]; }, "/volumes/0");
 }
 
 }  // namespace

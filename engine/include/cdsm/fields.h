@@ -170,6 +170,29 @@ struct FieldTable<SurfaceMaterial> {
       field("shininess", &S::shininess, 0.0, 1e4, kAffectsLookup, "n_s"));
 };
 
+// The plain fields of a volume and an object; what a range cannot say (a
+// volume's grid, placement and transfer function; an object's mesh,
+// transform, material and interior) is read, written and checked beside
+// them (scene_json.cpp, scene_write.cpp, scene_validate.cpp).
+template <>
+struct FieldTable<Volume> {
+  using S = Volume;
+  static constexpr auto fields = std::make_tuple(
+      field("name", &S::name, 0, 0, kAffectsNothing, "how objects name it, shown in the editor"),
+      field("shading", &S::shading, 0, 0, kAffectsLookup, "scatter (lit by the maps) or phong (a surface at its gradient)"),
+      field("step_voxels", &S::step_voxels, 0.05, 8.0, kAffectsMaps, "march step, in voxels"),
+      field("gradient_scale", &S::gradient_scale, 0.0, 1e6, kAffectsLookup, "phong: the gradient's scale"));
+};
+
+template <>
+struct FieldTable<Object> {
+  using S = Object;
+  static constexpr auto fields = std::make_tuple(
+      field("name", &S::name, 0, 0, kAffectsNothing, "shown in the editor and in messages"),
+      field("casts_shadows", &S::casts_shadows, 0, 1, kAffectsPlan | kAffectsClusters | kAffectsMaps,
+            "false: a receiver only (in no map; a large ground should be one)"));
+};
+
 template <>
 struct FieldTable<Camera> {
   using S = Camera;

@@ -69,6 +69,10 @@ struct TransferPoint {
 };
 
 enum class VolumeShading : uint32_t { Scatter = 0, Phong = 1 };
+template <>
+struct TagNames<VolumeShading> {
+  static constexpr const char* names[] = {"scatter", "phong"};
+};
 
 // A sparse float grid in NanoVDB's layout: the bytes of one
 // nanovdb::NanoGrid<float> (position-independent, so the same bytes are
