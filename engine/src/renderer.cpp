@@ -165,7 +165,7 @@ struct Renderer::Impl {
     validate_scene(scene, &warnings);
     check_memory(scene, estimate_frame_memory(scene, opt));
     sync_scene(*system, scene);
-    ShadowSystem::Impl& I = system->internals();
+    ShadowSystem::Impl& I = internals(*system);
     I.keep_previous = opt.measure_popping;
     return I;
   }

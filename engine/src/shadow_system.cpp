@@ -135,21 +135,24 @@ FragmentLists ShadowSystem::Impl::camera_fragments() {
 }
 
 size_t ShadowSystem::Impl::object_index(ObjectHandle h) const {
-  for (size_t i = 0; i < objects.size(); ++i)
-    if (objects[i].id == h.id) return i;
-  throw Error(scene.source, "object handle " + std::to_string(h.id) + " does not name an object of this system");
+  uint32_t i = 0;
+  const SlotMap::Lookup found = object_slots.find(h.id, &i);
+  if (found != SlotMap::Lookup::Found) throw Error(scene.source, describe_handle("object", h.id, found));
+  return i;
 }
 
 size_t ShadowSystem::Impl::volume_index(uint64_t id) const {
-  for (size_t i = 0; i < volumes.size(); ++i)
-    if (volumes[i].id == id) return i;
-  throw Error(scene.source, "volume handle " + std::to_string(id) + " does not name a volume of this system");
+  uint32_t i = 0;
+  const SlotMap::Lookup found = volume_slots.find(id, &i);
+  if (found != SlotMap::Lookup::Found) throw Error(scene.source, describe_handle("volume", id, found));
+  return i;
 }
 
 size_t ShadowSystem::Impl::light_index(LightHandle h) const {
-  for (size_t i = 0; i < lights.size(); ++i)
-    if (lights[i] == h.id) return i;
-  throw Error(scene.source, "light handle " + std::to_string(h.id) + " does not name a light of this system");
+  uint32_t i = 0;
+  const SlotMap::Lookup found = light_slots.find(h.id, &i);
+  if (found != SlotMap::Lookup::Found) throw Error(scene.source, describe_handle("light", h.id, found));
+  return i;
 }
 
 std::string ShadowSystem::Impl::object_where(size_t i) const {
@@ -474,7 +477,6 @@ void ShadowSystem::Impl::build(FrameStats& st) {
 ShadowSystem::ShadowSystem(const SystemOptions& options) : impl_(std::make_unique<Impl>(options)) {}
 ShadowSystem::~ShadowSystem() = default;
 
-ShadowSystem::Impl& ShadowSystem::internals() { return *impl_; }
 const Scene& ShadowSystem::scene() const { return impl_->scene; }
 
 std::vector<ObjectHandle> ShadowSystem::objects() const {
@@ -493,7 +495,7 @@ VolumeHandle ShadowSystem::add_volume(Volume volume) {
   Impl& I = *impl_;
   I.scene.volumes.push_back(std::move(volume));
   Impl::VolumeRec rec;
-  rec.id = I.next_id++;
+  rec.id = I.volume_slots.insert(uint32_t(I.volumes.size()));
   I.volumes.push_back(rec);
   I.changed = I.compile_pending = true;
   return {rec.id};
@@ -519,8 +521,10 @@ void ShadowSystem::remove_volume(VolumeHandle h) {
     I.erase_volume_data(vi);
     I.sb.volumes.erase(I.sb.volumes.begin() + ptrdiff_t(vi));
   }
+  I.volume_slots.erase(h.id);
   I.volumes.erase(I.volumes.begin() + ptrdiff_t(vi));
   I.scene.volumes.erase(I.scene.volumes.begin() + ptrdiff_t(vi));
+  for (size_t k = vi; k < I.volumes.size(); ++k) I.volume_slots.move(I.volumes[k].id, uint32_t(k));
   for (Object& o : I.scene.objects)
     if (o.volume > int32_t(vi)) --o.volume;
   I.structure_dirty = true;  // objects' volume indices shift
@@ -535,7 +539,6 @@ ObjectHandle ShadowSystem::add_object(const Object& o, VolumeHandle volume) {
   Object copy = o;
   copy.volume = -1;
   Impl::ObjectRec rec;
-  rec.id = I.next_id++;
   if (o.interior == InteriorKind::Volume) {
     if (!volume) throw Error(where, "has a volume interior but names no volume");
     const size_t vi = I.volume_index(volume.id);
@@ -544,6 +547,7 @@ ObjectHandle ShadowSystem::add_object(const Object& o, VolumeHandle volume) {
     copy.volume = int32_t(vi);
     rec.volume = volume.id;
   }
+  rec.id = I.object_slots.insert(uint32_t(I.objects.size()));
   I.scene.objects.push_back(std::move(copy));
   I.objects.push_back(rec);
   I.structure_dirty = true;
@@ -610,8 +614,10 @@ void ShadowSystem::set_mesh(ObjectHandle h, std::shared_ptr<const TriangleMesh> 
 void ShadowSystem::remove_object(ObjectHandle h) {
   Impl& I = *impl_;
   const size_t i = I.object_index(h);
+  I.object_slots.erase(h.id);
   I.scene.objects.erase(I.scene.objects.begin() + ptrdiff_t(i));
   I.objects.erase(I.objects.begin() + ptrdiff_t(i));
+  for (size_t k = i; k < I.objects.size(); ++k) I.object_slots.move(I.objects[k].id, uint32_t(k));
   // Meshes no object uses any more are released.
   for (auto it = I.closed_meshes.begin(); it != I.closed_meshes.end();) {
     bool used = false;
@@ -625,7 +631,7 @@ void ShadowSystem::remove_object(ObjectHandle h) {
 LightHandle ShadowSystem::add_light(const Light& light) {
   Impl& I = *impl_;
   I.scene.lights.push_back(light);
-  I.lights.push_back(I.next_id++);
+  I.lights.push_back(I.light_slots.insert(uint32_t(I.lights.size())));
   I.changed = true;
   return {I.lights.back()};
 }
@@ -640,7 +646,9 @@ void ShadowSystem::remove_light(LightHandle h) {
   Impl& I = *impl_;
   const size_t i = I.light_index(h);
   I.scene.lights.erase(I.scene.lights.begin() + ptrdiff_t(i));
+  I.light_slots.erase(h.id);
   I.lights.erase(I.lights.begin() + ptrdiff_t(i));
+  for (size_t k = i; k < I.lights.size(); ++k) I.light_slots.move(I.lights[k], uint32_t(k));
   I.changed = true;
 }
 
@@ -816,10 +824,10 @@ bool same_transfer(const std::vector<TransferPoint>& a, const std::vector<Transf
   return true;
 }
 
+// (names left out: a renamed volume is not compiled again)
 bool same_volume(const Volume& a, const Volume& b) {
   return a.grid == b.grid && a.sparse == b.sparse && same_bytes(a.index_to_object, b.index_to_object) &&
-         same_transfer(a.transfer, b.transfer) && a.shading == b.shading && same_bytes(a.step_voxels, b.step_voxels) &&
-         same_bytes(a.gradient_scale, b.gradient_scale);
+         same_transfer(a.transfer, b.transfer) && changed_effects(a, b) == kAffectsNothing;
 }
 
 // (names included: a renamed light is set again, which rebuilds nothing)
@@ -832,7 +840,7 @@ int32_t volume_of(const Object& o) { return o.interior == InteriorKind::Volume ?
 }  // namespace
 
 void sync_scene(ShadowSystem& system, const Scene& scene) {
-  ShadowSystem::Impl& I = system.internals();
+  ShadowSystem::Impl& I = internals(system);
   I.scene.source = scene.source;
   if (!same_camera(I.scene.camera, scene.camera)) system.set_camera(scene.camera);
   if (!same_fields(I.scene.shadows, scene.shadows)) system.set_settings(scene.shadows);

@@ -11,6 +11,7 @@
 #include "cdsm/shadow_system.h"
 #include "fragment_source.h"
 #include "frame.h"
+#include "slot_map.h"
 #include "system_gl.h"
 
 namespace cdsm {
@@ -40,7 +41,9 @@ struct ShadowSystem::Impl {
   std::vector<ObjectRec> objects;   // parallel to scene.objects
   std::vector<VolumeRec> volumes;   // parallel to scene.volumes
   std::vector<uint64_t> lights;     // ids, parallel to scene.lights
-  uint64_t next_id = 1;
+  // Handle ids -> positions in the arrays above (slot_map.h): O(1) lookups,
+  // stale handles named as such.
+  SlotMap object_slots, volume_slots, light_slots;
   // is_closed per mesh, the mesh kept alive so its address cannot be reused.
   std::unordered_map<const TriangleMesh*, std::pair<std::shared_ptr<const TriangleMesh>, bool>> closed_meshes;
 
@@ -107,5 +110,12 @@ struct ShadowSystem::Impl {
 // grid pointers, transforms, materials — never by their bytes). Volumes
 // added, removed or re-assigned between objects re-add every object.
 void sync_scene(ShadowSystem& system, const Scene& scene);
+
+// The system's state for the research harness (renderer.cpp: the error and
+// popping probes) and this library's tests; engines never need it.
+struct SystemAccess {
+  static ShadowSystem::Impl& of(ShadowSystem& system) { return *system.impl_; }
+};
+inline ShadowSystem::Impl& internals(ShadowSystem& system) { return SystemAccess::of(system); }
 
 }  // namespace cdsm

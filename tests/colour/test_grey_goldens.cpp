@@ -78,7 +78,7 @@ std::pair<uint64_t, uint64_t> hashes(const Scene& scene) {
   Fnv image;
   image.bytes(img.rgb.data(), img.rgb.size() * sizeof(float));
   Fnv nodes;
-  const ShadowFrame& f = sys.internals().frame;
+  const ShadowFrame& f = internals(sys).frame;
   const ShadowView view = f.view(scene.shadows);
   std::vector<DsmNode> buf(8192);
   for (const DsmMap& m : f.headers) {

@@ -166,7 +166,7 @@ class GlLookup : public GlTest {
     ShadowSystem sys(o);
     sync_scene(sys, scene);
     sys.update();
-    ShadowSystem::Impl& I = sys.internals();
+    ShadowSystem::Impl& I = internals(sys);
     std::vector<LookupPoint> pts = sample_points(I.sb, surface, volume, free, 7);
     ASSERT_GE(pts.size(), size_t(surface + free));
     pts.insert(pts.end(), extra.begin(), extra.end());
@@ -305,7 +305,7 @@ TEST_F(GlLookup, SurfacesInContactWithGlFragments) {
   ShadowSystem sys(o);
   sync_scene(sys, scene);
   sys.update();
-  ShadowSystem::Impl& I = sys.internals();
+  ShadowSystem::Impl& I = internals(sys);
   const ShadowView sv = I.shadow_view();
   DsmVisibility vis{sv};
   ReferenceRenderer ref(I.sb.view(), I.frame.setup.lights);

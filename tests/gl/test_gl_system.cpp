@@ -183,7 +183,7 @@ TEST_F(GlSystem, UploadsOnlyWhatChanged) {
   sync_scene(sys, scene);
   FrameStats first, again, moved;
   sys.update(&first);
-  ShadowSystem::Impl& I = sys.internals();
+  ShadowSystem::Impl& I = internals(sys);
   const DsmStorage s0 = I.backend->storage();
   const uint64_t arrays0 = (s0.texels.size() + s0.rgb_texels.size()) * 8 + s0.nodes.size() * 8 +
                            s0.rgb_nodes.size() * 16 + s0.chunks.size() * 12 + s0.rgb_chunks.size() * 20 +
@@ -290,7 +290,7 @@ TEST_F(GlSystem, MeshFromApplicationBuffersEqualsArrays) {
     sys.set_settings(s);
     sys.update(&st);
     // Texel by texel (the pool's order follows the tiles' reservations).
-    ShadowSystem::Impl& I = sys.internals();
+    ShadowSystem::Impl& I = internals(sys);
     const DsmStorage d = I.backend->storage();
     std::vector<DsmNode> nodes;
     for (const DsmMap& m : I.frame.headers)
@@ -447,11 +447,11 @@ TEST_F(GlSystem, MapsBeyondTheStorageBlockLimitAreRefused) {
   scene.shadows.resolution = 256;
   ShadowSystem sys(app_options(FragmentSource::Cpu));
   sync_scene(sys, scene);
-  set_gl_map_block_limit(*sys.internals().gl, 64 * 1024);  // 256^2 texel headers need 512 KiB
+  set_gl_map_block_limit(*internals(sys).gl, 64 * 1024);  // 256^2 texel headers need 512 KiB
   const std::string e = error_of([&] { sys.update(); });
   EXPECT_NE(e.find("CdsmTexels"), std::string::npos) << e;
   EXPECT_NE(e.find("GL_MAX_SHADER_STORAGE_BLOCK_SIZE"), std::string::npos) << e;
-  set_gl_map_block_limit(*sys.internals().gl, 0);
+  set_gl_map_block_limit(*internals(sys).gl, 0);
   sys.set_camera(scene.camera);
   sys.update();  // the driver's real limit (128 MiB on llvmpipe) holds them
 }
@@ -566,7 +566,7 @@ class InPlaceBackend final : public ShadowBackend {
 // `sys`'s backend wrapped in an InPlaceBackend (its fragment producer
 // follows); the wrapper, owned by the system.
 InPlaceBackend* use_in_place_backend(ShadowSystem& sys) {
-  ShadowSystem::Impl& I = sys.internals();
+  ShadowSystem::Impl& I = internals(sys);
   auto in_place = std::make_unique<InPlaceBackend>(std::move(I.backend));
   InPlaceBackend* ip = in_place.get();
   I.backend = std::move(in_place);
@@ -584,7 +584,7 @@ TEST_F(GlSystem, GlListsHandedOverTileByTileEqualListsReadBack) {
   Scene scene = load_scene(scene_path("teapot_omni.json"));
   scene.shadows.resolution = 96;
   ShadowSystem host(app_options(FragmentSource::Gl));
-  host.internals().fragments.limit_pool(4096, 64 * 1024);
+  internals(host).fragments.limit_pool(4096, 64 * 1024);
   sync_scene(host, scene);
   FrameStats hs;
   const Image want = host.render(&hs);
@@ -592,7 +592,7 @@ TEST_F(GlSystem, GlListsHandedOverTileByTileEqualListsReadBack) {
 
   ShadowSystem dev(app_options(FragmentSource::Gl));
   InPlaceBackend* ip = use_in_place_backend(dev);
-  dev.internals().fragments.limit_pool(4096, 64 * 1024);
+  internals(dev).fragments.limit_pool(4096, 64 * 1024);
   sync_scene(dev, scene);
   FrameStats st;
   const Image got = dev.render(&st);
@@ -618,7 +618,7 @@ struct PublishStep {
 // omni light moved (compaction: a new epoch, every array once).
 std::vector<PublishStep> publish_steps(ShadowSystem& sys, Scene scene) {
   std::vector<PublishStep> steps;
-  ShadowSystem::Impl& I = sys.internals();
+  ShadowSystem::Impl& I = internals(sys);
   const auto step = [&] {
     FrameStats st;
     sys.update(&st);
@@ -648,7 +648,7 @@ TEST_F(GlSystem, HostBackendsUploadTheirMapsFromTheHost) {
   for (int exec = 0; exec < 2; ++exec) {
     SCOPED_TRACE(exec ? "exec backend on CPU threads" : "cpu backend");
     ShadowSystem sys(app_options(FragmentSource::Cpu));
-    ShadowSystem::Impl& I = sys.internals();
+    ShadowSystem::Impl& I = internals(sys);
     if (exec) {
       I.backend = std::make_unique<exec::ExecBackend<exec::HostExec>>("exec-host");
       I.fragments.use_backend(I.backend.get());
@@ -714,7 +714,7 @@ TEST_F(GlSystem, EveryMapBufferIsReleasedToTheBackendBeforeGlDeletesIt) {
   scene.shadows.resolution = 96;
   ShadowSystem sys(app_options(FragmentSource::Cpu));
   InPlaceBackend* ip = use_in_place_backend(sys);
-  ShadowSystem::Impl& I = sys.internals();
+  ShadowSystem::Impl& I = internals(sys);
   const auto registered_are_live = [&] {
     const GlMapBuffers b = sys.gl_buffers();
     const uint32_t live[] = {b.texels, b.nodes, b.chunks, b.rgb_texels, b.rgb_nodes, b.rgb_chunks, b.tags, b.rgb_tags};
@@ -755,7 +755,7 @@ TEST_F(GlSystem, AFailedInPlaceWriteIsRepairedByTheNextUpdate) {
   scene.shadows.resolution = 96;
   ShadowSystem sys(app_options(FragmentSource::Cpu));
   InPlaceBackend* ip = use_in_place_backend(sys);
-  ShadowSystem::Impl& I = sys.internals();
+  ShadowSystem::Impl& I = internals(sys);
   sync_scene(sys, scene);
   sys.update();
   Light l = scene.lights[0];

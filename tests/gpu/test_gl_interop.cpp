@@ -80,7 +80,7 @@ TEST_F(GlInterop, RegisterOnceMapWriteRead) {
 TEST_F(GlInterop, CudaBackendWritesTheMapBuffersInPlace) {
   CDSM_REQUIRE_GL_ON_DEVICE();
   ShadowSystem sys(cuda_on_app_context());
-  ShadowSystem::Impl& I = sys.internals();
+  ShadowSystem::Impl& I = internals(sys);
   ASSERT_STREQ(I.backend->name(), "cuda");
   ASSERT_TRUE(I.backend->can_write_gl_maps());
 
@@ -126,7 +126,7 @@ TEST_F(GlInterop, CudaCameraPassWritesAPixelBuffer) {
   scene.shadows.resolution = 128;
   sync_scene(sys, scene);
   const Image img = sys.render();
-  ShadowSystem::Impl& I = sys.internals();
+  ShadowSystem::Impl& I = internals(sys);
   const uint64_t bytes = img.rgb.size() * sizeof(float);
   ASSERT_GT(bytes, 0u);
   GLuint pbo = 0;

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <set>
 
 #include "cdsm/error.h"
@@ -50,7 +51,7 @@ size_t index_of(const Scene& s, const std::string& name) {
 
 // The maps of light `li` whose members include object `oi` (by index).
 std::set<uint32_t> maps_with(ShadowSystem& sys, uint32_t li, uint32_t oi) {
-  const ShadowFrame& f = sys.internals().frame;
+  const ShadowFrame& f = internals(sys).frame;
   std::set<uint32_t> out;
   const LightData& ld = f.setup.lights[li];
   for (uint32_t k = 0; k < ld.map_count; ++k) {
@@ -138,7 +139,7 @@ TEST(ShadowSystem, MovedObjectRebuildsOnlyItsMapsAndUploadsOnlyItsTriangles) {
     EXPECT_NE(r.reason, RebuildReason::Settings);
     EXPECT_NE(r.reason, RebuildReason::Light);
   }
-  EXPECT_EQ(st.maps_rebuilt + st.maps_reused, uint32_t(sys.internals().frame.maps.size()));
+  EXPECT_EQ(st.maps_rebuilt + st.maps_reused, uint32_t(internals(sys).frame.maps.size()));
   if (st.fragment_source == "gl") {
     const uint64_t tris = s.objects[oi].mesh->triangle_count();
     EXPECT_EQ(st.update.gl_upload_bytes, tris * 48) << "its triangles' vertices and facing normals only";
@@ -225,7 +226,7 @@ TEST(ShadowSystem, KeptFragmentListsServeEpsilonEditsAndNeverOutliveAContentEdit
   EXPECT_EQ(st.update.fragment_lists_reused, 0u);
   EXPECT_GT(st.update.fragment_cache_bytes, 0u);
   // The backend holds a kept copy per map and the camera's lists, nothing else.
-  const ShadowBackend& backend = *sys.internals().backend;
+  const ShadowBackend& backend = *internals(sys).backend;
   EXPECT_EQ(backend.map_store().lists, maps + 1);
   EXPECT_EQ(backend.map_store().list_bytes - st.update.fragment_cache_bytes,
             (uint64_t(s.camera.width) * uint64_t(s.camera.height) + 1) * sizeof(uint32_t) + st.camera_fragments * sizeof(Fragment));
@@ -282,7 +283,7 @@ TEST(ShadowSystem, AFailedBuildLeavesNothingBehind) {
   ShadowSystem sys(o);
   add_scene(sys, s);
   sys.render();
-  auto* host = dynamic_cast<exec::ExecBackend<exec::HostExec>*>(sys.internals().backend.get());
+  auto* host = dynamic_cast<exec::ExecBackend<exec::HostExec>*>(internals(sys).backend.get());
   ASSERT_NE(host, nullptr);
   const float eps[2] = {0.02f, 0.04f};
   Image want[2];
@@ -326,7 +327,7 @@ TEST(ShadowSystem, MovedLightRebuildsOnlyItsMaps) {
   add_scene(sys, s);
   FrameStats st;
   sys.render(&st);
-  const uint32_t light1_maps = sys.internals().frame.setup.lights[1].map_count;
+  const uint32_t light1_maps = internals(sys).frame.setup.lights[1].map_count;
   Light l = s.lights[1];
   l.position = l.position + Vec3{0.1f, 0.0f, 0.0f};
   sys.set_light(sys.lights()[1], l);
@@ -422,7 +423,7 @@ TEST(ShadowSystem, VolumeEditCompilesThatVolumeOnlyAndMatchesAFreshBuild) {
   const int32_t vi = s.objects[smoke].volume;
   ASSERT_EQ(vi, 0) << "the edited volume lies before the other one";
   for (TransferPoint& p : s.volumes[size_t(vi)].transfer) p.extinction *= 3.0f;
-  sys.set_volume({sys.internals().objects[smoke].volume}, s.volumes[size_t(vi)]);
+  sys.set_volume({internals(sys).objects[smoke].volume}, s.volumes[size_t(vi)]);
   Image a = sys.render(&st);
   EXPECT_EQ(st.update.volumes_compiled, 1u);
   EXPECT_EQ(st.update.full_compiles + st.update.objects_compiled, 0u);
@@ -442,7 +443,7 @@ TEST(ShadowSystem, RemovedVolumeFreesItsVoxelsAndKeepsTheOthersRight) {
   sys.render(&st);
   const uint64_t with = st.update.scene_bytes;
   const size_t smoke = index_of(s, "smoke");
-  const ShadowSystem::Impl& I = sys.internals();
+  const ShadowSystem::Impl& I = internals(sys);
   const uint64_t vol = I.objects[smoke].volume;
   ASSERT_NE(vol, 0u);
   sys.remove_object(sys.objects()[smoke]);
@@ -510,7 +511,7 @@ TEST(ShadowSystem, AddingAndRemovingAThousandTimesLeavesMemoryWhereItStarted) {
   EXPECT_LE(st.update.map_store_bytes, start.map_store_bytes + start.map_store_bytes / 3)
       << "holes of freed maps stay below a quarter of the store (compaction)";
   EXPECT_EQ(st.update.gl_scene_bytes, start.gl_scene_bytes);
-  EXPECT_FALSE(sys.internals().closed_meshes.count(ball.mesh.get())) << "the removed mesh is released";
+  EXPECT_FALSE(internals(sys).closed_meshes.count(ball.mesh.get())) << "the removed mesh is released";
 }
 
 TEST(ShadowSystem, PoppingIsMeasuredOnlyWhenAskedAndKeepsReplacedMapsOneFrame) {
@@ -558,7 +559,7 @@ TEST(ShadowSystem, BadEditsAreRefusedByNameAndTheStateSurvives) {
   }
   // Handles of removed or foreign things, a volume still in use.
   EXPECT_THROW(sys.set_surface(ObjectHandle{987654}, s.objects[ball].surface), Error);
-  const uint64_t smoke_volume = sys.internals().objects[index_of(s, "smoke")].volume;
+  const uint64_t smoke_volume = internals(sys).objects[index_of(s, "smoke")].volume;
   EXPECT_THROW(sys.remove_volume({smoke_volume}), Error);
   // Content that fails to compile: update() throws naming it, the previous
   // compiled state stays, and removing the object heals the system.
@@ -590,6 +591,80 @@ TEST(ShadowSystem, BadEditsAreRefusedByNameAndTheStateSurvives) {
   }
 }
 
+// Handles are slots with generations (engine/src/slot_map.h): a removed
+// thing's handle is refused as removed, also after its slot is reused by a
+// new thing; a value never given out is refused as foreign; the things
+// after a removed one keep their handles, and gl_light_index /
+// gl_object_id follow them to their new places.
+TEST(ShadowSystem, HandlesStayValidAcrossRemovalsAndStaleOnesAreNamed) {
+  Scene s = shipped("default", 64, 48, 32);
+  ShadowSystem sys;
+  add_scene(sys, s);
+  const Light key = s.lights[0];
+  const LightHandle l0 = sys.lights()[0];
+  const LightHandle l1 = sys.add_light(key);
+  const LightHandle l2 = sys.add_light(key);
+  const std::vector<ObjectHandle> objs = sys.objects();
+  ASSERT_GE(objs.size(), 3u);
+  const size_t n = objs.size();
+  sys.update();
+
+  const auto message = [](const std::function<void()>& f) {
+    try {
+      f();
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  sys.remove_light(l0);
+  EXPECT_EQ(sys.gl_light_index(l1), 0);
+  EXPECT_EQ(sys.gl_light_index(l2), 1);
+  Light moved = key;
+  moved.position.x += 1.0f;
+  sys.set_light(l2, moved);
+  EXPECT_EQ(sys.scene().lights[1].position.x, moved.position.x) << "l2's edit reached its new place";
+  EXPECT_EQ(sys.scene().lights[0].position.x, key.position.x);
+  std::string e = message([&] { sys.set_light(l0, key); });
+  EXPECT_NE(e.find("light handle"), std::string::npos) << e;
+  EXPECT_NE(e.find("removed from this system"), std::string::npos) << e;
+
+  // The first object removed: the others keep their handles, their ids move.
+  const Object first = s.objects[0];
+  sys.remove_object(objs[0]);
+  for (size_t i = 1; i < n; ++i) {
+    EXPECT_EQ(sys.objects()[i - 1], objs[i]);
+    if (s.objects[i].casts_shadows) EXPECT_EQ(sys.gl_object_id(objs[i]), uint32_t(i - 1));
+  }
+  // A new object reuses the freed slot with a new generation: the old
+  // handle stays refused and does not reach the new object.
+  const ObjectHandle again = sys.add_object(first);
+  EXPECT_FALSE(again == objs[0]);
+  EXPECT_EQ(again.id & 0xffffffffu, objs[0].id & 0xffffffffu) << "the freed slot is reused";
+  e = message([&] { sys.set_casts_shadows(objs[0], false); });
+  EXPECT_NE(e.find("object handle " + std::to_string(objs[0].id)), std::string::npos) << e;
+  EXPECT_NE(e.find("removed from this system"), std::string::npos) << e;
+  EXPECT_TRUE(sys.scene().objects.back().casts_shadows == first.casts_shadows) << "the new object untouched";
+  e = message([&] { sys.set_casts_shadows(ObjectHandle{uint64_t(7) << 32 | 999}, false); });
+  EXPECT_NE(e.find("does not name an object of this system"), std::string::npos) << e;
+  e = message([&] { sys.remove_volume(VolumeHandle{0}); });
+  EXPECT_NE(e.find("volume handle 0 does not name"), std::string::npos) << e;
+
+  // The counters of the cost table: removing and re-adding is one full
+  // compile of the objects there are; an edit through a kept handle after
+  // it compiles only that object.
+  FrameStats st;
+  sys.update(&st);
+  EXPECT_EQ(st.update.full_compiles, 1u);
+  EXPECT_EQ(st.update.objects_compiled, uint32_t(n));
+  Mat4 t = s.objects[n - 1].transform;
+  t.m[0][3] += 0.01f;
+  sys.set_transform(objs[n - 1], t);
+  sys.update(&st);
+  EXPECT_EQ(st.update.full_compiles, 0u);
+  EXPECT_EQ(st.update.objects_compiled, 1u);
+}
+
 }  // namespace
 
 // Frame data stays where it was made (issue 26 item 3), counted in
@@ -608,7 +683,7 @@ TEST(ShadowSystem, HostBackendBytesFollowWhatChanged) {
   add_scene(sys, scene);
   FrameStats first;
   sys.update(&first);
-  const SceneBuffers& sb = sys.internals().sb;
+  const SceneBuffers& sb = internals(sys).sb;
   uint64_t scene_bytes = (sb.tri_vertices.size() + sb.tri_normals.size()) * sizeof(Vec3) +
                          sb.tri_object.size() * 4 + sb.objects.size() * sizeof(ObjectData) +
                          sb.volumes.size() * sizeof(VolumeData) + (sb.voxels.size() + sb.macro_max.size()) * 4 +

@@ -72,15 +72,19 @@
 #include <string>
 #include <vector>
 
+#include "cdsm/backend.h"
+#include "cdsm/frame_stats.h"
 #include "cdsm/gl.h"
 #include "cdsm/image.h"
-#include "cdsm/renderer.h"
 #include "cdsm/scene.h"
 
 namespace cdsm {
 
-// Handles: small values, 0 is "none". Valid until the thing is removed;
-// never reused for another thing by the same system.
+// Handles: a slot and its generation (0 is "none"); a lookup is O(1).
+// Valid until the thing is removed, and kept by the others when one is
+// removed. A removed thing's handle is refused (cdsm::Error "... names an
+// object removed from this system"), also after its slot holds a new thing:
+// the same value is never given out twice by the same system.
 struct ObjectHandle {
   uint64_t id = 0;
   explicit operator bool() const { return id != 0; }
@@ -295,10 +299,10 @@ class ShadowSystem {
   std::vector<ObjectHandle> objects() const;
   std::vector<LightHandle> lights() const;
 
-  struct Impl;
-  Impl& internals();  // for the renderer and tests of this library
+  struct Impl;  // engine/src/shadow_system_impl.h
 
  private:
+  friend struct SystemAccess;  // the research harness and the library's tests
   std::unique_ptr<Impl> impl_;
 };
 
