@@ -49,8 +49,8 @@ int count_param(const std::string& label, size_t prefix, double lo, double hi) {
 // The range of field `key` of the shadow settings (cdsm/fields.h).
 std::pair<double, double> settings_range(const char* key) {
   std::pair<double, double> r;
-  if (!with_field<ShadowSettings>(key, [&](const auto& f) { r = {f.lo, f.hi}; }))
-    throw std::logic_error(std::string("no shadow setting '") + key + "'");
+  const bool found = with_field<ShadowSettings>(key, [&](const auto& f) { r = {f.lo, f.hi}; });
+  CDSM_CHECK(found, std::string("no shadow setting '") + key + "'");
   return r;
 }
 

@@ -150,7 +150,7 @@ class FieldOverrides {
         });
       }
     });
-    if (!option) throw std::logic_error(std::string("no field '") + key + "' the command line can set");
+    CDSM_CHECK(option, std::string("no field '") + key + "' the command line can set");
     return option;
   }
 

@@ -126,7 +126,7 @@ ShadowSystem::Impl::~Impl() {
 }
 
 FragmentLists ShadowSystem::Impl::camera_fragments() {
-  if (!has_camera_lists) throw std::logic_error(scene.source + ": no camera fragment lists (render() first)");
+  CDSM_CHECK(has_camera_lists, scene.source + ": no camera fragment lists (render() first)");
   if (!camera_frags_read) {
     backend->read_lists(camera_lists, camera_frags);
     camera_frags_read = true;
@@ -281,7 +281,7 @@ void ShadowSystem::Impl::compile_moves(FrameStats& st, SceneChange& change) {
     const Object& o = scene.objects[oi];
     compile_object(o, rec.closed = is_closed_mesh(o.mesh), object_where(oi), co);
     ObjectData& od = sb.objects[oi];
-    if (co.vertices.size() != size_t(od.tri_count) * 3) throw std::logic_error("compile_moves: triangle count changed");
+    CDSM_CHECK(co.vertices.size() == size_t(od.tri_count) * 3, "compile_moves: triangle count changed");
     if (od.volume >= 0) {
       place_volume(sb.volumes[size_t(od.volume)], scene.volumes[size_t(od.volume)], o.transform, object_where(oi));
       change.volumes = true;

@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "cdsm/error.h"
 #include "exec/exec.h"
 #include "hd/camera_pass.h"
 #include "hd/light_pass.h"
@@ -116,8 +117,7 @@ struct MapSlots {
   }
   // Map `id`; throws std::logic_error naming `what` when it is not stored.
   const Stored& at(MapId id, const char* what) const {
-    if (id >= maps.size() || !maps[id].live)
-      throw std::logic_error(std::string(what) + ": map " + std::to_string(id) + " is not stored");
+    CDSM_CHECK(id < maps.size() && maps[id].live, std::string(what) + ": map " + std::to_string(id) + " is not stored");
     return maps[id];
   }
   void free(MapId id) {

@@ -108,8 +108,7 @@ class ExecBackend final : public ExecShadowBackend {
     check_layout(layout);
     if (params.rgb && params.method != ShadowMethod::Dsm) throw std::invalid_argument("build_map: the baselines are grey (no RGB maps)");
     if (slots_.live() == 0) reset_store();
-    if (stored_any_ && !same_layout(layout_, layout))
-      throw std::logic_error("exec backend: maps of different layouts cannot share the store");
+    CDSM_CHECK(!stored_any_ || same_layout(layout_, layout), "exec backend: maps of different layouts cannot share the store");
     // The lists are where the executor reads them (sorted in place); the
     // few ids of objects containing the light, over device memory, copied.
     LightPassParams ep = params;
@@ -226,8 +225,8 @@ class ExecBackend final : public ExecShadowBackend {
                          WalkStats& walk) override {
     if constexpr (Ex::kGlInterop) {
       const FragmentLists frags = camera_lists(lists, params);
-      if (!ex_.gl_context_on_device())
-        throw std::logic_error(std::string(name_) + " backend: camera_pass_to_gl needs the current GL context on its device");
+      CDSM_CHECK(ex_.gl_context_on_device(),
+                 std::string(name_) + " backend: camera_pass_to_gl needs the current GL context on its device");
       const uint64_t bytes = uint64_t(params.view.width) * uint64_t(params.view.height) * 3 * sizeof(float);
       if (gl_buffer_bytes < bytes)
         throw std::invalid_argument("camera_pass_to_gl: GL buffer of " + std::to_string(gl_buffer_bytes) +
@@ -259,7 +258,7 @@ class ExecBackend final : public ExecShadowBackend {
   std::vector<StageTime> take_stage_times() override { return ex_.take_stage_times(); }
 
   ListsId cast_lists(const PinholeView& view, ObjectMask mask) override {
-    if (!host_scene_) throw std::logic_error("cast_lists: no scene (update_scene first)");
+    CDSM_CHECK(host_scene_, "cast_lists: no scene (update_scene first)");
     const bool any_media = mask_has_media(host_scene_->view(), mask);
     frag_mask_.assign(mask.words.data(), mask.words.size());
     auto h = std::make_unique<HeldLists>(ex_);
@@ -313,13 +312,13 @@ class ExecBackend final : public ExecShadowBackend {
   // lists' fragments, which grow as tiles come; then the offsets uploaded.
   ListsId lists_from_gl(const GlRasterize& rasterize) override {
     if constexpr (Ex::kGlInterop) {
-      if (!ex_.gl_context_on_device())
-        throw std::logic_error(std::string(name_) + " backend: lists_from_gl needs the current GL context on its device");
+      CDSM_CHECK(ex_.gl_context_on_device(),
+                 std::string(name_) + " backend: lists_from_gl needs the current GL context on its device");
       auto h = std::make_unique<HeldLists>(ex_);
       FragmentBuffers out;
       rasterize(
           [&](uint64_t first, uint64_t count, uint32_t gl_buffer, uint64_t gl_buffer_bytes, uint64_t generation) {
-            if (first != h->fragments.size()) throw std::logic_error("lists_from_gl: a tile out of order");
+            CDSM_CHECK(first == h->fragments.size(), "lists_from_gl: a tile out of order");
             if (count * sizeof(Fragment) > gl_buffer_bytes)
               throw std::out_of_range("lists_from_gl: a tile of " + std::to_string(count) + " fragments in a GL buffer of " +
                                       std::to_string(gl_buffer_bytes) + " bytes");
@@ -330,9 +329,9 @@ class ExecBackend final : public ExecShadowBackend {
           },
           out);
       check_lists(out.width, out.height, out.offsets.size(), h->fragments.size(), "lists_from_gl");
-      if (out.offsets.back() != h->fragments.size())
-        throw std::logic_error("lists_from_gl: " + std::to_string(h->fragments.size()) + " fragments copied, the offsets count " +
-                               std::to_string(out.offsets.back()));
+      CDSM_CHECK(out.offsets.back() == h->fragments.size(),
+                 "lists_from_gl: " + std::to_string(h->fragments.size()) + " fragments copied, the offsets count " +
+                     std::to_string(out.offsets.back()));
       h->width = out.width;
       h->height = out.height;
       h->offsets.assign(out.offsets);
@@ -399,8 +398,7 @@ class ExecBackend final : public ExecShadowBackend {
     return id;
   }
   HeldLists& held(ListsId id, const char* what) const {
-    if (id >= held_.size() || !held_[id])
-      throw std::logic_error(std::string(what) + ": fragment lists " + std::to_string(id) + " are not held");
+    CDSM_CHECK(id < held_.size() && held_[id], std::string(what) + ": fragment lists " + std::to_string(id) + " are not held");
     return *held_[id];
   }
   // Lists `id`, which must cover the camera view.

@@ -527,8 +527,12 @@ TEST(ExecBackend, FragmentListsAreHeldWhereTheyAreUsed) {
     }
     return std::string("no error");
   };
-  EXPECT_EQ(message([&] { ex.free_lists(copy); }), "free_lists: fragment lists " + std::to_string(copy) + " are not held");
-  EXPECT_EQ(message([&] { ex.lists_fragments(99); }), "lists_fragments: fragment lists 99 are not held");
+  // (a broken contract: CDSM_CHECK's message starts with what was expected)
+  const auto starts = [](const std::string& m, const std::string& with) { return m.rfind(with, 0) == 0; };
+  std::string m = message([&] { ex.free_lists(copy); });
+  EXPECT_TRUE(starts(m, "free_lists: fragment lists " + std::to_string(copy) + " are not held")) << m;
+  m = message([&] { ex.lists_fragments(99); });
+  EXPECT_TRUE(starts(m, "lists_fragments: fragment lists 99 are not held")) << m;
   FragmentBuffers bad;
   bad.width = 4;
   bad.height = 4;

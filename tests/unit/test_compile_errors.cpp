@@ -93,3 +93,21 @@ TEST(CompileErrorsDeathTest, AllocationFailureIsNamed) {
               "big grid: volume 0 'fog': out of memory while copying its 150000000 voxels \\(572 MiB\\)");
 #endif
 }
+
+// A broken invariant (CDSM_CHECK) is a std::logic_error naming what was
+// expected, the condition and where; a check that holds costs nothing.
+TEST(Check, FailedChecksNameTheConditionAndThePlace) {
+  int calls = 0;
+  const auto count = [&] { return ++calls; };
+  CDSM_CHECK(count() == 1, "evaluated once");
+  EXPECT_EQ(calls, 1);
+  try {
+    CDSM_CHECK(calls == 2, "lists: a tile out of order");
+    ADD_FAILURE() << "a failed check did not throw";
+  } catch (const std::logic_error& e) {
+    const std::string m = e.what();
+    EXPECT_EQ(m.find("lists: a tile out of order"), 0u) << m;
+    EXPECT_NE(m.find("calls == 2"), std::string::npos) << m;
+    EXPECT_NE(m.find("test_compile_errors.cpp:"), std::string::npos) << m;
+  }
+}

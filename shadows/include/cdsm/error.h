@@ -28,4 +28,17 @@ class Error : public std::runtime_error {
   std::string what_;
 };
 
+// A broken invariant of this library or a call its contract forbids (a bug,
+// never bad input, which is a cdsm::Error): std::logic_error naming the
+// condition that failed, where, and what was expected.
+//   CDSM_CHECK(first == done, "lists_from_gl: a tile out of order");
+[[noreturn]] inline void check_failed(const char* condition, const char* file, int line, const std::string& what) {
+  throw std::logic_error(what + " (check failed: " + condition + ", " + file + ":" + std::to_string(line) + ")");
+}
+
 }  // namespace cdsm
+
+#define CDSM_CHECK(condition, what)                                              \
+  do {                                                                           \
+    if (!(condition)) ::cdsm::check_failed(#condition, __FILE__, __LINE__, what); \
+  } while (0)
