@@ -53,8 +53,7 @@ inline bool is_sticky(cudaError_t e) {
     case cudaErrorTensorMemoryLeak:
 #endif
       return true;
-    default:
-      return false;
+    default: return false;
   }
 }
 
@@ -80,8 +79,10 @@ inline void check_nothrow(cudaError_t e, const char* call, const char* file, int
   if (unusable()) return;  // said once already: every call fails now, cleanup included
   try {
     const std::string what = describe(e, call, file, line);
-    if (is_sticky(e)) mark_unusable(int(e), what);  // says so itself
-    else std::fprintf(stderr, "cdsm: CUDA error ignored in cleanup: %s\n", what.c_str());
+    if (is_sticky(e))
+      mark_unusable(int(e), what);  // says so itself
+    else
+      std::fprintf(stderr, "cdsm: CUDA error ignored in cleanup: %s\n", what.c_str());
     cudaGetLastError();
   } catch (...) {
   }
@@ -91,8 +92,8 @@ inline void check_nothrow(cudaError_t e, const char* call, const char* file, int
 inline void check_usable(const char* what) {
   if (!unusable()) return;
   throw CudaError(cudaError_t(unusable_error()),
-                  std::string("cuda backend: ") + what + ": CUDA is unusable in this process after an earlier error: " +
-                      unusable_reason());
+                  std::string("cuda backend: ") + what +
+                      ": CUDA is unusable in this process after an earlier error: " + unusable_reason());
 }
 
 }  // namespace cdsm::cuda

@@ -16,12 +16,10 @@ __global__ void probe_kernel() {}
 std::string why_none(cudaError_t err) {
   switch (err) {
     case cudaErrorInsufficientDriver:
-      return "no CUDA device: no NVIDIA driver, or one older than this CUDA runtime (" + std::to_string(CUDART_VERSION / 1000) +
-             "." + std::to_string(CUDART_VERSION % 1000 / 10) + ")";
-    case cudaErrorNoDevice:
-      return "no CUDA device: the driver reports no GPU";
-    default:
-      return std::string("no CUDA device: ") + cudaGetErrorName(err) + " (" + cudaGetErrorString(err) + ")";
+      return "no CUDA device: no NVIDIA driver, or one older than this CUDA runtime (" +
+             std::to_string(CUDART_VERSION / 1000) + "." + std::to_string(CUDART_VERSION % 1000 / 10) + ")";
+    case cudaErrorNoDevice: return "no CUDA device: the driver reports no GPU";
+    default: return std::string("no CUDA device: ") + cudaGetErrorName(err) + " (" + cudaGetErrorString(err) + ")";
   }
 }
 
@@ -63,8 +61,8 @@ DeviceInfo probe() {
     info.description = name + ", " + std::to_string((prop.totalGlobalMem + (1ull << 29)) >> 30) + " GiB)";
     return info;
   }
-  info.description = "no CUDA device: this build has no code for " + skipped +
-                     " (configure with CMAKE_CUDA_ARCHITECTURES naming it)";
+  info.description =
+      "no CUDA device: this build has no code for " + skipped + " (configure with CMAKE_CUDA_ARCHITECTURES naming it)";
   return info;
 }
 

@@ -26,9 +26,9 @@ DeviceInfo probe_device();
 // message (CudaExec) and probe_device() reports no device.
 // Returns the message recorded (the first one).
 std::string mark_unusable(int cuda_error, const std::string& what);
-bool unusable();             // whether a sticky error was recorded
+bool unusable();                // whether a sticky error was recorded
 std::string unusable_reason();  // its message ("" while usable)
-int unusable_error();        // its cudaError_t (0 while usable)
+int unusable_error();           // its cudaError_t (0 while usable)
 
 // $CDSM_CUDA_SYNC=1: CudaExec synchronizes after every launch, so a fault is
 // reported by the launch that made it, named (read once per process).

@@ -12,12 +12,9 @@ namespace {
 
 unsigned flags_of(GlAccess a) {
   switch (a) {
-    case GlAccess::ReadOnly:
-      return cudaGraphicsRegisterFlagsReadOnly;
-    case GlAccess::WriteDiscard:
-      return cudaGraphicsRegisterFlagsWriteDiscard;
-    default:
-      return cudaGraphicsRegisterFlagsNone;
+    case GlAccess::ReadOnly: return cudaGraphicsRegisterFlagsReadOnly;
+    case GlAccess::WriteDiscard: return cudaGraphicsRegisterFlagsWriteDiscard;
+    default: return cudaGraphicsRegisterFlagsNone;
   }
 }
 
@@ -26,7 +23,10 @@ unsigned flags_of(GlAccess a) {
 GlBufferLink::~GlBufferLink() { reset(); }
 
 GlBufferLink::GlBufferLink(GlBufferLink&& o) noexcept
-    : resource_(std::exchange(o.resource_, nullptr)), name_(o.name_), bytes_(o.bytes_), access_(o.access_),
+    : resource_(std::exchange(o.resource_, nullptr)),
+      name_(o.name_),
+      bytes_(o.bytes_),
+      access_(o.access_),
       registrations_(o.registrations_) {}
 
 GlBufferLink& GlBufferLink::operator=(GlBufferLink&& o) noexcept {

@@ -45,7 +45,7 @@ class GlBufferLink {
   unsigned name() const { return name_; }
   size_t bytes() const { return bytes_; }
   uint64_t registrations() const { return registrations_; }  // how many times bind() registered
-  void* resource() const { return resource_; }              // cudaGraphicsResource_t
+  void* resource() const { return resource_; }               // cudaGraphicsResource_t
 
  private:
   void* resource_ = nullptr;

@@ -9,22 +9,26 @@
 
 namespace cdsm::exec {
 
-extern template DsmBuildStats build_map_exec<DsmNode, cuda::CudaExec>(
-    cuda::CudaExec&, const SceneView&, const LightPassParams&, FragmentLists, const DsmLayoutParams&,
-    const LightPassOptions&, KindStore<DsmNode, cuda::CudaExec>&, DsmMap&, LightPassScratch<cuda::CudaExec>&);
+extern template DsmBuildStats build_map_exec<DsmNode, cuda::CudaExec>(cuda::CudaExec&, const SceneView&,
+                                                                      const LightPassParams&, FragmentLists,
+                                                                      const DsmLayoutParams&, const LightPassOptions&,
+                                                                      KindStore<DsmNode, cuda::CudaExec>&, DsmMap&,
+                                                                      LightPassScratch<cuda::CudaExec>&);
 extern template DsmBuildStats build_map_exec<DsmNodeRgb, cuda::CudaExec>(
     cuda::CudaExec&, const SceneView&, const LightPassParams&, FragmentLists, const DsmLayoutParams&,
     const LightPassOptions&, KindStore<DsmNodeRgb, cuda::CudaExec>&, DsmMap&, LightPassScratch<cuda::CudaExec>&);
 extern template void shade_pixels<cuda::CudaExec>(cuda::CudaExec&, const SceneView&, const ShadowView&,
                                                   const CameraPassParams&, FragmentLists, float*, uint32_t*);
-extern template void cast_fragments_exec<cuda::CudaExec>(
-    cuda::CudaExec&, const SceneView&, const PinholeView&, ObjectMask, bool, ExecArray<uint32_t, cuda::CudaExec>&,
-    ExecArray<uint32_t, cuda::CudaExec>&, ExecArray<Fragment, cuda::CudaExec>&,
-    ExecArray<unsigned long long, cuda::CudaExec>&);
+extern template void cast_fragments_exec<cuda::CudaExec>(cuda::CudaExec&, const SceneView&, const PinholeView&,
+                                                         ObjectMask, bool, ExecArray<uint32_t, cuda::CudaExec>&,
+                                                         ExecArray<uint32_t, cuda::CudaExec>&,
+                                                         ExecArray<Fragment, cuda::CudaExec>&,
+                                                         ExecArray<unsigned long long, cuda::CudaExec>&);
 extern template ExecStoredMap move_map_exec<DsmNode, cuda::CudaExec>(cuda::CudaExec&, const ExecStoredMap&, DsmLayout,
                                                                      const KindStore<DsmNode, cuda::CudaExec>&,
                                                                      KindStore<DsmNode, cuda::CudaExec>&);
-extern template ExecStoredMap move_map_exec<DsmNodeRgb, cuda::CudaExec>(cuda::CudaExec&, const ExecStoredMap&, DsmLayout,
+extern template ExecStoredMap move_map_exec<DsmNodeRgb, cuda::CudaExec>(cuda::CudaExec&, const ExecStoredMap&,
+                                                                        DsmLayout,
                                                                         const KindStore<DsmNodeRgb, cuda::CudaExec>&,
                                                                         KindStore<DsmNodeRgb, cuda::CudaExec>&);
 extern template void read_map_exec<cuda::CudaExec>(cuda::CudaExec&, const DsmStorage&, const DsmMap&, uint32_t,

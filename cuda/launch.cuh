@@ -51,7 +51,8 @@ class Stream {
 class CudaExec {
  public:
   static constexpr bool kHostMemory = false;
-  static constexpr uint64_t kLightPassBatchBytes = uint64_t(1) << 30;  // exec/light_pass.h: batches that fill the device
+  static constexpr uint64_t kLightPassBatchBytes = uint64_t(1)
+                                                   << 30;  // exec/light_pass.h: batches that fill the device
 #if defined(CDSM_HAVE_CUDA_GL)
   static constexpr bool kGlInterop = true;  // write_gl_buffers below
 #else
@@ -83,14 +84,18 @@ class CudaExec {
   void* allocate(size_t bytes) {
     check_usable("allocate");
     void* p = nullptr;
-    if (async_alloc_) CDSM_CUDA_CHECK(cudaMallocAsync(&p, bytes ? bytes : 1, stream()));
-    else CDSM_CUDA_CHECK(cudaMalloc(&p, bytes ? bytes : 1));
+    if (async_alloc_)
+      CDSM_CUDA_CHECK(cudaMallocAsync(&p, bytes ? bytes : 1, stream()));
+    else
+      CDSM_CUDA_CHECK(cudaMalloc(&p, bytes ? bytes : 1));
     return p;
   }
   void release(void* p) noexcept {
     if (!p || unusable()) return;  // the context is lost: nothing to give back
-    if (async_alloc_) CDSM_CUDA_CHECK_NOTHROW(cudaFreeAsync(p, stream()));
-    else CDSM_CUDA_CHECK_NOTHROW(cudaFree(p));
+    if (async_alloc_)
+      CDSM_CUDA_CHECK_NOTHROW(cudaFreeAsync(p, stream()));
+    else
+      CDSM_CUDA_CHECK_NOTHROW(cudaFree(p));
   }
 
   template <class F>
@@ -108,15 +113,19 @@ class CudaExec {
     const cudaError_t launched = cudaGetLastError();
     if (launched != cudaSuccess) {
       free_events_.push_back({l.start, l.stop});
-      throw error_of(launched, describe(launched, (std::string("launch of kernel '") + name + "'").c_str(), __FILE__, __LINE__));
+      throw error_of(launched,
+                     describe(launched, (std::string("launch of kernel '") + name + "'").c_str(), __FILE__, __LINE__));
     }
     CDSM_CUDA_CHECK(cudaEventRecord(l.stop, stream()));
     pending_.push_back(l);
     if (sync_every_launch()) {  // CDSM_CUDA_SYNC=1: a fault here is this kernel's
       const cudaError_t ran = cudaStreamSynchronize(stream());
       if (ran != cudaSuccess)
-        throw error_of(ran, describe(ran, (std::string("kernel '") + name + "' (CDSM_CUDA_SYNC=1: synchronized after its launch)").c_str(),
-                                     __FILE__, __LINE__));
+        throw error_of(
+            ran,
+            describe(ran,
+                     (std::string("kernel '") + name + "' (CDSM_CUDA_SYNC=1: synchronized after its launch)").c_str(),
+                     __FILE__, __LINE__));
     }
     if (pending_.size() >= 1024) fold();  // nobody asked for the times yet: keep the events bounded
   }
@@ -132,7 +141,8 @@ class CudaExec {
       char* end = nullptr;
       const long v = std::strtol(e, &end, 10);
       if (*end != '\0' || v < 32 || v > 1024 || v % 32 != 0)
-        throw std::invalid_argument(std::string("CDSM_CUDA_BLOCK=") + e + ": threads per block must be a multiple of 32 in [32, 1024]");
+        throw std::invalid_argument(std::string("CDSM_CUDA_BLOCK=") + e +
+                                    ": threads per block must be a multiple of 32 in [32, 1024]");
       return int(v);
     }();
     return b;
@@ -174,7 +184,8 @@ class CudaExec {
   bool gl_context_on_device() const { return cuda::gl_context_on_device(device_, nullptr); }
   void write_gl_buffers(const GlMapWrite* w, int n, const void* const* src) {
     check_usable("write_gl_buffers");
-    if (n < 0 || n > kStorageArrays) throw std::invalid_argument("write_gl_buffers: at most one range per storage array");
+    if (n < 0 || n > kStorageArrays)
+      throw std::invalid_argument("write_gl_buffers: at most one range per storage array");
     GlBufferLink* links[kStorageArrays] = {};
     for (int i = 0; i < n; ++i) {
       const int a = int(w[i].array);
@@ -189,7 +200,8 @@ class CudaExec {
       size_t size = 0;
       unsigned char* dst = static_cast<unsigned char*>(mapped.pointer(i, &size));
       if (w[i].offset + w[i].bytes > size) throw std::out_of_range("write_gl_buffers: range past the mapped GL buffer");
-      CDSM_CUDA_CHECK(cudaMemcpyAsync(dst + w[i].offset, static_cast<const unsigned char*>(src[int(w[i].array)]) + w[i].offset,
+      CDSM_CUDA_CHECK(cudaMemcpyAsync(dst + w[i].offset,
+                                      static_cast<const unsigned char*>(src[int(w[i].array)]) + w[i].offset,
                                       size_t(w[i].bytes), cudaMemcpyDeviceToDevice, stream()));
     }
   }  // unmapped in stream order: GL work issued after this sees the bytes

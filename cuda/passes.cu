@@ -3,10 +3,11 @@
 #include "instances.cuh"
 
 namespace cdsm::exec {
-template void shade_pixels<cuda::CudaExec>(cuda::CudaExec&, const SceneView&, const ShadowView&, const CameraPassParams&,
-                                           FragmentLists, float*, uint32_t*);
-template void cast_fragments_exec<cuda::CudaExec>(cuda::CudaExec&, const SceneView&, const PinholeView&, ObjectMask, bool,
-                                                  ExecArray<uint32_t, cuda::CudaExec>&, ExecArray<uint32_t, cuda::CudaExec>&,
+template void shade_pixels<cuda::CudaExec>(cuda::CudaExec&, const SceneView&, const ShadowView&,
+                                           const CameraPassParams&, FragmentLists, float*, uint32_t*);
+template void cast_fragments_exec<cuda::CudaExec>(cuda::CudaExec&, const SceneView&, const PinholeView&, ObjectMask,
+                                                  bool, ExecArray<uint32_t, cuda::CudaExec>&,
+                                                  ExecArray<uint32_t, cuda::CudaExec>&,
                                                   ExecArray<Fragment, cuda::CudaExec>&,
                                                   ExecArray<unsigned long long, cuda::CudaExec>&);
 template ExecStoredMap move_map_exec<DsmNode, cuda::CudaExec>(cuda::CudaExec&, const ExecStoredMap&, DsmLayout,

@@ -17,16 +17,16 @@ namespace cdsm::cli::bench {
 struct MethodSpec {
   std::string label;  // as on the command line: dsm, sm, osm32, avsm8
   ShadowMethod method = ShadowMethod::Dsm;
-  float param = 0.0f;  // ShadowSettings::method_param
-  int splits = 0;      // pssmN: N parallel-split deep shadow maps (ShadowSettings::parallel_splits)
+  float param = 0.0f;      // ShadowSettings::method_param
+  int splits = 0;          // pssmN: N parallel-split deep shadow maps (ShadowSettings::parallel_splits)
   bool grey_maps = false;  // dsmgrey: every map scalar (ShadowSettings::rgb_maps off): RGB maps' cost
 };
 
 // The sweep axes; every combination is one configuration (baselines ignore eps).
 struct Sweep {
-  std::vector<float> eps;           // empty: the scene's epsilon
-  std::vector<int> res;             // empty: the scene's resolution
-  std::vector<int> clusters;        // empty: the scene's max_clusters
+  std::vector<float> eps;     // empty: the scene's epsilon
+  std::vector<int> res;       // empty: the scene's resolution
+  std::vector<int> clusters;  // empty: the scene's max_clusters
   std::vector<MethodSpec> methods;
   std::vector<std::string> layouts;
   std::vector<std::string> backends;
@@ -105,7 +105,8 @@ struct Result {
   bool pareto_memory = false;  // ... both smaller and more accurate
   double time_ms() const { return build_ms.median + camera_ms.median; }
   double memory_bytes() const {
-    return double(stats.memory.index_bytes + stats.memory.node_bytes + stats.memory.slack_bytes + stats.memory.tag_bytes);
+    return double(stats.memory.index_bytes + stats.memory.node_bytes + stats.memory.slack_bytes +
+                  stats.memory.tag_bytes);
   }
 };
 
@@ -113,8 +114,8 @@ struct Result {
 void mark_pareto(std::vector<Result>& results);
 
 struct RunInfo {
-  std::string command;   // the command line
-  std::string date;      // UTC, ISO 8601
+  std::string command;  // the command line
+  std::string date;     // UTC, ISO 8601
   int repeat = 0, warmup = 0, width = 0, height = 0, error_samples = 0;
 };
 

@@ -20,8 +20,7 @@ struct BackendChoice {
   bool available;
 };
 constexpr BackendChoice kBackends[] = {
-    {"cpu", Backend::Cpu, true},
-    {"cuda", Backend::Cuda, true},  // at run time: needs a CUDA device (resolve_backend)
+    {"cpu", Backend::Cpu, true}, {"cuda", Backend::Cuda, true},  // at run time: needs a CUDA device (resolve_backend)
 };
 
 constexpr int kMaxClustersAvailable = kMaxMapsPerLight;  // clustering (thesis Alg. 4.2) is wired
@@ -87,9 +86,7 @@ std::vector<MethodSpec> parse_methods(const std::string& list) {
   return out;
 }
 
-std::vector<MethodSpec> default_methods() {
-  return parse_methods("dsm,sm,osm16,osm32,osm64,avsm4,avsm8,avsm16");
-}
+std::vector<MethodSpec> default_methods() { return parse_methods("dsm,sm,osm16,osm32,osm64,avsm4,avsm8,avsm16"); }
 
 std::vector<std::string> parse_layouts(const std::string& list) {
   std::vector<std::string> out;
@@ -136,7 +133,8 @@ void parse_sweep(const std::string& spec, Sweep& sweep) {
     for (const std::string& v : split(values, opt)) {
       const int m = int(parse_number(opt, v, lo, hi, true));
       if (m > kMaxClustersAvailable)
-        throw Error(opt, "clusters=" + v + " is not available yet (at most " + std::to_string(kMaxClustersAvailable) + ")");
+        throw Error(opt,
+                    "clusters=" + v + " is not available yet (at most " + std::to_string(kMaxClustersAvailable) + ")");
       sweep.clusters.push_back(m);
     }
   } else if (name == "layout" || name == "layouts") {
@@ -156,12 +154,17 @@ std::string sweep_help() {
     return range_text(lo, hi, integer);
   };
   return "an axis and its comma-separated values; every combination is measured:\n"
-         "  eps=0,0.001,0.01,0.1  DSM error bound, each within " + range("epsilon", false) +
+         "  eps=0,0.001,0.01,0.1  DSM error bound, each within " +
+         range("epsilon", false) +
          " (default: the\n"
          "                        scene's); baselines are measured once per resolution, not per eps\n"
-         "  res=256,512,1024      shadow-map texels per side, each within " + range("resolution", true) + "\n"
+         "  res=256,512,1024      shadow-map texels per side, each within " +
+         range("resolution", true) +
+         "\n"
          "                        (default: the scene's)\n"
-         "  clusters=1,2,4,8      at most m clustered maps per light, each within " + range("clusters", true) + "\n"
+         "  clusters=1,2,4,8      at most m clustered maps per light, each within " +
+         range("clusters", true) +
+         "\n"
          "                        (default: the scene's)\n"
          "  layouts=, backends=, methods=  as --layouts, --backends, --methods";
 }
@@ -170,7 +173,8 @@ std::string capabilities_text() {
   std::string s = "  layouts in this build:  ";
   for (uint32_t i = 0; i < tag_count<DsmLayout>(); ++i) s += std::string(TagNames<DsmLayout>::names[i]) + "  ";
   s += "\n  backends in this build: ";
-  for (const BackendChoice& b : kBackends) s += std::string(b.name) + (b.available ? "" : " (not available yet)") + "  ";
+  for (const BackendChoice& b : kBackends)
+    s += std::string(b.name) + (b.available ? "" : " (not available yet)") + "  ";
   s += "\n  clusters in this build: 1.." + std::to_string(kMaxClustersAvailable) + "\n";
   return s;
 }

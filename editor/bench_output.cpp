@@ -63,9 +63,7 @@ void mark_pareto(std::vector<Result>& results) {
     for (const Result& b : results) {
       if (&a == &b || b.is_reference || b.scene_name != a.scene_name) continue;
       double ea = a.transmittance.rmse, eb = b.transmittance.rmse;
-      auto dominates = [&](double cb, double ca) {
-        return cb <= ca && eb <= ea && (cb < ca || eb < ea);
-      };
+      auto dominates = [&](double cb, double ca) { return cb <= ca && eb <= ea && (cb < ca || eb < ea); };
       if (dominates(b.time_ms(), a.time_ms())) a.pareto_time = false;
       if (dominates(b.memory_bytes(), a.memory_bytes())) a.pareto_memory = false;
     }
@@ -73,19 +71,77 @@ void mark_pareto(std::vector<Result>& results) {
 }
 
 void write_csv(const std::vector<Result>& results, const std::string& path) {
-  static const char* const kColumns[] = {
-      "scene", "scene_name", "label", "method", "method_param", "epsilon", "resolution", "clusters", "layout",
-      "backend", "fragment_source", "runs", "fragments_ms_median", "build_ms_median", "build_ms_min",
-      "build_ms_max", "build_ms_q1", "build_ms_q3", "camera_ms_median", "camera_ms_min", "camera_ms_max",
-      "camera_ms_q1", "camera_ms_q3", "frame_ms_median", "time_ms", "maps", "texels", "nodes", "index_bytes",
-      "node_bytes", "slack_bytes", "tag_bytes", "memory_bytes", "avg_nodes_per_texel", "max_nodes_per_texel",
-      "overflow_texels", "overflow_extra_error", "rgb_maps", "rgb_map_bytes", "grey_map_bytes", "t_points",
-      "t_mean", "t_p99", "t_max", "t_rmse", "t_mean_r", "t_mean_g", "t_mean_b",
-      "map_err_mean", "map_err_p99", "map_err_max", "res_err_mean", "res_err_p99", "res_err_max",
-      "interior_share", "interior_total_mean", "interior_total_p99", "interior_total_max", "interior_map_p99",
-      "interior_map_max", "edge_share", "edge_total_mean", "edge_total_p99", "edge_total_max", "edge_map_p99",
-      "image_rmse",
-      "image_psnr_db", "pareto_time", "pareto_memory", "reference_ms", "reference_cached"};
+  static const char* const kColumns[] = {"scene",
+                                         "scene_name",
+                                         "label",
+                                         "method",
+                                         "method_param",
+                                         "epsilon",
+                                         "resolution",
+                                         "clusters",
+                                         "layout",
+                                         "backend",
+                                         "fragment_source",
+                                         "runs",
+                                         "fragments_ms_median",
+                                         "build_ms_median",
+                                         "build_ms_min",
+                                         "build_ms_max",
+                                         "build_ms_q1",
+                                         "build_ms_q3",
+                                         "camera_ms_median",
+                                         "camera_ms_min",
+                                         "camera_ms_max",
+                                         "camera_ms_q1",
+                                         "camera_ms_q3",
+                                         "frame_ms_median",
+                                         "time_ms",
+                                         "maps",
+                                         "texels",
+                                         "nodes",
+                                         "index_bytes",
+                                         "node_bytes",
+                                         "slack_bytes",
+                                         "tag_bytes",
+                                         "memory_bytes",
+                                         "avg_nodes_per_texel",
+                                         "max_nodes_per_texel",
+                                         "overflow_texels",
+                                         "overflow_extra_error",
+                                         "rgb_maps",
+                                         "rgb_map_bytes",
+                                         "grey_map_bytes",
+                                         "t_points",
+                                         "t_mean",
+                                         "t_p99",
+                                         "t_max",
+                                         "t_rmse",
+                                         "t_mean_r",
+                                         "t_mean_g",
+                                         "t_mean_b",
+                                         "map_err_mean",
+                                         "map_err_p99",
+                                         "map_err_max",
+                                         "res_err_mean",
+                                         "res_err_p99",
+                                         "res_err_max",
+                                         "interior_share",
+                                         "interior_total_mean",
+                                         "interior_total_p99",
+                                         "interior_total_max",
+                                         "interior_map_p99",
+                                         "interior_map_max",
+                                         "edge_share",
+                                         "edge_total_mean",
+                                         "edge_total_p99",
+                                         "edge_total_max",
+                                         "edge_map_p99",
+                                         "image_rmse",
+                                         "image_psnr_db",
+                                         "pareto_time",
+                                         "pareto_memory",
+                                         "reference_ms",
+                                         "reference_cached"};
   std::ofstream f(path);
   if (!f) throw Error(path, "cannot write the results CSV");
   for (size_t i = 0; i < std::size(kColumns); ++i) f << (i ? "," : "") << kColumns[i];
@@ -101,10 +157,26 @@ void write_csv(const std::vector<Result>& results, const std::string& path) {
       // The reference renderer's own time; exact by definition.
       v["label"] = v["method"] = "reference";
       v["time_ms"] = num(r.reference_ms);
-      for (const char* k : {"t_mean", "t_p99", "t_max", "t_rmse", "map_err_mean", "map_err_p99", "map_err_max",
-                            "res_err_mean", "res_err_p99", "res_err_max", "interior_total_mean", "interior_total_p99",
-                            "interior_total_max", "interior_map_p99", "interior_map_max", "edge_total_mean",
-                            "edge_total_p99", "edge_total_max", "edge_map_p99", "image_rmse"})
+      for (const char* k : {"t_mean",
+                            "t_p99",
+                            "t_max",
+                            "t_rmse",
+                            "map_err_mean",
+                            "map_err_p99",
+                            "map_err_max",
+                            "res_err_mean",
+                            "res_err_p99",
+                            "res_err_max",
+                            "interior_total_mean",
+                            "interior_total_p99",
+                            "interior_total_max",
+                            "interior_map_p99",
+                            "interior_map_max",
+                            "edge_total_mean",
+                            "edge_total_p99",
+                            "edge_total_max",
+                            "edge_map_p99",
+                            "image_rmse"})
         v[k] = "0";
       v["image_psnr_db"] = "inf";
     } else {
@@ -122,7 +194,8 @@ void write_csv(const std::vector<Result>& results, const std::string& path) {
       v["fragment_source"] = r.stats.fragment_source;
       v["runs"] = std::to_string(r.runs);
       v["fragments_ms_median"] = num(r.fragments_ms.median);
-      for (auto [name, s] : {std::pair<const char*, const Spread*>{"build_ms", &r.build_ms}, {"camera_ms", &r.camera_ms}}) {
+      for (auto [name, s] :
+           {std::pair<const char*, const Spread*>{"build_ms", &r.build_ms}, {"camera_ms", &r.camera_ms}}) {
         std::string n = name;
         v[n + "_median"] = num(s->median);
         v[n + "_min"] = num(s->min);
@@ -192,11 +265,13 @@ void write_markdown(const std::vector<Result>& results, const RunInfo& info, con
     << " runs after " << info.warmup << " warm-up run(s), each with a fresh renderer (no map reuse), "
     << "interleaved across the configurations (round-robin). "
     << "*time* = DSM build + camera pass (light-view fragment generation, the same for every method at a "
-       "resolution, is in the CSV). Transmittance error: |T - T_ref| at about " << info.error_samples
+       "resolution, is in the CSV). Transmittance error: |T - T_ref| at about "
+    << info.error_samples
     << " shadow lookups of shaded points, compositing-weighted (DESIGN.md §7), decomposed with the filtered "
        "exact reference T_f (the exact transmittance along each lookup tap's light ray, with the lookup's "
        "weights): *map* = |T - T_f| p99 (what ε controls), *res* = |T_f - T_ref| p99 (resolution, "
-       "clustering), *int.* = total error p99 / max over interior points (the taps' and the point's exact transmittances agree within 0.05), "
+       "clustering), *int.* = total error p99 / max over interior points (the taps' and the point's exact "
+       "transmittances agree within 0.05), "
        "*edge %* = share of edge points. Memory = index + nodes + slack. "
        "P: on the Pareto front of time against transmittance RMSE (t) and of memory against it (m).\n\n";
   std::map<std::string, bool> seen;
@@ -220,12 +295,15 @@ void write_markdown(const std::vector<Result>& results, const RunInfo& info, con
       if (r.scene_name != first.scene_name || r.is_reference) continue;
       const Config& c = r.config;
       bool dsm = c.method.method == ShadowMethod::Dsm;
-      auto ms = [](const Spread& s) { return num(s.median, "%.1f") + " [" + num(s.min, "%.1f") + "–" + num(s.max, "%.1f") + "]"; };
+      auto ms = [](const Spread& s) {
+        return num(s.median, "%.1f") + " [" + num(s.min, "%.1f") + "–" + num(s.max, "%.1f") + "]";
+      };
       std::string p = std::string(r.pareto_time ? "t" : "") + (r.pareto_memory ? "m" : "");
       f << "| " << c.method.label << " | " << (dsm ? num(c.eps, "%g") : "") << " | " << c.res << " | " << c.clusters
-        << " | " << c.layout << " | " << (other_backend ? c.backend + " | " : "") << ms(r.build_ms) << " | " << ms(r.camera_ms) << " | " << num(r.memory_bytes() / 1024.0, "%.0f")
-        << " | " << num(r.stats.memory.avg_nodes_per_texel, "%.2f") << " / " << r.stats.memory.max_nodes_per_texel
-        << " | " << num(r.transmittance.mean, "%.4f") << " | " << num(r.transmittance.p99, "%.3f") << " | "
+        << " | " << c.layout << " | " << (other_backend ? c.backend + " | " : "") << ms(r.build_ms) << " | "
+        << ms(r.camera_ms) << " | " << num(r.memory_bytes() / 1024.0, "%.0f") << " | "
+        << num(r.stats.memory.avg_nodes_per_texel, "%.2f") << " / " << r.stats.memory.max_nodes_per_texel << " | "
+        << num(r.transmittance.mean, "%.4f") << " | " << num(r.transmittance.p99, "%.3f") << " | "
         << num(r.transmittance.max, "%.3f") << " | " << num(r.transmittance.rmse, "%.4f") << " | "
         << num(r.transmittance.map.p99, "%.4f") << " | " << num(r.transmittance.resolution.p99, "%.4f") << " | "
         << num(r.transmittance.interior.total.p99, "%.4f") << " / " << num(r.transmittance.interior.total.max, "%.3f")
@@ -246,7 +324,8 @@ std::string default_plot_script() {
 }
 
 bool plot(const std::string& python, const std::string& script, const std::string& csv, const std::string& out_dir) {
-  std::string cmd = shell_quote(python) + " " + shell_quote(script) + " " + shell_quote(csv) + " " + shell_quote(out_dir);
+  std::string cmd =
+      shell_quote(python) + " " + shell_quote(script) + " " + shell_quote(csv) + " " + shell_quote(out_dir);
   std::fflush(stdout);  // keep our lines before the script's
   int rc = std::system(cmd.c_str());
   if (rc != 0) {

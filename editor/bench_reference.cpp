@@ -87,7 +87,8 @@ void write_cache(const std::string& path, const Reference& ref, const Scene& sce
     hd.height = ref.image.height;
     hd.ms = ref.ms;
     out.write(reinterpret_cast<const char*>(&hd), sizeof hd);
-    out.write(reinterpret_cast<const char*>(ref.image.rgb.data()), std::streamsize(ref.image.rgb.size() * sizeof(float)));
+    out.write(reinterpret_cast<const char*>(ref.image.rgb.data()),
+              std::streamsize(ref.image.rgb.size() * sizeof(float)));
   }
   fs::rename(tmp, path, ec);  // atomic: a concurrent reader sees all or nothing
   std::ofstream note(path.substr(0, path.size() - 4) + ".txt");
@@ -109,8 +110,10 @@ class ProgressBar {
     draw(frac, elapsed_ms, false);
   }
   void done(double elapsed_ms) {
-    if (tty_) draw(1.0, elapsed_ms, true);
-    else std::fprintf(stderr, "%s: done in %.1f s\n", what_.c_str(), elapsed_ms / 1000.0);
+    if (tty_)
+      draw(1.0, elapsed_ms, true);
+    else
+      std::fprintf(stderr, "%s: done in %.1f s\n", what_.c_str(), elapsed_ms / 1000.0);
   }
 
  private:

@@ -181,7 +181,8 @@ int run_bench(const BenchArgs& a) {
   const std::string cache_dir = a.no_cache ? "" : a.cache_dir;
   for (const std::string& s : a.scenes) {
     std::error_code ec;
-    if (fs::exists(out_dir, ec) && fs::equivalent(out_dir, s, ec)) throw Error(out_dir, "the output directory is a scene file");
+    if (fs::exists(out_dir, ec) && fs::equivalent(out_dir, s, ec))
+      throw Error(out_dir, "the output directory is a scene file");
   }
   std::error_code ec;
   fs::create_directories(out_dir, ec);

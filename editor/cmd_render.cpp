@@ -56,8 +56,10 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
     e["objects_per_cluster"] = c.members;
     cl.push_back(e);
   }
-  j["popping"] = {{"measured", s.popping.measured}, {"points", s.popping.points},
-                  {"mean_abs_dT", s.popping.mean}, {"max_abs_dT", s.popping.max}};
+  j["popping"] = {{"measured", s.popping.measured},
+                  {"points", s.popping.points},
+                  {"mean_abs_dT", s.popping.mean},
+                  {"max_abs_dT", s.popping.max}};
   {
     const UpdateStats& u = s.update;
     auto& up = j["update"];
@@ -135,8 +137,9 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
     e["map_error_dsm_vs_filtered_exact"] = summary(s.transmittance.map);
     e["resolution_error_filtered_exact_vs_exact"] = summary(s.transmittance.resolution);
     e["total_error_dsm_vs_exact"] = summary(s.transmittance.total);
-    for (const auto& [key, c] : {std::pair<const char*, const ErrorClass&>{"edge_points", s.transmittance.edge},
-                                 std::pair<const char*, const ErrorClass&>{"interior_points", s.transmittance.interior}}) {
+    for (const auto& [key, c] :
+         {std::pair<const char*, const ErrorClass&>{"edge_points", s.transmittance.edge},
+          std::pair<const char*, const ErrorClass&>{"interior_points", s.transmittance.interior}}) {
       e[key]["share_of_points"] = c.share;
       e[key]["map_error"] = summary(c.map);
       e[key]["resolution_error"] = summary(c.resolution);
@@ -158,9 +161,9 @@ void print_summary(const FrameStats& s, const Scene& scene, bool reference_backe
   std::printf("fragments    %s (%s)\n", s.fragment_source.c_str(), s.fragment_source_reason.c_str());
   std::printf("settings     eps %.4g, DSM %d^2, filtering %s\n", scene.shadows.epsilon, scene.shadows.resolution,
               scene.shadows.filtering ? "on" : "off");
-  std::printf("times [ms]   light fragments %.1f | DSM build %.1f | camera fragments %.1f | camera pass %.1f | frame %.1f\n",
-              s.times.fragments_ms, s.times.dsm_build_ms, s.times.camera_fragments_ms, s.times.camera_ms,
-              s.times.total_ms);
+  std::printf(
+      "times [ms]   light fragments %.1f | DSM build %.1f | camera fragments %.1f | camera pass %.1f | frame %.1f\n",
+      s.times.fragments_ms, s.times.dsm_build_ms, s.times.camera_fragments_ms, s.times.camera_ms, s.times.total_ms);
   for (size_t li = 0; li < s.clusters.size(); ++li) {
     const LightClusterStats& c = s.clusters[li];
     std::printf("light %zu      %u maps", li, c.maps);
@@ -190,10 +193,11 @@ void print_summary(const FrameStats& s, const Scene& scene, bool reference_backe
     std::printf("map kinds    %llu RGB maps %.2f MiB, %llu grey maps %.2f MiB\n", (unsigned long long)s.memory.rgb_maps,
                 s.memory.rgb_bytes / 1048576.0, (unsigned long long)(s.memory.maps - s.memory.rgb_maps),
                 s.memory.grey_bytes / 1048576.0);
-  std::printf("segments     unmatched fragments %llu, enclosing overflow %llu, rays with > %d objects %llu, "
-              "march steps lengthened %llu\n",
-              (unsigned long long)s.unmatched_fragments, (unsigned long long)s.enclosing_overflow, kMaxRayObjects,
-              (unsigned long long)s.match_overflow, (unsigned long long)s.march_lengthened);
+  std::printf(
+      "segments     unmatched fragments %llu, enclosing overflow %llu, rays with > %d objects %llu, "
+      "march steps lengthened %llu\n",
+      (unsigned long long)s.unmatched_fragments, (unsigned long long)s.enclosing_overflow, kMaxRayObjects,
+      (unsigned long long)s.match_overflow, (unsigned long long)s.march_lengthened);
   if (s.has_reference) {
     const TransmittanceError& t = s.transmittance;
     std::printf("error        transmittance over %llu points: mean %.5f, p99 %.4f, max %.4f, RMSE %.5f\n",
@@ -204,14 +208,14 @@ void print_summary(const FrameStats& s, const Scene& scene, bool reference_backe
                 t.resolution.mean, t.resolution.p99, t.resolution.max);
     for (const auto& [name, c] : {std::pair<const char*, const ErrorClass&>{"interior", t.interior},
                                   std::pair<const char*, const ErrorClass&>{"edge    ", t.edge}})
-      std::printf("  %s   %.1f%% of points: total mean %.5f, p99 %.4f, max %.4f; map p99 %.4f, max %.4f; "
-                  "resolution p99 %.4f\n",
-                  name, 100.0 * c.share, c.total.mean, c.total.p99, c.total.max, c.map.p99, c.map.max, c.resolution.p99);
+      std::printf(
+          "  %s   %.1f%% of points: total mean %.5f, p99 %.4f, max %.4f; map p99 %.4f, max %.4f; "
+          "resolution p99 %.4f\n",
+          name, 100.0 * c.share, c.total.mean, c.total.p99, c.total.max, c.map.p99, c.map.max, c.resolution.p99);
     std::printf("image        RMSE %.5f, PSNR %.2f dB against the reference (%.1f ms)\n", s.image.rmse, s.image.psnr,
                 s.times.reference_ms);
   }
 }
-
 
 int run_render(const RenderArgs& a) {
   const std::string& out = a.out;
@@ -284,11 +288,10 @@ int run_info(const std::string& path) {
     if (v.grid)
       std::printf("  volume %zu %-12s dense %dx%dx%d\n", i, v.name.c_str(), v.grid->nx, v.grid->ny, v.grid->nz);
     else if (v.sparse)
-      std::printf("  volume %zu %-12s sparse (NanoVDB), active box %dx%dx%d, %llu active voxels\n", i,
-                  v.name.c_str(), v.sparse->active_max[0] - v.sparse->active_min[0] + 1,
+      std::printf("  volume %zu %-12s sparse (NanoVDB), active box %dx%dx%d, %llu active voxels\n", i, v.name.c_str(),
+                  v.sparse->active_max[0] - v.sparse->active_min[0] + 1,
                   v.sparse->active_max[1] - v.sparse->active_min[1] + 1,
-                  v.sparse->active_max[2] - v.sparse->active_min[2] + 1,
-                  (unsigned long long)v.sparse->active_voxels);
+                  v.sparse->active_max[2] - v.sparse->active_min[2] + 1, (unsigned long long)v.sparse->active_voxels);
   }
   return 0;
 }

@@ -14,6 +14,6 @@ Command add_render(CLI::App& cdsm);  // cmd_render.cpp
 Command add_info(CLI::App& cdsm);    // cmd_render.cpp
 // `command_line` is recorded in results.md.
 Command add_bench(CLI::App& cdsm, const std::string& command_line);  // cmd_bench.cpp
-Command add_edit(CLI::App& cdsm);  // editor/edit/cmd_edit.cpp (CDSM_HAVE_EDITOR)
+Command add_edit(CLI::App& cdsm);                                    // editor/edit/cmd_edit.cpp (CDSM_HAVE_EDITOR)
 
 }  // namespace cdsm::cli

@@ -73,8 +73,8 @@ void add_frame_options(CLI::App& app, FrameOptions& o) {
           digits.pop_back();
         }
         if (!number_problem(digits, 1, most, true).empty() || std::stoll(digits) * unit > int64_t(most))
-          return "expected a size N (MiB), NM or NG within [1 MiB, " + std::to_string(int64_t(most)) +
-                 " MiB], got '" + s + "'";
+          return "expected a size N (MiB), NM or NG within [1 MiB, " + std::to_string(int64_t(most)) + " MiB], got '" +
+                 s + "'";
         s = std::to_string(std::stoll(digits) * unit);
         return "";
       },

@@ -5,7 +5,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config git ca-certificates
-  clang-14 libclang-rt-14-dev
+  clang-14 libclang-rt-14-dev clang-format-14
   libglfw3-dev libglm-dev
   libegl-dev libgl-dev libgl1-mesa-dri libegl-mesa0 mesa-utils-bin
   libimgui-dev libstb-dev libtinygltf-dev nlohmann-json3-dev libcli11-dev

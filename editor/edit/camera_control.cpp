@@ -47,7 +47,9 @@ void OrbitCamera::pan(float dx, float dy, float fov_y_deg, int height) {
   target = target + r * (-dx * per_px) + u * (dy * per_px);
 }
 
-void OrbitCamera::zoom(float wheel_steps) { distance = std::clamp(distance * std::pow(0.88f, wheel_steps), 1e-3f, 1e6f); }
+void OrbitCamera::zoom(float wheel_steps) {
+  distance = std::clamp(distance * std::pow(0.88f, wheel_steps), 1e-3f, 1e6f);
+}
 
 void OrbitCamera::fly(Vec3 d) {
   const Vec3 f = normalize(target - position());

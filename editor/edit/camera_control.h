@@ -20,9 +20,9 @@ struct OrbitCamera {
   Camera apply(const Camera& base) const;
 
   // Mouse deltas in pixels of a viewport `height` pixels high.
-  void orbit(float dx, float dy);                          // 0.3 degrees per pixel
+  void orbit(float dx, float dy);                             // 0.3 degrees per pixel
   void pan(float dx, float dy, float fov_y_deg, int height);  // the target moves with the cursor
-  void zoom(float wheel_steps);                            // 12% per step, towards the target
+  void zoom(float wheel_steps);                               // 12% per step, towards the target
   // Fly: moves position and target together, in camera space (right, up, forward), world units.
   void fly(Vec3 right_up_forward);
   // Frames `box`: target at its centre, distance so its bounding sphere fills the vertical fov.

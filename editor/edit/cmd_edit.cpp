@@ -47,7 +47,8 @@ int run_edit(const EditArgs& a) {
 
   std::string why;
   auto context = GlContext::create_window(a.width, a.height, "cdsm edit - " + a.scene_path, !a.hidden, &why);
-  if (!context) throw Error("cdsm edit", "no window with OpenGL 4.5 (needs a display: X11, or run under xvfb-run): " + why);
+  if (!context)
+    throw Error("cdsm edit", "no window with OpenGL 4.5 (needs a display: X11, or run under xvfb-run): " + why);
   GLFWwindow* window = static_cast<GLFWwindow*>(context->native_window());
   glfwSwapInterval(script ? 0 : 1);
 
@@ -70,8 +71,10 @@ int run_edit(const EditArgs& a) {
       // While maps build, the UI runs at ~10 frames a second at most (input still
       // wakes it at once): each frame (ImGui, the window's copy to the display)
       // would take the worker's cores.
-      if (session.building()) glfwWaitEventsTimeout(0.1);
-      else glfwPollEvents();
+      if (session.building())
+        glfwWaitEventsTimeout(0.1);
+      else
+        glfwPollEvents();
       if (context->should_close() || ui.quit) break;
       session.tick();
       if (script && !script->step(session, ui)) running = false;

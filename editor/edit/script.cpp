@@ -36,7 +36,8 @@ void write_window_png(const std::string& path, int width, int height) {
   glReadBuffer(GL_BACK);
   glReadPixels(0, 0, width, height, GL_RGB, GL_UNSIGNED_BYTE, px.data());
   for (int y = 0; y < height; ++y)
-    std::copy_n(px.data() + size_t(height - 1 - y) * width * 3, size_t(width) * 3, flipped.data() + size_t(y) * width * 3);
+    std::copy_n(px.data() + size_t(height - 1 - y) * width * 3, size_t(width) * 3,
+                flipped.data() + size_t(y) * width * 3);
   if (!stbi_write_png(path.c_str(), width, height, 3, flipped.data(), width * 3))
     throw Error(path, "cannot write the screenshot");
 }
@@ -60,9 +61,12 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
   if (waiting_) {
     ++frames_waited_;
     bool done = false;
-    if (waiting_for_ == "refined") done = s.refined();
-    else if (waiting_for_ == "inspection") done = !s.inspection_pending() && s.refined();
-    else if (waiting_for_ == "error") done = !s.error_view().running;
+    if (waiting_for_ == "refined")
+      done = s.refined();
+    else if (waiting_for_ == "inspection")
+      done = !s.inspection_pending() && s.refined();
+    else if (waiting_for_ == "error")
+      done = !s.error_view().running;
     if (!done) {
       if (frames_waited_ > 20000) throw Error(file_, "waited 20000 frames for " + waiting_for_);
       return true;
@@ -72,23 +76,25 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
     if (waiting_for_ == "refined") {
       const double cpu_ms = (cpu_seconds() - changed_cpu_) * 1000.0;
       const StageTimes& st = s.build_stats().times;
-      std::printf("  refined after %.0f ms (%d frames; last map build %.0f ms: fragments %.0f, light pass %.0f; viewport %.0f ms"
-                  " of which light grids %.0f ms; CPU %.0f ms, %.2f cores busy; maps rebuilt %u, viewport draws %llu)\n",
-                  ms, frames_waited_, s.last_build_ms(), st.fragments_ms, st.dsm_build_ms, s.last_draw_ms(),
-                  s.last_light_grid_ms(), cpu_ms, cpu_ms / std::max(ms, 1e-3), s.last_maps_rebuilt(),
-                  (unsigned long long)s.viewport_draws());
+      std::printf(
+          "  refined after %.0f ms (%d frames; last map build %.0f ms: fragments %.0f, light pass %.0f; viewport %.0f "
+          "ms"
+          " of which light grids %.0f ms; CPU %.0f ms, %.2f cores busy; maps rebuilt %u, viewport draws %llu)\n",
+          ms, frames_waited_, s.last_build_ms(), st.fragments_ms, st.dsm_build_ms, s.last_draw_ms(),
+          s.last_light_grid_ms(), cpu_ms, cpu_ms / std::max(ms, 1e-3), s.last_maps_rebuilt(),
+          (unsigned long long)s.viewport_draws());
     } else if (waiting_for_ == "inspection") {
       const ShadowSystem::TexelInspection& t = s.inspection();
       if (t.found)
-        std::printf("  inspected map %d texel (%d, %d): %zu nodes, %zu samples, max deviation %.5f (epsilon %.4f)\n", t.map,
-                    t.tx, t.ty, t.nodes.size(), t.exact.size(), t.max_deviation, t.epsilon);
+        std::printf("  inspected map %d texel (%d, %d): %zu nodes, %zu samples, max deviation %.5f (epsilon %.4f)\n",
+                    t.map, t.tx, t.ty, t.nodes.size(), t.exact.size(), t.max_deviation, t.epsilon);
       else
         std::printf("  nothing inspected: %s\n", t.why.c_str());
     } else {
       const ErrorView& e = s.error_view();
       if (e.ready)
-        std::printf("  error view: PSNR %.2f dB, map p99 %.4f, resolution p99 %.4f, total p99 %.4f (%.1f s)\n", e.image.psnr,
-                    e.error.map.p99, e.error.resolution.p99, e.error.total.p99, e.seconds);
+        std::printf("  error view: PSNR %.2f dB, map p99 %.4f, resolution p99 %.4f, total p99 %.4f (%.1f s)\n",
+                    e.image.psnr, e.error.map.p99, e.error.resolution.p99, e.error.total.p99, e.seconds);
       else
         std::printf("  error view: %s\n", e.message.c_str());
     }
@@ -117,14 +123,20 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
     if (cmd == "set") {
       const std::string field = word("a setting");
       ShadowSettings next = s.scene().shadows;
-      if (field == "epsilon") next.epsilon = float(number("epsilon"));
-      else if (field == "resolution") next.resolution = int(number("resolution"));
-      else if (field == "clusters") next.max_clusters = int(number("clusters"));
-      else if (field == "d0") next.d0 = float(number("d0"));
-      else if (field == "filtering") next.filtering = on_off(word("on or off"), where);
+      if (field == "epsilon")
+        next.epsilon = float(number("epsilon"));
+      else if (field == "resolution")
+        next.resolution = int(number("resolution"));
+      else if (field == "clusters")
+        next.max_clusters = int(number("clusters"));
+      else if (field == "d0")
+        next.d0 = float(number("d0"));
+      else if (field == "filtering")
+        next.filtering = on_off(word("on or off"), where);
       else if (field == "layout") {
         const std::string l = word("a layout");
-        if (!parse_tag(l, next.layout)) throw Error(where, "unknown layout '" + l + "' (" + tag_choices<DsmLayout>() + ")");
+        if (!parse_tag(l, next.layout))
+          throw Error(where, "unknown layout '" + l + "' (" + tag_choices<DsmLayout>() + ")");
       } else if (field == "receiver") {
         const std::string r = word("plane or slope_bias");
         if (!parse_tag(r, next.receiver))
@@ -140,10 +152,14 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
       if (li >= s.scene().lights.size()) throw Error(where, "no light " + std::to_string(li));
       Light l = s.scene().lights[li];
       const std::string field = word("a light field");
-      if (field == "position") l.position = {float(number("x")), float(number("y")), float(number("z"))};
-      else if (field == "direction") l.direction = normalize(Vec3{float(number("x")), float(number("y")), float(number("z"))});
-      else if (field == "intensity") l.intensity = float(number("intensity"));
-      else throw Error(where, "unknown light field '" + field + "'");
+      if (field == "position")
+        l.position = {float(number("x")), float(number("y")), float(number("z"))};
+      else if (field == "direction")
+        l.direction = normalize(Vec3{float(number("x")), float(number("y")), float(number("z"))});
+      else if (field == "intensity")
+        l.intensity = float(number("intensity"));
+      else
+        throw Error(where, "unknown light field '" + field + "'");
       s.apply(set_light(s.document(), li, l), now);
       changed_at_ = now;
       changed_cpu_ = cpu_seconds();
@@ -204,7 +220,7 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
         waiting_for_ = "error";
         frames_waited_ = 0;
         changed_at_ = now;
-      changed_cpu_ = cpu_seconds();
+        changed_cpu_ = cpu_seconds();
         return true;
       } else {
         throw Error(where, "unknown view '" + what + "'");

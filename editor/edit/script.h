@@ -45,7 +45,7 @@ class ScriptRunner {
   std::string file_;
   std::vector<std::string> lines_;
   size_t next_ = 0;
-  double changed_at_ = 0.0;  // of the last change (for `wait`)
+  double changed_at_ = 0.0;   // of the last change (for `wait`)
   double changed_cpu_ = 0.0;  // the process's CPU seconds then
   bool waiting_ = false;
   std::string waiting_for_;

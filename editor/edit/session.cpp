@@ -237,9 +237,10 @@ void Session::draw_viewport(int width, int height, bool interacting) {
   // (a frame of the old maps would only delay the new ones).
   if (!interacting && !camera_dirty_ && (building_ || !queued_.empty() || system_dirty_)) return;
   interacting = interacting || camera_dirty_;
-  const std::string view = std::to_string(width) + "x" + std::to_string(height) + " " + std::to_string(int(tint)) + " " +
-                           std::to_string(tint_light) + " " + std::to_string(show_frusta) + " " + std::to_string(map_view) +
-                           " " + std::to_string(selected_object) + " " + std::to_string(selected_light);
+  const std::string view = std::to_string(width) + "x" + std::to_string(height) + " " + std::to_string(int(tint)) +
+                           " " + std::to_string(tint_light) + " " + std::to_string(show_frusta) + " " +
+                           std::to_string(map_view) + " " + std::to_string(selected_object) + " " +
+                           std::to_string(selected_light);
   // Nothing it shows changed: the last frame stands (a full-resolution one
   // once the interaction ended).
   if (generation_ == drawn_generation_ && view == drawn_view_ && (interacting || !drawn_interacting_)) {

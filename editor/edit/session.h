@@ -38,7 +38,7 @@ enum class MapView { NodeCounts, AlphaAtDepth };
 
 struct ErrorView {
   std::atomic<bool> running{false}, ready{false};
-  std::string message;            // failure or cancellation
+  std::string message;  // failure or cancellation
   std::unique_ptr<RenderProgress> progress;
   std::thread worker;
   Image dsm, reference, heatmap;  // at the probe's size
@@ -123,7 +123,7 @@ class Session {
   Tint tint = Tint::None;
   int tint_light = 0;  // whose clusters colour the objects
   bool show_frusta = true;
-  int map_view = -1;   // map index shown in the map viewer (-1: none)
+  int map_view = -1;  // map index shown in the map viewer (-1: none)
   MapView map_view_kind = MapView::NodeCounts;
   float map_view_depth = 0.5f;  // fraction of the map's near..far
   // Click in the viewport (row 0 at the top, in viewport pixels of the last
@@ -143,7 +143,7 @@ class Session {
   double last_build_ms() const { return last_build_ms_; }
   double last_draw_ms() const { return last_draw_ms_; }
   double last_light_grid_ms() const { return last_light_grid_ms_; }  // of a draw: the volumes' light grids
-  uint64_t viewport_draws() const { return draws_; }                  // frames drawn since the session began
+  uint64_t viewport_draws() const { return draws_; }                 // frames drawn since the session began
   uint32_t last_maps_rebuilt() const { return build_stats_.maps_rebuilt; }
   const std::vector<std::string>& notes() const { return notes_; }
 
@@ -170,7 +170,7 @@ class Session {
   OrbitCamera orbit_;
   std::vector<Edit> queued_;
   bool camera_dirty_ = false;
-  bool system_dirty_ = true;  // edits reached the system since its last build
+  bool system_dirty_ = true;        // edits reached the system since its last build
   std::unique_ptr<Worker> worker_;  // after system_: destroyed (joined) first
   bool building_ = false;
   std::string build_error_;
@@ -190,11 +190,11 @@ class Session {
   bool map_texture_stale_ = true;
   // The viewport is drawn only when what it shows changed: the document,
   // the camera, new maps, a view setting, its size or the interaction.
-  uint64_t generation_ = 1;      // bumped by every change of what the viewport shows
+  uint64_t generation_ = 1;  // bumped by every change of what the viewport shows
   uint64_t drawn_generation_ = 0;
-  uint64_t maps_version_ = 0;    // bumped by every publish that changed the maps (DrawOptions::maps_version)
+  uint64_t maps_version_ = 0;  // bumped by every publish that changed the maps (DrawOptions::maps_version)
   uint64_t draws_ = 0;
-  std::string drawn_view_;       // view settings and size of the last frame
+  std::string drawn_view_;  // view settings and size of the last frame
   bool drawn_interacting_ = false;
   std::deque<float> frame_ms_;
   double last_build_ms_ = 0.0, last_draw_ms_ = 0.0, last_light_grid_ms_ = 0.0;

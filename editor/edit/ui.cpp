@@ -185,8 +185,9 @@ void transfer_editor(Session& s, size_t vi) {
         }
       }
       ImGui::PopID();
-      if (i > 0) dl->AddLine(to_screen(v.transfer[i - 1].density, max_channel(v.transfer[i - 1].extinction)), p,
-                             IM_COL32(255, 160, 40, 255), 2.0f);
+      if (i > 0)
+        dl->AddLine(to_screen(v.transfer[i - 1].density, max_channel(v.transfer[i - 1].extinction)), p,
+                    IM_COL32(255, 160, 40, 255), 2.0f);
       dl->AddCircleFilled(p, hot ? 6.0f : 4.0f, IM_COL32(255, 220, 80, 255));
     }
     ImGui::SetCursorScreenPos(after);
@@ -233,8 +234,9 @@ void objects_panel(Session& s) {
   const Scene& scene = s.scene();
   if (ImGui::BeginListBox("##objects", ImVec2(-1, 120))) {
     for (size_t i = 0; i < scene.objects.size(); ++i) {
-      const std::string label = (scene.objects[i].name.empty() ? "object " + std::to_string(i) : scene.objects[i].name) +
-                                "##obj" + std::to_string(i);
+      const std::string label =
+          (scene.objects[i].name.empty() ? "object " + std::to_string(i) : scene.objects[i].name) + "##obj" +
+          std::to_string(i);
       if (ImGui::Selectable(label.c_str(), s.selected_object == int(i))) s.selected_object = int(i);
     }
     ImGui::EndListBox();
@@ -265,7 +267,8 @@ void objects_panel(Session& s) {
   surf |= ImGui::SliderFloat("shininess", &m.shininess, 1.0f, 200.0f, "%.0f");
   if (surf) s.apply(set_surface(s.document(), size_t(oi), m), now_seconds());
   bool casts = o.casts_shadows;
-  if (ImGui::Checkbox("casts shadows", &casts)) s.apply(set_casts_shadows(s.document(), size_t(oi), casts), now_seconds());
+  if (ImGui::Checkbox("casts shadows", &casts))
+    s.apply(set_casts_shadows(s.document(), size_t(oi), casts), now_seconds());
   int kind = int(o.interior);
   const char* kinds[] = {"none", "constant medium", "volume"};
   const bool has_volume = o.volume >= 0 && size_t(o.volume) < scene.volumes.size();
@@ -303,10 +306,13 @@ void menu_bar(Session& s, UiState& ui) {
     if (ImGui::MenuItem("Open...")) ui.pending_path_action = "open", ui.path_field = s.document().path;
     if (ImGui::MenuItem("Save", nullptr, false, !s.document().path.empty())) {
       std::string why;
-      if (!s.save(s.document().path, false, &why)) ui.confirm_overwrite = true;
-      else ui.status = "saved " + s.document().path;
+      if (!s.save(s.document().path, false, &why))
+        ui.confirm_overwrite = true;
+      else
+        ui.status = "saved " + s.document().path;
     }
-    if (ImGui::MenuItem("Save as...")) ui.pending_path_action = "save_as", ui.path_field = s.document().path + ".edited.json";
+    if (ImGui::MenuItem("Save as..."))
+      ui.pending_path_action = "save_as", ui.path_field = s.document().path + ".edited.json";
     if (ImGui::MenuItem("Screenshot...")) ui.pending_path_action = "screenshot", ui.path_field = "cdsm-edit.png";
     if (ImGui::BeginMenu("Recent", !ui.recent.empty())) {
       for (const std::string& r : ui.recent)
@@ -337,8 +343,9 @@ void menu_bar(Session& s, UiState& ui) {
 
   if (!ui.pending_path_action.empty()) ImGui::OpenPopup("path");
   if (ImGui::BeginPopupModal("path", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
-    ImGui::Text("%s", ui.pending_path_action == "open" ? "Open scene (JSON, glTF, GLB):"
-                      : ui.pending_path_action == "save_as" ? "Save as JSON:" : "Screenshot PNG:");
+    ImGui::Text("%s", ui.pending_path_action == "open"      ? "Open scene (JSON, glTF, GLB):"
+                      : ui.pending_path_action == "save_as" ? "Save as JSON:"
+                                                            : "Screenshot PNG:");
     char buf[1024];
     std::snprintf(buf, sizeof buf, "%s", ui.path_field.c_str());
     if (ImGui::InputText("##path", buf, sizeof buf)) ui.path_field = buf;
@@ -350,8 +357,10 @@ void menu_bar(Session& s, UiState& ui) {
           ui.status = "opened " + ui.path_field;
         } else if (ui.pending_path_action == "save_as") {
           std::string why;
-          if (s.save(ui.path_field, false, &why)) ui.status = "saved " + ui.path_field;
-          else ui.status = why;
+          if (s.save(ui.path_field, false, &why))
+            ui.status = "saved " + ui.path_field;
+          else
+            ui.status = why;
         } else {
           ui.screenshot_request = ui.path_field;
         }
@@ -389,12 +398,14 @@ void menu_bar(Session& s, UiState& ui) {
 void stats_window(Session& s, UiState& ui, float x, float y, float h) {
   ImGui::SetNextWindowPos(ImVec2(x, y));
   ImGui::SetNextWindowSize(ImVec2(kRightWidth, h));
-  ImGui::Begin("Stats", &ui.show_stats, ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
+  ImGui::Begin("Stats", &ui.show_stats,
+               ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
   const FrameStats& st = s.build_stats();
   ImGui::Text("viewport %.1f ms (volume light grids %.1f ms), last map build %.0f ms", s.last_draw_ms(),
               s.last_light_grid_ms(), s.last_build_ms());
   std::vector<float> ft(s.frame_ms().begin(), s.frame_ms().end());
-  if (!ft.empty()) ImGui::PlotLines("##frames", ft.data(), int(ft.size()), 0, "frame ms", 0.0f, FLT_MAX, ImVec2(-1, 50));
+  if (!ft.empty())
+    ImGui::PlotLines("##frames", ft.data(), int(ft.size()), 0, "frame ms", 0.0f, FLT_MAX, ImVec2(-1, 50));
   if (s.building()) {
     const ShadowSystem::BuildProgress p = s.progress();
     ImGui::ProgressBar(p.to_build ? float(p.built) / float(p.to_build) : 0.0f, ImVec2(-1, 0), "building maps");
@@ -403,7 +414,8 @@ void stats_window(Session& s, UiState& ui, float x, float y, float h) {
               st.cluster_ms);
   ImGui::Text("maps rebuilt %u (%u from kept fragment lists, %.1f MiB kept), reused %u", st.maps_rebuilt,
               st.update.fragment_lists_reused, double(st.update.fragment_cache_bytes) / 1048576.0, st.maps_reused);
-  for (const MapRebuild& r : st.update.rebuilds) ImGui::BulletText("light %u map %u: %s", r.light, r.map, to_string(r.reason));
+  for (const MapRebuild& r : st.update.rebuilds)
+    ImGui::BulletText("light %u map %u: %s", r.light, r.map, to_string(r.reason));
   ImGui::Text("nodes/texel avg %.2f, max %u", st.memory.avg_nodes_per_texel, st.memory.max_nodes_per_texel);
   ImGui::Text("memory: index %.2f MiB, nodes %.2f MiB, tags %.2f MiB, slack %.2f MiB",
               double(st.memory.index_bytes) / 1048576.0, double(st.memory.node_bytes) / 1048576.0,
@@ -430,8 +442,8 @@ void stats_window(Session& s, UiState& ui, float x, float y, float h) {
       std::string names;
       for (int o : m.members)
         if (size_t(o) < s.scene().objects.size())
-          names += (names.empty() ? "" : ", ") + (s.scene().objects[size_t(o)].name.empty() ? std::to_string(o)
-                                                                                           : s.scene().objects[size_t(o)].name);
+          names += (names.empty() ? "" : ", ") +
+                   (s.scene().objects[size_t(o)].name.empty() ? std::to_string(o) : s.scene().objects[size_t(o)].name);
       ImGui::TextWrapped("%s", names.c_str());
     }
     ImGui::EndTable();
@@ -524,8 +536,8 @@ void map_window(Session& s, UiState& ui) {
                         std::to_string(maps[size_t(s.map_view)].slot);
   if (ImGui::BeginCombo("map", current.c_str())) {
     for (size_t k = 0; k < maps.size(); ++k) {
-      const std::string l = "light " + std::to_string(maps[k].light) + " map " + std::to_string(maps[k].slot) + "##m" +
-                            std::to_string(k);
+      const std::string l =
+          "light " + std::to_string(maps[k].light) + " map " + std::to_string(maps[k].slot) + "##m" + std::to_string(k);
       if (ImGui::Selectable(l.c_str(), int(k) == s.map_view)) s.map_view = int(k);
     }
     ImGui::EndCombo();
@@ -682,8 +694,8 @@ void handle_viewport_input(Session& s, UiState& ui) {
       Light l = s.scene().lights[size_t(s.selected_light)];
       const Camera& c = s.scene().camera;
       const Vec3 f = normalize(c.target - c.position), r = normalize(cross(f, Vec3{0, 1, 0})), u = cross(r, f);
-      const float per_px = 2.0f * length(l.position - c.position) * std::tan(0.5f * c.fov_y_deg * 3.14159265f / 180.0f) /
-                           float(std::max(ui.viewport.h, 1));
+      const float per_px = 2.0f * length(l.position - c.position) *
+                           std::tan(0.5f * c.fov_y_deg * 3.14159265f / 180.0f) / float(std::max(ui.viewport.h, 1));
       l.position = l.position + r * (d.x * per_px) - u * (d.y * per_px);
       if (d.x != 0.0f || d.y != 0.0f) s.apply(set_light(s.document(), size_t(s.selected_light), l), now_seconds());
     } else if (ImGui::IsMouseDown(ImGuiMouseButton_Left)) {

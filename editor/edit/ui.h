@@ -16,17 +16,17 @@ struct Rect {
 
 // UI state that is only UI: open windows, text fields, popups.
 struct UiState {
-  bool show_plot = false;      // the alpha(z) window
-  bool show_map = false;       // the map viewer
-  bool show_error = false;     // the error view
+  bool show_plot = false;   // the alpha(z) window
+  bool show_map = false;    // the map viewer
+  bool show_error = false;  // the error view
   bool show_stats = true;
   int error_width = 240;
-  std::string path_field;      // open / save as / screenshot
+  std::string path_field;           // open / save as / screenshot
   std::string pending_path_action;  // "open", "save_as", "screenshot"
   bool confirm_overwrite = false;
   std::vector<std::string> recent;  // most recent first
-  std::string status;          // one line at the bottom
-  std::string screenshot_request;  // written after the frame is drawn
+  std::string status;               // one line at the bottom
+  std::string screenshot_request;   // written after the frame is drawn
   bool quit = false;
   // Output of draw_ui: where the viewport is, and whether the user is
   // interacting (dragging in it or holding a widget).

@@ -236,18 +236,28 @@ Edit rebased(const Document& doc, Edit e) {
   return std::visit(
       [&](const auto& c) -> Edit {
         using T = std::decay_t<decltype(c)>;
-        if constexpr (std::is_same_v<T, change::Settings>) return set_settings(doc, c.after);
-        else if constexpr (std::is_same_v<T, change::Camera>) return set_camera(doc, c.after);
-        else if constexpr (std::is_same_v<T, change::Background>) return set_background(doc, c.after);
-        else if constexpr (std::is_same_v<T, change::Light>) return set_light(doc, c.light, c.after);
-        else if constexpr (std::is_same_v<T, change::AddLight>) return insert_light(doc, c.light, c.value);
-        else if constexpr (std::is_same_v<T, change::RemoveLight>) return remove_light(doc, c.light);
-        else if constexpr (std::is_same_v<T, change::Transform>) return set_transform(doc, c.object, c.after);
-        else if constexpr (std::is_same_v<T, change::Surface>) return set_surface(doc, c.object, c.after);
+        if constexpr (std::is_same_v<T, change::Settings>)
+          return set_settings(doc, c.after);
+        else if constexpr (std::is_same_v<T, change::Camera>)
+          return set_camera(doc, c.after);
+        else if constexpr (std::is_same_v<T, change::Background>)
+          return set_background(doc, c.after);
+        else if constexpr (std::is_same_v<T, change::Light>)
+          return set_light(doc, c.light, c.after);
+        else if constexpr (std::is_same_v<T, change::AddLight>)
+          return insert_light(doc, c.light, c.value);
+        else if constexpr (std::is_same_v<T, change::RemoveLight>)
+          return remove_light(doc, c.light);
+        else if constexpr (std::is_same_v<T, change::Transform>)
+          return set_transform(doc, c.object, c.after);
+        else if constexpr (std::is_same_v<T, change::Surface>)
+          return set_surface(doc, c.object, c.after);
         else if constexpr (std::is_same_v<T, change::ObjectInterior>)
           return set_interior(doc, c.object, c.after.kind, c.after.sigma, c.after.volume);
-        else if constexpr (std::is_same_v<T, change::CastsShadows>) return set_casts_shadows(doc, c.object, c.after);
-        else return set_transfer(doc, c.volume, c.after);
+        else if constexpr (std::is_same_v<T, change::CastsShadows>)
+          return set_casts_shadows(doc, c.object, c.after);
+        else
+          return set_transfer(doc, c.volume, c.after);
       },
       e.what);
 }
@@ -263,11 +273,16 @@ bool Edit::no_op() const {
   return std::visit(
       [](const auto& c) -> bool {
         using T = std::decay_t<decltype(c)>;
-        if constexpr (std::is_same_v<T, change::AddLight> || std::is_same_v<T, change::RemoveLight>) return false;
-        else if constexpr (std::is_same_v<T, change::Settings>) return settings_diff(c.before, c.after).fields.empty();
-        else if constexpr (std::is_same_v<T, change::Camera>) return camera_same(c.before, c.after);
-        else if constexpr (std::is_same_v<T, change::Light>) return light_same(c.before, c.after);
-        else return same(c.before, c.after);
+        if constexpr (std::is_same_v<T, change::AddLight> || std::is_same_v<T, change::RemoveLight>)
+          return false;
+        else if constexpr (std::is_same_v<T, change::Settings>)
+          return settings_diff(c.before, c.after).fields.empty();
+        else if constexpr (std::is_same_v<T, change::Camera>)
+          return camera_same(c.before, c.after);
+        else if constexpr (std::is_same_v<T, change::Light>)
+          return light_same(c.before, c.after);
+        else
+          return same(c.before, c.after);
       },
       what);
 }
@@ -297,14 +312,18 @@ std::string Edit::describe() const {
   return std::visit(
       [&](const auto& c) -> std::string {
         using T = std::decay_t<decltype(c)>;
-        if constexpr (std::is_same_v<T, change::AddLight>) return "add light " + std::to_string(c.light);
-        else if constexpr (std::is_same_v<T, change::RemoveLight>) return "remove light " + std::to_string(c.light);
+        if constexpr (std::is_same_v<T, change::AddLight>)
+          return "add light " + std::to_string(c.light);
+        else if constexpr (std::is_same_v<T, change::RemoveLight>)
+          return "remove light " + std::to_string(c.light);
         else if constexpr (std::is_same_v<T, change::Settings>) {
           const Diff d = settings_diff(c.before, c.after);
-          if (d.fields == "epsilon") return "shadows/epsilon " + number(c.before.epsilon) + " -> " + number(c.after.epsilon);
+          if (d.fields == "epsilon")
+            return "shadows/epsilon " + number(c.before.epsilon) + " -> " + number(c.after.epsilon);
           if (d.fields == "d0") return "shadows/d0 " + number(c.before.d0) + " -> " + number(c.after.d0);
           if (d.fields == "clusters")
-            return "shadows/clusters " + std::to_string(c.before.max_clusters) + " -> " + std::to_string(c.after.max_clusters);
+            return "shadows/clusters " + std::to_string(c.before.max_clusters) + " -> " +
+                   std::to_string(c.after.max_clusters);
           return key;
         } else {
           return key;
@@ -317,23 +336,31 @@ void apply_to(Scene& scene, const Edit& e) {
   std::visit(
       [&](const auto& c) {
         using T = std::decay_t<decltype(c)>;
-        if constexpr (std::is_same_v<T, change::Settings>) scene.shadows = c.after;
-        else if constexpr (std::is_same_v<T, change::Camera>) scene.camera = c.after;
-        else if constexpr (std::is_same_v<T, change::Background>) scene.background = c.after;
-        else if constexpr (std::is_same_v<T, change::Light>) scene.lights[c.light] = c.after;
+        if constexpr (std::is_same_v<T, change::Settings>)
+          scene.shadows = c.after;
+        else if constexpr (std::is_same_v<T, change::Camera>)
+          scene.camera = c.after;
+        else if constexpr (std::is_same_v<T, change::Background>)
+          scene.background = c.after;
+        else if constexpr (std::is_same_v<T, change::Light>)
+          scene.lights[c.light] = c.after;
         else if constexpr (std::is_same_v<T, change::AddLight>)
           scene.lights.insert(scene.lights.begin() + ptrdiff_t(c.light), c.value);
         else if constexpr (std::is_same_v<T, change::RemoveLight>)
           scene.lights.erase(scene.lights.begin() + ptrdiff_t(c.light));
-        else if constexpr (std::is_same_v<T, change::Transform>) scene.objects[c.object].transform = c.after;
-        else if constexpr (std::is_same_v<T, change::Surface>) scene.objects[c.object].surface = c.after;
+        else if constexpr (std::is_same_v<T, change::Transform>)
+          scene.objects[c.object].transform = c.after;
+        else if constexpr (std::is_same_v<T, change::Surface>)
+          scene.objects[c.object].surface = c.after;
         else if constexpr (std::is_same_v<T, change::ObjectInterior>) {
           Object& o = scene.objects[c.object];
           o.interior = c.after.kind;
           o.sigma = c.after.sigma;
           o.volume = c.after.volume;
-        } else if constexpr (std::is_same_v<T, change::CastsShadows>) scene.objects[c.object].casts_shadows = c.after;
-        else scene.volumes[c.volume].transfer = c.after;
+        } else if constexpr (std::is_same_v<T, change::CastsShadows>)
+          scene.objects[c.object].casts_shadows = c.after;
+        else
+          scene.volumes[c.volume].transfer = c.after;
       },
       e.what);
 }
@@ -351,7 +378,7 @@ Invalidation invalidation_of(const Edit& e) {
         if constexpr (std::is_same_v<T, change::Settings>) {
           const ShadowSettings &a = c.before, &b = c.after;
           const uint32_t effects = changed_effects(a, b);
-          inv.maps = effects & kAffectsMaps                          ? Maps::All
+          inv.maps = effects & kAffectsMaps                        ? Maps::All
                      : effects & (kAffectsClusters | kAffectsPlan) ? Maps::Views
                                                                    : Maps::None;
         } else if constexpr (std::is_same_v<T, change::Camera>) {
@@ -399,8 +426,9 @@ std::string Invalidation::describe() const {
   switch (maps) {
     case Maps::None: m = "no map"; break;
     case Maps::Lights:
-      m = light_first == light_last ? "the maps of light " + std::to_string(light_first)
-                                    : "the maps of lights " + std::to_string(light_first) + "-" + std::to_string(light_last);
+      m = light_first == light_last
+              ? "the maps of light " + std::to_string(light_first)
+              : "the maps of lights " + std::to_string(light_first) + "-" + std::to_string(light_last);
       break;
     case Maps::Object: m = "the maps holding object " + std::to_string(object); break;
     case Maps::All: m = "every map"; break;

@@ -25,23 +25,48 @@ struct Interior {
 // The kinds of edit. Indices are into the document's arrays at the time the
 // edit applies (undo runs edits in reverse, so they hold).
 namespace change {
-struct Settings { ShadowSettings before, after; };
+struct Settings {
+  ShadowSettings before, after;
+};
 struct Camera {
   cdsm::Camera before, after;
   bool maps_follow = false;  // clustered (m > 1) or parallel-split maps when made: their frusta follow the camera
 };
-struct Background { Vec3 before, after; };
-struct Light { size_t light = 0; cdsm::Light before, after; };
+struct Background {
+  Vec3 before, after;
+};
+struct Light {
+  size_t light = 0;
+  cdsm::Light before, after;
+};
 struct AddLight {
   size_t light = 0;  // inserted here (the end for add_light; undoing a removal puts it back in its place)
   cdsm::Light value;
 };
-struct RemoveLight { size_t light = 0; cdsm::Light value; };  // the light removed
+struct RemoveLight {
+  size_t light = 0;
+  cdsm::Light value;
+};  // the light removed
 // `caster`: whether the object casts shadows (is in maps) when the edit is made.
-struct Transform { size_t object = 0; Mat4 before, after; bool caster = true; };
-struct Surface { size_t object = 0; SurfaceMaterial before, after; bool caster = true; };
-struct ObjectInterior { size_t object = 0; Interior before, after; bool caster = true; };
-struct CastsShadows { size_t object = 0; bool before = true, after = true; };
+struct Transform {
+  size_t object = 0;
+  Mat4 before, after;
+  bool caster = true;
+};
+struct Surface {
+  size_t object = 0;
+  SurfaceMaterial before, after;
+  bool caster = true;
+};
+struct ObjectInterior {
+  size_t object = 0;
+  Interior before, after;
+  bool caster = true;
+};
+struct CastsShadows {
+  size_t object = 0;
+  bool before = true, after = true;
+};
 struct Transfer {
   size_t volume = 0;
   std::vector<TransferPoint> before, after;
@@ -64,9 +89,9 @@ struct Edit {
   // another object already holds, a ninth light. History::apply refuses it.
   std::string refused;
 
-  bool structural() const;  // adds or removes a light
-  bool no_op() const;       // after equals before (bit for bit), or refused
-  Edit inverse() const;     // the edit that undoes this one
+  bool structural() const;       // adds or removes a light
+  bool no_op() const;            // after equals before (bit for bit), or refused
+  Edit inverse() const;          // the edit that undoes this one
   std::string describe() const;  // one line for menus and logs: "shadows/epsilon 0.01 -> 0.02"
 };
 

@@ -32,8 +32,7 @@ bool History::apply(Document& doc, Edit e, double now) {
   redo_.clear();
   Step* top = undo_.empty() ? nullptr : &undo_.back();
   const bool coalesce = top && !sealed_ && !e.structural() && !top->edit.structural() && top->edit.key == e.key &&
-                        top->edit.what.index() == e.what.index() &&
-                        (gesture_ || now - top->time < kCoalesceSeconds);
+                        top->edit.what.index() == e.what.index() && (gesture_ || now - top->time < kCoalesceSeconds);
   if (coalesce) {
     merge(top->edit, e);
     top->time = now;

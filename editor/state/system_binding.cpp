@@ -12,10 +12,10 @@ SystemBinding::SystemBinding(ShadowSystem& system, const Scene& scene) : system_
   system_.set_background(scene.background);
   for (const Volume& v : scene.volumes) volumes_.push_back(system_.add_volume(v));
   for (const Object& o : scene.objects)
-    objects_.push_back(system_.add_object(
-        o, o.interior == InteriorKind::Volume && o.volume >= 0 && size_t(o.volume) < volumes_.size()
-               ? volumes_[size_t(o.volume)]
-               : VolumeHandle{}));
+    objects_.push_back(
+        system_.add_object(o, o.interior == InteriorKind::Volume && o.volume >= 0 && size_t(o.volume) < volumes_.size()
+                                  ? volumes_[size_t(o.volume)]
+                                  : VolumeHandle{}));
   for (const Light& l : scene.lights) {
     lights_.push_back(system_.add_light(l));
     light_values_.push_back(l);
@@ -56,7 +56,8 @@ void SystemBinding::apply(const Edit& e, const Scene& scene_after) {
         } else if constexpr (std::is_same_v<T, change::Surface>) {
           system_.set_surface(objects_.at(c.object), c.after);
         } else if constexpr (std::is_same_v<T, change::ObjectInterior>) {
-          const VolumeHandle v = c.after.kind == InteriorKind::Volume ? volumes_.at(size_t(c.after.volume)) : VolumeHandle{};
+          const VolumeHandle v =
+              c.after.kind == InteriorKind::Volume ? volumes_.at(size_t(c.after.volume)) : VolumeHandle{};
           system_.set_interior(objects_.at(c.object), c.after.kind, c.after.sigma, v);
         } else if constexpr (std::is_same_v<T, change::CastsShadows>) {
           system_.set_casts_shadows(objects_.at(c.object), c.after);

@@ -49,10 +49,9 @@ const char* debug_severity_name(GLenum s) {
 }
 
 void APIENTRY debug_message(GLenum source, GLenum type, GLuint id, GLenum severity, GLsizei length,
-                              const GLchar* message, const void* /*user*/) {
+                            const GLchar* message, const void* /*user*/) {
   std::fprintf(stderr, "[gl %s/%s/%s %u] %.*s\n", debug_source_name(source), debug_type_name(type),
-               debug_severity_name(severity), id, length < 0 ? int(std::strlen(message)) : int(length),
-               message);
+               debug_severity_name(severity), id, length < 0 ? int(std::strlen(message)) : int(length), message);
 }
 
 std::string gl_string(GLenum name) {
@@ -142,8 +141,8 @@ bool Context::finish_setup(const std::string& platform_detail, std::string* reas
   std::string renderer = gl_string(GL_RENDERER), version = gl_string(GL_VERSION);
   if (major * 10 + minor < 45) {
     if (reason)
-      *reason = platform_detail + ": OpenGL " + std::to_string(major) + "." + std::to_string(minor) +
-                " (" + renderer + "), 4.5 core needed";
+      *reason = platform_detail + ": OpenGL " + std::to_string(major) + "." + std::to_string(minor) + " (" + renderer +
+                "), 4.5 core needed";
     return false;
   }
   glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &limits_.max_ssbo_block_size);
@@ -169,8 +168,7 @@ bool Context::finish_setup(const std::string& platform_detail, std::string* reas
     glEnable(GL_DEBUG_OUTPUT);
     glEnable(GL_DEBUG_OUTPUT_SYNCHRONOUS);  // messages point at the offending call
     glDebugMessageCallback(debug_message, this);
-    glDebugMessageControl(GL_DONT_CARE, GL_DONT_CARE, GL_DEBUG_SEVERITY_NOTIFICATION, 0, nullptr,
-                          GL_FALSE);
+    glDebugMessageControl(GL_DONT_CARE, GL_DONT_CARE, GL_DEBUG_SEVERITY_NOTIFICATION, 0, nullptr, GL_FALSE);
     glGetError();
     description_ += (flags & GL_CONTEXT_FLAG_DEBUG_BIT) ? " | debug" : " | debug output (no debug flag)";
   }

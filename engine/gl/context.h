@@ -55,9 +55,9 @@ struct Limits {
   int32_t max_framebuffer_height = 0;  // GL_MAX_FRAMEBUFFER_HEIGHT
   int32_t max_viewport_width = 0;      // GL_MAX_VIEWPORT_DIMS
   int32_t max_viewport_height = 0;
-  int32_t max_compute_groups_x = 0;    // GL_MAX_COMPUTE_WORK_GROUP_COUNT[0]
-  int32_t max_compute_groups_y = 0;    // GL_MAX_COMPUTE_WORK_GROUP_COUNT[1]
-  int32_t subpixel_bits = 0;           // GL_SUBPIXEL_BITS: window positions snap to 2^-bits pixel
+  int32_t max_compute_groups_x = 0;  // GL_MAX_COMPUTE_WORK_GROUP_COUNT[0]
+  int32_t max_compute_groups_y = 0;  // GL_MAX_COMPUTE_WORK_GROUP_COUNT[1]
+  int32_t subpixel_bits = 0;         // GL_SUBPIXEL_BITS: window positions snap to 2^-bits pixel
 };
 
 class Context {
@@ -113,14 +113,12 @@ class Context {
 // surfaceless platform (llvmpipe or a Mesa GPU), then software EGL devices.
 // Returns nullptr and sets `*reason` (every attempt and why it failed) when
 // no context can be made. Never throws, never aborts.
-std::unique_ptr<Context> create_headless_context(const ContextOptions& options = {},
-                                                 std::string* reason = nullptr);
+std::unique_ptr<Context> create_headless_context(const ContextOptions& options = {}, std::string* reason = nullptr);
 
 // A GL 4.5 core context in a GLFW window (needs a display: X11, or Xvfb via
 // xvfb-run), current on the calling thread. nullptr + `*reason` on failure
 // (no display, no GLFW in this build, GL < 4.5).
-std::unique_ptr<Context> create_window_context(const ContextOptions& options = {},
-                                               std::string* reason = nullptr);
+std::unique_ptr<Context> create_window_context(const ContextOptions& options = {}, std::string* reason = nullptr);
 
 // The application's context, current on the calling thread (made by GLFW,
 // SDL, Qt or its own EGL code), adopted: never made current, released or

@@ -45,7 +45,9 @@ const char* egl_error_name(EGLint e) {
   }
 }
 
-std::string egl_failure(const char* what) { return std::string(what) + " failed (" + egl_error_name(eglGetError()) + ")"; }
+std::string egl_failure(const char* what) {
+  return std::string(what) + " failed (" + egl_error_name(eglGetError()) + ")";
+}
 
 // Whole-word search in a space-separated extension string.
 bool has_extension(const char* list, const char* name) {
@@ -114,8 +116,7 @@ class EglContext final : public Context {
     }
     release_other_api();
     eglBindAPI(EGL_OPENGL_API);
-    if (!eglMakeCurrent(dpy_, EGL_NO_SURFACE, EGL_NO_SURFACE, ctx_))
-      throw Error("EGL", egl_failure("eglMakeCurrent"));
+    if (!eglMakeCurrent(dpy_, EGL_NO_SURFACE, EGL_NO_SURFACE, ctx_)) throw Error("EGL", egl_failure("eglMakeCurrent"));
     note_current();
   }
 
@@ -141,8 +142,8 @@ class EglContext final : public Context {
     }
     bool egl15 = major > 1 || (major == 1 && minor >= 5);
     if (!egl15 && !has_extension(ext, "EGL_KHR_create_context")) {
-      *reason = label + ": EGL " + std::to_string(major) + "." + std::to_string(minor) +
-                " without EGL_KHR_create_context";
+      *reason =
+          label + ": EGL " + std::to_string(major) + "." + std::to_string(minor) + " without EGL_KHR_create_context";
       return false;
     }
     if (!eglBindAPI(EGL_OPENGL_API)) {
@@ -161,9 +162,9 @@ class EglContext final : public Context {
         return false;
       }
     }
-    std::vector<EGLint> attribs = {EGL_CONTEXT_MAJOR_VERSION_KHR, 4, EGL_CONTEXT_MINOR_VERSION_KHR, 5,
-                                   EGL_CONTEXT_OPENGL_PROFILE_MASK_KHR,
-                                   EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT_KHR};
+    std::vector<EGLint> attribs = {EGL_CONTEXT_MAJOR_VERSION_KHR,       4,
+                                   EGL_CONTEXT_MINOR_VERSION_KHR,       5,
+                                   EGL_CONTEXT_OPENGL_PROFILE_MASK_KHR, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT_KHR};
     if (debug()) {
       if (egl15) {
         attribs.insert(attribs.end(), {EGL_CONTEXT_OPENGL_DEBUG, EGL_TRUE});
@@ -202,9 +203,7 @@ struct EglDeviceInfo {
 
 std::unique_ptr<Context> create_headless_context(const ContextOptions& options, std::string* reason) {
   std::string why;
-  auto fail = [&](const std::string& r) {
-    why += (why.empty() ? "" : "; ") + r;
-  };
+  auto fail = [&](const std::string& r) { why += (why.empty() ? "" : "; ") + r; };
   try {
     const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
     if (!client) {
@@ -213,8 +212,8 @@ std::unique_ptr<Context> create_headless_context(const ContextOptions& options, 
                   std::string(egl_error_name(eglGetError())) + "; no EGL vendor library?)";
       return nullptr;
     }
-    auto get_platform_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
-        eglGetProcAddress("eglGetPlatformDisplayEXT"));
+    auto get_platform_display =
+        reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
     if (!get_platform_display || !has_extension(client, "EGL_EXT_platform_base")) {
       if (reason) *reason = "no headless OpenGL 4.5 context: EGL without EGL_EXT_platform_base";
       return nullptr;
@@ -249,7 +248,8 @@ std::unique_ptr<Context> create_headless_context(const ContextOptions& options, 
           if (has_extension(dext, "EGL_EXT_device_query_name"))
             if (const char* r = query_string(list[size_t(i)], EGL_RENDERER_EXT)) info.name += " " + std::string(r);
           if (has_extension(dext, "EGL_EXT_device_drm"))
-            if (const char* f = query_string(list[size_t(i)], EGL_DRM_DEVICE_FILE_EXT)) info.name += " " + std::string(f);
+            if (const char* f = query_string(list[size_t(i)], EGL_DRM_DEVICE_FILE_EXT))
+              info.name += " " + std::string(f);
           if (info.software) info.name += " (software)";
           devices.push_back(info);
         }
@@ -264,8 +264,8 @@ std::unique_ptr<Context> create_headless_context(const ContextOptions& options, 
     std::stable_partition(devices.begin(), devices.end(), [](const EglDeviceInfo& d) { return d.cuda; });
     for (const EglDeviceInfo& d : devices) {
       if (d.software) continue;
-      if (auto c = try_display(get_platform_display(EGL_PLATFORM_DEVICE_EXT, d.device, nullptr),
-                               Platform::EglDevice, "EGL " + d.name))
+      if (auto c = try_display(get_platform_display(EGL_PLATFORM_DEVICE_EXT, d.device, nullptr), Platform::EglDevice,
+                               "EGL " + d.name))
         return c;
     }
     if (has_extension(client, "EGL_MESA_platform_surfaceless")) {
@@ -277,8 +277,8 @@ std::unique_ptr<Context> create_headless_context(const ContextOptions& options, 
     }
     for (const EglDeviceInfo& d : devices) {
       if (!d.software) continue;
-      if (auto c = try_display(get_platform_display(EGL_PLATFORM_DEVICE_EXT, d.device, nullptr),
-                               Platform::EglDevice, "EGL " + d.name))
+      if (auto c = try_display(get_platform_display(EGL_PLATFORM_DEVICE_EXT, d.device, nullptr), Platform::EglDevice,
+                               "EGL " + d.name))
         return c;
     }
   } catch (const std::exception& e) {

@@ -51,9 +51,12 @@ CurrentIdentity current_identity() { return {eglGetCurrentContext(), current_glx
 
 std::string describe(const CurrentIdentity& c) {
   char buf[96];
-  if (c.egl != EGL_NO_CONTEXT) std::snprintf(buf, sizeof buf, "EGL context %p", c.egl);
-  else if (c.glx) std::snprintf(buf, sizeof buf, "GLX context %p", c.glx);
-  else std::snprintf(buf, sizeof buf, "no context");
+  if (c.egl != EGL_NO_CONTEXT)
+    std::snprintf(buf, sizeof buf, "EGL context %p", c.egl);
+  else if (c.glx)
+    std::snprintf(buf, sizeof buf, "GLX context %p", c.glx);
+  else
+    std::snprintf(buf, sizeof buf, "no context");
   return buf;
 }
 
@@ -74,13 +77,16 @@ class ExternalContext final : public Context {
                   "no OpenGL context is current on this thread: make the context the shadow system was created on (" +
                       describe(id_) + ") current before calling it");
     throw Error("the application's GL context",
-                "another OpenGL context is current (" + describe(now) + ") than the one the shadow system was created on (" +
-                    describe(id_) + "): it was destroyed or switched; make the system's context current, or create the "
-                                    "system again on the new one");
+                "another OpenGL context is current (" + describe(now) +
+                    ") than the one the shadow system was created on (" + describe(id_) +
+                    "): it was destroyed or switched; make the system's context current, or create the "
+                    "system again on the new one");
   }
   void release() override {}  // the application's to release
 
-  bool setup(std::string* reason) { return finish_setup(std::string("application context (") + describe(id_) + ")", reason); }
+  bool setup(std::string* reason) {
+    return finish_setup(std::string("application context (") + describe(id_) + ")", reason);
+  }
 
  private:
   CurrentIdentity id_;

@@ -20,8 +20,19 @@ namespace {
 
 // Uniform locations and SSBO bindings of content/shaders/fragment_lists.glsl.
 enum Uniform : GLint {
-  kEye = 0, kRight = 1, kUp = 2, kForward = 3, kWindow = 4, kNearFar = 5, kSize = 6,
-  kRow0 = 7, kFragBase = 8, kPass = 9, kTriBase = 10, kClipZ = 11, kXShift = 12,
+  kEye = 0,
+  kRight = 1,
+  kUp = 2,
+  kForward = 3,
+  kWindow = 4,
+  kNearFar = 5,
+  kSize = 6,
+  kRow0 = 7,
+  kFragBase = 8,
+  kPass = 9,
+  kTriBase = 10,
+  kClipZ = 11,
+  kXShift = 12,
 };
 enum Binding : GLuint { kCounts = 0, kOffsets = 1, kFragments = 2, kNormals = 3, kMedia = 4 };
 
@@ -39,8 +50,8 @@ struct ObjectRun {
 
 // The draws of one bound range of the normal buffer.
 struct DrawChunk {
-  uint32_t tri_base = 0;   // first triangle of the bound normal range
-  uint32_t tri_count = 0;  // triangles in that range
+  uint32_t tri_base = 0;       // first triangle of the bound normal range
+  uint32_t tri_count = 0;      // triangles in that range
   std::vector<GLint> first;    // vertices
   std::vector<GLsizei> count;  // vertices
 };
@@ -67,13 +78,13 @@ struct FragmentRasterizer::Impl {
   PrefixSum scan;
   VertexArray vao{"cdsm.fragments.vao"};
   Framebuffer fbo{"cdsm.fragments.fbo"};
-  uint64_t uploaded = 0;  // bytes the last upload / update sent
-  Buffer vertices{"cdsm.fragments.vertices"};  // 3 x vec3 per triangle (vertex attribute 0)
+  uint64_t uploaded = 0;                         // bytes the last upload / update sent
+  Buffer vertices{"cdsm.fragments.vertices"};    // 3 x vec3 per triangle (vertex attribute 0)
   Buffer normals{"cdsm.fragments.tri_normals"};  // cross(B-A, C-A) per triangle
   Buffer media{"cdsm.fragments.tri_media"};      // bit per triangle: bounds a medium
-  Buffer counts{"cdsm.fragments.counts"};      // per band pixel; count, then fill cursor
-  Buffer offsets{"cdsm.fragments.offsets"};    // exclusive sums of counts, + total
-  Buffer pool{"cdsm.fragments.pool"};          // fragments of the current tile
+  Buffer counts{"cdsm.fragments.counts"};        // per band pixel; count, then fill cursor
+  Buffer offsets{"cdsm.fragments.offsets"};      // exclusive sums of counts, + total
+  Buffer pool{"cdsm.fragments.pool"};            // fragments of the current tile
 
   uint32_t tri_count = 0;
   std::vector<ObjectRun> runs;
@@ -83,7 +94,7 @@ struct FragmentRasterizer::Impl {
   uint32_t chunk_tris = 0;  // triangles per bound normal range
   int32_t fbo_width = 0, fbo_height = 0;
   RasterStats stats;
-  uint64_t pool_generation = 1;                  // a new pool buffer object: a new generation
+  uint64_t pool_generation = 1;                // a new pool buffer object: a new generation
   std::function<void(uint32_t)> release_hook;  // before the pool is deleted
   // The pool, once its old object (if any) was announced to the hook.
   void release_pool() noexcept {
@@ -100,8 +111,7 @@ struct FragmentRasterizer::Impl {
     CDSM_GL(glEnableVertexArrayAttrib(vao.id(), 0));
     CDSM_GL(glVertexArrayAttribFormat(vao.id(), 0, 3, GL_FLOAT, GL_FALSE, 0));
     CDSM_GL(glVertexArrayAttribBinding(vao.id(), 0, 0));
-    pool.reserve(std::min<uint64_t>(std::max<uint64_t>(options.initial_pool_bytes, kFragmentBytes),
-                                    max_pool_bytes()));
+    pool.reserve(std::min<uint64_t>(std::max<uint64_t>(options.initial_pool_bytes, kFragmentBytes), max_pool_bytes()));
     stats.pool_bytes = pool.capacity();
     const uint32_t no_media = 0;
     media.reserve(sizeof(no_media));
@@ -361,8 +371,7 @@ void FragmentRasterizer::Impl::rasterize(const PinholeView& view, ObjectMask mas
   context.make_current();
   const Limits& lim = context.limits();
   const int32_t W = view.width, H = view.height;
-  if (W <= 0 || H <= 0)
-    throw Error(kWhere, "view of " + std::to_string(W) + "x" + std::to_string(H) + " pixels");
+  if (W <= 0 || H <= 0) throw Error(kWhere, "view of " + std::to_string(W) + "x" + std::to_string(H) + " pixels");
   if (W > std::min(lim.max_framebuffer_width, lim.max_viewport_width) ||
       H > std::min(lim.max_framebuffer_height, lim.max_viewport_height))
     throw Error(kWhere, "view of " + std::to_string(W) + "x" + std::to_string(H) +
@@ -420,10 +429,11 @@ void FragmentRasterizer::Impl::rasterize(const PinholeView& view, ObjectMask mas
       const std::string band = "rows " + std::to_string(r0) + ".." + std::to_string(r1 - 1) + " of a " +
                                std::to_string(W) + "x" + std::to_string(H) + " view: the counts sum to " +
                                std::to_string(sum) + " (largest " + std::to_string(largest) + " at pixel (" +
-                               std::to_string(at % uint64_t(W)) + ", " + std::to_string(r0 + int32_t(at / uint64_t(W))) +
-                               "))";
+                               std::to_string(at % uint64_t(W)) + ", " +
+                               std::to_string(r0 + int32_t(at / uint64_t(W))) + "))";
       if (sum > 0xffffffffull) throw Error(kWhere, "more than 2^32-1 fragments in one band of the view: " + band);
-      throw Error(kWhere, "internal: the prefix sum reported a carry out of 32 bits that the counts do not have; " + band);
+      throw Error(kWhere,
+                  "internal: the prefix sum reported a carry out of 32 bits that the counts do not have; " + band);
     }
     uint32_t* band_offsets = out.offsets.data() + uint64_t(r0) * uint64_t(W);
     offsets.download(band_offsets, (n + 1) * 4);
@@ -465,8 +475,10 @@ void FragmentRasterizer::Impl::rasterize(const PinholeView& view, ObjectMask mas
         draw();
         sync("fill");
         CDSM_GL(glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT));
-        if (sink) (*sink)(total + off(p), tile_fragments, pool.id(), pool.capacity(), pool_generation);
-        else pool.download(out.fragments.data() + total + off(p), tile_fragments * kFragmentBytes);
+        if (sink)
+          (*sink)(total + off(p), tile_fragments, pool.id(), pool.capacity(), pool_generation);
+        else
+          pool.download(out.fragments.data() + total + off(p), tile_fragments * kFragmentBytes);
       }
       p = end;
     }
@@ -508,7 +520,8 @@ void FragmentRasterizer::rasterize(const PinholeView& view, ObjectMask mask, Fra
   impl_->rasterize(view, mask, out, nullptr);
 }
 
-void FragmentRasterizer::rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out, const TileSink& sink) {
+void FragmentRasterizer::rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out,
+                                   const TileSink& sink) {
   out.fragments.clear();
   impl_->rasterize(view, mask, out, &sink);
 }

@@ -53,13 +53,13 @@ namespace cdsm::gl {
 class Context;
 
 struct RasterStats {
-  uint64_t fragments = 0;     // fragments produced by the last rasterize()
-  uint32_t tiles = 0;         // tiles the view was split into
-  uint32_t pool_grows = 0;    // times the node pool grew (cumulative)
-  uint64_t pool_bytes = 0;    // current fragment pool size
-  double gpu_ms = 0.0;        // count+scan+fill, wall clock incl. read-back
-  uint32_t bands = 0;         // count passes of the last call (> 1 only when the
-                              // per-pixel counters of the whole view exceed one SSBO)
+  uint64_t fragments = 0;   // fragments produced by the last rasterize()
+  uint32_t tiles = 0;       // tiles the view was split into
+  uint32_t pool_grows = 0;  // times the node pool grew (cumulative)
+  uint64_t pool_bytes = 0;  // current fragment pool size
+  double gpu_ms = 0.0;      // count+scan+fill, wall clock incl. read-back
+  uint32_t bands = 0;       // count passes of the last call (> 1 only when the
+                            // per-pixel counters of the whole view exceed one SSBO)
 };
 
 struct RasterOptions {

@@ -43,9 +43,9 @@ void label_object(GLenum identifier, GLuint name, std::string_view label);
 //   CDSM_GL(glBindBuffer(GL_ARRAY_BUFFER, b));        // statement
 //   GLuint s = CDSM_GLV(glCreateShader(GL_VERTEX_SHADER));  // value
 // On error they throw cdsm::Error naming the call, the file and the line.
-#define CDSM_GL(call)                                              \
-  do {                                                             \
-    call;                                                          \
-    ::cdsm::gl::detail::check_gl(#call, __FILE__, __LINE__);       \
+#define CDSM_GL(call)                                        \
+  do {                                                       \
+    call;                                                    \
+    ::cdsm::gl::detail::check_gl(#call, __FILE__, __LINE__); \
   } while (0)
 #define CDSM_GLV(call) ::cdsm::gl::detail::checked((call), #call, __FILE__, __LINE__)

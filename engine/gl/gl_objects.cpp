@@ -27,8 +27,8 @@ void Buffer::download(void* dst, uint64_t bytes, uint64_t offset) const {
 
 void Buffer::clear(uint64_t bytes, uint64_t offset) {
   if (bytes == 0) return;
-  CDSM_GL(glClearNamedBufferSubData(id_, GL_R32UI, GLintptr(offset), GLsizeiptr(bytes), GL_RED_INTEGER,
-                                    GL_UNSIGNED_INT, nullptr));
+  CDSM_GL(glClearNamedBufferSubData(id_, GL_R32UI, GLintptr(offset), GLsizeiptr(bytes), GL_RED_INTEGER, GL_UNSIGNED_INT,
+                                    nullptr));
 }
 
 void Buffer::destroy() noexcept {

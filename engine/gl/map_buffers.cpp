@@ -79,7 +79,8 @@ GlMapWrite MapBuffers::prepare_array(int b, uint64_t bytes, bool full, MapUpload
   if (bytes > max_block_)
     throw Error(std::string("GL map buffers: ") + block_name(MapBlock(b)),
                 "the frame's maps need " + mib(bytes) + " in one storage block, more than this GL implementation's " +
-                    "largest (" + mib(max_block_) + ", GL_MAX_SHADER_STORAGE_BLOCK_SIZE): lower the map resolution or " +
+                    "largest (" + mib(max_block_) +
+                    ", GL_MAX_SHADER_STORAGE_BLOCK_SIZE): lower the map resolution or " +
                     "the number of clusters, or raise epsilon");
   Buffer& buf = buffers_[b];
   GlMapWrite w;
@@ -97,7 +98,8 @@ GlMapWrite MapBuffers::prepare_array(int b, uint64_t bytes, bool full, MapUpload
   } else if (bytes > used_[b]) {
     if (bytes > buf.capacity()) {  // grow, keeping the contents (a GL-side copy)
       const uint64_t grown =
-          (std::min(std::max(bytes, buf.capacity() + buf.capacity() / 2), std::max(max_block_, bytes)) + 3) & ~uint64_t(3);
+          (std::min(std::max(bytes, buf.capacity() + buf.capacity() / 2), std::max(max_block_, bytes)) + 3) &
+          ~uint64_t(3);
       Buffer next(buf.label());
       next.reserve(grown);
       if (used_[b] > 0) {
@@ -123,8 +125,14 @@ MapUploadStats MapBuffers::sync(const ShadowView& view, uint64_t epoch, const De
   MapUploadStats st;
   const DsmStorage& s = view.storage;
   st.full = !synced_ || epoch != epoch_ || s.layout != layout_;
-  const void* data[kMapBlocks] = {nullptr,           s.texels.data(),     s.nodes.data(),     s.chunks.data(),
-                                  s.rgb_texels.data(), s.rgb_nodes.data(), s.rgb_chunks.data(), s.tags.data(),
+  const void* data[kMapBlocks] = {nullptr,
+                                  s.texels.data(),
+                                  s.nodes.data(),
+                                  s.chunks.data(),
+                                  s.rgb_texels.data(),
+                                  s.rgb_nodes.data(),
+                                  s.rgb_chunks.data(),
+                                  s.tags.data(),
                                   s.rgb_tags.data()};
   const uint64_t bytes[kMapBlocks] = {0,
                                       bytes_of(s.texels),

@@ -37,11 +37,11 @@ class Context;
 // The head of the CdsmFrame block (std430): then `map_count` DsmMap.
 struct FrameBlockHeader {
   DsmLayout layout;
-  uint32_t layers;        // fixed: node slots per texel
-  uint32_t filtering;     // 1: bilinear taps
+  uint32_t layers;     // fixed: node slots per texel
+  uint32_t filtering;  // 1: bilinear taps
   ReceiverLookup receiver;
-  float bias_constant;    // casters' offset from their own plane, world units
-  float bias_slope;       // + texel footprints
+  float bias_constant;  // casters' offset from their own plane, world units
+  float bias_slope;     // + texel footprints
   uint32_t light_count;
   uint32_t map_count;
   LightData lights[kMaxLights];  // lights[i] owns maps [first_map, first_map + map_count)
@@ -56,10 +56,10 @@ static_assert(kMapBlocks == 1 + kStorageArrays, "the frame block, then the stora
 const char* block_name(MapBlock b);  // "CdsmFrame", ...
 
 struct MapUploadStats {
-  uint64_t upload_bytes = 0;   // host -> GL bytes of this sync
-  uint64_t device_bytes = 0;   // array bytes the DeviceWriter wrote (no host traffic)
-  uint64_t copy_bytes = 0;     // GL-side copies of grown buffers
-  bool full = false;           // every array uploaded (new epoch or first sync)
+  uint64_t upload_bytes = 0;     // host -> GL bytes of this sync
+  uint64_t device_bytes = 0;     // array bytes the DeviceWriter wrote (no host traffic)
+  uint64_t copy_bytes = 0;       // GL-side copies of grown buffers
+  bool full = false;             // every array uploaded (new epoch or first sync)
   uint64_t allocated_bytes = 0;  // all blocks' buffers
   uint64_t used_bytes = 0;       // of which holding data
 };
@@ -115,9 +115,9 @@ class MapBuffers {
   Buffer buffers_[kMapBlocks];
   uint64_t used_[kMapBlocks] = {};  // bytes holding data
   uint64_t generation_[kMapBlocks] = {};
-  uint64_t epoch_ = 0;              // of the last sync (0: none yet)
+  uint64_t epoch_ = 0;  // of the last sync (0: none yet)
   DsmLayout layout_ = DsmLayout::Packed;
-  bool synced_ = false;  // a sync has run (the first one is full)
+  bool synced_ = false;               // a sync has run (the first one is full)
   std::vector<unsigned char> frame_;  // the frame block last uploaded
   ReleaseHook release_hook_;
 };

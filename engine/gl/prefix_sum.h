@@ -28,7 +28,7 @@ class PrefixSum {
 
   static constexpr uint64_t kBlock = 1024;  // values per workgroup (256 threads x 4)
 
- // Drops every GL name without deleting it (its context is not current).
+  // Drops every GL name without deleting it (its context is not current).
   void forget() noexcept;
 
  private:

@@ -37,8 +37,7 @@ std::string with_defines(const std::string& text, const std::string& defines) {
   if (eol == std::string::npos) return text + "\n" + defines;
   int version_line = 1;
   for (size_t i = 0; i < eol; ++i) version_line += text[i] == '\n';
-  return text.substr(0, eol + 1) + defines + "#line " + std::to_string(version_line + 1) + "\n" +
-         text.substr(eol + 1);
+  return text.substr(0, eol + 1) + defines + "#line " + std::to_string(version_line + 1) + "\n" + text.substr(eol + 1);
 }
 
 std::string shader_log(GLuint shader) {
@@ -59,8 +58,7 @@ std::string program_log(GLuint program) {
 
 }  // namespace
 
-Program build_program(const std::string& label, std::initializer_list<ShaderStage> stages,
-                      const std::string& defines) {
+Program build_program(const std::string& label, std::initializer_list<ShaderStage> stages, const std::string& defines) {
   Program program(label);
   std::vector<Shader> shaders;
   std::string files;

@@ -16,8 +16,8 @@
 namespace cdsm::gl {
 
 struct ShaderStage {
-  GLenum stage;      // GL_VERTEX_SHADER, GL_FRAGMENT_SHADER, GL_COMPUTE_SHADER
-  const char* file;  // name in content/shaders/, e.g. "fragment_lists.glsl"
+  GLenum stage;              // GL_VERTEX_SHADER, GL_FRAGMENT_SHADER, GL_COMPUTE_SHADER
+  const char* file;          // name in content/shaders/, e.g. "fragment_lists.glsl"
   const char* defines = "";  // this stage only, e.g. "#define VERTEX_STAGE 1\n"
 };
 

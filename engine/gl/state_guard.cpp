@@ -3,7 +3,7 @@
 namespace cdsm::gl {
 
 namespace {
-constexpr GLenum kCapList[] = {GL_SCISSOR_TEST, GL_DEPTH_CLAMP, GL_CLIP_DISTANCE0,      GL_DEPTH_TEST,
+constexpr GLenum kCapList[] = {GL_SCISSOR_TEST, GL_DEPTH_CLAMP, GL_CLIP_DISTANCE0,     GL_DEPTH_TEST,
                                GL_CULL_FACE,    GL_BLEND,       GL_RASTERIZER_DISCARD, GL_MULTISAMPLE};
 }  // namespace
 
@@ -40,8 +40,10 @@ StateGuard::~StateGuard() {
   glPolygonMode(GL_FRONT_AND_BACK, GLenum(polygon_mode_[0]));
   glColorMaski(0, color_mask_[0], color_mask_[1], color_mask_[2], color_mask_[3]);
   for (int i = 0; i < kCaps; ++i) {
-    if (enabled_[i]) glEnable(kCapList[i]);
-    else glDisable(kCapList[i]);
+    if (enabled_[i])
+      glEnable(kCapList[i]);
+    else
+      glDisable(kCapList[i]);
   }
   for (int i = 0; i < kSavedStorageBindings; ++i) {
     if (ssbo_[i] != 0 && ssbo_size_[i] > 0)

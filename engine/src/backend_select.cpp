@@ -79,8 +79,8 @@ GlProbe probe_gl(GlUse use, const DeviceProbe& d) {
   ctx->release();
   return g;
 #else
-  // A CUDA build without CUDA-GL interop (no GL headers when configured), or
-  // without GL: a context the frame uses cannot be checked, nor shared.
+    // A CUDA build without CUDA-GL interop (no GL headers when configured), or
+    // without GL: a context the frame uses cannot be checked, nor shared.
 #if CDSM_HAVE_GL
   g.placement = GlPlacement::Elsewhere;
   g.context = "a context this build cannot share with CUDA (built without CUDA-GL interop)";
@@ -129,11 +129,9 @@ GlUse default_gl_use() {
 GlUse gl_use_of(FragmentSource fragments) {
   switch (fragments) {
     case FragmentSource::Cpu:
-    case FragmentSource::Cuda:
-      return GlUse::None;
+    case FragmentSource::Cuda: return GlUse::None;
     case FragmentSource::Gl:
-    case FragmentSource::Auto:
-      break;
+    case FragmentSource::Auto: break;
   }
   return default_gl_use();
 }
@@ -162,8 +160,7 @@ BackendResolution resolve_backend(Backend want, GlUse gl) {
       r.reason = d.description;
       return r;
     }
-    case Backend::Auto:
-      break;
+    case Backend::Auto: break;
   }
   const DeviceProbe d = probe_cuda();
   return decide_auto_backend(d, probe_gl(gl, d));
@@ -172,7 +169,8 @@ BackendResolution resolve_backend(Backend want, GlUse gl) {
 BackendChoice make_backend(Backend want, GlUse gl) {
   const BackendResolution r = resolve_backend(want, gl);
   if (r.backend == Backend::Reference)
-    throw Error("backend", "the reference renderer builds no shadow maps: a shadow system needs the cpu or cuda backend");
+    throw Error("backend",
+                "the reference renderer builds no shadow maps: a shadow system needs the cpu or cuda backend");
   if (!r.available) throw Error("backend cuda", r.reason);
   BackendChoice c;
   c.name = r.name;

@@ -56,7 +56,7 @@ struct BackendChoice {
 // (Cuda without a device; Reference draws no maps).
 // `gl`: which GL context the frame uses (Auto only; default_gl_use() when
 // not said).
-GlUse default_gl_use();  // Headless in builds with GL, else None
+GlUse default_gl_use();                     // Headless in builds with GL, else None
 GlUse gl_use_of(FragmentSource fragments);  // Cpu, Cuda: None; Gl, Auto: default_gl_use()
 BackendChoice make_backend(Backend want, GlUse gl = default_gl_use());
 

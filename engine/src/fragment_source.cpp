@@ -49,7 +49,8 @@ void FragmentSourceSelector::choose(FragmentSource want, std::string& name, std:
   use_cuda_ = false;
   if (want == FragmentSource::Cuda) {
     if (std::string(backend_->name()) != "cuda")
-      throw Error("--fragments cuda", "the CUDA fragment producer runs on the cuda backend (--backend cuda, on a CUDA device)");
+      throw Error("--fragments cuda",
+                  "the CUDA fragment producer runs on the cuda backend (--backend cuda, on a CUDA device)");
     use_cuda_ = true;
     name_ = "cuda";
     reason_ = "requested (the ray caster launched on the CUDA device)";
@@ -83,7 +84,9 @@ void FragmentSourceSelector::choose(FragmentSource want, std::string& name, std:
     if (gl_) {
       use_gl_ = true;
       name_ = "gl";
-      reason_ = std::string(want == FragmentSource::Gl ? "requested, " : external_ ? "the application's context, " : "default when a context exists, ") +
+      reason_ = std::string(want == FragmentSource::Gl ? "requested, "
+                            : external_                ? "the application's context, "
+                                                       : "default when a context exists, ") +
                 gl_->context->description();
     } else {
       if (want == FragmentSource::Gl) throw Error("--fragments gl", "no OpenGL context: " + gl_failure_);
@@ -91,7 +94,8 @@ void FragmentSourceSelector::choose(FragmentSource want, std::string& name, std:
       reason_ = "no OpenGL context (" + gl_failure_ + "), using the CPU ray caster";
     }
 #else
-    if (want == FragmentSource::Gl) throw Error("--fragments gl", "this build has no OpenGL (configured with CDSM_GL=OFF)");
+    if (want == FragmentSource::Gl)
+      throw Error("--fragments gl", "this build has no OpenGL (configured with CDSM_GL=OFF)");
     name_ = "cpu";
     reason_ = "built without OpenGL (CDSM_GL=OFF)";
 #endif
@@ -123,7 +127,8 @@ uint64_t FragmentSourceSelector::scene_changed(const SceneBuffers& sb, const Sce
 FragmentProducer FragmentSourceSelector::producer(const SceneBuffers& sb) const {
   if (use_cuda_) {
     // The backend's ray caster: the lists never leave the device.
-    return [](ShadowBackend& backend, const PinholeView& view, ObjectMask mask) { return backend.cast_lists(view, mask); };
+    return
+        [](ShadowBackend& backend, const PinholeView& view, ObjectMask mask) { return backend.cast_lists(view, mask); };
   }
 #if CDSM_HAVE_GL
   if (use_gl_) {
@@ -135,9 +140,8 @@ FragmentProducer FragmentSourceSelector::producer(const SceneBuffers& sb) const 
       // backend, CUDA-GL interop): each tile copied there on the device,
       // nothing read back.
       if (backend.can_write_gl_maps())
-        return backend.lists_from_gl([&](const ShadowBackend::GlTileSink& sink, FragmentBuffers& out) {
-          r->rasterize(view, mask, out, sink);
-        });
+        return backend.lists_from_gl(
+            [&](const ShadowBackend::GlTileSink& sink, FragmentBuffers& out) { r->rasterize(view, mask, out, sink); });
       // Else read back once per view and handed over (moved in on the cpu
       // backend).
       FragmentBuffers fb;

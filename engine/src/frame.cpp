@@ -115,8 +115,8 @@ PinholeView camera_view(const Camera& cam) {
   return v;
 }
 
-PinholeView light_view(Vec3 eye, Vec3 forward, Vec3 up_hint, float tan_half, int res, int guard,
-                       float near, float far) {
+PinholeView light_view(Vec3 eye, Vec3 forward, Vec3 up_hint, float tan_half, int res, int guard, float near,
+                       float far) {
   PinholeView v;
   v.eye = eye;
   v.forward = normalize(forward);
@@ -160,8 +160,8 @@ LightSetup setup_lights(const std::vector<Light>& lights, const SceneBuffers& sb
       ld.map_mode = MapMode::CubeFaces;
     } else {
       float tan_half = std::tan(l.outer_cone_deg * 3.14159265f / 180.0f);
-      ls.maps.push_back({light_view(l.position, ld.direction, {0, 1, 0}, tan_half, res, 1, near, far),
-                         uint32_t(li), casters});
+      ls.maps.push_back(
+          {light_view(l.position, ld.direction, {0, 1, 0}, tan_half, res, 1, near, far), uint32_t(li), casters});
       ld.map_count = 1;
       ld.map_mode = MapMode::Combine;
     }
@@ -170,9 +170,7 @@ LightSetup setup_lights(const std::vector<Light>& lights, const SceneBuffers& sb
   return ls;
 }
 
-DsmLayoutParams dsm_layout_params(const ShadowSettings& s) {
-  return {s.layout, s.fixed_layers, s.chunk_nodes};
-}
+DsmLayoutParams dsm_layout_params(const ShadowSettings& s) { return {s.layout, s.fixed_layers, s.chunk_nodes}; }
 
 void ShadowFrame::refresh_headers() {
   headers.clear();
@@ -212,8 +210,7 @@ void replace_light_maps(LightSetup& ls, size_t li, const std::vector<MapPlan>& m
 }
 
 // Replaces the light's unclustered maps with one focused map per cluster.
-void cluster_light(const FrameInputs& in, size_t li, const LightClusters* previous, LightSetup& ls,
-                   LightClusters& lc) {
+void cluster_light(const FrameInputs& in, size_t li, const LightClusters* previous, LightSetup& ls, LightClusters& lc) {
   const SceneBuffers& sb = *in.scene;
   const ShadowSettings& s = in.settings;
   std::vector<cluster::Caster> casters;
@@ -350,9 +347,9 @@ uint64_t fragment_key(const MapPlan& plan, const FrameInputs& in) {
 // casters in its window, the largest one's extent in texels and the texel's
 // world size at the nearest one.
 struct CasterTexels {
-  int casters = 0;         // members whose box lies (partly) in the map's window
-  float largest = 0.0f;    // the largest projected extent among them, texels
-  float texel = 0.0f;      // world size of a texel at the nearest of them
+  int casters = 0;       // members whose box lies (partly) in the map's window
+  float largest = 0.0f;  // the largest projected extent among them, texels
+  float texel = 0.0f;    // world size of a texel at the nearest of them
 };
 
 CasterTexels caster_texels(const MapPlan& plan, const SceneBuffers& sb) {
@@ -417,11 +414,12 @@ void warn_subtexel_casters(const FrameInputs& in, ShadowFrame& frame) {
     const std::string maps =
         ld.map_count == 1 ? "its map" : std::to_string(small) + " of its " + std::to_string(ld.map_count) + " maps";
     char text[512];
-    std::snprintf(text, sizeof text,
-                  "%s: every shadow caster in %s is smaller than a texel (%dx%d texels; a texel is %.3g world units wide at "
-                  "the casters, the largest caster covers %.2g of one), so they cast almost no shadow; use more clusters "
-                  "(/shadows/clusters, now %d) or a higher resolution (/shadows/resolution)",
-                  light.c_str(), maps.c_str(), res, res, double(texel), double(largest), in.settings.max_clusters);
+    std::snprintf(
+        text, sizeof text,
+        "%s: every shadow caster in %s is smaller than a texel (%dx%d texels; a texel is %.3g world units wide at "
+        "the casters, the largest caster covers %.2g of one), so they cast almost no shadow; use more clusters "
+        "(/shadows/clusters, now %d) or a higher resolution (/shadows/resolution)",
+        light.c_str(), maps.c_str(), res, res, double(texel), double(largest), in.settings.max_clusters);
     frame.warnings.push_back(text);
   }
 }
@@ -447,8 +445,8 @@ void MapCache::clear(ShadowBackend& backend) {
   fragments.clear();
 }
 
-void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, ShadowBackend& backend,
-                        MapCache& cache, ShadowFrame& frame) {
+void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, ShadowBackend& backend, MapCache& cache,
+                        ShadowFrame& frame) {
   const SceneBuffers& sb = *in.scene;
   SceneView sv = sb.view();
   frame = ShadowFrame{};
@@ -518,7 +516,8 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
   // Replaced maps are released before new ones are built (a layout change
   // needs an empty store), or kept one frame for the popping probe.
   const DsmLayoutParams layout = dsm_layout_params(s);
-  const bool layout_changed = layout.layout != cache.layout.layout || layout.fixed_layers != cache.layout.fixed_layers ||
+  const bool layout_changed = layout.layout != cache.layout.layout ||
+                              layout.fixed_layers != cache.layout.fixed_layers ||
                               layout.chunk_nodes != cache.layout.chunk_nodes;
   frame.previous_kept = in.keep_previous && !layout_changed;
   // From here on a failure (a build refused by the memory budget, an
@@ -648,8 +647,8 @@ FrameInputs frame_inputs(const Scene& scene, const SceneBuffers& sb) {
 ShadowCache::ShadowCache() : backend(make_cpu_backend()) {}
 ShadowCache::~ShadowCache() = default;
 
-void build_shadow_frame(const Scene& scene, const SceneBuffers& sb, const FragmentProducer& produce,
-                        ShadowCache& cache, ShadowFrame& frame) {
+void build_shadow_frame(const Scene& scene, const SceneBuffers& sb, const FragmentProducer& produce, ShadowCache& cache,
+                        ShadowFrame& frame) {
   cache.backend->update_scene(sb, SceneChange::all());
   build_shadow_frame(frame_inputs(scene, sb), produce, *cache.backend, cache.maps, frame);
 }

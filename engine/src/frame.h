@@ -37,8 +37,7 @@ PinholeView camera_view(const Camera& cam);
 // A view from `eye` along `forward` with a square window of half-angle
 // atan(tan_half); `up_hint` picks the roll. The window is widened by
 // `guard` texels per side so bilinear taps at its border stay inside.
-PinholeView light_view(Vec3 eye, Vec3 forward, Vec3 up_hint, float tan_half, int res, int guard,
-                       float near, float far);
+PinholeView light_view(Vec3 eye, Vec3 forward, Vec3 up_hint, float tan_half, int res, int guard, float near, float far);
 
 // The six 90-degree faces +X,-X,+Y,-Y,+Z,-Z of an omni light (one-texel guard band).
 std::vector<PinholeView> cube_face_views(Vec3 eye, int res, float near, float far);
@@ -69,16 +68,16 @@ LightSetup setup_lights(const std::vector<Light>& lights, const SceneBuffers& sb
 // Per light, the clusters of the current frame (for hysteresis and stats).
 struct LightClusters {
   cluster::Clustering clustering;
-  bool clustered = false;        // false: m = 1, or fell back to unclustered maps
-  std::string fallback_reason;   // why clustering fell back
+  bool clustered = false;       // false: m = 1, or fell back to unclustered maps
+  std::string fallback_reason;  // why clustering fell back
 };
 
 // What one frame's maps are built from, besides the compiled scene.
 struct FrameInputs {
   const SceneBuffers* scene = nullptr;
   std::vector<Light> lights;
-  std::vector<uint64_t> light_ids;     // per light: a stable identity (handles)
-  std::vector<uint64_t> object_ids;    // per compiled object: a stable identity
+  std::vector<uint64_t> light_ids;           // per light: a stable identity (handles)
+  std::vector<uint64_t> object_ids;          // per compiled object: a stable identity
   std::vector<uint64_t> object_generations;  // per compiled object: its content generation
   Camera camera;
   ShadowSettings settings;
@@ -104,8 +103,8 @@ struct MapCache {
     DsmBuildStats stats;
     // Its slot, to tell why a replacement was built.
     uint64_t light_id = 0;
-    uint32_t slot = 0;              // map index within its light
-    uint64_t light_hash = 0;        // the light's kernel data
+    uint32_t slot = 0;        // map index within its light
+    uint64_t light_hash = 0;  // the light's kernel data
     uint64_t settings_hash = 0;
     PinholeView view{};
     std::vector<uint64_t> member_ids;
@@ -117,7 +116,7 @@ struct MapCache {
     uint64_t signature = 0;  // a change drops the hysteresis
   };
   std::unordered_map<uint64_t, LightState> lights;  // by light identity
-  DsmLayoutParams layout;  // of the stored maps
+  DsmLayoutParams layout;                           // of the stored maps
   // Unsorted fragment lists of the last frame's maps (keep_fragments), held
   // by the backend.
   struct KeptFragments {
@@ -133,14 +132,14 @@ struct MapCache {
 
 struct ShadowFrame {
   LightSetup setup;
-  std::vector<LightClusters> clusters;  // per light
-  std::vector<MapId> maps;              // per map: the backend's map
-  std::vector<DsmMap> headers;          // per map: its header (refreshed by refresh_headers)
-  std::vector<DsmBuildStats> map_stats; // per map (reused maps: their build's stats)
-  std::vector<uint8_t> map_rebuilt;     // per map: built this frame
-  std::vector<MapRebuild> rebuilds;     // why each rebuilt map was rebuilt
+  std::vector<LightClusters> clusters;   // per light
+  std::vector<MapId> maps;               // per map: the backend's map
+  std::vector<DsmMap> headers;           // per map: its header (refreshed by refresh_headers)
+  std::vector<DsmBuildStats> map_stats;  // per map (reused maps: their build's stats)
+  std::vector<uint8_t> map_rebuilt;      // per map: built this frame
+  std::vector<MapRebuild> rebuilds;      // why each rebuilt map was rebuilt
   uint32_t rebuilt = 0, reused = 0, freed = 0;
-  bool previous_kept = false;           // the last frame's maps are all still stored (popping probe)
+  bool previous_kept = false;  // the last frame's maps are all still stored (popping probe)
   double fragments_ms = 0.0;
   uint32_t fragment_lists_reused = 0;  // rebuilt maps whose lists came from MapCache::fragments
   uint64_t fragment_cache_bytes = 0;   // MapCache::fragments after this frame
@@ -162,8 +161,8 @@ struct ShadowFrame {
 // settings.max_clusters > 1, one focused map per cluster (thesis Alg. 4.2).
 // Maps whose key is in `cache` are reused; the others are built by
 // `backend` and replaced ones freed; the cache is updated.
-void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, ShadowBackend& backend,
-                        MapCache& cache, ShadowFrame& frame);
+void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, ShadowBackend& backend, MapCache& cache,
+                        ShadowFrame& frame);
 
 // The frame inputs of a whole scene compiled at once (compile_scene):
 // objects and lights identified by their index + 1, generation 1.
@@ -181,7 +180,7 @@ struct ShadowCache {
 };
 
 // build_shadow_frame() of a whole scene on `cache`'s cpu backend.
-void build_shadow_frame(const Scene& scene, const SceneBuffers& sb, const FragmentProducer& produce,
-                        ShadowCache& cache, ShadowFrame& frame);
+void build_shadow_frame(const Scene& scene, const SceneBuffers& sb, const FragmentProducer& produce, ShadowCache& cache,
+                        ShadowFrame& frame);
 
 }  // namespace cdsm

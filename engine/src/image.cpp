@@ -49,8 +49,7 @@ Image error_heatmap(const Image& a, const Image& b, float full_scale) {
   h.rgb.resize(a.rgb.size());
   for (size_t p = 0; p < size_t(a.width) * a.height; ++p) {
     float e = 0.0f;
-    for (int c = 0; c < 3; ++c)
-      e = std::max(e, std::fabs(to_srgb(a.rgb[3 * p + c]) - to_srgb(b.rgb[3 * p + c])));
+    for (int c = 0; c < 3; ++c) e = std::max(e, std::fabs(to_srgb(a.rgb[3 * p + c]) - to_srgb(b.rgb[3 * p + c])));
     float t = std::clamp(e / full_scale, 0.0f, 1.0f);
     // black -> blue -> red -> yellow
     float r = std::clamp(2.0f * t - 0.5f, 0.0f, 1.0f), g = std::clamp(2.0f * t - 1.2f, 0.0f, 1.0f) * 1.25f,

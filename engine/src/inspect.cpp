@@ -42,9 +42,13 @@ PinholeView texel_view(const PinholeView& v, int tx, int ty) {
 // alpha per channel just before / at z (lookup_alpha) and just after z
 // (a grey list: its one value in every channel).
 template <int N>
-Vec3 alpha_before_in_colour(Span<const DsmNodeN<N>> n, float z) { return to_rgb(lookup_alpha(n, z)); }
+Vec3 alpha_before_in_colour(Span<const DsmNodeN<N>> n, float z) {
+  return to_rgb(lookup_alpha(n, z));
+}
 template <int N>
-Vec3 alpha_after_in_colour(Span<const DsmNodeN<N>> n, float z) { return to_rgb(alpha_after(n, z)); }
+Vec3 alpha_after_in_colour(Span<const DsmNodeN<N>> n, float z) {
+  return to_rgb(alpha_after(n, z));
+}
 
 // sup over depths and channels of how far one visibility function lies
 // outside the other's range within +-tol(z) of the same depth: |f - g| where
@@ -123,8 +127,7 @@ std::vector<uint32_t> ShadowSystem::map_node_counts(int map) const {
   const DsmStorage st = I.backend->storage();
   std::vector<uint32_t> out(size_t(m.res) * m.res);
   for (int ty = 0; ty < int(m.res); ++ty)
-    for (int tx = 0; tx < int(m.res); ++tx)
-      out[size_t(ty) * m.res + tx] = texel_node_count(st, m, tx, ty);
+    for (int tx = 0; tx < int(m.res); ++tx) out[size_t(ty) * m.res + tx] = texel_node_count(st, m, tx, ty);
   return out;
 }
 
@@ -211,9 +214,8 @@ ShadowSystem::TexelInspection ShadowSystem::inspect_texel(int light, Vec3 p, int
     // The same ray, epsilon 0: the texel's one-pixel view, its members' fragments.
     const MapPlan& plan = f.setup.maps[k];
     const SceneView scene = I.sb.view();
-    std::vector<uint32_t> words = I.sb.mask_where([&](uint32_t o) {
-      return std::find(plan.members.begin(), plan.members.end(), o) != plan.members.end();
-    });
+    std::vector<uint32_t> words = I.sb.mask_where(
+        [&](uint32_t o) { return std::find(plan.members.begin(), plan.members.end(), o) != plan.members.end(); });
     const ObjectMask mask{{words.data(), words.size()}};
     const PinholeView one = texel_view(m.view, r.tx, r.ty);
     FragmentBuffers fb;
@@ -231,8 +233,10 @@ ShadowSystem::TexelInspection ShadowSystem::inspect_texel(int light, Vec3 p, int
     r.max_deviation = deviation(Span<const DsmNodeN<N>>{nodes.data(), n},
                                 Span<const DsmNodeN<N>>{exact.data(), uint64_t(buf.count)}, kRelativeDepthOffset);
   };
-  if (r.rgb) inspect_nodes(std::integral_constant<int, 3>{});
-  else inspect_nodes(std::integral_constant<int, 1>{});
+  if (r.rgb)
+    inspect_nodes(std::integral_constant<int, 3>{});
+  else
+    inspect_nodes(std::integral_constant<int, 1>{});
   r.found = true;
   return r;
 }

@@ -18,9 +18,7 @@ const char* type_name(const nlohmann::json& j) {
 
 }  // namespace
 
-void JsonNode::fail(const std::string& what) const {
-  throw Error(file_ + ": " + (path_.empty() ? "/" : path_), what);
-}
+void JsonNode::fail(const std::string& what) const { throw Error(file_ + ": " + (path_.empty() ? "/" : path_), what); }
 
 JsonNode JsonNode::at(const char* key) const {
   if (!j_.is_object()) fail(std::string("expected an object, found ") + type_name(j_));

@@ -74,8 +74,10 @@ class JsonNode {
     for_each_field<S>([&](const auto& f) {
       auto& v = s.*f.member;
       using T = std::remove_reference_t<decltype(v)>;
-      if constexpr (std::is_enum_v<T>) v = get_tag(f.key, v, f.key);
-      else v = get(f.key, v);
+      if constexpr (std::is_enum_v<T>)
+        v = get_tag(f.key, v, f.key);
+      else
+        v = get(f.key, v);
     });
   }
 

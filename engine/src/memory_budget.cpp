@@ -30,7 +30,8 @@ uint64_t memory_limit_bytes(const ShadowSettings& s) {
 }
 
 std::string format_bytes(double bytes) {
-  if (bytes >= double(uint64_t(1) << 40)) return format_number(std::round(bytes / double(uint64_t(1) << 40) * 10) / 10) + " TiB";
+  if (bytes >= double(uint64_t(1) << 40))
+    return format_number(std::round(bytes / double(uint64_t(1) << 40) * 10) / 10) + " TiB";
   if (bytes >= double(1 << 30)) return format_number(std::round(bytes / double(1 << 30) * 10) / 10) + " GiB";
   return format_number(std::ceil(bytes / double(1 << 20))) + " MiB";
 }
@@ -65,14 +66,17 @@ std::vector<MemoryItem> estimate_frame_memory(const Scene& scene, const RenderOp
       biggest = i;
     }
   }
-  items.push_back({format_number(tris) + " triangles (compiled, BVH, GL upload)", "/objects/" + std::to_string(biggest) + "/mesh",
-                   tris * 150.0});
+  items.push_back({format_number(tris) + " triangles (compiled, BVH, GL upload)",
+                   "/objects/" + std::to_string(biggest) + "/mesh", tris * 150.0});
   // Maps: per light, the maps its settings ask for.
   double maps = 0.0;
   for (const Light& l : scene.lights) {
-    if (l.type == LightType::Point || l.outer_cone_deg > 60.0f) maps += 6.0;
-    else if (sh.parallel_splits > 1) maps += double(sh.parallel_splits + 1);
-    else maps += double(std::max(1, sh.max_clusters));
+    if (l.type == LightType::Point || l.outer_cone_deg > 60.0f)
+      maps += 6.0;
+    else if (sh.parallel_splits > 1)
+      maps += double(sh.parallel_splits + 1);
+    else
+      maps += double(std::max(1, sh.max_clusters));
   }
   const double texels = double(sh.resolution) * double(sh.resolution) * maps;
   double per_texel = 0.0;  // the map's own buffers, and the frame's copy of them (nodes with their 2-byte tags)
@@ -85,15 +89,16 @@ std::vector<MemoryItem> estimate_frame_memory(const Scene& scene, const RenderOp
   items.push_back({format_number(maps) + " shadow maps of " + std::to_string(sh.resolution) + "^2 texels" +
                        (sh.layout == DsmLayout::Fixed ? " x " + std::to_string(sh.fixed_layers) + " layers" : ""),
                    map_setting, texels * per_texel});
-  items.push_back({"light-view fragment lists", "/shadows/resolution",
-                   double(sh.resolution) * double(sh.resolution) * 24.0});
+  items.push_back(
+      {"light-view fragment lists", "/shadows/resolution", double(sh.resolution) * double(sh.resolution) * 24.0});
   // Per-thread node buffers of the light pass (K = 1024 nodes per texel of a tile).
   const double threads = std::max(1u, std::thread::hardware_concurrency());
   items.push_back({"per-thread texel buffers", "/shadows/resolution", threads * 64.0 * 1024.0 * 30.0});
   // The camera: fragment lists, image, the reference when compared.
   const double pixels = double(scene.camera.width) * double(scene.camera.height);
-  items.push_back({"the camera view (" + std::to_string(scene.camera.width) + "x" + std::to_string(scene.camera.height) + ")",
-                   "/camera", pixels * (36.0 + (options.compare_reference ? 24.0 : 0.0))});
+  items.push_back(
+      {"the camera view (" + std::to_string(scene.camera.width) + "x" + std::to_string(scene.camera.height) + ")",
+       "/camera", pixels * (36.0 + (options.compare_reference ? 24.0 : 0.0))});
   return items;
 }
 
@@ -107,16 +112,16 @@ void check_memory(const Scene& scene, const std::vector<MemoryItem>& items) {
   std::string parts;
   for (size_t i = 0; i < sorted.size() && i < 3 && sorted[i].bytes > 0.0; ++i)
     parts += (i ? ", " : "") + sorted[i].what + " " + format_bytes(sorted[i].bytes);
-  throw Error(scene.source + ": " + sorted[0].setting,
-              "needs an estimated " + format_bytes(total) + " (" + parts + "), more than the limit of " +
-                  format_bytes(double(limit)) + " (" + memory_limit_origin(scene.shadows) + ")");
+  throw Error(scene.source + ": " + sorted[0].setting, "needs an estimated " + format_bytes(total) + " (" + parts +
+                                                           "), more than the limit of " + format_bytes(double(limit)) +
+                                                           " (" + memory_limit_origin(scene.shadows) + ")");
 }
 
 void check_allocation(const std::string& where, const std::string& what, double bytes, const ShadowSettings& s) {
   const uint64_t limit = memory_limit_bytes(s);
   if (bytes > double(limit))
-    throw Error(where, what + " needs " + format_bytes(bytes) + ", more than the limit of " + format_bytes(double(limit)) +
-                           " (" + memory_limit_origin(s) + ")");
+    throw Error(where, what + " needs " + format_bytes(bytes) + ", more than the limit of " +
+                           format_bytes(double(limit)) + " (" + memory_limit_origin(s) + ")");
 }
 
 }  // namespace cdsm

@@ -23,9 +23,7 @@ namespace cdsm {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 uint32_t hash32(uint32_t x) {
   x ^= x >> 16;
@@ -141,8 +139,8 @@ struct Renderer::Impl {
   struct Previous {
     bool valid = false;
     LightSetup setup;
-    std::vector<MapId> maps;       // alive in the backend until the next update (keep_previous)
-    std::vector<DsmMap> headers;   // fetched again at each measurement (compaction moves maps)
+    std::vector<MapId> maps;      // alive in the backend until the next update (keep_previous)
+    std::vector<DsmMap> headers;  // fetched again at each measurement (compaction moves maps)
     ShadowSettings settings;
     std::vector<Receiver> receivers;
   } previous;
@@ -267,9 +265,9 @@ struct Renderer::Impl {
       for (size_t i = 0; i < lookups.size(); ++i) {
         const RecordedLookup& l = lookups[i];
         std::fprintf(fo, "%g %g %g  %g %g %g %d  %g %g %g %g %d\n", l.at.p.x, l.at.p.y, l.at.p.z, l.at.plane.x,
-                     l.at.plane.y, l.at.plane.z, l.at.object == kNoObject ? -1 : int(l.at.object), grey_of(l.transmittance),
-                     errors[i].channel[0].map, errors[i].channel[0].resolution, errors[i].channel[0].total,
-                     int(errors[i].channel[0].edge));
+                     l.at.plane.y, l.at.plane.z, l.at.object == kNoObject ? -1 : int(l.at.object),
+                     grey_of(l.transmittance), errors[i].channel[0].map, errors[i].channel[0].resolution,
+                     errors[i].channel[0].total, int(errors[i].channel[0].edge));
       }
       std::fclose(fo);
     }

@@ -65,11 +65,24 @@ Mat4 make_transform(Vec3 t, Vec3 r_deg, Vec3 s) {
   float cy = std::cos(r_deg.y * k), sy = std::sin(r_deg.y * k);
   float cz = std::cos(r_deg.z * k), sz = std::sin(r_deg.z * k);
   Mat4 rx, ry, rz, sc, tr;
-  rx.m[1][1] = cx; rx.m[1][2] = -sx; rx.m[2][1] = sx; rx.m[2][2] = cx;
-  ry.m[0][0] = cy; ry.m[0][2] = sy; ry.m[2][0] = -sy; ry.m[2][2] = cy;
-  rz.m[0][0] = cz; rz.m[0][1] = -sz; rz.m[1][0] = sz; rz.m[1][1] = cz;
-  sc.m[0][0] = s.x; sc.m[1][1] = s.y; sc.m[2][2] = s.z;
-  tr.m[0][3] = t.x; tr.m[1][3] = t.y; tr.m[2][3] = t.z;
+  rx.m[1][1] = cx;
+  rx.m[1][2] = -sx;
+  rx.m[2][1] = sx;
+  rx.m[2][2] = cx;
+  ry.m[0][0] = cy;
+  ry.m[0][2] = sy;
+  ry.m[2][0] = -sy;
+  ry.m[2][2] = cy;
+  rz.m[0][0] = cz;
+  rz.m[0][1] = -sz;
+  rz.m[1][0] = sz;
+  rz.m[1][1] = cz;
+  sc.m[0][0] = s.x;
+  sc.m[1][1] = s.y;
+  sc.m[2][2] = s.z;
+  tr.m[0][3] = t.x;
+  tr.m[1][3] = t.y;
+  tr.m[2][3] = t.z;
   // Rotate about X first, then Y, then Z.
   return tr * (rz * (ry * (rx * sc)));
 }
@@ -129,7 +142,8 @@ Camera Camera::from_matrices(const Mat4& view, const Mat4& proj, int32_t width, 
   for (int i = 0; i < 4; ++i)
     for (int j = 0; j < 4; ++j) {
       if (!std::isfinite(view.m[i][j])) throw Error(where, "view matrix entry " + entry("view", i, j, view.m[i][j]));
-      if (!std::isfinite(proj.m[i][j])) throw Error(where, "projection entry " + entry("projection", i, j, proj.m[i][j]));
+      if (!std::isfinite(proj.m[i][j]))
+        throw Error(where, "projection entry " + entry("projection", i, j, proj.m[i][j]));
     }
   // The view: a rotation (orthonormal rows, determinant +1) and a translation.
   const Vec3 rows[3] = {{view.m[0][0], view.m[0][1], view.m[0][2]},
@@ -145,7 +159,8 @@ Camera Camera::from_matrices(const Mat4& view, const Mat4& proj, int32_t width, 
                                "): remove scale and shear from the camera's transform");
     }
   if (dot(cross(rows[0], rows[1]), rows[2]) < 0.0f)
-    throw Error(where, "the view matrix mirrors (determinant -1): a right-handed eye space looking down -Z is expected");
+    throw Error(where,
+                "the view matrix mirrors (determinant -1): a right-handed eye space looking down -Z is expected");
   if (std::fabs(view.m[3][0]) > 1e-6f || std::fabs(view.m[3][1]) > 1e-6f || std::fabs(view.m[3][2]) > 1e-6f ||
       std::fabs(view.m[3][3] - 1.0f) > 1e-6f)
     throw Error(where, "the view matrix's last row is not (0, 0, 0, 1)");
@@ -162,7 +177,8 @@ Camera Camera::from_matrices(const Mat4& view, const Mat4& proj, int32_t width, 
     if (std::fabs(p.m[i][j]) > 1e-6f * scale)
       throw Error(where, "an off-centre (asymmetric) projection, " + entry("projection", i, j, p.m[i][j]) +
                              ": cameras are symmetric frusta");
-  for (auto [i, j] : {std::pair{0, 1}, std::pair{0, 3}, std::pair{1, 0}, std::pair{1, 3}, std::pair{2, 0}, std::pair{2, 1}})
+  for (auto [i, j] :
+       {std::pair{0, 1}, std::pair{0, 3}, std::pair{1, 0}, std::pair{1, 3}, std::pair{2, 0}, std::pair{2, 1}})
     if (std::fabs(p.m[i][j]) > 1e-6f * scale)
       throw Error(where, "the projection is not a perspective frustum, " + entry("projection", i, j, p.m[i][j]));
   if (!(p.m[0][0] > 0.0f) || !(p.m[1][1] > 0.0f))

@@ -19,7 +19,11 @@
 namespace cdsm {
 namespace {
 
-std::string mib(uint64_t bytes) { return format_number(double(bytes) / 1048576.0 < 10 ? std::round(double(bytes) / 104857.6) / 10 : std::round(double(bytes) / 1048576.0)) + " MiB"; }
+std::string mib(uint64_t bytes) {
+  return format_number(double(bytes) / 1048576.0 < 10 ? std::round(double(bytes) / 104857.6) / 10
+                                                      : std::round(double(bytes) / 1048576.0)) +
+         " MiB";
+}
 
 // Runs an allocation; a failure becomes an Error saying what and how large.
 template <class F>
@@ -44,16 +48,15 @@ TransferData compile_transfer(const Volume& v, const std::string& where) {
   TransferData tf{};
   if (v.transfer.empty()) throw Error(where, "transfer function has no control points");
   if (v.transfer.size() > size_t(kMaxTransferPoints))
-    throw Error(where, "transfer function has " + std::to_string(v.transfer.size()) +
-                           " control points, at most " + std::to_string(kMaxTransferPoints));
+    throw Error(where, "transfer function has " + std::to_string(v.transfer.size()) + " control points, at most " +
+                           std::to_string(kMaxTransferPoints));
   tf.count = int32_t(v.transfer.size());
   tf.max_extinction = 0.0f;
   for (size_t i = 0; i < v.transfer.size(); ++i) {
     const TransferPoint& p = v.transfer[i];
     if (!is_finite(p.density) || !is_finite(p.extinction) || !is_finite(p.color) || min_channel(p.extinction) < 0)
       throw Error(where, "transfer point " + std::to_string(i) + " is not finite or has negative extinction");
-    if (i > 0 && p.density < v.transfer[i - 1].density)
-      throw Error(where, "transfer points must be sorted by density");
+    if (i > 0 && p.density < v.transfer[i - 1].density) throw Error(where, "transfer points must be sorted by density");
     tf.density[i] = p.density;
     for (int k = 0; k < 3; ++k) tf.extinction[k][i] = p.extinction[k];
     if (!is_grey(p.extinction)) tf.coloured = 1u;
@@ -113,8 +116,7 @@ void compile_dense(CompiledVolume& sb, VolumeData& vd, const DenseGrid& g, const
     throw Error(where, "grid holds " + std::to_string(g.values.size()) + " values, dimensions need " +
                            std::to_string(size_t(g.nx) * g.ny * g.nz));
   for (size_t i = 0; i < g.values.size(); ++i)
-    if (!is_finite(g.values[i]))
-      throw Error(where, "voxel " + std::to_string(i) + " is NaN or infinite");
+    if (!is_finite(g.values[i])) throw Error(where, "voxel " + std::to_string(i) + " is NaN or infinite");
   if (!is_finite(g.background)) throw Error(where, "background is NaN or infinite");
   vd.grid_kind = kGridDense;
   vd.nx = g.nx;
@@ -242,7 +244,8 @@ void compile_nano(CompiledVolume& sb, VolumeData& vd, const SparseGrid& g, const
   for (uint32_t i = 0; i < tree.nodeCount(1); ++i) tiles_of(lower[i], 4, 8);
   for (uint32_t i = 0; i < tree.nodeCount(2); ++i) tiles_of(upper[i], 5, 128);
   for (uint32_t i = 0; i < root.tileCount(); ++i)
-    if (root.data()->tile(i)->isValue() && root.data()->tile(i)->value != bg) grow(root.data()->tile(i)->origin(), 4096);
+    if (root.data()->tile(i)->isValue() && root.data()->tile(i)->value != bg)
+      grow(root.data()->tile(i)->origin(), 4096);
   vd.cells_lo = lo;
   vd.cells_hi = hi;
 }
@@ -287,7 +290,8 @@ void place_volume(VolumeData& vd, const Volume& v, const Mat4& transform, const 
   const Mat4 index_to_world = transform * v.index_to_object;
   vd.index_to_world = index_to_world;
   if (!invert(index_to_world, vd.world_to_index)) throw Error(where, "volume placement is singular");
-  Vec3 ex = index_to_world.vector({1, 0, 0}), ey = index_to_world.vector({0, 1, 0}), ez = index_to_world.vector({0, 0, 1});
+  Vec3 ex = index_to_world.vector({1, 0, 0}), ey = index_to_world.vector({0, 1, 0}),
+       ez = index_to_world.vector({0, 0, 1});
   vd.voxel_world = std::min({length(ex), length(ey), length(ez)});
   vd.step = v.step_voxels * vd.voxel_world;
   // The march must advance in float wherever the volume holds data (its
@@ -303,7 +307,8 @@ void place_volume(VolumeData& vd, const Volume& v, const Mat4& transform, const 
   if (!(vd.step >= min_march_step(0.0f, reach)))
     throw Error(where, "its march step of " + std::to_string(vd.step) +
                            " world units (step_voxels x voxel size after the transform) is below the float "
-                           "resolution where the volume lies (coordinates up to " + std::to_string(reach) +
+                           "resolution where the volume lies (coordinates up to " +
+                           std::to_string(reach) +
                            "): it cannot be marched; use larger voxels or move it nearer the origin");
 }
 
@@ -312,8 +317,9 @@ void apply_surface(const Object& o, const std::string& where, ObjectData& od) {
   if (!(m.opacity >= 0.0f && m.opacity <= 1.0f)) throw Error(where, "surface opacity must be in [0, 1]");
   const Vec3 f = m.transmission_color;
   if (!is_finite(f) || !(min_channel(f) >= 0.0f && max_channel(f) <= 1.0f))
-    throw Error(where, "surface transmission_color must be in [0, 1] in every channel (a filter passes at most "
-                       "all light)");
+    throw Error(where,
+                "surface transmission_color must be in [0, 1] in every channel (a filter passes at most "
+                "all light)");
   od.color = m.color;
   od.opacity = m.opacity;
   // A white filter keeps the coverage itself (bit for bit the grey result).
@@ -349,8 +355,9 @@ void compile_object(const Object& o, bool closed, const std::string& where, Comp
   }
   Mat4 inv;
   if (!invert(o.transform, inv))
-    throw Error(where, "transform is singular: it flattens the mesh (or holds values float cannot invert) and "
-                       "has no inverse for its normals");
+    throw Error(where,
+                "transform is singular: it flattens the mesh (or holds values float cannot invert) and "
+                "has no inverse for its normals");
   const Mat4 normal_m = transpose(inv);  // inverse transpose of the linear part
   if (mesh.triangle_count() >= kMaxPrimitives)
     throw Error(where, "more than " + std::to_string(kMaxPrimitives) + " triangles");

@@ -77,13 +77,19 @@ struct Parser {
     d.ny = int(dv.y);
     d.nz = int(dv.z);
     std::string format = n.get("format", "uint8");
-    if (format == "uint8") d.format = RawFormat::UInt8;
-    else if (format == "uint16") d.format = RawFormat::UInt16;
-    else n.at("format").fail("unknown format '" + format + "' (uint8 or uint16)");
+    if (format == "uint8")
+      d.format = RawFormat::UInt8;
+    else if (format == "uint16")
+      d.format = RawFormat::UInt16;
+    else
+      n.at("format").fail("unknown format '" + format + "' (uint8 or uint16)");
     std::string order = n.get("byte_order", "little");
-    if (order == "little") d.big_endian = false;
-    else if (order == "big") d.big_endian = true;
-    else n.at("byte_order").fail("unknown byte order '" + order + "' (little or big)");
+    if (order == "little")
+      d.big_endian = false;
+    else if (order == "big")
+      d.big_endian = true;
+    else
+      n.at("byte_order").fail("unknown byte order '" + order + "' (little or big)");
     int header = n.get("header", 0);
     if (header < 0) n.at("header").fail("must be >= 0");
     d.header_bytes = uint64_t(header);
@@ -154,8 +160,8 @@ struct Parser {
   void check_grid_memory(const JsonNode& n, int nx, int ny, int nz) const {
     double voxels = double(nx) * double(ny) * double(nz);
     check_allocation(n.file() + ": " + n.path() + "/size",
-                     "a " + std::to_string(nx) + "x" + std::to_string(ny) + "x" + std::to_string(nz) + " grid", voxels * 8.0,
-                     scene.shadows);
+                     "a " + std::to_string(nx) + "x" + std::to_string(ny) + "x" + std::to_string(nz) + " grid",
+                     voxels * 8.0, scene.shadows);
   }
 
   std::shared_ptr<DenseGrid> grid(const JsonNode& n) {
@@ -175,7 +181,8 @@ struct Parser {
         n.at("seed").fail("must be a whole number within [0, 4294967295], got " + format_number(seed));
       p.seed = uint32_t(seed);
       p.frequency = n.get("frequency", p.frequency);
-      if (!(p.frequency > 0 && p.frequency <= 1000)) n.at("frequency").fail("must be within (0, 1000], got " + format_number(p.frequency));
+      if (!(p.frequency > 0 && p.frequency <= 1000))
+        n.at("frequency").fail("must be within (0, 1000], got " + format_number(p.frequency));
       p.octaves = n.get("octaves", p.octaves);
       if (!(p.octaves >= 1 && p.octaves <= 12 && p.octaves == std::floor(p.octaves)))
         n.at("octaves").fail("must be a whole number within [1, 12], got " + format_number(p.octaves));
@@ -226,8 +233,9 @@ struct Parser {
     if (type == "vdb") {  // {"type":"vdb", "file", "grid": name}: the grid's own transform
       gn.expect_object({"type", "file", "grid"});
       if (n.has("voxel_size") || n.has("origin") || n.has("index_to_object"))
-        n.fail("a vdb grid is placed by its own transform: give no voxel_size, origin or index_to_object (use the "
-               "object's transform)");
+        n.fail(
+            "a vdb grid is placed by its own transform: give no voxel_size, origin or index_to_object (use the "
+            "object's transform)");
       std::string path = resolve(gn.at("file"));
       std::string grid_name = gn.get("grid", "density");
       VdbVolume vdb = load(gn.at("file"), [&] { return load_vdb(path, grid_name); });
@@ -235,7 +243,8 @@ struct Parser {
       v.index_to_object = vdb.index_to_object;
     } else {
       v.grid = type == "raw" ? raw_grid(gn, has_spacing, spacing) : grid(gn);
-      if (has_spacing && n.has("voxel_size")) n.fail("give the raw grid's spacing or the volume's voxel_size, not both");
+      if (has_spacing && n.has("voxel_size"))
+        n.fail("give the raw grid's spacing or the volume's voxel_size, not both");
     }
     if (!v.sparse && n.has("index_to_object")) {  // any affine placement (scene_write.cpp writes it when needed)
       if (has_spacing || n.has("voxel_size") || n.has("origin"))
@@ -261,9 +270,12 @@ struct Parser {
     }
     if (!(type == "dense" && gn.has("values"))) v.grid_source = source_of(gn);  // values are data, not a description
     std::string proxy = n.get("proxy", "box");
-    if (proxy == "box") proxy_of.push_back(VolumeProxy::Box);
-    else if (proxy == "leaves") proxy_of.push_back(VolumeProxy::Leaves);
-    else n.at("proxy").fail("unknown proxy '" + proxy + "' (box or leaves)");
+    if (proxy == "box")
+      proxy_of.push_back(VolumeProxy::Box);
+    else if (proxy == "leaves")
+      proxy_of.push_back(VolumeProxy::Leaves);
+    else
+      n.at("proxy").fail("unknown proxy '" + proxy + "' (box or leaves)");
     if (proxy == "leaves" && !v.sparse) n.at("proxy").fail("a leaves proxy needs a sparse (vdb) grid");
     JsonNode tf = n.at("transfer");
     tf.expect_array();
@@ -433,15 +445,17 @@ struct Parser {
 
   Light light(const JsonNode& n) {
     Light l;
-    n.at("type");  // required
+    n.at("type");                                      // required
     l.type = n.get_tag("type", l.type, "light type");  // (named in its error as such)
     n.read_fields(l, {"target"});
     n.at("position");
     // A point light keeps a direction and cones when given (unused; they
     // come back when it is made a spot again, and a saved scene keeps them).
     if (l.type == LightType::Spot || n.has("target") || n.has("direction")) {
-      if (n.has("target")) l.direction = n.at("target").as_vec3() - l.position;
-      else l.direction = n.at("direction").as_vec3();
+      if (n.has("target"))
+        l.direction = n.at("target").as_vec3() - l.position;
+      else
+        l.direction = n.at("direction").as_vec3();
       const float len = length(l.direction);
       if (l.type == LightType::Spot && len <= 0) n.fail("spot direction is zero");
       // Unit length already (a saved scene): kept bit for bit.

@@ -26,7 +26,8 @@ struct Checker {
     return std::string(open_lo ? "(" : "[") + format_number(lo) + ", " + format_number(hi) + (open_hi ? ")" : "]");
   }
 
-  void number(const std::string& path, double v, double lo, double hi, bool open_lo = false, bool open_hi = false) const {
+  void number(const std::string& path, double v, double lo, double hi, bool open_lo = false,
+              bool open_hi = false) const {
     bool ok = std::isfinite(v) && (open_lo ? v > lo : v >= lo) && (open_hi ? v < hi : v <= hi);
     if (!ok) fail(path, "must be within " + range(lo, hi, open_lo, open_hi) + ", got " + format_number(v));
   }
@@ -57,13 +58,15 @@ struct Checker {
     fields(c, "/camera");
     // What a range cannot say.
     if (!(c.near > 0.0f) || !(c.far > c.near))
-      fail("/camera", "needs 0 < near < far (finite), got near " + format_number(c.near) + ", far " + format_number(c.far));
+      fail("/camera",
+           "needs 0 < near < far (finite), got near " + format_number(c.near) + ", far " + format_number(c.far));
     number("/camera/fov_y", c.fov_y_deg, 0.0, 179.0, true, true);
     Vec3 d = c.target - c.position;
     if (!(length(d) > 0.0f)) fail("/camera/target", "equals the camera position");
     Vec3 side = cross(normalize(d), c.up);
     if (warnings && !(length(side) >= 1e-6f * std::max(length(c.up), 1e-30f)))
-      warnings->push_back(s.source + ": /camera/up is " + (length(c.up) > 0.0f ? "parallel to the view direction" : "zero") +
+      warnings->push_back(s.source + ": /camera/up is " +
+                          (length(c.up) > 0.0f ? "parallel to the view direction" : "zero") +
                           "; a perpendicular up is used instead");
   }
 
@@ -98,18 +101,20 @@ struct Checker {
     switch (sh.method) {
       case ShadowMethod::ShadowMap:
         if (!(p >= 0 && p <= 1))
-          fail("/shadows/method_param", "shadow_map: the opacity threshold must be within (0, 1] (0: default 0.5), got " +
-                                            format_number(p));
+          fail("/shadows/method_param",
+               "shadow_map: the opacity threshold must be within (0, 1] (0: default 0.5), got " + format_number(p));
         break;
       case ShadowMethod::OpacitySlices:
         if (!(p == 0 || (p >= 1 && p <= 512 && p == std::floor(p))))
           fail("/shadows/method_param",
-               "opacity_slices: the slice count must be an integer within [1, 512] (0: default 32), got " + format_number(p));
+               "opacity_slices: the slice count must be an integer within [1, 512] (0: default 32), got " +
+                   format_number(p));
         break;
       case ShadowMethod::FixedNodes:
         if (!(p == 0 || (p >= 2 && p <= 512 && p == std::floor(p))))
-          fail("/shadows/method_param",
-               "fixed_nodes: the node count must be an integer within [2, 512] (0: default 8), got " + format_number(p));
+          fail(
+              "/shadows/method_param",
+              "fixed_nodes: the node count must be an integer within [2, 512] (0: default 8), got " + format_number(p));
         break;
       default:
         if (!std::isfinite(p)) fail("/shadows/method_param", "has a NaN or infinite value");
@@ -129,7 +134,8 @@ struct Checker {
         const TransferPoint& tp = v.transfer[k];
         const std::string pt = at + "/transfer/" + std::to_string(k);
         if (!std::isfinite(tp.density)) fail(pt + "/density", "has a NaN or infinite value");
-        if (k > 0 && tp.density < v.transfer[k - 1].density) fail(pt + "/density", "control points must be sorted by density");
+        if (k > 0 && tp.density < v.transfer[k - 1].density)
+          fail(pt + "/density", "control points must be sorted by density");
         channels(pt + "/extinction", tp.extinction, 0.0, 1e38);
         color(pt + "/color", tp.color);
       }

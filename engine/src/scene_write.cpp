@@ -70,8 +70,8 @@ struct Fields {
 
 struct Writer {
   const Scene& s;
-  std::string where;     // names the output (or the scene) in messages
-  std::string base_dir;  // absolute folder the text will be read from; "" keeps file references
+  std::string where;               // names the output (or the scene) in messages
+  std::string base_dir;            // absolute folder the text will be read from; "" keeps file references
   std::vector<VolumeProxy> proxy;  // per volume: the proxy its object's volume_box mesh needs
 
   [[noreturn]] void fail(const std::string& pointer, const std::string& what) const {
@@ -148,9 +148,8 @@ struct Writer {
     std::string ix = "[";
     for (size_t i = 0; i < m.indices.size(); ++i) {
       if (m.indices[i] >= m.positions.size())
-        fail(pointer + "/indices/" + std::to_string(i), "vertex index " + std::to_string(m.indices[i]) +
-                                                             " past the " + std::to_string(m.positions.size()) +
-                                                             " vertices");
+        fail(pointer + "/indices/" + std::to_string(i), "vertex index " + std::to_string(m.indices[i]) + " past the " +
+                                                            std::to_string(m.positions.size()) + " vertices");
       ix += (i ? "," : "") + std::to_string(m.indices[i]);
     }
     if (m.indices.size() % 3 != 0) fail(pointer + "/indices", "is not 3 indices per triangle");
@@ -206,8 +205,8 @@ struct Writer {
     f.add("transform", matrix(o.transform, at + "/transform"));
     f.add("material", material(o.surface, at + "/material"));
     Fields in;
-    const InteriorKind kind = o.interior == InteriorKind::Constant || o.interior == InteriorKind::Volume ? o.interior
-                                                                                                        : InteriorKind::None;
+    const InteriorKind kind =
+        o.interior == InteriorKind::Constant || o.interior == InteriorKind::Volume ? o.interior : InteriorKind::None;
     in.add("type", quoted(kind));
     if (kind == InteriorKind::Constant) in.add("sigma", channels(o.sigma, at + "/interior/sigma"));
     if (kind == InteriorKind::Volume) {
@@ -266,8 +265,8 @@ struct Writer {
   std::string dense_grid(const DenseGrid& g, const std::string& pointer) const {
     const size_t count = size_t(std::max(g.nx, 0)) * size_t(std::max(g.ny, 0)) * size_t(std::max(g.nz, 0));
     if (g.nx < 1 || g.ny < 1 || g.nz < 1 || g.values.size() != count)
-      fail(pointer, "a dense grid of " + std::to_string(g.nx) + "x" + std::to_string(g.ny) + "x" + std::to_string(g.nz) +
-                        " voxels holds " + std::to_string(g.values.size()) + " values");
+      fail(pointer, "a dense grid of " + std::to_string(g.nx) + "x" + std::to_string(g.ny) + "x" +
+                        std::to_string(g.nz) + " voxels holds " + std::to_string(g.values.size()) + " values");
     Fields f;
     f.add("type", "\"dense\"");
     f.add("size", "[" + std::to_string(g.nx) + ", " + std::to_string(g.ny) + ", " + std::to_string(g.nz) + "]");
@@ -276,7 +275,8 @@ struct Writer {
       return number_text(d);
     };
     std::string values = "[";
-    for (size_t i = 0; i < count; ++i) values += (i ? "," : "") + density(g.values[i], pointer + "/values/" + std::to_string(i));
+    for (size_t i = 0; i < count; ++i)
+      values += (i ? "," : "") + density(g.values[i], pointer + "/values/" + std::to_string(i));
     f.add("values", values + "]");
     f.add("background", density(g.background, pointer + "/background"));
     return f.done();
@@ -342,12 +342,18 @@ struct Writer {
       const auto& v = value.*field.member;
       using T = std::remove_cv_t<std::remove_reference_t<decltype(v)>>;
       const std::string path = at + "/" + field.key;
-      if constexpr (std::is_enum_v<T>) f.add(field.key, quoted(v));
-      else if constexpr (std::is_same_v<T, bool>) f.add(field.key, boolean(v));
-      else if constexpr (std::is_same_v<T, float>) f.add(field.key, num(v, path));
-      else if constexpr (std::is_same_v<T, Vec3>) f.add(field.key, vec(v, path));
-      else if constexpr (std::is_same_v<T, std::string>) f.add(field.key, str(v, path));
-      else f.add(field.key, std::to_string(v));
+      if constexpr (std::is_enum_v<T>)
+        f.add(field.key, quoted(v));
+      else if constexpr (std::is_same_v<T, bool>)
+        f.add(field.key, boolean(v));
+      else if constexpr (std::is_same_v<T, float>)
+        f.add(field.key, num(v, path));
+      else if constexpr (std::is_same_v<T, Vec3>)
+        f.add(field.key, vec(v, path));
+      else if constexpr (std::is_same_v<T, std::string>)
+        f.add(field.key, str(v, path));
+      else
+        f.add(field.key, std::to_string(v));
     });
   }
 
@@ -448,7 +454,8 @@ void save_scene(const Scene& scene, const std::string& path) {
   tmpl.push_back('\0');
   const int fd = ::mkstemp(tmpl.data());
   if (fd < 0)
-    throw Error(path, std::string("cannot create a file in '") + (dir.empty() ? "." : dir) + "': " + std::strerror(errno));
+    throw Error(path,
+                std::string("cannot create a file in '") + (dir.empty() ? "." : dir) + "': " + std::strerror(errno));
   tmp = tmpl.data();
   auto fail = [&](const std::string& what) {
     const int err = errno;

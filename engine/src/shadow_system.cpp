@@ -110,8 +110,10 @@ ShadowSystem::Impl::Impl(const SystemOptions& o) : options(o) {
   // on the CUDA device: the application's (current now), or the headless
   // one the fragment rasterizer makes.
   GlUse gl_use = GlUse::None;
-  if (o.gl_context == GlContextUse::Application) gl_use = GlUse::Current;
-  else if (o.fragments == FragmentSource::Auto || o.fragments == FragmentSource::Gl) gl_use = default_gl_use();
+  if (o.gl_context == GlContextUse::Application)
+    gl_use = GlUse::Current;
+  else if (o.fragments == FragmentSource::Auto || o.fragments == FragmentSource::Gl)
+    gl_use = default_gl_use();
   BackendChoice c = make_backend(o.backend, gl_use);
   backend = std::move(c.backend);
   backend_name = c.name;
@@ -200,7 +202,8 @@ void ShadowSystem::Impl::compile_volumes(FrameStats& st) {
     VolumeRec& rec = volumes[vi];
     if (!rec.dirty) continue;
     const Volume& v = scene.volumes[vi];
-    const std::string where = scene.source + ": volume " + std::to_string(vi) + (v.name.empty() ? "" : " '" + v.name + "'");
+    const std::string where =
+        scene.source + ": volume " + std::to_string(vi) + (v.name.empty() ? "" : " '" + v.name + "'");
     CompiledVolume cv = compile_volume(v, where);
     if (rec.compiled) erase_volume_data(vi);
     const VolumeData placed = vi < sb.volumes.size() ? sb.volumes[vi] : VolumeData{};
@@ -694,7 +697,10 @@ ShadowSystem::BuildProgress ShadowSystem::build_progress() const {
 std::shared_ptr<const TriangleMesh> ShadowSystem::read_gl_mesh(const GlMeshSource& source) {
   Impl& I = *impl_;
   const std::string where = I.scene.source + ": read_gl_mesh";
-  if (!I.gl) throw Error(where, "needs a system created on the application's GL context (SystemOptions::gl_context = GlContextUse::Application)");
+  if (!I.gl)
+    throw Error(where,
+                "needs a system created on the application's GL context (SystemOptions::gl_context = "
+                "GlContextUse::Application)");
   std::vector<std::string> warnings;
   SystemGlScope scope(I.gl.get(), &warnings);
   return cdsm::read_gl_mesh(*I.gl, source, where, I.gl_readback_bytes);
@@ -702,14 +708,20 @@ std::shared_ptr<const TriangleMesh> ShadowSystem::read_gl_mesh(const GlMeshSourc
 
 GlMapBuffers ShadowSystem::gl_buffers() const {
   const Impl& I = *impl_;
-  if (!I.gl) throw Error(I.scene.source + ": gl_buffers", "needs a system created on the application's GL context (SystemOptions::gl_context = GlContextUse::Application)");
+  if (!I.gl)
+    throw Error(I.scene.source + ": gl_buffers",
+                "needs a system created on the application's GL context (SystemOptions::gl_context = "
+                "GlContextUse::Application)");
   return gl_map_buffers(*I.gl);
 }
 
 void ShadowSystem::bind_gl(uint32_t program) {
   Impl& I = *impl_;
   const std::string where = I.scene.source + ": bind_gl";
-  if (!I.gl) throw Error(where, "needs a system created on the application's GL context (SystemOptions::gl_context = GlContextUse::Application)");
+  if (!I.gl)
+    throw Error(where,
+                "needs a system created on the application's GL context (SystemOptions::gl_context = "
+                "GlContextUse::Application)");
   bind_gl_maps(*I.gl, program);  // checks the context; changes exactly the program's cdsm bindings
 }
 
@@ -767,7 +779,8 @@ Image ShadowSystem::render(FrameStats* stats) {
                           "resolution there; they were marched with the finest step float allows (coarser than asked)");
   if (st.enclosing_overflow > 0)
     st.warnings.push_back(I.scene.source + ": " + std::to_string(st.enclosing_overflow) +
-                          " entries of light or camera rays into volumes nested inside " + std::to_string(kMaxEnclosing) +
+                          " entries of light or camera rays into volumes nested inside " +
+                          std::to_string(kMaxEnclosing) +
                           " other volumes; those innermost volumes were left out there (their media absorb nothing)");
   st.times.total_ms = ms_since(t_total);
   return img;
@@ -833,7 +846,6 @@ bool same_volume(const Volume& a, const Volume& b) {
 // (names included: a renamed light is set again, which rebuilds nothing)
 bool same_light(const Light& a, const Light& b) { return same_fields(a, b); }
 bool same_camera(const Camera& a, const Camera& b) { return same_fields(a, b); }
-
 
 int32_t volume_of(const Object& o) { return o.interior == InteriorKind::Volume ? o.volume : -1; }
 

@@ -32,15 +32,15 @@ struct ShadowSystem::Impl {
   };
   struct VolumeRec {
     uint64_t id = 0;
-    bool dirty = true;        // grid or transfer function to compile
-    bool compiled = false;    // its data lies in sb's arrays
+    bool dirty = true;                          // grid or transfer function to compile
+    bool compiled = false;                      // its data lies in sb's arrays
     uint64_t voxel_begin = 0, voxel_count = 0;  // dense: floats of sb.voxels
     uint64_t block_begin = 0, block_count = 0;  // sparse: blocks of sb.nano_pool
     uint64_t macro_begin = 0, macro_count = 0;
   };
-  std::vector<ObjectRec> objects;   // parallel to scene.objects
-  std::vector<VolumeRec> volumes;   // parallel to scene.volumes
-  std::vector<uint64_t> lights;     // ids, parallel to scene.lights
+  std::vector<ObjectRec> objects;  // parallel to scene.objects
+  std::vector<VolumeRec> volumes;  // parallel to scene.volumes
+  std::vector<uint64_t> lights;    // ids, parallel to scene.lights
   // Handle ids -> positions in the arrays above (slot_map.h): O(1) lookups,
   // stale handles named as such.
   SlotMap object_slots, volume_slots, light_slots;
@@ -68,8 +68,8 @@ struct ShadowSystem::Impl {
   std::string backend_name, backend_reason;  // which backend and why (backend_select.h)
   MapCache cache;
   ShadowFrame frame;
-  bool keep_previous = false;   // popping probe: replaced maps live one more frame
-  FrameStats update_stats;      // of the last update()
+  bool keep_previous = false;  // popping probe: replaced maps live one more frame
+  FrameStats update_stats;     // of the last update()
   // The last render()'s camera pass inputs (the error and popping probes use them).
   CameraPassParams cam{};
   std::vector<uint32_t> cam_inside;
@@ -90,10 +90,10 @@ struct ShadowSystem::Impl {
   bool is_closed_mesh(const std::shared_ptr<const TriangleMesh>& mesh);
   void touch_object(size_t i);
 
-  void compile(FrameStats& st);  // the scene part of update()
-  void update(FrameStats& st);   // build() + publish()
-  void build(FrameStats& st);    // compile, fragments, maps (GL only with GL fragments)
-  void publish(FrameStats& st);  // the map buffers (GlContextUse::Application)
+  void compile(FrameStats& st);                                // the scene part of update()
+  void update(FrameStats& st);                                 // build() + publish()
+  void build(FrameStats& st);                                  // compile, fragments, maps (GL only with GL fragments)
+  void publish(FrameStats& st);                                // the map buffers (GlContextUse::Application)
   std::atomic<uint32_t> progress_built{0}, progress_total{0};  // of the running build
   void compile_volumes(FrameStats& st);
   void erase_volume_data(size_t vi);

@@ -47,8 +47,7 @@ class SlotMap {
       *position = s.position;
       return Lookup::Found;
     }
-    return generation < s.generation || (!s.live && generation == s.generation) ? Lookup::Removed
-                                                                                : Lookup::Foreign;
+    return generation < s.generation || (!s.live && generation == s.generation) ? Lookup::Removed : Lookup::Foreign;
   }
 
   // The thing `id` names moved to `position` (the dense arrays shifted).
@@ -90,7 +89,8 @@ inline std::string describe_handle(const char* kind, uint64_t id, SlotMap::Looku
   if ((id & 0xffffffffu) != 0)
     s += " (slot " + std::to_string((id & 0xffffffffu) - 1) + ", generation " + std::to_string(id >> 32) + ")";
   const std::string a = std::string(std::strchr("aeiou", kind[0]) ? "an " : "a ") + kind;
-  s += why == SlotMap::Lookup::Removed ? " names " + a + " removed from this system" : " does not name " + a + " of this system";
+  s += why == SlotMap::Lookup::Removed ? " names " + a + " removed from this system"
+                                       : " does not name " + a + " of this system";
   return s;
 }
 

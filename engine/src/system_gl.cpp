@@ -129,17 +129,20 @@ namespace {
 std::vector<Vec3> read_vec3(GLuint buffer, uint64_t offset, uint32_t stride, uint32_t count, const std::string& where,
                             const char* what, uint64_t& bytes) {
   if (buffer == 0 || !glIsBuffer(buffer))
-    throw Error(where, std::string(what) + " buffer " + std::to_string(buffer) + " is not a GL buffer of the current context");
+    throw Error(where,
+                std::string(what) + " buffer " + std::to_string(buffer) + " is not a GL buffer of the current context");
   if (stride == 0) stride = 12;
-  if (stride < 12) throw Error(where, std::string(what) + " stride " + std::to_string(stride) + " is below the 12 bytes of a position");
+  if (stride < 12)
+    throw Error(where,
+                std::string(what) + " stride " + std::to_string(stride) + " is below the 12 bytes of a position");
   if (count == 0) return {};
   GLint64 size = 0;
   CDSM_GL(glGetNamedBufferParameteri64v(buffer, GL_BUFFER_SIZE, &size));
   const uint64_t span = uint64_t(count - 1) * stride + 12;
   if (offset + span > uint64_t(size))
     throw Error(where, std::string(what) + " buffer " + std::to_string(buffer) + " holds " + std::to_string(size) +
-                           " bytes; " + std::to_string(count) + " vec3 at offset " + std::to_string(offset) + " stride " +
-                           std::to_string(stride) + " need " + std::to_string(offset + span));
+                           " bytes; " + std::to_string(count) + " vec3 at offset " + std::to_string(offset) +
+                           " stride " + std::to_string(stride) + " need " + std::to_string(offset + span));
   std::vector<unsigned char> raw(span);
   CDSM_GL(glGetNamedBufferSubData(buffer, GLintptr(offset), GLsizeiptr(span), raw.data()));
   bytes += span;
@@ -159,12 +162,15 @@ std::vector<Vec3> read_vec3(GLuint buffer, uint64_t offset, uint32_t stride, uin
 std::shared_ptr<TriangleMesh> read_gl_mesh(SystemGl& g, const GlMeshSource& s, const std::string& where,
                                            uint64_t& bytes) {
   auto mesh = std::make_shared<TriangleMesh>();
-  mesh->positions = read_vec3(s.vertex_buffer, s.vertex_offset, s.vertex_stride, s.vertex_count, where, "vertex", bytes);
+  mesh->positions =
+      read_vec3(s.vertex_buffer, s.vertex_offset, s.vertex_stride, s.vertex_count, where, "vertex", bytes);
   if (s.normal_buffer)
-    mesh->normals = read_vec3(s.normal_buffer, s.normal_offset, s.normal_stride, s.vertex_count, where, "normal", bytes);
+    mesh->normals =
+        read_vec3(s.normal_buffer, s.normal_offset, s.normal_stride, s.vertex_count, where, "normal", bytes);
   if (s.index_buffer == 0) {
     if (s.vertex_count % 3 != 0)
-      throw Error(where, "a mesh without indices needs a multiple of 3 vertices, got " + std::to_string(s.vertex_count));
+      throw Error(where,
+                  "a mesh without indices needs a multiple of 3 vertices, got " + std::to_string(s.vertex_count));
     mesh->indices.resize(s.vertex_count);
     for (uint32_t i = 0; i < s.vertex_count; ++i) mesh->indices[i] = i;
   } else {
@@ -176,29 +182,32 @@ std::shared_ptr<TriangleMesh> read_gl_mesh(SystemGl& g, const GlMeshSource& s, c
       default: {
         char hex[16];
         std::snprintf(hex, sizeof hex, "0x%04x", s.index_type);
-        throw Error(where, std::string("index_type ") + hex +
-                               " is not GL_UNSIGNED_INT, GL_UNSIGNED_SHORT or GL_UNSIGNED_BYTE");
+        throw Error(
+            where, std::string("index_type ") + hex + " is not GL_UNSIGNED_INT, GL_UNSIGNED_SHORT or GL_UNSIGNED_BYTE");
       }
     }
     if (s.index_count % 3 != 0)
       throw Error(where, "index_count " + std::to_string(s.index_count) + " is not a multiple of 3");
     if (!glIsBuffer(s.index_buffer))
-      throw Error(where, "index buffer " + std::to_string(s.index_buffer) + " is not a GL buffer of the current context");
+      throw Error(where,
+                  "index buffer " + std::to_string(s.index_buffer) + " is not a GL buffer of the current context");
     GLint64 size = 0;
     CDSM_GL(glGetNamedBufferParameteri64v(s.index_buffer, GL_BUFFER_SIZE, &size));
     const uint64_t span = uint64_t(s.index_count) * size_of;
-    if (s.index_offset % size_of != 0) throw Error(where, "index_offset " + std::to_string(s.index_offset) + " is not aligned to its type");
+    if (s.index_offset % size_of != 0)
+      throw Error(where, "index_offset " + std::to_string(s.index_offset) + " is not aligned to its type");
     if (s.index_offset + span > uint64_t(size))
-      throw Error(where, "index buffer " + std::to_string(s.index_buffer) + " holds " + std::to_string(size) + " bytes; " +
-                             std::to_string(s.index_count) + " indices at offset " + std::to_string(s.index_offset) +
-                             " need " + std::to_string(s.index_offset + span));
+      throw Error(where, "index buffer " + std::to_string(s.index_buffer) + " holds " + std::to_string(size) +
+                             " bytes; " + std::to_string(s.index_count) + " indices at offset " +
+                             std::to_string(s.index_offset) + " need " + std::to_string(s.index_offset + span));
     std::vector<unsigned char> raw(span);
     if (span) CDSM_GL(glGetNamedBufferSubData(s.index_buffer, GLintptr(s.index_offset), GLsizeiptr(span), raw.data()));
     bytes += span;
     mesh->indices.resize(s.index_count);
     for (uint32_t i = 0; i < s.index_count; ++i) {
       uint32_t v = 0;
-      if (size_of == 4) std::memcpy(&v, raw.data() + 4 * uint64_t(i), 4);
+      if (size_of == 4)
+        std::memcpy(&v, raw.data() + 4 * uint64_t(i), 4);
       else if (size_of == 2) {
         uint16_t h;
         std::memcpy(&h, raw.data() + 2 * uint64_t(i), 2);
@@ -234,7 +243,9 @@ GlMapBuffers gl_map_buffers(const SystemGl&) { return {}; }
 void bind_gl_maps(SystemGl&, uint32_t) {}
 std::shared_ptr<TriangleMesh> read_gl_mesh(SystemGl&, const GlMeshSource&, const std::string&, uint64_t&) { return {}; }
 void set_gl_map_block_limit(SystemGl&, uint64_t) {}
-std::string glsl_include() { throw Error("cdsm::glsl_include", "this build has no OpenGL (configured with CDSM_GL=OFF)"); }
+std::string glsl_include() {
+  throw Error("cdsm::glsl_include", "this build has no OpenGL (configured with CDSM_GL=OFF)");
+}
 
 #endif
 

@@ -190,7 +190,8 @@ class ShadowBackend {
   using GlRasterize = std::function<void(const GlTileSink& sink, FragmentBuffers& out)>;
   virtual ListsId lists_from_gl(const GlRasterize& rasterize) {
     (void)rasterize;
-    throw std::logic_error(std::string(name()) + " backend: lists_from_gl is not supported (can_write_gl_maps is false)");
+    throw std::logic_error(std::string(name()) +
+                           " backend: lists_from_gl is not supported (can_write_gl_maps is false)");
   }
 
   // Builds one map from the light-view fragment lists `lists` (sorted in
@@ -230,7 +231,8 @@ class ShadowBackend {
   virtual void write_gl_maps(const GlMapWrite* writes, int count) {
     (void)writes;
     (void)count;
-    throw std::logic_error(std::string(name()) + " backend: write_gl_maps is not supported (can_write_gl_maps is false)");
+    throw std::logic_error(std::string(name()) +
+                           " backend: write_gl_maps is not supported (can_write_gl_maps is false)");
   }
   // GL buffer `name` (current context) is about to be deleted or replaced
   // by its owner (engine/gl/map_buffers.h): a backend that registered it
@@ -255,8 +257,10 @@ class ShadowBackend {
   virtual void camera_pass_to_gl(const ShadowView& shadows, const CameraPassParams& params, ListsId lists,
                                  uint32_t gl_buffer, uint64_t gl_buffer_bytes, uint64_t gl_buffer_generation,
                                  WalkStats& walk) {
-    (void)shadows, (void)params, (void)lists, (void)gl_buffer, (void)gl_buffer_bytes, (void)gl_buffer_generation, (void)walk;
-    throw std::logic_error(std::string(name()) + " backend: camera_pass_to_gl is not supported (can_write_gl_maps is false)");
+    (void)shadows, (void)params, (void)lists, (void)gl_buffer, (void)gl_buffer_bytes, (void)gl_buffer_generation,
+        (void)walk;
+    throw std::logic_error(std::string(name()) +
+                           " backend: camera_pass_to_gl is not supported (can_write_gl_maps is false)");
   }
 
   virtual MapStoreStats map_store() const = 0;

@@ -47,10 +47,28 @@ class ExecBackend final : public ExecShadowBackend {
  public:
   template <class... Args>
   explicit ExecBackend(const char* name, Args&&... args)
-      : name_(name), ex_(std::forward<Args>(args)...), tri_vertices_(ex_), tri_normals_(ex_), tri_object_(ex_),
-        objects_(ex_), volumes_(ex_), voxels_(ex_), macro_max_(ex_), nano_pool_(ex_), bvh_(ex_), bvh_prims_(ex_),
-        grey_(ex_), rgb_(ex_), scratch_(ex_), cam_inside_(ex_),
-        cam_lights_(ex_), cam_maps_(ex_), cam_rgb_(ex_), cam_walk_(ex_), frag_counts_(ex_), frag_total_(ex_),
+      : name_(name),
+        ex_(std::forward<Args>(args)...),
+        tri_vertices_(ex_),
+        tri_normals_(ex_),
+        tri_object_(ex_),
+        objects_(ex_),
+        volumes_(ex_),
+        voxels_(ex_),
+        macro_max_(ex_),
+        nano_pool_(ex_),
+        bvh_(ex_),
+        bvh_prims_(ex_),
+        grey_(ex_),
+        rgb_(ex_),
+        scratch_(ex_),
+        cam_inside_(ex_),
+        cam_lights_(ex_),
+        cam_maps_(ex_),
+        cam_rgb_(ex_),
+        cam_walk_(ex_),
+        frag_counts_(ex_),
+        frag_total_(ex_),
         frag_mask_(ex_) {}
   ExecBackend(const ExecBackend&) = delete;
   ExecBackend& operator=(const ExecBackend&) = delete;
@@ -91,7 +109,8 @@ class ExecBackend final : public ExecShadowBackend {
     if (all || change.grids) {
       voxels_.assign(sb.voxels);
       macro_max_.assign(sb.macro_max);
-      nano_pool_.assign(reinterpret_cast<const unsigned char*>(sb.nano_pool.data()), sb.nano_pool.size() * sizeof(GridBlock));
+      nano_pool_.assign(reinterpret_cast<const unsigned char*>(sb.nano_pool.data()),
+                        sb.nano_pool.size() * sizeof(GridBlock));
     }
   }
 
@@ -106,9 +125,11 @@ class ExecBackend final : public ExecShadowBackend {
                   DsmBuildStats& stats) override {
     const FragmentLists frags = held(lists, "build_map").lists();
     check_layout(layout);
-    if (params.rgb && params.method != ShadowMethod::Dsm) throw std::invalid_argument("build_map: the baselines are grey (no RGB maps)");
+    if (params.rgb && params.method != ShadowMethod::Dsm)
+      throw std::invalid_argument("build_map: the baselines are grey (no RGB maps)");
     if (slots_.live() == 0) reset_store();
-    CDSM_CHECK(!stored_any_ || same_layout(layout_, layout), "exec backend: maps of different layouts cannot share the store");
+    CDSM_CHECK(!stored_any_ || same_layout(layout_, layout),
+               "exec backend: maps of different layouts cannot share the store");
     // The lists are where the executor reads them (sorted in place); the
     // few ids of objects containing the light, over device memory, copied.
     LightPassParams ep = params;
@@ -119,8 +140,10 @@ class ExecBackend final : public ExecShadowBackend {
 
     ExecStoredMap m;
     m.live = true;
-    if (params.rgb) m = build_kind(ep, frags, layout, rgb_, stats);
-    else m = build_kind(ep, frags, layout, grey_, stats);
+    if (params.rgb)
+      m = build_kind(ep, frags, layout, rgb_, stats);
+    else
+      m = build_kind(ep, frags, layout, grey_, stats);
     layout_ = layout;
     stored_any_ = true;
     mirror_dirty_ = true;
@@ -130,13 +153,13 @@ class ExecBackend final : public ExecShadowBackend {
 
   void free_map(MapId id) override {
     slots_.free(id);
-    if (slots_.live() == 0) reset_store();
-    else if (slots_.needs_compaction()) compact();
+    if (slots_.live() == 0)
+      reset_store();
+    else if (slots_.needs_compaction())
+      compact();
   }
 
-  DsmMap map_header(MapId id) const override {
-    return slots_.at(id, "map_header").map;
-  }
+  DsmMap map_header(MapId id) const override { return slots_.at(id, "map_header").map; }
 
   DsmStorage storage() const override {
     if constexpr (Ex::kHostMemory) {
@@ -176,25 +199,30 @@ class ExecBackend final : public ExecShadowBackend {
   // In place only where the executor shares memory with the current GL
   // context (Ex::kGlInterop: CudaExec, with the context on its device).
   bool can_write_gl_maps() const override {
-    if constexpr (Ex::kGlInterop) return ex_.gl_context_on_device();
-    else return false;
+    if constexpr (Ex::kGlInterop)
+      return ex_.gl_context_on_device();
+    else
+      return false;
   }
 
   void write_gl_maps(const GlMapWrite* writes, int count) override {
     if constexpr (Ex::kGlInterop) {
       const DsmStorage s = exec_storage();
-      const void* src[kStorageArrays] = {s.texels.data(),     s.nodes.data(),     s.chunks.data(), s.rgb_texels.data(),
+      const void* src[kStorageArrays] = {s.texels.data(),    s.nodes.data(),      s.chunks.data(), s.rgb_texels.data(),
                                          s.rgb_nodes.data(), s.rgb_chunks.data(), s.tags.data(),   s.rgb_tags.data()};
-      const uint64_t have[kStorageArrays] = {s.texels.size() * sizeof(TexelRange), s.nodes.size() * sizeof(DsmNode),
-                                             s.chunks.size() * sizeof(ChunkNode), s.rgb_texels.size() * sizeof(TexelRange),
-                                             s.rgb_nodes.size() * sizeof(DsmNodeRgb), s.rgb_chunks.size() * sizeof(ChunkNodeRgb),
-                                             s.tags.size() * sizeof(SurfaceTag), s.rgb_tags.size() * sizeof(SurfaceTag)};
+      const uint64_t have[kStorageArrays] = {
+          s.texels.size() * sizeof(TexelRange),    s.nodes.size() * sizeof(DsmNode),
+          s.chunks.size() * sizeof(ChunkNode),     s.rgb_texels.size() * sizeof(TexelRange),
+          s.rgb_nodes.size() * sizeof(DsmNodeRgb), s.rgb_chunks.size() * sizeof(ChunkNodeRgb),
+          s.tags.size() * sizeof(SurfaceTag),      s.rgb_tags.size() * sizeof(SurfaceTag)};
       bool seen[kStorageArrays] = {};
       for (int i = 0; i < count; ++i) {
         const int a = int(writes[i].array);
-        if (a < 0 || a >= kStorageArrays || seen[a]) throw std::invalid_argument("write_gl_maps: unknown or repeated storage array");
+        if (a < 0 || a >= kStorageArrays || seen[a])
+          throw std::invalid_argument("write_gl_maps: unknown or repeated storage array");
         seen[a] = true;
-        if (writes[i].offset + writes[i].bytes > have[a] || writes[i].offset + writes[i].bytes > writes[i].gl_buffer_bytes)
+        if (writes[i].offset + writes[i].bytes > have[a] ||
+            writes[i].offset + writes[i].bytes > writes[i].gl_buffer_bytes)
           throw std::out_of_range("write_gl_maps: range past the end of storage array " + std::to_string(a) +
                                   " or of its GL buffer");
       }
@@ -205,12 +233,14 @@ class ExecBackend final : public ExecShadowBackend {
   }
   // The executor lets go of its registration of that buffer, if it has one.
   void gl_buffer_released(uint32_t name) override {
-    if constexpr (Ex::kGlInterop) ex_.gl_buffer_released(name);
-    else (void)name;
+    if constexpr (Ex::kGlInterop)
+      ex_.gl_buffer_released(name);
+    else
+      (void)name;
   }
 
-  void camera_pass(const ShadowView& shadows, const CameraPassParams& params, ListsId lists,
-                   std::vector<float>& rgb, WalkStats& walk) override {
+  void camera_pass(const ShadowView& shadows, const CameraPassParams& params, ListsId lists, std::vector<float>& rgb,
+                   WalkStats& walk) override {
     const FragmentLists frags = camera_lists(lists, params);
     const uint64_t n = uint64_t(params.view.width) * uint64_t(params.view.height);
     cam_rgb_.resize_discard(n * 3);
@@ -220,9 +250,8 @@ class ExecBackend final : public ExecShadowBackend {
 
   // The same pass shading straight into the mapped GL buffer (CUDA-GL
   // interop): no image in executor memory, no read-back.
-  void camera_pass_to_gl(const ShadowView& shadows, const CameraPassParams& params, ListsId lists,
-                         uint32_t gl_buffer, uint64_t gl_buffer_bytes, uint64_t gl_buffer_generation,
-                         WalkStats& walk) override {
+  void camera_pass_to_gl(const ShadowView& shadows, const CameraPassParams& params, ListsId lists, uint32_t gl_buffer,
+                         uint64_t gl_buffer_bytes, uint64_t gl_buffer_generation, WalkStats& walk) override {
     if constexpr (Ex::kGlInterop) {
       const FragmentLists frags = camera_lists(lists, params);
       CDSM_CHECK(ex_.gl_context_on_device(),
@@ -292,7 +321,8 @@ class ExecBackend final : public ExecShadowBackend {
     h->offsets.resize_discard(from.offsets.size());
     h->fragments.resize_discard(from.fragments.size());
     if (from.offsets.size()) ex_.copy(h->offsets.data(), from.offsets.data(), from.offsets.size() * sizeof(uint32_t));
-    if (from.fragments.size()) ex_.copy(h->fragments.data(), from.fragments.data(), from.fragments.size() * sizeof(Fragment));
+    if (from.fragments.size())
+      ex_.copy(h->fragments.data(), from.fragments.data(), from.fragments.size() * sizeof(Fragment));
     return hold(std::move(h));
   }
 
@@ -320,8 +350,8 @@ class ExecBackend final : public ExecShadowBackend {
           [&](uint64_t first, uint64_t count, uint32_t gl_buffer, uint64_t gl_buffer_bytes, uint64_t generation) {
             CDSM_CHECK(first == h->fragments.size(), "lists_from_gl: a tile out of order");
             if (count * sizeof(Fragment) > gl_buffer_bytes)
-              throw std::out_of_range("lists_from_gl: a tile of " + std::to_string(count) + " fragments in a GL buffer of " +
-                                      std::to_string(gl_buffer_bytes) + " bytes");
+              throw std::out_of_range("lists_from_gl: a tile of " + std::to_string(count) +
+                                      " fragments in a GL buffer of " + std::to_string(gl_buffer_bytes) + " bytes");
             h->fragments.resize(first + count);
             Fragment* dst = h->fragments.data() + first;
             ex_.with_gl_source(gl_buffer, gl_buffer_bytes, generation,
@@ -329,9 +359,9 @@ class ExecBackend final : public ExecShadowBackend {
           },
           out);
       check_lists(out.width, out.height, out.offsets.size(), h->fragments.size(), "lists_from_gl");
-      CDSM_CHECK(out.offsets.back() == h->fragments.size(),
-                 "lists_from_gl: " + std::to_string(h->fragments.size()) + " fragments copied, the offsets count " +
-                     std::to_string(out.offsets.back()));
+      CDSM_CHECK(out.offsets.back() == h->fragments.size(), "lists_from_gl: " + std::to_string(h->fragments.size()) +
+                                                                " fragments copied, the offsets count " +
+                                                                std::to_string(out.offsets.back()));
       h->width = out.width;
       h->height = out.height;
       h->offsets.assign(out.offsets);
@@ -348,7 +378,8 @@ class ExecBackend final : public ExecShadowBackend {
     out.offsets.resize(l.offsets.size());
     out.fragments.resize(l.fragments.size());
     if (l.offsets.size()) ex_.download(out.offsets.data(), l.offsets.data(), l.offsets.size() * sizeof(uint32_t));
-    if (l.fragments.size()) ex_.download(out.fragments.data(), l.fragments.data(), l.fragments.size() * sizeof(Fragment));
+    if (l.fragments.size())
+      ex_.download(out.fragments.data(), l.fragments.data(), l.fragments.size() * sizeof(Fragment));
   }
 
   void read_map(MapId id, uint32_t cap, std::vector<uint32_t>& counts, std::vector<DsmNode>& nodes) override {
@@ -384,7 +415,8 @@ class ExecBackend final : public ExecShadowBackend {
   static void check_lists(int32_t width, int32_t height, uint64_t offsets, uint64_t fragments, const char* what) {
     if (width < 0 || height < 0 || offsets != uint64_t(width) * uint64_t(height) + 1)
       throw std::invalid_argument(std::string(what) + ": " + std::to_string(offsets) + " offsets for lists of " +
-                                  std::to_string(width) + "x" + std::to_string(height) + " pixels (width * height + 1 expected)");
+                                  std::to_string(width) + "x" + std::to_string(height) +
+                                  " pixels (width * height + 1 expected)");
     if (fragments > 0xffffffffull) throw std::length_error(std::string(what) + ": more than 2^32-1 fragments");
   }
   ListsId hold(std::unique_ptr<HeldLists> h) {
@@ -398,7 +430,8 @@ class ExecBackend final : public ExecShadowBackend {
     return id;
   }
   HeldLists& held(ListsId id, const char* what) const {
-    CDSM_CHECK(id < held_.size() && held_[id], std::string(what) + ": fragment lists " + std::to_string(id) + " are not held");
+    CDSM_CHECK(id < held_.size() && held_[id],
+               std::string(what) + ": fragment lists " + std::to_string(id) + " are not held");
     return *held_[id];
   }
   // Lists `id`, which must cover the camera view.
@@ -406,8 +439,8 @@ class ExecBackend final : public ExecShadowBackend {
     const FragmentLists l = held(id, "camera_pass").lists();
     if (l.width != params.view.width || l.height != params.view.height)
       throw std::invalid_argument("camera_pass: fragment lists of " + std::to_string(l.width) + "x" +
-                                  std::to_string(l.height) + " pixels for a view of " + std::to_string(params.view.width) +
-                                  "x" + std::to_string(params.view.height));
+                                  std::to_string(l.height) + " pixels for a view of " +
+                                  std::to_string(params.view.width) + "x" + std::to_string(params.view.height));
     return l;
   }
 
@@ -512,7 +545,6 @@ class ExecBackend final : public ExecShadowBackend {
     return s;
   }
 
-
   uint64_t allocated_bytes() const {
     return grey_.texels.capacity() * sizeof(TexelRange) + grey_.nodes.capacity() * sizeof(DsmNode) +
            grey_.chunks.capacity() * sizeof(ChunkNode) + rgb_.texels.capacity() * sizeof(TexelRange) +
@@ -548,7 +580,8 @@ class ExecBackend final : public ExecShadowBackend {
     uint64_t bytes = 0;
     for (ExecStoredMap& m : moved) {
       if (!m.live) continue;
-      m = m.map.rgb ? move_map_exec(ex_, m, layout_.layout, rgb_, rgb) : move_map_exec(ex_, m, layout_.layout, grey_, grey);
+      m = m.map.rgb ? move_map_exec(ex_, m, layout_.layout, rgb_, rgb)
+                    : move_map_exec(ex_, m, layout_.layout, grey_, grey);
       bytes += m.bytes();
     }
     slots_.maps = std::move(moved);

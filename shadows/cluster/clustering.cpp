@@ -16,8 +16,8 @@ struct Extent {
 };
 
 bool overlaps(const Box3& a, const Box3& b) {
-  return a.lo.x <= b.hi.x && b.lo.x <= a.hi.x && a.lo.y <= b.hi.y && b.lo.y <= a.hi.y &&
-         a.lo.z <= b.hi.z && b.lo.z <= a.hi.z;
+  return a.lo.x <= b.hi.x && b.lo.x <= a.hi.x && a.lo.y <= b.hi.y && b.lo.y <= a.hi.y && a.lo.z <= b.hi.z &&
+         b.lo.z <= a.hi.z;
 }
 
 // The caster's box cut by `planes`, mapped by `map`.
@@ -61,8 +61,10 @@ void finish(std::vector<float>& table, int n) {
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j) {
       float& t = table[size_t(i) * size_t(n) + size_t(j)];
-      if (i == j) t = 0.0f;
-      else if (t < 0.0f) t = kFarDistance;
+      if (i == j)
+        t = 0.0f;
+      else if (t < 0.0f)
+        t = kFarDistance;
     }
 }
 
@@ -91,8 +93,8 @@ FocusParams focus_params(const ClusterSettings& s) {
 // view: B holds every segment from the light to a visible point); members
 // outside every B stay in the map but do not widen it. Without seen
 // members, the lit ones decide, then all.
-void focus_into(Cluster& c, const LightShape& light, const std::vector<Caster>& casters,
-                const std::vector<int>& idx, const ClusterSettings& s, const CasterDistances& D) {
+void focus_into(Cluster& c, const LightShape& light, const std::vector<Caster>& casters, const std::vector<int>& idx,
+                const ClusterSettings& s, const CasterDistances& D) {
   std::vector<int> order = idx;
   std::sort(order.begin(), order.end(), [&](int a, int b) { return casters[size_t(a)].id < casters[size_t(b)].id; });
   c.members.clear();
@@ -233,8 +235,10 @@ std::vector<std::vector<int>> greedy_clusters(const CasterDistances& D, float d0
       } else {
         if (!has_a) open(A);
         if (!has_b) {
-          if (int(C.size()) < m) open(B);
-          else put(B, nearest(B));
+          if (int(C.size()) < m)
+            open(B);
+          else
+            put(B, nearest(B));
         }
       }
     } else {
@@ -247,8 +251,10 @@ std::vector<std::vector<int>> greedy_clusters(const CasterDistances& D, float d0
   auto place = [&](int o) {
     for (size_t k = 0; k < C.size(); ++k)
       if (fits(o, k)) return put(o, k);
-    if (int(C.size()) < m) open(o);
-    else put(o, nearest(o));
+    if (int(C.size()) < m)
+      open(o);
+    else
+      put(o, nearest(o));
   };
   for (int o = 0; o < n; ++o)
     if (owner[size_t(o)] < 0 && D.seen[size_t(o)]) place(o);
@@ -257,8 +263,10 @@ std::vector<std::vector<int>> greedy_clusters(const CasterDistances& D, float d0
   // No light reaches these: they cast no shadow, so they only need a home.
   for (int o = 0; o < n; ++o)
     if (owner[size_t(o)] < 0) {
-      if (C.empty()) open(o);
-      else put(o, nearest(o));
+      if (C.empty())
+        open(o);
+      else
+        put(o, nearest(o));
     }
   return C;
 }
@@ -296,8 +304,10 @@ Clustering update_clusters(const LightShape& light, const PinholeView& camera, c
     std::vector<int> idx;
     for (int32_t id : c.members) {
       auto it = index_of.find(id);
-      if (it == index_of.end()) keep = false;
-      else idx.push_back(it->second);
+      if (it == index_of.end())
+        keep = false;
+      else
+        idx.push_back(it->second);
     }
     covered += c.members.size();
     prev_idx.push_back(std::move(idx));
@@ -315,7 +325,6 @@ Clustering update_clusters(const LightShape& light, const PinholeView& camera, c
       u.insert(u.end(), prev_idx[b].begin(), prev_idx[b].end());
       if (diameter_of(D, u) <= settings.d0 / (1.0f + h)) keep = false;  // they should merge
     }
-
 
   Clustering out;
   out.directions = int32_t(D.directions.size());

@@ -27,14 +27,14 @@ struct Caster {
 };
 
 struct ClusterSettings {
-  float d0 = 0.25f;             // distance threshold, normalized map units ([-1, 1] across B)
-  int32_t max_clusters = 1;     // m
-  int32_t resolution = 512;     // DSM texels per side
-  float guard_texels = 1.0f;    // free texels on every side of a focused map (>= 1)
-  float hysteresis = 0.25f;     // h: keep last frame's clusters while diameters <= d0 (1 + h)
+  float d0 = 0.25f;           // distance threshold, normalized map units ([-1, 1] across B)
+  int32_t max_clusters = 1;   // m
+  int32_t resolution = 512;   // DSM texels per side
+  float guard_texels = 1.0f;  // free texels on every side of a focused map (>= 1)
+  float hysteresis = 0.25f;   // h: keep last frame's clusters while diameters <= d0 (1 + h)
   LispsmParams lispsm;
   float max_half_angle_deg = 60.0f;  // a cluster spanning more around the light is split
-  float min_near = 1e-3f;       // near plane clamp, world units
+  float min_near = 1e-3f;            // near plane clamp, world units
 };
 
 // One light direction used for measuring (a spot's frustum or a cube face).
@@ -86,19 +86,19 @@ CasterDistances caster_distances(const LightShape& light, const PinholeView& cam
 std::vector<std::vector<int>> greedy_clusters(const CasterDistances& distances, float d0, int m);
 
 struct Cluster {
-  std::vector<int32_t> members;   // caster ids, ascending
-  std::vector<PinholeView> views; // focused frustum (several when split; none when unlit)
-  bool split = false;             // spanned > ~120° around the light or contained it
-  float diameter = 0.0f;          // largest distance of two lit members when formed
-  int32_t previous = -1;          // index of the same member set in the previous result
-  bool members_changed = true;    // no cluster of the previous result had these members
-  bool views_changed = true;      // members changed or a focused frustum moved: rebuild its DSMs
+  std::vector<int32_t> members;    // caster ids, ascending
+  std::vector<PinholeView> views;  // focused frustum (several when split; none when unlit)
+  bool split = false;              // spanned > ~120° around the light or contained it
+  float diameter = 0.0f;           // largest distance of two lit members when formed
+  int32_t previous = -1;           // index of the same member set in the previous result
+  bool members_changed = true;     // no cluster of the previous result had these members
+  bool views_changed = true;       // members changed or a focused frustum moved: rebuild its DSMs
 };
 
 struct Clustering {
   std::vector<Cluster> clusters;
-  bool reclustered = true;         // false: the previous assignment was kept
-  int32_t directions = 0;          // light directions measured (1 or 6)
+  bool reclustered = true;             // false: the previous assignment was kept
+  int32_t directions = 0;              // light directions measured (1 or 6)
   int32_t perspective_directions = 0;  // of those, how many used the LiSPSM warp
   size_t view_count() const {
     size_t n = 0;

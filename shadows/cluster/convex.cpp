@@ -211,8 +211,7 @@ ConvexBody box_body(const Box3& box) {
   ConvexBody body;
   if (box.empty()) return body;
   // Faces as corner indices (bit 0: x, bit 1: y, bit 2: z), oriented below.
-  static const int faces[6][4] = {{0, 2, 6, 4}, {1, 5, 7, 3}, {0, 4, 5, 1},
-                                  {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 6, 7, 5}};
+  static const int faces[6][4] = {{0, 2, 6, 4}, {1, 5, 7, 3}, {0, 4, 5, 1}, {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 6, 7, 5}};
   Vec3 c = box.center();
   for (const auto& f : faces) {
     Polygon poly{box.corner(f[0]), box.corner(f[1]), box.corner(f[2]), box.corner(f[3])};
@@ -223,9 +222,9 @@ ConvexBody box_body(const Box3& box) {
 }
 
 std::vector<Plane> box_planes(const Box3& box) {
-  return {plane_through(box.lo, vec3(1, 0, 0)),  plane_through(box.hi, vec3(-1, 0, 0)),
-          plane_through(box.lo, vec3(0, 1, 0)),  plane_through(box.hi, vec3(0, -1, 0)),
-          plane_through(box.lo, vec3(0, 0, 1)),  plane_through(box.hi, vec3(0, 0, -1))};
+  return {plane_through(box.lo, vec3(1, 0, 0)), plane_through(box.hi, vec3(-1, 0, 0)),
+          plane_through(box.lo, vec3(0, 1, 0)), plane_through(box.hi, vec3(0, -1, 0)),
+          plane_through(box.lo, vec3(0, 0, 1)), plane_through(box.hi, vec3(0, 0, -1))};
 }
 
 void frustum_corners(const PinholeView& v, Vec3 out[8]) {
@@ -240,8 +239,7 @@ void frustum_corners(const PinholeView& v, Vec3 out[8]) {
 ConvexBody frustum_body(const PinholeView& v) {
   Vec3 c[8];
   frustum_corners(v, c);
-  static const int faces[6][4] = {{0, 2, 6, 4}, {1, 5, 7, 3}, {0, 4, 5, 1},
-                                  {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 6, 7, 5}};
+  static const int faces[6][4] = {{0, 2, 6, 4}, {1, 5, 7, 3}, {0, 4, 5, 1}, {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 6, 7, 5}};
   Vec3 inside{};
   for (Vec3 p : c) inside += p;
   inside = inside / 8.0f;
@@ -256,11 +254,10 @@ ConvexBody frustum_body(const PinholeView& v) {
 
 std::vector<Plane> frustum_planes(const PinholeView& v, bool with_depth) {
   const Vec3 F = v.forward, R = v.right, U = v.up;
-  std::vector<Plane> planes = {
-      plane_through(v.eye, R - F * (v.center.x - v.tan_half_x)),   // left
-      plane_through(v.eye, F * (v.center.x + v.tan_half_x) - R),   // right
-      plane_through(v.eye, U - F * (v.center.y - v.tan_half_y)),   // bottom
-      plane_through(v.eye, F * (v.center.y + v.tan_half_y) - U)};  // top
+  std::vector<Plane> planes = {plane_through(v.eye, R - F * (v.center.x - v.tan_half_x)),   // left
+                               plane_through(v.eye, F * (v.center.x + v.tan_half_x) - R),   // right
+                               plane_through(v.eye, U - F * (v.center.y - v.tan_half_y)),   // bottom
+                               plane_through(v.eye, F * (v.center.y + v.tan_half_y) - U)};  // top
   if (with_depth) {
     planes.push_back(plane_through(v.eye + F * v.near, F));
     planes.push_back(plane_through(v.eye + F * v.far, -F));

@@ -30,8 +30,7 @@ using Polygon = std::vector<Vec3>;
 // (possibly empty). Every vertex of the result that lies on the plane
 // (created by the cut, or an original vertex within `tol`) is appended to
 // `cut` when it is given. Zero-length edges of the result are removed.
-Polygon clip_polygon(const Polygon& poly, const Plane& plane, float tol,
-                     std::vector<Vec3>* cut = nullptr);
+Polygon clip_polygon(const Polygon& poly, const Plane& plane, float tol, std::vector<Vec3>* cut = nullptr);
 
 // Newell normal of a polygon (length = twice its area); with counter-clockwise
 // vertices seen from outside it points outwards.

@@ -19,8 +19,7 @@ struct Region {
   Polygon cross;  // unit-distance cross section; empty when unbounded
 };
 
-Region make_region(Vec3 eye, Vec3 axis, Vec3 up_hint, float tan_half, int sides,
-                   std::vector<Plane> planes) {
+Region make_region(Vec3 eye, Vec3 axis, Vec3 up_hint, float tan_half, int sides, std::vector<Plane> planes) {
   // The base polygon circumscribes the circle (sides > 4) or is the square
   // (sides == 4) of radius tan_half around the axis, clipped by the planes.
   Vec3 r, u;
@@ -28,8 +27,8 @@ Region make_region(Vec3 eye, Vec3 axis, Vec3 up_hint, float tan_half, int sides,
   Region reg;
   reg.planes = std::move(planes);
   if (sides == 4) {
-    reg.cross = {eye + axis + (-r - u) * tan_half, eye + axis + (r - u) * tan_half,
-                 eye + axis + (r + u) * tan_half, eye + axis + (-r + u) * tan_half};
+    reg.cross = {eye + axis + (-r - u) * tan_half, eye + axis + (r - u) * tan_half, eye + axis + (r + u) * tan_half,
+                 eye + axis + (-r + u) * tan_half};
   } else {
     const float rad = tan_half / std::cos(kPi / float(sides));
     for (int i = 0; i < sides; ++i) {
@@ -45,8 +44,7 @@ Region make_region(Vec3 eye, Vec3 axis, Vec3 up_hint, float tan_half, int sides,
 // light contributes the region's whole cross section (every direction of it
 // starts inside the member) plus its vertices away from the light; clipped
 // vertices near the apex would carry the clipping tolerance into angles.
-std::vector<Vec3> member_points(const Box3& box, Vec3 eye, const Region& reg, float min_near,
-                                bool& at_light) {
+std::vector<Vec3> member_points(const Box3& box, Vec3 eye, const Region& reg, float min_near, bool& at_light) {
   std::vector<Vec3> out;
   if (reg.planes.empty()) {
     for (int i = 0; i < 8; ++i) out.push_back(box.corner(i));
@@ -145,9 +143,8 @@ FocusResult focus_cluster(const LightShape& light, const std::vector<Box3>& memb
   }
 
   const Vec3 hint = coned ? sv.up : vec3(0, 1, 0);
-  Region whole = coned ? make_region(eye, sv.forward, sv.up,
-                                     std::tan(light.outer_cone_deg * (kPi / 180.0f)), 64, cone)
-                       : Region{};
+  Region whole =
+      coned ? make_region(eye, sv.forward, sv.up, std::tan(light.outer_cone_deg * (kPi / 180.0f)), 64, cone) : Region{};
   PinholeView v;
   bool empty = false;
   if (focus_region(eye, members, whole, hint, params, v, empty)) {
@@ -182,8 +179,6 @@ FocusResult focus_cluster(const LightShape& light, const std::vector<Box3>& memb
   return res;
 }
 
-bool same_view(const PinholeView& a, const PinholeView& b) {
-  return std::memcmp(&a, &b, sizeof(PinholeView)) == 0;
-}
+bool same_view(const PinholeView& a, const PinholeView& b) { return std::memcmp(&a, &b, sizeof(PinholeView)) == 0; }
 
 }  // namespace cdsm::cluster

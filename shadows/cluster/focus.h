@@ -13,10 +13,10 @@
 namespace cdsm::cluster {
 
 struct FocusParams {
-  int resolution = 512;            // DSM texels per side
-  float guard_texels = 1.0f;       // kept free on every side (>= 1 for bilinear taps)
+  int resolution = 512;              // DSM texels per side
+  float guard_texels = 1.0f;         // kept free on every side (>= 1 for bilinear taps)
   float max_half_angle_deg = 60.0f;  // wider clusters (> ~120°) are split per cube face
-  float min_near = 1e-3f;          // near plane clamp, world units
+  float min_near = 1e-3f;            // near plane clamp, world units
 };
 
 struct FocusResult {
@@ -30,8 +30,7 @@ struct FocusResult {
 // window is nearly centred, with the guard band, near/far fitted to the
 // points' axial extent. False (out untouched) when a point lies within
 // min_near of the eye or further than max_half_angle_deg from the axis.
-bool focus_points(Vec3 eye, const std::vector<Vec3>& points, Vec3 up_hint, const FocusParams& params,
-                  PinholeView& out);
+bool focus_points(Vec3 eye, const std::vector<Vec3>& points, Vec3 up_hint, const FocusParams& params, PinholeView& out);
 
 // Focuses the light on a cluster's member boxes. A spot light's members are
 // first cut by its cone (and its square frustum), so the focused window never

@@ -11,8 +11,7 @@ namespace {
 constexpr float kPi = 3.14159265358979f;
 float radians(float deg) { return deg * (kPi / 180.0f); }
 
-PinholeView square_view(Vec3 eye, Vec3 forward, Vec3 up_hint, float tan_half, float near, float far,
-                        int res) {
+PinholeView square_view(Vec3 eye, Vec3 forward, Vec3 up_hint, float tan_half, float near, float far, int res) {
   PinholeView v;
   v.eye = eye;
   v.forward = normalize(forward);
@@ -36,8 +35,7 @@ float widen_for_guard(float half, int res, float guard) {
 void make_frame(Vec3 forward, Vec3 up_hint, Vec3& right, Vec3& up) {
   Vec3 f = normalize(forward);
   Vec3 h = normalize(up_hint);
-  if (!(length(h) > 0.5f) || std::fabs(dot(f, h)) > 0.999f)
-    h = std::fabs(f.y) < 0.9f ? vec3(0, 1, 0) : vec3(0, 0, 1);
+  if (!(length(h) > 0.5f) || std::fabs(dot(f, h)) > 0.999f) h = std::fabs(f.y) < 0.9f ? vec3(0, 1, 0) : vec3(0, 0, 1);
   right = normalize(cross(f, h));
   up = normalize(cross(right, f));
 }

@@ -14,7 +14,7 @@ namespace cdsm::cluster {
 // A light as clustering and focusing see it (the engine makes it from its
 // scene model's light).
 struct LightShape {
-  bool spot = true;              // false: a point (omni) light
+  bool spot = true;  // false: a point (omni) light
   Vec3 position{0, 0, 0};
   Vec3 direction{0, -1, 0};      // spot: the cone's axis (unit length)
   float outer_cone_deg = 30.0f;  // spot: half-angle where the light ends

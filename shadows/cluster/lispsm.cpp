@@ -93,8 +93,7 @@ LispsmMap build_lispsm(const PinholeView& camera, const PinholeView& light, cons
   float za0 = dot(d0, light.forward);
   float sx0 = dot(d0, light.right) / za0, sy0 = dot(d0, light.up) / za0;
   float vf = dot(v, light.forward);
-  Vec2 v2{(dot(v, light.right) - sx0 * vf) / light.tan_half_x,
-          (dot(v, light.up) - sy0 * vf) / light.tan_half_y};
+  Vec2 v2{(dot(v, light.right) - sx0 * vf) / light.tan_half_x, (dot(v, light.up) - sy0 * vf) / light.tan_half_y};
   float v2len = std::sqrt(v2.x * v2.x + v2.y * v2.y);
 
   auto uniform = [&]() {

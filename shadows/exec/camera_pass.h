@@ -24,20 +24,21 @@ void shade_pixels(Ex& ex, const SceneView& scene, const ShadowView& shadows, con
   const SceneView sv = scene;
   const ShadowView shv = shadows;
   const CameraPassParams cp = params;
-  ex.parallel_for("camera pass", n, CDSM_LAMBDA(uint64_t i) {
-    const int px = int(i % uint64_t(w)), py = int(i / uint64_t(w));
-    DsmVisibility vis{shv};
-    NoRecorder rec;
-    WalkStats st;
-    PixelResult r = shade_pixel(sv, shv.lights, vis, cp, frags.pixel(px, py), px, py, rec, st);
-    rgb[3 * i + 0] = r.color.x;
-    rgb[3 * i + 1] = r.color.y;
-    rgb[3 * i + 2] = r.color.z;
-    if (st.enclosing_overflow) atomic_add(&walk4[0], st.enclosing_overflow);
-    if (st.match_overflow) atomic_add(&walk4[1], st.match_overflow);
-    if (st.unmatched) atomic_add(&walk4[2], st.unmatched);
-    if (st.march_lengthened) atomic_add(&walk4[3], st.march_lengthened);
-  });
+  ex.parallel_for(
+      "camera pass", n, CDSM_LAMBDA(uint64_t i) {
+        const int px = int(i % uint64_t(w)), py = int(i / uint64_t(w));
+        DsmVisibility vis{shv};
+        NoRecorder rec;
+        WalkStats st;
+        PixelResult r = shade_pixel(sv, shv.lights, vis, cp, frags.pixel(px, py), px, py, rec, st);
+        rgb[3 * i + 0] = r.color.x;
+        rgb[3 * i + 1] = r.color.y;
+        rgb[3 * i + 2] = r.color.z;
+        if (st.enclosing_overflow) atomic_add(&walk4[0], st.enclosing_overflow);
+        if (st.match_overflow) atomic_add(&walk4[1], st.match_overflow);
+        if (st.unmatched) atomic_add(&walk4[2], st.unmatched);
+        if (st.march_lengthened) atomic_add(&walk4[3], st.march_lengthened);
+      });
 }
 
 // Fragment lists of `view` by ray casting (count -> scan -> fill), like
@@ -55,24 +56,27 @@ void cast_fragments_exec(Ex& ex, const SceneView& scene, const PinholeView& view
   const SceneView sv = scene;
   const PinholeView v = view;
   uint32_t* c = counts.data();
-  ex.parallel_for("fragments: count", n + 1, CDSM_LAMBDA(uint64_t i) {
-    if (i == n) {  // the scan's last entry becomes the total
-      c[i] = 0;
-      return;
-    }
-    uint32_t k = 0;
-    cast_pixel(sv, v, mask, any_media, int(i % uint64_t(w)), int(i / uint64_t(w)), [&](Fragment) { ++k; });
-    c[i] = k;
-  });
+  ex.parallel_for(
+      "fragments: count", n + 1, CDSM_LAMBDA(uint64_t i) {
+        if (i == n) {  // the scan's last entry becomes the total
+          c[i] = 0;
+          return;
+        }
+        uint32_t k = 0;
+        cast_pixel(sv, v, mask, any_media, int(i % uint64_t(w)), int(i / uint64_t(w)), [&](Fragment) { ++k; });
+        c[i] = k;
+      });
   const uint64_t all = exclusive_scan(ex, c, offsets.data(), n + 1, sums);
   if (all > 0xffffffffull) throw std::length_error("fragment lists exceed 2^32 fragments");
   fragments.resize_discard(all);
   const uint32_t* off = offsets.data();
   Fragment* out = fragments.data();
-  ex.parallel_for("fragments: fill", n, CDSM_LAMBDA(uint64_t i) {
-    uint32_t at = off[i];
-    cast_pixel(sv, v, mask, any_media, int(i % uint64_t(w)), int(i / uint64_t(w)), [&](Fragment f) { out[at++] = f; });
-  });
+  ex.parallel_for(
+      "fragments: fill", n, CDSM_LAMBDA(uint64_t i) {
+        uint32_t at = off[i];
+        cast_pixel(sv, v, mask, any_media, int(i % uint64_t(w)), int(i / uint64_t(w)),
+                   [&](Fragment f) { out[at++] = f; });
+      });
 }
 
 }  // namespace cdsm::exec

@@ -37,7 +37,8 @@ class HostExec {
       tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, 64), [&](const tbb::blocked_range<uint64_t>& r) {
         for (uint64_t i = r.begin(); i < r.end(); ++i) f(i);
       });
-    add_stage_time(times_, name, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    add_stage_time(times_, name,
+                   std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
 
   void upload(void* dst, const void* src, size_t bytes) {
@@ -64,7 +65,8 @@ class HostExec {
 
  private:
   void injected_failure(const char* what) {
-    if (fail_after >= 0 && fail_after-- == 0) throw std::runtime_error(std::string("HostExec: injected failure in ") + what);
+    if (fail_after >= 0 && fail_after-- == 0)
+      throw std::runtime_error(std::string("HostExec: injected failure in ") + what);
   }
 
   std::vector<StageTime> times_;

@@ -58,8 +58,8 @@ struct BuildCounters {
 };
 
 struct LightPassOptions {
-  int walk_nodes = kWalkNodes;            // K of the first walk (>= 4)
-  int max_nodes = kTexelNodeCapacity;     // the second walk's buffer: re-compression beyond node_limit() of it
+  int walk_nodes = kWalkNodes;         // K of the first walk (>= 4)
+  int max_nodes = kTexelNodeCapacity;  // the second walk's buffer: re-compression beyond node_limit() of it
   // The first walk's buffers of one batch of tile rows, and the second's of
   // one chunk; 0: the executor's (Ex::kLightPassBatchBytes: 8 MiB on CPU
   // threads, where a batch's buffers stay in cache — measured against 2, 32
@@ -112,20 +112,30 @@ struct KindStore {
 template <class Ex>
 struct LightPassScratch {
   explicit LightPassScratch(Ex& ex)
-      : counts(ex), spilled(ex), extra(ex), heads(ex), tile_first(ex), staging(ex), staging_tags(ex), walk(ex),
-        spill(ex), spill_texels(ex), counters(ex), inside(ex) {}
-  ExecArray<uint32_t, Ex> counts;        // per texel of the map: its nodes before the layout
-  ExecArray<uint32_t, Ex> spilled;       // per texel of the map: 1 walked again, 2 and re-compressed
-  ExecArray<float, Ex> extra;            // per texel of the map: error the large buffer's bound added
-  ExecArray<TexelRange, Ex> heads;       // fixed, chunked: each texel's nodes in `staging`
-  ExecArray<uint32_t, Ex> tile_first;    // chunked: each tile's first chunk (relative to the map's)
-  ExecArray<unsigned char, Ex> staging;  // fixed, chunked: the packed nodes the layout is written from
+      : counts(ex),
+        spilled(ex),
+        extra(ex),
+        heads(ex),
+        tile_first(ex),
+        staging(ex),
+        staging_tags(ex),
+        walk(ex),
+        spill(ex),
+        spill_texels(ex),
+        counters(ex),
+        inside(ex) {}
+  ExecArray<uint32_t, Ex> counts;          // per texel of the map: its nodes before the layout
+  ExecArray<uint32_t, Ex> spilled;         // per texel of the map: 1 walked again, 2 and re-compressed
+  ExecArray<float, Ex> extra;              // per texel of the map: error the large buffer's bound added
+  ExecArray<TexelRange, Ex> heads;         // fixed, chunked: each texel's nodes in `staging`
+  ExecArray<uint32_t, Ex> tile_first;      // chunked: each tile's first chunk (relative to the map's)
+  ExecArray<unsigned char, Ex> staging;    // fixed, chunked: the packed nodes the layout is written from
   ExecArray<SurfaceTag, Ex> staging_tags;  // their tags
-  ExecArray<unsigned char, Ex> walk;     // the first walk's buffers of one batch
-  ExecArray<unsigned char, Ex> spill;    // the second walk's buffers of one chunk
-  ExecArray<uint32_t, Ex> spill_texels;  // the batch's texels listed for the second walk
+  ExecArray<unsigned char, Ex> walk;       // the first walk's buffers of one batch
+  ExecArray<unsigned char, Ex> spill;      // the second walk's buffers of one chunk
+  ExecArray<uint32_t, Ex> spill_texels;    // the batch's texels listed for the second walk
   ExecArray<BuildCounters, Ex> counters;
-  ExecArray<uint32_t, Ex> inside;        // the objects containing the light (over device memory)
+  ExecArray<uint32_t, Ex> inside;  // the objects containing the light (over device memory)
 };
 
 // Nodes a baseline texel can hold at once (hd/baselines.h): a first walk
@@ -156,19 +166,19 @@ struct TexelWalks {
   LightPassParams params;
   FragmentLists frags;
   int res = 0, height = 0, tiles_x = 0;
-  int K = 0;                       // the buffer's nodes
-  uint64_t first = 0;              // first walks: the batch's first tile; second: the chunk's first listed texel
-  bool layout_counts = true;       // packed and chunked store the nodes as built (fixed counts in its own pass)
-  uint64_t pool_base = 0;          // the pool's nodes before this map (packed: the store's)
+  int K = 0;                  // the buffer's nodes
+  uint64_t first = 0;         // first walks: the batch's first tile; second: the chunk's first listed texel
+  bool layout_counts = true;  // packed and chunked store the nodes as built (fixed counts in its own pass)
+  uint64_t pool_base = 0;     // the pool's nodes before this map (packed: the store's)
   uint32_t* counts = nullptr;
-  uint32_t* spilled = nullptr;     // per texel: 0, 1 walked again, 2 walked again and re-compressed
+  uint32_t* spilled = nullptr;  // per texel: 0, 1 walked again, 2 walked again and re-compressed
   float* extra = nullptr;
   TexelRange* heads = nullptr;
   BuildCounters* ctr = nullptr;
   unsigned char* buffers = nullptr;  // first walks: the batch's; second: the chunk's
   uint64_t slot_bytes = 0;
   uint32_t* spill_texels = nullptr;
-  Node* pool = nullptr;              // second walk: the pool (its capacity holds the chunk's worst case)
+  Node* pool = nullptr;  // second walk: the pool (its capacity holds the chunk's worst case)
   SurfaceTag* pool_tags = nullptr;
 
   // Texel k of the batch whose first tile is `tile0`, in tile order (64
@@ -293,7 +303,8 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
   const bool baseline = params.method != ShadowMethod::Dsm;
   const int K = baseline ? baseline_capacity(params.method, params.method_param) : opt.walk_nodes;
   const int K2 = opt.max_nodes;
-  if (K < 4 || K2 < K) throw std::invalid_argument("light pass: the walk buffers must hold >= 4 nodes, the second >= the first");
+  if (K < 4 || K2 < K)
+    throw std::invalid_argument("light pass: the walk buffers must hold >= 4 nodes, the second >= the first");
 
   map = DsmMap{};
   map.view = params.view;
@@ -339,7 +350,9 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
   const auto pool_nodes = [&]() -> Node* {
     return kind == DsmLayout::Packed ? out.nodes.data() : reinterpret_cast<Node*>(s.staging.data());
   };
-  const auto pool_tags = [&]() -> SurfaceTag* { return kind == DsmLayout::Packed ? out.tags.data() : s.staging_tags.data(); };
+  const auto pool_tags = [&]() -> SurfaceTag* {
+    return kind == DsmLayout::Packed ? out.tags.data() : s.staging_tags.data();
+  };
 
   TexelWalks<Node> work;
   work.scene = scene;
@@ -377,8 +390,10 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
     work.slot_bytes = walk_bytes;
     work.spill_texels = s.spill_texels.data();
     if constexpr (sizeof(Node) == sizeof(DsmNode)) {
-      if (baseline) ex.parallel_for("light pass: walk (baseline)", batch, BaselineWalk{work});
-      else ex.parallel_for("light pass: walk", batch, FirstWalk<Node>{work});
+      if (baseline)
+        ex.parallel_for("light pass: walk (baseline)", batch, BaselineWalk{work});
+      else
+        ex.parallel_for("light pass: walk", batch, FirstWalk<Node>{work});
     } else {
       ex.parallel_for("light pass: walk", batch, FirstWalk<Node>{work});
     }
@@ -401,24 +416,25 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
       }
     }
     // 3. reserve the tiles' other texels.
-    ex.parallel_for("light pass: reserve tiles", tiles, CDSM_LAMBDA(uint64_t k) {
-      const uint64_t tile = tile0 + k;
-      const int x0 = int(tile % uint64_t(tiles_x)) * kDsmTile, y0 = int(tile / uint64_t(tiles_x)) * kDsmTile;
-      uint32_t total = 0;
-      for (int j = 0; j < kDsmTile * kDsmTile; ++j) {
-        const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
-        const uint64_t t = uint64_t(ty) * res + tx;
-        if (tx < res && ty < height && spilled[t] == 0u) total += counts[t];
-      }
-      uint64_t at = pool_base + atomic_add(&ctr->nodes, (unsigned long long)total);
-      for (int j = 0; j < kDsmTile * kDsmTile; ++j) {
-        const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
-        const uint64_t t = uint64_t(ty) * res + tx;
-        if (tx >= res || ty >= height || spilled[t] != 0u) continue;
-        heads[t] = TexelRange{uint32_t(at), counts[t]};
-        at += counts[t];
-      }
-    });
+    ex.parallel_for(
+        "light pass: reserve tiles", tiles, CDSM_LAMBDA(uint64_t k) {
+          const uint64_t tile = tile0 + k;
+          const int x0 = int(tile % uint64_t(tiles_x)) * kDsmTile, y0 = int(tile / uint64_t(tiles_x)) * kDsmTile;
+          uint32_t total = 0;
+          for (int j = 0; j < kDsmTile * kDsmTile; ++j) {
+            const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
+            const uint64_t t = uint64_t(ty) * res + tx;
+            if (tx < res && ty < height && spilled[t] == 0u) total += counts[t];
+          }
+          uint64_t at = pool_base + atomic_add(&ctr->nodes, (unsigned long long)total);
+          for (int j = 0; j < kDsmTile * kDsmTile; ++j) {
+            const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
+            const uint64_t t = uint64_t(ty) * res + tx;
+            if (tx >= res || ty >= height || spilled[t] != 0u) continue;
+            heads[t] = TexelRange{uint32_t(at), counts[t]};
+            at += counts[t];
+          }
+        });
     ex.download(&c, ctr, sizeof c);
     pool_used = c.nodes;
     pool_size(pool_used);
@@ -427,18 +443,19 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
     SurfaceTag* pt = pool_tags();
     const unsigned char* walk_mem = s.walk.data();
     const TexelWalks<Node> at = work;
-    ex.parallel_for("light pass: copy", batch, CDSM_LAMBDA(uint64_t k) {
-      int tx, ty;
-      if (!at.batch_texel(tile0, k, tx, ty)) return;
-      const uint64_t t = uint64_t(ty) * uint64_t(res) + uint64_t(tx);
-      if (spilled[t] != 0u) return;
-      const TexelRange h = heads[t];
-      const auto buf = Kind::buffer(const_cast<unsigned char*>(walk_mem) + k * walk_bytes, K, false);
-      for (uint32_t j = 0; j < h.count; ++j) {
-        pn[h.offset + j] = buf.nodes[j];
-        pt[h.offset + j] = buf.tags[j];
-      }
-    });
+    ex.parallel_for(
+        "light pass: copy", batch, CDSM_LAMBDA(uint64_t k) {
+          int tx, ty;
+          if (!at.batch_texel(tile0, k, tx, ty)) return;
+          const uint64_t t = uint64_t(ty) * uint64_t(res) + uint64_t(tx);
+          if (spilled[t] != 0u) return;
+          const TexelRange h = heads[t];
+          const auto buf = Kind::buffer(const_cast<unsigned char*>(walk_mem) + k * walk_bytes, K, false);
+          for (uint32_t j = 0; j < h.count; ++j) {
+            pn[h.offset + j] = buf.nodes[j];
+            pt[h.offset + j] = buf.tags[j];
+          }
+        });
   }
   const uint64_t total = pool_used;
 
@@ -452,40 +469,43 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
     const float eps = params.epsilon;
     const Node* staging = reinterpret_cast<const Node*>(s.staging.data());
     const SurfaceTag* staging_tags = s.staging_tags.data();
-    ex.parallel_for("light pass: fixed layout", n_texels, CDSM_LAMBDA(uint64_t i) {
-      const TexelRange h = heads[i];
-      FixedFit fit = write_fixed_texel(Span<const Node>{staging + h.offset, h.count}, staging_tags + h.offset, eps,
-                                       slots + i * L, slot_tags + i * L, int(L));
-      counts[i] = uint32_t(fit.count);  // summed per tile below
-      atomic_max(&ctr->max_nodes, uint32_t(fit.count));
-      if (fit.recompressed) atomic_add(&ctr->layout_overflow_texels, 1u);
-      if (fit.recompressed || spilled[i] == 2u) {
-        atomic_add(&ctr->recompressed_texels, 1u);
-        atomic_max(&ctr->max_extra_error_bits, float_bits(extra[i] + fit.extra_error));
-      }
-    });
-    ex.parallel_for("light pass: count stored", n_tiles, CDSM_LAMBDA(uint64_t tile) {
-      const int x0 = int(tile % uint64_t(tiles_x)) * kDsmTile, y0 = int(tile / uint64_t(tiles_x)) * kDsmTile;
-      unsigned long long n = 0;
-      for (int j = 0; j < kDsmTile * kDsmTile; ++j) {
-        const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
-        if (tx < res && ty < height) n += counts[uint64_t(ty) * res + tx];
-      }
-      if (n) atomic_add(&ctr->stored, n);
-    });
+    ex.parallel_for(
+        "light pass: fixed layout", n_texels, CDSM_LAMBDA(uint64_t i) {
+          const TexelRange h = heads[i];
+          FixedFit fit = write_fixed_texel(Span<const Node>{staging + h.offset, h.count}, staging_tags + h.offset, eps,
+                                           slots + i * L, slot_tags + i * L, int(L));
+          counts[i] = uint32_t(fit.count);  // summed per tile below
+          atomic_max(&ctr->max_nodes, uint32_t(fit.count));
+          if (fit.recompressed) atomic_add(&ctr->layout_overflow_texels, 1u);
+          if (fit.recompressed || spilled[i] == 2u) {
+            atomic_add(&ctr->recompressed_texels, 1u);
+            atomic_max(&ctr->max_extra_error_bits, float_bits(extra[i] + fit.extra_error));
+          }
+        });
+    ex.parallel_for(
+        "light pass: count stored", n_tiles, CDSM_LAMBDA(uint64_t tile) {
+          const int x0 = int(tile % uint64_t(tiles_x)) * kDsmTile, y0 = int(tile / uint64_t(tiles_x)) * kDsmTile;
+          unsigned long long n = 0;
+          for (int j = 0; j < kDsmTile * kDsmTile; ++j) {
+            const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
+            if (tx < res && ty < height) n += counts[uint64_t(ty) * res + tx];
+          }
+          if (n) atomic_add(&ctr->stored, n);
+        });
   } else if (kind == DsmLayout::Chunked) {
     // Each tile reserves the chunks of all its nodes (Alg. 4.1, hd/dsm_chunked.h).
     s.tile_first.resize_discard(n_tiles);
     uint32_t* tile_first = s.tile_first.data();
-    ex.parallel_for("light pass: reserve chunks", n_tiles, CDSM_LAMBDA(uint64_t tile) {
-      const int x0 = int(tile % uint64_t(tiles_x)) * kDsmTile, y0 = int(tile / uint64_t(tiles_x)) * kDsmTile;
-      uint32_t n = 0;
-      for (int j = 0; j < kDsmTile * kDsmTile; ++j) {
-        const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
-        if (tx < res && ty < height) n += counts[uint64_t(ty) * res + tx];
-      }
-      tile_first[tile] = uint32_t(atomic_add(&ctr->chunks, (unsigned long long)tile_chunks(n, C)));
-    });
+    ex.parallel_for(
+        "light pass: reserve chunks", n_tiles, CDSM_LAMBDA(uint64_t tile) {
+          const int x0 = int(tile % uint64_t(tiles_x)) * kDsmTile, y0 = int(tile / uint64_t(tiles_x)) * kDsmTile;
+          uint32_t n = 0;
+          for (int j = 0; j < kDsmTile * kDsmTile; ++j) {
+            const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
+            if (tx < res && ty < height) n += counts[uint64_t(ty) * res + tx];
+          }
+          tile_first[tile] = uint32_t(atomic_add(&ctr->chunks, (unsigned long long)tile_chunks(n, C)));
+        });
     ex.download(&c, ctr, sizeof c);
     const uint64_t chunk_base = out.chunks.size();  // slots
     check_u32_total(chunk_base + c.chunks * C, "chunk slots");
@@ -497,24 +517,25 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
     const Node* staging = reinterpret_cast<const Node*>(s.staging.data());
     const SurfaceTag* staging_tags = s.staging_tags.data();
     // A thread per texel (write_chunked_texel: the tile writer's slots).
-    ex.parallel_for("light pass: chunked layout", n_tiles * kChunkTileTexels, CDSM_LAMBDA(uint64_t idx) {
-      const uint64_t tile = idx / kChunkTileTexels;
-      const int k = int(idx % kChunkTileTexels);
-      const int x0 = int(tile % uint64_t(tiles_x)) * kDsmTile, y0 = int(tile / uint64_t(tiles_x)) * kDsmTile;
-      uint32_t tile_counts[kChunkTileTexels];
-      for (int j = 0; j < kChunkTileTexels; ++j) {
-        const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
-        tile_counts[j] = tx < res && ty < height ? heads[uint64_t(ty) * res + tx].count : 0u;
-      }
-      const int tx = x0 + k % kDsmTile, ty = y0 + k / kDsmTile;
-      const bool in = tx < res && ty < height;
-      const uint64_t t = in ? uint64_t(ty) * res + tx : 0;
-      const uint32_t at = in ? heads[t].offset : 0u;
-      TexelRange head;
-      write_chunked_texel(tile_counts, kChunkTileTexels, k, staging + at, staging_tags + at,
-                          uint32_t(chunk_base + uint64_t(tile_first[tile]) * C), C, pool, chunk_tags, head);
-      if (in) store_heads[t] = head;
-    });
+    ex.parallel_for(
+        "light pass: chunked layout", n_tiles * kChunkTileTexels, CDSM_LAMBDA(uint64_t idx) {
+          const uint64_t tile = idx / kChunkTileTexels;
+          const int k = int(idx % kChunkTileTexels);
+          const int x0 = int(tile % uint64_t(tiles_x)) * kDsmTile, y0 = int(tile / uint64_t(tiles_x)) * kDsmTile;
+          uint32_t tile_counts[kChunkTileTexels];
+          for (int j = 0; j < kChunkTileTexels; ++j) {
+            const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
+            tile_counts[j] = tx < res && ty < height ? heads[uint64_t(ty) * res + tx].count : 0u;
+          }
+          const int tx = x0 + k % kDsmTile, ty = y0 + k / kDsmTile;
+          const bool in = tx < res && ty < height;
+          const uint64_t t = in ? uint64_t(ty) * res + tx : 0;
+          const uint32_t at = in ? heads[t].offset : 0u;
+          TexelRange head;
+          write_chunked_texel(tile_counts, kChunkTileTexels, k, staging + at, staging_tags + at,
+                              uint32_t(chunk_base + uint64_t(tile_first[tile]) * C), C, pool, chunk_tags, head);
+          if (in) store_heads[t] = head;
+        });
   }
   out.texel_count += n_texels;
 

@@ -42,15 +42,16 @@ ExecStoredMap move_map_exec(Ex& ex, const ExecStoredMap& m, DsmLayout layout, co
   to.texels.resize(n.texel_begin + texels);
   const TexelRange* src_t = from.texels.data() + m.texel_begin;
   TexelRange* dst_t = to.texels.data() + n.texel_begin;
-  ex.parallel_for("store: move headers", texels, CDSM_LAMBDA(uint64_t i) {
-    TexelRange r = src_t[i];
-    if (chunked) {
-      if (r.offset != kChunkEnd) r.offset = uint32_t((long long)r.offset + chunk_shift);
-    } else {
-      r.offset = uint32_t((long long)r.offset + node_shift);
-    }
-    dst_t[i] = r;
-  });
+  ex.parallel_for(
+      "store: move headers", texels, CDSM_LAMBDA(uint64_t i) {
+        TexelRange r = src_t[i];
+        if (chunked) {
+          if (r.offset != kChunkEnd) r.offset = uint32_t((long long)r.offset + chunk_shift);
+        } else {
+          r.offset = uint32_t((long long)r.offset + node_shift);
+        }
+        dst_t[i] = r;
+      });
 
   const uint64_t nodes = m.node_end - m.node_begin;
   to.nodes.resize(n.node_begin + nodes);
@@ -67,11 +68,12 @@ ExecStoredMap move_map_exec(Ex& ex, const ExecStoredMap& m, DsmLayout layout, co
   to.chunks.resize(n.chunk_begin + chunks);
   const Chunk* src_c = from.chunks.data() + m.chunk_begin;
   Chunk* dst_c = to.chunks.data() + n.chunk_begin;
-  ex.parallel_for("store: move chunks", chunks, CDSM_LAMBDA(uint64_t i) {
-    Chunk c = src_c[i];
-    if (c.next != kChunkEnd) c.next = uint32_t((long long)c.next + chunk_shift);
-    dst_c[i] = c;
-  });
+  ex.parallel_for(
+      "store: move chunks", chunks, CDSM_LAMBDA(uint64_t i) {
+        Chunk c = src_c[i];
+        if (c.next != kChunkEnd) c.next = uint32_t((long long)c.next + chunk_shift);
+        dst_c[i] = c;
+      });
   n.texel_end = to.texels.size();
   n.node_end = to.nodes.size();
   n.chunk_end = to.chunks.size();
@@ -93,10 +95,11 @@ void read_map_exec(Ex& ex, const DsmStorage& storage, const DsmMap& m, uint32_t 
   DsmNode* op = out.data();
   const DsmStorage st = storage;
   const DsmMap map = m;
-  ex.parallel_for("read texels", n, CDSM_LAMBDA(uint64_t i) {
-    const int tx = int(i % uint64_t(map.res)), ty = int(i / uint64_t(map.res));
-    cp[i] = read_texel(st, map, tx, ty, op + i * cap, cap);
-  });
+  ex.parallel_for(
+      "read texels", n, CDSM_LAMBDA(uint64_t i) {
+        const int tx = int(i % uint64_t(map.res)), ty = int(i / uint64_t(map.res));
+        cp[i] = read_texel(st, map, tx, ty, op + i * cap, cap);
+      });
   c.read(counts);
   out.read(nodes);
 }

@@ -22,29 +22,32 @@ uint64_t exclusive_scan(Ex& ex, const uint32_t* in, uint32_t* out, uint64_t n,
   const uint64_t chunks = (n + kScanChunk - 1) / kScanChunk;
   sums.resize_discard(chunks + 1);
   unsigned long long* s = sums.data();
-  ex.parallel_for("scan: chunk sums", chunks, CDSM_LAMBDA(uint64_t c) {
-    const uint64_t end = (c + 1) * kScanChunk < n ? (c + 1) * kScanChunk : n;
-    unsigned long long t = 0;
-    for (uint64_t i = c * kScanChunk; i < end; ++i) t += in[i];
-    s[c] = t;
-  });
-  ex.parallel_for("scan: chunk offsets", 1, CDSM_LAMBDA(uint64_t) {
-    unsigned long long run = 0;
-    for (uint64_t c = 0; c < chunks; ++c) {
-      const unsigned long long t = s[c];
-      s[c] = run;
-      run += t;
-    }
-    s[chunks] = run;
-  });
-  ex.parallel_for("scan: chunks", chunks, CDSM_LAMBDA(uint64_t c) {
-    const uint64_t end = (c + 1) * kScanChunk < n ? (c + 1) * kScanChunk : n;
-    unsigned long long run = s[c];
-    for (uint64_t i = c * kScanChunk; i < end; ++i) {
-      out[i] = uint32_t(run);
-      run += in[i];
-    }
-  });
+  ex.parallel_for(
+      "scan: chunk sums", chunks, CDSM_LAMBDA(uint64_t c) {
+        const uint64_t end = (c + 1) * kScanChunk < n ? (c + 1) * kScanChunk : n;
+        unsigned long long t = 0;
+        for (uint64_t i = c * kScanChunk; i < end; ++i) t += in[i];
+        s[c] = t;
+      });
+  ex.parallel_for(
+      "scan: chunk offsets", 1, CDSM_LAMBDA(uint64_t) {
+        unsigned long long run = 0;
+        for (uint64_t c = 0; c < chunks; ++c) {
+          const unsigned long long t = s[c];
+          s[c] = run;
+          run += t;
+        }
+        s[chunks] = run;
+      });
+  ex.parallel_for(
+      "scan: chunks", chunks, CDSM_LAMBDA(uint64_t c) {
+        const uint64_t end = (c + 1) * kScanChunk < n ? (c + 1) * kScanChunk : n;
+        unsigned long long run = s[c];
+        for (uint64_t i = c * kScanChunk; i < end; ++i) {
+          out[i] = uint32_t(run);
+          run += in[i];
+        }
+      });
   unsigned long long total = 0;
   ex.download(&total, s + chunks, sizeof total);
   return total;

@@ -25,7 +25,6 @@
 
 namespace cdsm {
 
-
 // Defaults when ShadowSettings::method_param is 0.
 inline constexpr float kDefaultOpacityThreshold = 0.5f;
 inline constexpr int kDefaultOpacitySlices = 32;
@@ -97,8 +96,8 @@ struct ExactAlphaVisitor {
 // opaque, no nodes if it never does.
 struct ShadowMapBuilder {
   NodeBuffer& buf;
-  float threshold;         // opacity that counts as opaque, (0, 1]
-  float media_T = 1.0f;    // transmittance of the media crossed so far
+  float threshold;       // opacity that counts as opaque, (0, 1]
+  float media_T = 1.0f;  // transmittance of the media crossed so far
 
   // tag: the surface that turned the ray opaque (kNoSurface: media).
   CDSM_HD void opaque_at(float z, SurfaceTag tag) {
@@ -131,12 +130,10 @@ struct OpacitySliceBuilder {
   NodeBuffer& buf;
   int slices;
   float z_lo, z_hi;
-  int next = 0;          // next boundary to emit
-  float alpha = 0.0f;    // alpha after everything reported so far
+  int next = 0;        // next boundary to emit
+  float alpha = 0.0f;  // alpha after everything reported so far
 
-  CDSM_HD float boundary(int k) const {
-    return k >= slices ? z_hi : z_lo + (z_hi - z_lo) * (float(k) / float(slices));
-  }
+  CDSM_HD float boundary(int k) const { return k >= slices ? z_hi : z_lo + (z_hi - z_lo) * (float(k) / float(slices)); }
   // Emits the boundaries before z (strictly), alpha constant there.
   CDSM_HD void flat_until(float z) {
     while (next <= slices && boundary(next) < z) buf.emit(boundary(next++), alpha);
@@ -211,8 +208,8 @@ struct FixedNodeBuilder {
 // Builds one texel of a baseline map along unit ray `dir` from `org`,
 // walking [0, t_end]. `param` is ShadowSettings::method_param (0: default).
 CDSM_HD CDSM_NOINLINE inline void build_baseline_texel(const SceneView& s, ShadowMethod method, float param,
-                                         Span<const uint32_t> inside, Span<Fragment> frags, Vec3 org,
-                                         Vec3 dir, float t_end, NodeBuffer& buf, WalkStats& st) {
+                                                       Span<const uint32_t> inside, Span<Fragment> frags, Vec3 org,
+                                                       Vec3 dir, float t_end, NodeBuffer& buf, WalkStats& st) {
   if (method == ShadowMethod::ShadowMap) {
     float thr = param > 0.0f ? fminf(param, 1.0f) : kDefaultOpacityThreshold;
     ShadowMapBuilder b{buf, thr};

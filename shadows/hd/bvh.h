@@ -36,8 +36,8 @@ CDSM_HD CDSM_INLINE Vec3 safe_inverse(Vec3 d) {
 // so t is the radial depth. Returns false if the traversal stack overflowed
 // (then some hits may be missing; callers count it).
 template <class Visit>
-CDSM_HD bool for_each_hit(const SceneView& s, ObjectMask mask, Vec3 org, Vec3 dir, float tmin,
-                          float tmax, Visit&& visit) {
+CDSM_HD bool for_each_hit(const SceneView& s, ObjectMask mask, Vec3 org, Vec3 dir, float tmin, float tmax,
+                          Visit&& visit) {
   if (s.bvh.empty()) return true;
   WatertightRay wr = make_watertight_ray(org, dir);
   Vec3 inv = safe_inverse(dir);
@@ -55,8 +55,8 @@ CDSM_HD bool for_each_hit(const SceneView& s, ObjectMask mask, Vec3 org, Vec3 di
         uint32_t tri = s.bvh_prims[n.first + i];
         if (!mask.contains(s.tri_object[tri])) continue;
         TriHit h;
-        if (intersect_triangle(wr, s.tri_vertices[3 * tri], s.tri_vertices[3 * tri + 1],
-                               s.tri_vertices[3 * tri + 2], tmin, tmax, h))
+        if (intersect_triangle(wr, s.tri_vertices[3 * tri], s.tri_vertices[3 * tri + 1], s.tri_vertices[3 * tri + 2],
+                               tmin, tmax, h))
           visit(tri, h);
       }
     } else {

@@ -38,8 +38,7 @@ CDSM_HD CDSM_INLINE Vec3 surface_normal(const SceneView& s, uint32_t tri, Vec3 p
     float wa = dot(cross(b - p, c - p), ng) / area2;
     float wb = dot(cross(c - p, a - p), ng) / area2;
     float wc = 1.0f - wa - wb;
-    Vec3 ni = s.tri_normals[3 * tri] * wa + s.tri_normals[3 * tri + 1] * wb +
-              s.tri_normals[3 * tri + 2] * wc;
+    Vec3 ni = s.tri_normals[3 * tri] * wa + s.tri_normals[3 * tri + 1] * wb + s.tri_normals[3 * tri + 2] * wc;
     if (dot(ni, ni) > 0.0f) n = ni;
   }
   n = normalize(n);
@@ -157,9 +156,9 @@ struct CameraVisitor {
 };
 
 template <class Visibility, class Recorder>
-CDSM_HD PixelResult shade_pixel(const SceneView& s, Span<const LightData> lights,
-                                const Visibility& visibility, const CameraPassParams& p,
-                                Span<Fragment> frags, int px, int py, Recorder& rec, WalkStats& st) {
+CDSM_HD PixelResult shade_pixel(const SceneView& s, Span<const LightData> lights, const Visibility& visibility,
+                                const CameraPassParams& p, Span<Fragment> frags, int px, int py, Recorder& rec,
+                                WalkStats& st) {
   Vec3 dir = pixel_ray(p.view, px, py);
   CameraVisitor<Visibility, Recorder> vis{s, lights, visibility, rec, p.view.eye, dir, p.ambient};
   float t_end = p.view.far / fmaxf(dot(dir, p.view.forward), 1e-6f);

@@ -41,7 +41,9 @@ CDSM_HD CDSM_INLINE Vec3 clamp01(Vec3 a) { return {clamp01(a.x), clamp01(a.y), c
 CDSM_HD CDSM_INLINE float abs_channels(float a) { return fabsf(a); }
 CDSM_HD CDSM_INLINE Vec3 abs_channels(Vec3 a) { return {fabsf(a.x), fabsf(a.y), fabsf(a.z)}; }
 // a + (b - a) t per channel.
-CDSM_HD CDSM_INLINE Vec3 lerpf(Vec3 a, Vec3 b, float t) { return {lerpf(a.x, b.x, t), lerpf(a.y, b.y, t), lerpf(a.z, b.z, t)}; }
+CDSM_HD CDSM_INLINE Vec3 lerpf(Vec3 a, Vec3 b, float t) {
+  return {lerpf(a.x, b.x, t), lerpf(a.y, b.y, t), lerpf(a.z, b.z, t)};
+}
 // Whether a is above b in some channel.
 CDSM_HD CDSM_INLINE bool rises(float a, float b) { return a > b; }
 CDSM_HD CDSM_INLINE bool rises(Vec3 a, Vec3 b) { return a.x > b.x || a.y > b.y || a.z > b.z; }

@@ -22,8 +22,8 @@ namespace cdsm {
 template <int N>
 struct DsmNodeN {
   static constexpr int kChannels = N;
-  float z;              // radial depth from the light, world units
-  Channels<N> alpha;    // accumulated opacity 1 - V_k(z), each in [0, 1]
+  float z;            // radial depth from the light, world units
+  Channels<N> alpha;  // accumulated opacity 1 - V_k(z), each in [0, 1]
 };
 using DsmNode = DsmNodeN<1>;
 using DsmNodeRgb = DsmNodeN<3>;
@@ -100,7 +100,7 @@ struct NodeBufferN {
   int removed = 0;           // nodes removed to fit
   float eps = 0.0f;          // tolerance of the compressor feeding it
   RemovalScratch scratch;
-  SurfaceTag* tags = nullptr;  // per slot, the node's SurfaceTag (capacity entries); null: not kept
+  SurfaceTag* tags = nullptr;         // per slot, the node's SurfaceTag (capacity entries); null: not kept
   SurfaceTag last_tag_ = kNoSurface;  // the last node's tag (kept also without `tags`)
   // A first walk into a small buffer (shadows/exec/light_pass.h): beyond
   // node_limit(capacity) nodes nothing is removed or stored, `removed`
@@ -108,13 +108,14 @@ struct NodeBufferN {
   bool stop_when_full = false;
   // Overflow state (with scratch): nodes are linked over slots [0, count).
   bool linked = false;
-  int alive = 0;             // nodes of the function when linked
+  int alive = 0;  // nodes of the function when linked
   uint32_t heap_size = 0;
 
   CDSM_HD inline void emit(float z, Alpha a, SurfaceTag tag = kNoSurface);
-  CDSM_HD inline CDSM_NOINLINE void emit_full(float z, Alpha a, SurfaceTag tag);  // emit() past node_limit or once linked
-  CDSM_HD int size() const { return linked ? alive : count; }  // nodes of the function
-  CDSM_HD Node& last() { return nodes[count - 1]; }              // the last node is always slot count - 1
+  CDSM_HD inline CDSM_NOINLINE void emit_full(float z, Alpha a,
+                                              SurfaceTag tag);  // emit() past node_limit or once linked
+  CDSM_HD int size() const { return linked ? alive : count; }   // nodes of the function
+  CDSM_HD Node& last() { return nodes[count - 1]; }             // the last node is always slot count - 1
   CDSM_HD SurfaceTag last_tag() const { return last_tag_; }
   CDSM_HD Node& before_last() { return nodes[linked ? scratch.prev[count - 1] : uint32_t(count - 2)]; }
   CDSM_HD inline void raise_last(Alpha a);  // a coincident surface raises the last node
@@ -145,7 +146,7 @@ struct Wedge {
   float lo[N] = {}, hi[N] = {};  // admissible slopes of the current line, per channel
   bool pending = false;          // samples accepted since the origin
   float zl = 0.0f;
-  Alpha al{};                    // last accepted sample
+  Alpha al{};  // last accepted sample
 
   CDSM_HD explicit Wedge(float e) : eps(e) {}
 
@@ -164,7 +165,9 @@ struct Wedge {
     Alpha e{};
     for (int k = 0; k < N; ++k) {
       const float a0k = channel(a0, k);
-      set_channel(e, k, fminf(clampf(channel(al, k), a0k + lo[k] * dz, a0k + hi[k] * dz), 1.0f));  // the bounds can round past 1
+      set_channel(
+          e, k,
+          fminf(clampf(channel(al, k), a0k + lo[k] * dz, a0k + hi[k] * dz), 1.0f));  // the bounds can round past 1
     }
     return e;
   }
@@ -368,7 +371,9 @@ inline constexpr uint32_t kNone = 0xffffffffu;
 
 // The heap's key: the area (node_heap::less breaks ties as the scan does).
 template <class Node>
-CDSM_HD CDSM_INLINE float removal_key(const Node& a, const Node& m, const Node& b) { return removal_cost_of(a, m, b).area; }
+CDSM_HD CDSM_INLINE float removal_key(const Node& a, const Node& m, const Node& b) {
+  return removal_cost_of(a, m, b).area;
+}
 
 // (Re)computes the heap key of interior node m and restores heap order.
 template <int N>

@@ -21,7 +21,6 @@
 
 namespace cdsm {
 
-
 // Per-texel header. std430: 8 bytes.
 //   packed:  the texel's nodes are nodes[offset .. offset + count).
 //   chunked: offset = pool slot of the texel's first node (kChunkEnd when
@@ -53,9 +52,13 @@ inline constexpr uint32_t kChunkEnd = 0xffffffffu;
 
 // A node's slot in the chunked pool, and back.
 template <int N>
-CDSM_HD CDSM_INLINE ChunkNodeN<N> chunk_of(const DsmNodeN<N>& n, uint32_t next) { return {n.z, n.alpha, next}; }
+CDSM_HD CDSM_INLINE ChunkNodeN<N> chunk_of(const DsmNodeN<N>& n, uint32_t next) {
+  return {n.z, n.alpha, next};
+}
 template <int N>
-CDSM_HD CDSM_INLINE DsmNodeN<N> node_of(const ChunkNodeN<N>& c) { return {c.z, c.alpha}; }
+CDSM_HD CDSM_INLINE DsmNodeN<N> node_of(const ChunkNodeN<N>& c) {
+  return {c.z, c.alpha};
+}
 
 // Depth of the pads that fill a fixed-layout texel's unused slots (FLT_MAX);
 // a pad's alpha repeats the texel's last alpha (0 for an empty texel), so a
@@ -73,17 +76,17 @@ struct DsmMap {
   uint64_t texel_offset;  // index of the map's first texel among its kind's texels (packed,
                           // chunked: its first TexelRange; fixed: slots from texel_offset * L)
   uint32_t res;
-  uint32_t rgb;           // 1: RGB nodes (DsmStorage::rgb_*), 0: scalar nodes
+  uint32_t rgb;  // 1: RGB nodes (DsmStorage::rgb_*), 0: scalar nodes
 };
 static_assert(sizeof(DsmMap) == 96, "DsmMap is 96 bytes");
 
 // One node kind's arrays of a storage (views).
 template <int N>
 struct NodeArrays {
-  Span<const TexelRange> texels;    // packed, chunked: per-texel headers, map by map; fixed: empty
-  Span<const DsmNodeN<N>> nodes;    // packed: the exact pool; fixed: `layers` slots per texel
-  Span<const ChunkNodeN<N>> chunks; // chunked: the slot pool, chunk after chunk
-  Span<const SurfaceTag> tags;      // per slot of nodes (packed, fixed) or chunks (chunked); empty: none
+  Span<const TexelRange> texels;     // packed, chunked: per-texel headers, map by map; fixed: empty
+  Span<const DsmNodeN<N>> nodes;     // packed: the exact pool; fixed: `layers` slots per texel
+  Span<const ChunkNodeN<N>> chunks;  // chunked: the slot pool, chunk after chunk
+  Span<const SurfaceTag> tags;       // per slot of nodes (packed, fixed) or chunks (chunked); empty: none
 };
 
 // All maps' texels and nodes in one layout (views; the owner is the backend).
@@ -101,7 +104,7 @@ struct DsmStorage {
   Span<const SurfaceTag> tags;
   Span<const SurfaceTag> rgb_tags;
   DsmLayout layout = DsmLayout::Packed;
-  uint32_t layers = 0;            // fixed: L, node slots per texel
+  uint32_t layers = 0;  // fixed: L, node slots per texel
 
   template <int N>
   CDSM_HD inline NodeArrays<N> arrays() const;  // one node kind's arrays (N = 1 grey, 3 RGB)
@@ -128,8 +131,10 @@ CDSM_HD CDSM_INLINE uint32_t lower_bound_z(Span<const Node> n, float z) {
   uint32_t lo = 0, hi = uint32_t(n.size());
   while (lo < hi) {
     uint32_t mid = (lo + hi) >> 1;
-    if (n[mid].z < z) lo = mid + 1;
-    else hi = mid;
+    if (n[mid].z < z)
+      lo = mid + 1;
+    else
+      hi = mid;
   }
   return lo;
 }
@@ -164,8 +169,10 @@ CDSM_HD CDSM_INLINE Channels<N> alpha_after(Span<const DsmNodeN<N>> n, float z) 
   uint32_t lo = 0, hi = uint32_t(n.size());  // first node with z_j > z
   while (lo < hi) {
     uint32_t mid = (lo + hi) >> 1;
-    if (n[mid].z <= z) lo = mid + 1;
-    else hi = mid;
+    if (n[mid].z <= z)
+      lo = mid + 1;
+    else
+      hi = mid;
   }
   if (lo == 0) return Channels<N>{};
   if (lo == n.size() || n[lo - 1].z == z) return n[lo - 1].alpha;
@@ -272,7 +279,7 @@ struct OwnStepSearch {
   TexelRead r;
   uint32_t index = 0xffffffffu;  // the own step's upper node (count from the first node fed)
   float z = 0.0f, best = 0.0f;
-  uint32_t rank = kRankEntry;    // the receiver's: its own step's, an entry without one
+  uint32_t rank = kRankEntry;  // the receiver's: its own step's, an entry without one
   uint32_t seen = 0;
   CDSM_HD explicit OwnStepSearch(const TexelRead& tr) : r(tr) {}
   // false once past depth + window.
@@ -296,8 +303,8 @@ struct ReceiverScan {
   using Alpha = Channels<Node::kChannels>;
   TexelRead r;
   OwnStepSearch own;
-  float lo, hi;        // the band of surfaces touching the receiver
-  float prefix_end;    // nodes before this are taken whole
+  float lo, hi;      // the band of surfaces touching the receiver
+  float prefix_end;  // nodes before this are taken whole
   Node prev{};
   bool have_prev = false;
   Alpha alpha{};
@@ -409,10 +416,8 @@ CDSM_HD CDSM_INLINE Channels<N> texel_alpha(const DsmStorage& st, const DsmMap& 
   const NodeArrays<N> a = st.arrays<N>();
   uint64_t t = texel_index(m, tx, ty);
   switch (st.layout) {
-    case DsmLayout::Fixed:
-      return lookup_alpha(fixed_slots(a, st, t), z);
-    case DsmLayout::Chunked:
-      return lookup_alpha_chunked(a.chunks, a.texels[t], z);
+    case DsmLayout::Fixed: return lookup_alpha(fixed_slots(a, st, t), z);
+    case DsmLayout::Chunked: return lookup_alpha_chunked(a.chunks, a.texels[t], z);
     default: {
       TexelRange r = a.texels[t];
       return lookup_alpha(a.nodes.subspan(r.offset, r.count), z);
@@ -427,10 +432,8 @@ CDSM_HD CDSM_INLINE Channels<N> texel_receive(const DsmStorage& st, const DsmMap
   const NodeArrays<N> a = st.arrays<N>();
   uint64_t t = texel_index(m, tx, ty);
   switch (st.layout) {
-    case DsmLayout::Fixed:
-      return receiver_read(fixed_slots(a, st, t), a.tags, t * st.layers, tr);
-    case DsmLayout::Chunked:
-      return receiver_read_chunked(a.chunks, a.tags, a.texels[t], tr);
+    case DsmLayout::Fixed: return receiver_read(fixed_slots(a, st, t), a.tags, t * st.layers, tr);
+    case DsmLayout::Chunked: return receiver_read_chunked(a.chunks, a.tags, a.texels[t], tr);
     default: {
       TexelRange r = a.texels[t];
       return receiver_read(a.nodes.subspan(r.offset, r.count), a.tags, r.offset, tr);

@@ -69,8 +69,10 @@ CDSM_HD uint32_t write_chunked_tile(const uint32_t* counts, int texels, NodesOf 
         const SurfaceTag* t = tags_of(k);
         pool_tags[slot] = t ? t[layer] : kNoSurface;
       }
-      if (layer == 0) heads[k].offset = slot;
-      else pool[prev[k]].next = slot;
+      if (layer == 0)
+        heads[k].offset = slot;
+      else
+        pool[prev[k]].next = slot;
       prev[k] = slot;
     }
   }

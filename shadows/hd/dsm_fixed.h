@@ -163,10 +163,13 @@ CDSM_HD inline FixedFit write_fixed_texel(Span<const Node> in, const SurfaceTag*
       // A few bisection steps towards the smallest tolerance that fits.
       for (int it = 0; it < 4 && lo > 0.0f; ++it) {
         float mid = 0.5f * (lo + hi);
-        if (fixed_rewedge(in, in_tags, mid, slots, slot_tags, L) <= L) hi = mid;
-        else lo = mid;
+        if (fixed_rewedge(in, in_tags, mid, slots, slot_tags, L) <= L)
+          hi = mid;
+        else
+          lo = mid;
       }
-      r.count = fixed_rewedge(in, in_tags, hi, slots, slot_tags, L);  // the slots hold the last trial: redo the one that fits
+      r.count =
+          fixed_rewedge(in, in_tags, hi, slots, slot_tags, L);  // the slots hold the last trial: redo the one that fits
     }
     if (hi <= 0.0f || r.count > L) greedy_fit_nodes(in, in_tags, slots, slot_tags, L, r.count);
   }

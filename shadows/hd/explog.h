@@ -39,8 +39,7 @@ namespace cdsm {
 // symbol, so two units that call expf_hd fail to link ("multiple definition
 // of cdsm::expf_hd(float) [clone .resolver]", the fuzz build); there the
 // host copy calls libm's fmaf, slower and the same bits.
-#if !defined(__CUDACC__) && defined(__x86_64__) && !defined(__FMA__) && \
-    defined(__GNUC__) && !defined(__clang__)
+#if !defined(__CUDACC__) && defined(__x86_64__) && !defined(__FMA__) && defined(__GNUC__) && !defined(__clang__)
 #define CDSM_FMA_CLONES __attribute__((target_clones("fma", "default")))
 #else
 #define CDSM_FMA_CLONES
@@ -73,11 +72,11 @@ CDSM_FMA_CLONES CDSM_HD inline float expf_hd(float x) {
   r = fma_hd(n, -1.428606765330187e-6f, r);
   // e^r by its Taylor polynomial of degree 7 (remainder <= 0.35^8/8! =
   // 5.3e-9, 0.09 ulp), Horner with one rounding per step.
-  float p = 1.98412698e-4f;              // 1/7!
-  p = fma_hd(p, r, 1.38888889e-3f);      // 1/6!
-  p = fma_hd(p, r, 8.33333333e-3f);      // 1/5!
-  p = fma_hd(p, r, 4.16666667e-2f);      // 1/4!
-  p = fma_hd(p, r, 1.66666667e-1f);      // 1/3!
+  float p = 1.98412698e-4f;          // 1/7!
+  p = fma_hd(p, r, 1.38888889e-3f);  // 1/6!
+  p = fma_hd(p, r, 8.33333333e-3f);  // 1/5!
+  p = fma_hd(p, r, 4.16666667e-2f);  // 1/4!
+  p = fma_hd(p, r, 1.66666667e-1f);  // 1/3!
   p = fma_hd(p, r, 0.5f);
   p = fma_hd(p, r, 1.0f);
   p = fma_hd(p, r, 1.0f);
@@ -93,10 +92,10 @@ CDSM_FMA_CLONES CDSM_HD inline float expf_hd(float x) {
 CDSM_FMA_CLONES CDSM_HD inline float logf_hd(float x) {
   using exp_detail::fma_hd;
   if (!(x > 0.0f)) return x == 0.0f ? -1e30f * 1e30f : (x - x) / (x - x);  // 0 -> -inf; < 0, NaN -> NaN
-  if (x == x * 2.0f) return x;                                                // +inf
+  if (x == x * 2.0f) return x;                                             // +inf
   uint32_t u = float_bits(x);
   int e = -127;
-  if (u < 0x00800000u) {  // subnormal: into the normal range first
+  if (u < 0x00800000u) {             // subnormal: into the normal range first
     u = float_bits(x * 8388608.0f);  // 2^23
     e -= 23;
   }

@@ -11,12 +11,12 @@
 namespace cdsm {
 
 struct LightPassParams {
-  PinholeView view;              // the map's view from the light
-  float epsilon;                 // compression bound
-  Span<const uint32_t> inside;   // caster objects containing the light
+  PinholeView view;                         // the map's view from the light
+  float epsilon;                            // compression bound
+  Span<const uint32_t> inside;              // caster objects containing the light
   ShadowMethod method = ShadowMethod::Dsm;  // DSM, or a baseline (hd/baselines.h)
-  float method_param = 0.0f;     // the baseline's parameter (0: its default)
-  bool rgb = false;              // RGB nodes (a coloured caster among the map's members; DSM only)
+  float method_param = 0.0f;                // the baseline's parameter (0: its default)
+  bool rgb = false;                         // RGB nodes (a coloured caster among the map's members; DSM only)
 };
 
 // One texel's walk in N colour channels (hd/channels.h; N from the sink's
@@ -57,10 +57,11 @@ struct DsmVisitorOf {
   CDSM_HD bool segment(float t0, float t1, const SegmentMedia& m) {
     c.push(buf, t0, alpha);
     if (m.volume_count == 0) {
-      sample_constant_medium(t0, t1, one_minus(alpha), from_rgb<N>(m.sigma), kConstantChordError, [&](float z, Alpha a) {
-        alpha = a;
-        c.push(buf, z, alpha);
-      });
+      sample_constant_medium(t0, t1, one_minus(alpha), from_rgb<N>(m.sigma), kConstantChordError,
+                             [&](float z, Alpha a) {
+                               alpha = a;
+                               c.push(buf, z, alpha);
+                             });
       return !saturated();
     }
     return march_segment(
@@ -84,8 +85,8 @@ using DsmVisitorRgb = DsmVisitorOf<RgbNodeBuffer>;
 // Walks texel (tx, ty)'s light ray with visitor kind V (scalar or RGB),
 // compressing into `sink`; fragments sorted in place.
 template <class Visitor, class Sink>
-CDSM_HD inline void walk_texel_into(const SceneView& s, const LightPassParams& p, Span<Fragment> frags, int tx,
-                                    int ty, Sink& sink, WalkStats& st) {
+CDSM_HD inline void walk_texel_into(const SceneView& s, const LightPassParams& p, Span<Fragment> frags, int tx, int ty,
+                                    Sink& sink, WalkStats& st) {
   const Vec3 dir = pixel_ray(p.view, tx, ty);
   Visitor vis(s, p.view.eye, dir, p.epsilon, sink);
   const float t_end = p.view.far / fmaxf(dot(dir, p.view.forward), 1e-6f);
@@ -96,8 +97,8 @@ CDSM_HD inline void walk_texel_into(const SceneView& s, const LightPassParams& p
 // Out of line on a GPU: the first and the second walk of a texel share one
 // compiled copy.
 template <class Visitor, class Buffer>
-CDSM_HD CDSM_NOINLINE inline void walk_texel(const SceneView& s, const LightPassParams& p, Span<Fragment> frags, int tx, int ty,
-                               Buffer& buf, WalkStats& st) {
+CDSM_HD CDSM_NOINLINE inline void walk_texel(const SceneView& s, const LightPassParams& p, Span<Fragment> frags, int tx,
+                                             int ty, Buffer& buf, WalkStats& st) {
   buf.eps = p.epsilon;
   walk_texel_into<Visitor>(s, p, frags, tx, ty, buf, st);
 }
@@ -105,8 +106,8 @@ CDSM_HD CDSM_NOINLINE inline void walk_texel(const SceneView& s, const LightPass
 // Builds texel (tx, ty): its fragments (from the light view's lists) are
 // sorted in place; nodes go to `buf` (grey or RGB; the baselines are grey).
 template <int N>
-CDSM_HD inline void build_texel(const SceneView& s, const LightPassParams& p, Span<Fragment> frags,
-                                int tx, int ty, NodeBufferN<N>& buf, WalkStats& st) {
+CDSM_HD inline void build_texel(const SceneView& s, const LightPassParams& p, Span<Fragment> frags, int tx, int ty,
+                                NodeBufferN<N>& buf, WalkStats& st) {
   if constexpr (N == 1) {
     if (p.method != ShadowMethod::Dsm) {  // the benchmark's baselines, same rays and walker
       Vec3 d = pixel_ray(p.view, tx, ty);
@@ -125,8 +126,8 @@ CDSM_HD inline void build_texel(const SceneView& s, const LightPassParams& p, Sp
 // nodes are exactly the ones build_texel() puts there (the two-pass build,
 // shadows/exec/light_pass.h). Scalar or RGB nodes.
 template <class Node>
-CDSM_HD inline void build_texel_into(const SceneView& s, const LightPassParams& p, Span<Fragment> frags, int tx,
-                                     int ty, FixedSlotSink<Node>& sink, WalkStats& st) {
+CDSM_HD inline void build_texel_into(const SceneView& s, const LightPassParams& p, Span<Fragment> frags, int tx, int ty,
+                                     FixedSlotSink<Node>& sink, WalkStats& st) {
   walk_texel_into<DsmVisitorOf<FixedSlotSink<Node>>>(s, p, frags, tx, ty, sink, st);
 }
 

@@ -6,7 +6,6 @@
 
 namespace cdsm {
 
-
 struct LightData {
   Vec3 position;
   LightType type;
@@ -84,8 +83,12 @@ CDSM_HD CDSM_INLINE int cube_face_of(Vec3 d) {
 // own step); 2 bytes of tag per node (hd/compress.h SurfaceTag).
 inline constexpr uint32_t kNoObject = 0xffffffffu;
 
-template <class T> struct enable_if_bool {};
-template <> struct enable_if_bool<bool> { using type = void; };
+template <class T>
+struct enable_if_bool {};
+template <>
+struct enable_if_bool<bool> {
+  using type = void;
+};
 
 struct Receiver {
   Vec3 p{0, 0, 0};
@@ -118,11 +121,10 @@ CDSM_HD CDSM_INLINE float plane_depth_at_texel(const PinholeView& v, int tx, int
 // (projected to pr), before any offset: the receiver's plane along the
 // tap's ray, or the point's own depth (volume samples; the slope-bias
 // baseline for every tap).
-CDSM_HD CDSM_INLINE float tap_depth(const ShadowView& sv, const DsmMap& m, const ViewProjection& pr,
-                                    const Receiver& r, int tx, int ty) {
+CDSM_HD CDSM_INLINE float tap_depth(const ShadowView& sv, const DsmMap& m, const ViewProjection& pr, const Receiver& r,
+                                    int tx, int ty) {
   if (sv.receiver == ReceiverLookup::SlopeBias || !(dot(r.plane, r.plane) > 0.0f)) return pr.depth;
-  return plane_depth_at_texel(m.view, tx, ty, r.p, r.plane, pr.depth,
-                              kPlaneReachTexels * texel_footprint(m, pr.axial));
+  return plane_depth_at_texel(m.view, tx, ty, r.p, r.plane, pr.depth, kPlaneReachTexels * texel_footprint(m, pr.axial));
 }
 
 // The slope-bias baseline's offset: how far short of the point's depth
@@ -186,8 +188,8 @@ CDSM_HD CDSM_INLINE auto combine_maps(const ShadowView& sv, const LightData& L, 
 // plane depth with their own step left out (receiver_read_at); the
 // slope-bias baseline at the point's depth less its offset.
 template <int N>
-CDSM_HD inline Channels<N> map_alpha(const ShadowView& sv, const LightData& L, const DsmMap& m, const ViewProjection& pr,
-                                     const Receiver& r) {
+CDSM_HD inline Channels<N> map_alpha(const ShadowView& sv, const LightData& L, const DsmMap& m,
+                                     const ViewProjection& pr, const Receiver& r) {
   const bool surface = dot(r.plane, r.plane) > 0.0f;
   Channels<N> a{};
   if (sv.receiver == ReceiverLookup::SlopeBias || !surface) {
@@ -197,7 +199,8 @@ CDSM_HD inline Channels<N> map_alpha(const ShadowView& sv, const LightData& L, c
     return a;
   }
   for_each_tap(m, pr.u, pr.v, sv.filtering, [&](int tx, int ty, float w) {
-    a = a + texel_receive<N>(sv.storage, m, tx, ty, receiver_read_at(sv, m, pr, r, tap_depth(sv, m, pr, r, tx, ty))) * w;
+    a = a +
+        texel_receive<N>(sv.storage, m, tx, ty, receiver_read_at(sv, m, pr, r, tap_depth(sv, m, pr, r, tx, ty))) * w;
   });
   return a;
 }

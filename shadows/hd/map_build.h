@@ -13,8 +13,8 @@ namespace cdsm {
 // Which layout the maps of a frame use, and its parameters.
 struct DsmLayoutParams {
   DsmLayout layout = DsmLayout::Packed;
-  int fixed_layers = 32;         // fixed: L, node slots per texel (>= 2)
-  int chunk_nodes = 64;          // chunked: C, node slots per chunk (>= 1)
+  int fixed_layers = 32;  // fixed: L, node slots per texel (>= 2)
+  int chunk_nodes = 64;   // chunked: C, node slots per chunk (>= 1)
 };
 
 inline constexpr int kDsmTile = 8;  // texels per tile side (the chunked layout's tile, the reservation unit)
@@ -31,7 +31,7 @@ inline constexpr int kTexelNodeCapacity = 1024;
 // tags = the 2-byte SurfaceTag of every allocated node slot.
 struct DsmBuildStats {
   DsmLayout layout = DsmLayout::Packed;
-  bool rgb = false;                     // RGB nodes (16 bytes; chunked slots 20) instead of scalar (8; 12)
+  bool rgb = false;  // RGB nodes (16 bytes; chunked slots 20) instead of scalar (8; 12)
   uint64_t texels = 0;
   uint64_t nodes = 0;                   // nodes stored
   uint32_t max_nodes = 0;               // stored, per texel
@@ -45,7 +45,7 @@ struct DsmBuildStats {
   uint64_t node_bytes_used = 0;
   uint64_t slack_bytes = 0;
   uint64_t tag_bytes = 0;
-  uint64_t chunks = 0;                  // chunked: chunks allocated
+  uint64_t chunks = 0;  // chunked: chunks allocated
   WalkStats walk;
 };
 

@@ -52,8 +52,8 @@ CDSM_HD CDSM_INLINE bool tie_accepts(double gx, double gy, double orient) {
 // Edge functions are evaluated in double: products of floats are exact there,
 // so the sign (and exact zero) of each edge function is exact, and shared
 // edges evaluate to exactly opposite values in the two triangles.
-CDSM_HD inline bool intersect_triangle(const WatertightRay& r, Vec3 a, Vec3 b, Vec3 c, float tmin,
-                                       float tmax, TriHit& hit) {
+CDSM_HD inline bool intersect_triangle(const WatertightRay& r, Vec3 a, Vec3 b, Vec3 c, float tmin, float tmax,
+                                       TriHit& hit) {
   Vec3 A = a - r.org, B = b - r.org, C = c - r.org;
   float Ax = A[r.kx] - r.sx * A[r.kz];
   float Ay = A[r.ky] - r.sy * A[r.kz];

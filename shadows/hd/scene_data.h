@@ -17,18 +17,18 @@ inline constexpr uint32_t kObjColoured = 4u;      // its surface's crossing diff
 // Per object: surface, interior and its triangle range. 80 bytes (std430:
 // five vec4-sized rows).
 struct ObjectData {
-  Vec3 color;           // surface colour (linear RGB)
-  float opacity;        // coverage a: the reflecting part, composited with this weight, [0, 1]
-  Vec3 absorb;          // per channel, the opacity of one crossing: 1 - (1 - a) f_k
-                        // (cdsm::SurfaceMaterial); exactly (a, a, a) for a white filter
-  float ka;             // Phong constants (thesis eq. 3.8)
-  Vec3 sigma;           // constant medium: extinction per channel, per world unit
+  Vec3 color;     // surface colour (linear RGB)
+  float opacity;  // coverage a: the reflecting part, composited with this weight, [0, 1]
+  Vec3 absorb;    // per channel, the opacity of one crossing: 1 - (1 - a) f_k
+                  // (cdsm::SurfaceMaterial); exactly (a, a, a) for a white filter
+  float ka;       // Phong constants (thesis eq. 3.8)
+  Vec3 sigma;     // constant medium: extinction per channel, per world unit
   float kd;
   float ks, shininess;  // Phong k_s, exponent n_s
   InteriorKind interior;
-  int32_t volume;       // volume index, or -1
-  uint32_t flags;       // kObjClosed | kObjCastsShadows | kObjColoured
-  uint32_t first_tri;   // triangle range in the scene's triangle arrays
+  int32_t volume;      // volume index, or -1
+  uint32_t flags;      // kObjClosed | kObjCastsShadows | kObjColoured
+  uint32_t first_tri;  // triangle range in the scene's triangle arrays
   uint32_t tri_count;
   uint32_t pad0;
 };
@@ -49,14 +49,14 @@ CDSM_HD CDSM_INLINE bool bounds_medium(const ObjectData& o) {
 
 // Piecewise-linear transfer function density -> (extinction, colour).
 struct TransferData {
-  int32_t count;                        // control points used (1..kMaxTransferPoints)
-  float density[kMaxTransferPoints];    // ascending
-  float extinction[3][kMaxTransferPoints]; // per colour channel, per world unit
+  int32_t count;                            // control points used (1..kMaxTransferPoints)
+  float density[kMaxTransferPoints];        // ascending
+  float extinction[3][kMaxTransferPoints];  // per colour channel, per world unit
   float r[kMaxTransferPoints];
   float g[kMaxTransferPoints];
   float b[kMaxTransferPoints];
-  float max_extinction;                 // over all control points and channels
-  uint32_t coloured;                    // 1: some point's extinction differs between channels
+  float max_extinction;  // over all control points and channels
+  uint32_t coloured;     // 1: some point's extinction differs between channels
   float pad;
 };
 
@@ -83,22 +83,22 @@ inline constexpr uint32_t kNanoSkipLeaves = 0u;
 inline constexpr uint32_t kNanoSkipNeighbours = 1u;
 
 struct VolumeData {
-  Mat4 world_to_index;   // world -> voxel index coordinates
-  Mat4 index_to_world;   // inverse
-  uint64_t voxel_offset; // dense: first voxel in SceneView::voxels;
-                         // nano: byte offset of the grid in SceneView::nano_pool (32-aligned)
-  uint64_t macro_offset; // first macro-cell (dense) or per-leaf maximum (nano) in SceneView::macro_max
-  int32_t nx, ny, nz;    // dense: voxels; nano: extent of the active bounding box (information)
-  int32_t mx, my, mz;    // dense: macro-cells (with the outer ring); nano: mx = leaf count, my = mz = 1
-  float background;      // value where the grid stores none
-  float step;            // march step, world units
-  uint32_t shading;      // VolumeShading: 0 scatter, 1 phong
-  float gradient_scale;  // phong: gradient -> normal scale
-  float voxel_world;     // smallest world size of a voxel edge
-  uint32_t grid_kind;    // kGridDense / kGridNano
-  uint32_t skip_mode;    // nano: kNanoSkipLeaves / kNanoSkipNeighbours
-  Vec3 cells_lo;         // index-space box of the macro-cells that can hold a non-background
-  Vec3 cells_hi;         // value (apron included); outside it every sample reads the background
+  Mat4 world_to_index;    // world -> voxel index coordinates
+  Mat4 index_to_world;    // inverse
+  uint64_t voxel_offset;  // dense: first voxel in SceneView::voxels;
+                          // nano: byte offset of the grid in SceneView::nano_pool (32-aligned)
+  uint64_t macro_offset;  // first macro-cell (dense) or per-leaf maximum (nano) in SceneView::macro_max
+  int32_t nx, ny, nz;     // dense: voxels; nano: extent of the active bounding box (information)
+  int32_t mx, my, mz;     // dense: macro-cells (with the outer ring); nano: mx = leaf count, my = mz = 1
+  float background;       // value where the grid stores none
+  float step;             // march step, world units
+  uint32_t shading;       // VolumeShading: 0 scatter, 1 phong
+  float gradient_scale;   // phong: gradient -> normal scale
+  float voxel_world;      // smallest world size of a voxel edge
+  uint32_t grid_kind;     // kGridDense / kGridNano
+  uint32_t skip_mode;     // nano: kNanoSkipLeaves / kNanoSkipNeighbours
+  Vec3 cells_lo;          // index-space box of the macro-cells that can hold a non-background
+  Vec3 cells_hi;          // value (apron included); outside it every sample reads the background
   TransferData tf;
 };
 
@@ -116,9 +116,9 @@ struct SceneView;
 CDSM_HD CDSM_INLINE bool is_coloured(const SceneView& s, const ObjectData& o);
 
 struct SceneView {
-  Span<const Vec3> tri_vertices;   // 3 world-space positions per triangle
-  Span<const Vec3> tri_normals;    // 3 world-space shading normals per triangle
-  Span<const uint32_t> tri_object; // object index per triangle
+  Span<const Vec3> tri_vertices;    // 3 world-space positions per triangle
+  Span<const Vec3> tri_normals;     // 3 world-space shading normals per triangle
+  Span<const uint32_t> tri_object;  // object index per triangle
   Span<const ObjectData> objects;
   Span<const VolumeData> volumes;
   Span<const float> voxels;        // all dense grids

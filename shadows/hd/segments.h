@@ -63,12 +63,14 @@ struct EnclosingOverflow {
 };
 
 // Whether a segment's media need to know this interior (a volume is marched).
-CDSM_HD CDSM_INLINE bool interior_needs_identity(const ObjectData& o) { return o.interior == InteriorKind::Volume && o.volume >= 0; }
+CDSM_HD CDSM_INLINE bool interior_needs_identity(const ObjectData& o) {
+  return o.interior == InteriorKind::Volume && o.volume >= 0;
+}
 
 // The media of one homogeneous segment.
 struct SegmentMedia {
-  Vec3 sigma{0, 0, 0};      // summed extinction of enclosing constant media, per channel
-  float step = 3.0e38f;     // smallest march step of the enclosing volumes
+  Vec3 sigma{0, 0, 0};             // summed extinction of enclosing constant media, per channel
+  float step = 3.0e38f;            // smallest march step of the enclosing volumes
   uint32_t* lengthened = nullptr;  // counts segments whose march step had to grow to float resolution
   int volume_count = 0;
   uint32_t volume[kMaxEnclosing];
@@ -181,7 +183,8 @@ CDSM_HD inline void order_touching(const SceneView& s, Span<Fragment> f) {
       for (bool swapped = true; swapped;) {
         swapped = false;
         for (uint64_t k = i; k + 1 < j; ++k) {
-          if (s.tri_object[frag_prim(f[k])] == s.tri_object[frag_prim(f[k + 1])] || rank(f[k + 1]) >= rank(f[k])) continue;
+          if (s.tri_object[frag_prim(f[k])] == s.tri_object[frag_prim(f[k + 1])] || rank(f[k + 1]) >= rank(f[k]))
+            continue;
           const Fragment t = f[k];
           f[k] = f[k + 1];
           f[k + 1] = t;
@@ -297,7 +300,8 @@ CDSM_HD inline bool exit_object(const SceneView& s, EnclosingSet& set, Enclosing
   if (set.exit(o)) return true;
   if (over.count == 0) return false;
   const ObjectData& od = s.objects[o];
-  if (od.interior == InteriorKind::Constant)  // (never below 0: an unmatched exit meeting the sum takes off at most what is there)
+  if (od.interior ==
+      InteriorKind::Constant)  // (never below 0: an unmatched exit meeting the sum takes off at most what is there)
     over.sigma = Vec3{fmaxf(over.sigma.x - od.sigma.x, 0.0f), fmaxf(over.sigma.y - od.sigma.y, 0.0f),
                       fmaxf(over.sigma.z - od.sigma.z, 0.0f)};
   if (--over.count == 0) over.sigma = Vec3{0, 0, 0};  // exactly: no rounding left behind
@@ -324,8 +328,8 @@ CDSM_HD CDSM_NOINLINE inline void prepare_fragments(const SceneView& s, Span<Fra
 }
 
 template <class Visitor>
-CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint32_t> inside,
-                      float t_start, float t_end, Visitor& vis, WalkStats& st) {
+CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint32_t> inside, float t_start, float t_end,
+                      Visitor& vis, WalkStats& st) {
   prepare_fragments(s, frags, st);
   EnclosingSet set;
   EnclosingOverflow over;
@@ -346,8 +350,10 @@ CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint3
     uint32_t o = s.tri_object[tri];
     if ((s.objects[o].flags & kObjClosed) == 0u) continue;  // open meshes have no interior
     if (frag_front(f)) {
-      if ((f.bits & kFragScratchBit) != 0u) enter_object(s, set, over, o, st);
-      else ++st.unmatched;
+      if ((f.bits & kFragScratchBit) != 0u)
+        enter_object(s, set, over, o, st);
+      else
+        ++st.unmatched;
     } else if (!exit_object(s, set, over, o)) {
       ++st.unmatched;
     }
@@ -361,11 +367,11 @@ CDSM_HD void walk_ray(const SceneView& s, Span<Fragment> frags, Span<const uint3
 
 // One march sample of the volumes in a segment.
 struct MarchSample {
-  float t0, t1;      // the sample's interval along the ray
-  Vec3 extinction;   // summed sigma_t per channel at the interval's midpoint (constant media included;
-                     // a step the tolerance bounds: the mean of its ends, march_segment)
-  Vec3 color;        // extinction-weighted colour of the volumes there, per channel
-  int dominant;      // index into media.volume of the largest extinction (any channel), -1 if none
+  float t0, t1;     // the sample's interval along the ray
+  Vec3 extinction;  // summed sigma_t per channel at the interval's midpoint (constant media included;
+                    // a step the tolerance bounds: the mean of its ends, march_segment)
+  Vec3 color;       // extinction-weighted colour of the volumes there, per channel
+  int dominant;     // index into media.volume of the largest extinction (any channel), -1 if none
 };
 
 // The opacity of one march sample per channel: 1 - exp(-sigma_k dt).
@@ -409,16 +415,14 @@ CDSM_HD CDSM_INLINE void ray_box_span(Vec3 qo, Vec3 qd, Vec3 lo, Vec3 hi, float&
 // kVolumeEdgeError / 2 wherever the volume's own step resolves its data.
 inline constexpr float kVolumeChordError = 0.002f;
 inline constexpr float kVolumeEdgeError = 0.004f;
-inline constexpr int kMaxEdgeHalvings = 24;  // a float step halves to 4 ulps of t in fewer
+inline constexpr int kMaxEdgeHalvings = 24;       // a float step halves to 4 ulps of t in fewer
 inline constexpr float kSaturationDepth = 9.22f;  // optical depth of saturation: -ln(1 - kSaturatedAlpha)
 
 struct MarchTolerance {
   float T;  // transmittance where the step starts (the largest over channels)
   // Whether a step of length h keeps its chords within kVolumeChordError
   // where the extinction is at most sigma.
-  CDSM_HD bool allows(float sigma, float h) const {
-    return T * (sigma * h) * (sigma * h) <= 8.0f * kVolumeChordError;
-  }
+  CDSM_HD bool allows(float sigma, float h) const { return T * (sigma * h) * (sigma * h) <= 8.0f * kVolumeChordError; }
   // The longest such step.
   CDSM_HD float step(float sigma) const {
     return sigma > 0.0f && T > 0.0f ? sqrtf(8.0f * kVolumeChordError / T) / sigma : 3.0e38f;
@@ -496,9 +500,8 @@ CDSM_HD inline bool may_need_tolerance(const SceneView& s, const SegmentMedia& m
 // void skip(float ta, float tb) for an empty stretch (so visitors can
 // keep flat runs in the visibility function).
 template <class OnSample, class OnSkip, class Tolerance = NoMarchTolerance>
-CDSM_HD bool march_segment(const SceneView& s, const SegmentMedia& m, Vec3 org, Vec3 dir, float t0,
-                           float t1, OnSample&& on_sample, OnSkip&& on_skip,
-                           const Tolerance& tolerance = Tolerance{}) {
+CDSM_HD bool march_segment(const SceneView& s, const SegmentMedia& m, Vec3 org, Vec3 dir, float t0, float t1,
+                           OnSample&& on_sample, OnSkip&& on_skip, const Tolerance& tolerance = Tolerance{}) {
   constexpr bool kBounded = IsToleranceBounded<Tolerance>::value;
   if (kBounded && !may_need_tolerance(s, m))  // the march without one: the same samples, no bookkeeping
     return march_segment(s, m, org, dir, t0, t1, on_sample, on_skip, NoMarchTolerance{});
@@ -677,7 +680,8 @@ CDSM_HD void sample_constant_medium(float t0, float t1, Alpha T0, Alpha sigma, f
   for (int i = 0; i < kMaxConstantSamples && z < t1 && max_channel(T) > kConstantTail; ++i) {
     float h = 3.0e38f;
     for (int k = 0; k < N; ++k)
-      if (channel(sigma, k) > 0.0f && channel(T, k) > kConstantTail) h = fminf(h, sqrtf(8.0f * e / channel(T, k)) / channel(sigma, k));
+      if (channel(sigma, k) > 0.0f && channel(T, k) > kConstantTail)
+        h = fminf(h, sqrtf(8.0f * e / channel(T, k)) / channel(sigma, k));
     float zn = fminf(z + h, t1);
     if (!(zn > z)) zn = fminf(nextafterf(z, 3.0e38f), t1);  // sigma beyond float resolution: a jump
     if (i + 1 == kMaxConstantSamples) zn = t1;

@@ -8,12 +8,12 @@
 namespace cdsm {
 
 struct ShadeInput {
-  Vec3 p;          // world position
-  Vec3 n;          // unit normal facing the viewer (surfaces, phong volumes)
-  Vec3 v;          // unit direction to the viewer
-  Vec3 color;      // base colour / albedo
+  Vec3 p;      // world position
+  Vec3 n;      // unit normal facing the viewer (surfaces, phong volumes)
+  Vec3 v;      // unit direction to the viewer
+  Vec3 color;  // base colour / albedo
   float ka, kd, ks, shininess;
-  bool has_normal; // false: isotropic scattering sample
+  bool has_normal;  // false: isotropic scattering sample
   // Surfaces: the geometric normal of the triangle (the receiver's plane
   // for shadow lookups, hd/lights.h Receiver); 0 for volume samples, Phong
   // ones too (their gradient normal is for shading only: no plane, no offset).
@@ -28,8 +28,7 @@ struct ShadeInput {
 // returns 1 - alpha (the transmittance) per colour channel at r — from DSMs
 // or the reference.
 template <class Visibility>
-CDSM_HD Vec3 shade_point(const ShadeInput& in, Span<const LightData> lights, Vec3 ambient,
-                         Visibility&& visibility) {
+CDSM_HD Vec3 shade_point(const ShadeInput& in, Span<const LightData> lights, Vec3 ambient, Visibility&& visibility) {
   Vec3 c = in.color * ambient * in.ka;
   for (uint32_t i = 0; i < lights.size(); ++i) {
     const LightData& L = lights[i];

@@ -15,15 +15,15 @@ namespace cdsm {
 // The window may be off-centre (focused cluster frusta): `center` shifts
 // it in tangent units.
 struct PinholeView {
-  Vec3 eye;        // world position of the eye / light
-  float near = 0.01f;   // view-axis clip distance, world units
-  Vec3 right;      // unit, +x on the image plane
-  float far = 1000.0f;  // view-axis clip distance, world units
-  Vec3 up;         // unit, +y on the image plane (image rows go down)
+  Vec3 eye;                 // world position of the eye / light
+  float near = 0.01f;       // view-axis clip distance, world units
+  Vec3 right;               // unit, +x on the image plane
+  float far = 1000.0f;      // view-axis clip distance, world units
+  Vec3 up;                  // unit, +y on the image plane (image rows go down)
   float tan_half_x = 1.0f;  // half-width of the window at unit distance
-  Vec3 forward;    // unit, the view axis
+  Vec3 forward;             // unit, the view axis
   float tan_half_y = 1.0f;  // half-height of the window at unit distance
-  Vec2 center;     // window centre offset at unit distance (0,0 = on axis)
+  Vec2 center;              // window centre offset at unit distance (0,0 = on axis)
   int32_t width = 1;
   int32_t height = 1;
 };
@@ -50,9 +50,9 @@ CDSM_HD CDSM_INLINE Vec3 pixel_ray(const PinholeView& v, int px, int py) {
 // Where a world point lands: continuous pixel coordinates (u, v), radial depth,
 // and the view-axis coordinate (<= 0 means behind the eye).
 struct ViewProjection {
-  float u, v;       // pixels; the pixel containing the point is (floor u, floor v)
-  float depth;      // radial distance from the eye
-  float axial;      // coordinate along `forward`
+  float u, v;   // pixels; the pixel containing the point is (floor u, floor v)
+  float depth;  // radial distance from the eye
+  float axial;  // coordinate along `forward`
 };
 
 CDSM_HD CDSM_INLINE ViewProjection project(const PinholeView& v, Vec3 p) {
@@ -70,8 +70,6 @@ CDSM_HD CDSM_INLINE ViewProjection project(const PinholeView& v, Vec3 p) {
 }
 
 // Axial coordinate of the point at radial `depth` along unit ray `dir`.
-CDSM_HD CDSM_INLINE float axial_of(const PinholeView& v, Vec3 dir, float depth) {
-  return depth * dot(dir, v.forward);
-}
+CDSM_HD CDSM_INLINE float axial_of(const PinholeView& v, Vec3 dir, float depth) { return depth * dot(dir, v.forward); }
 
 }  // namespace cdsm

@@ -36,15 +36,15 @@ CDSM_HD CDSM_INLINE TransferSample apply_transfer(const TransferData& tf, float 
   while (i < n - 1 && d > tf.density[i]) ++i;
   float span = tf.density[i] - tf.density[i - 1];
   float w = span > 0.0f ? (d - tf.density[i - 1]) / span : 1.0f;
-  return {{lerpf(tf.extinction[0][i - 1], tf.extinction[0][i], w), lerpf(tf.extinction[1][i - 1], tf.extinction[1][i], w),
-           lerpf(tf.extinction[2][i - 1], tf.extinction[2][i], w)},
-          {lerpf(tf.r[i - 1], tf.r[i], w), lerpf(tf.g[i - 1], tf.g[i], w), lerpf(tf.b[i - 1], tf.b[i], w)}};
+  return {
+      {lerpf(tf.extinction[0][i - 1], tf.extinction[0][i], w), lerpf(tf.extinction[1][i - 1], tf.extinction[1][i], w),
+       lerpf(tf.extinction[2][i - 1], tf.extinction[2][i], w)},
+      {lerpf(tf.r[i - 1], tf.r[i], w), lerpf(tf.g[i - 1], tf.g[i], w), lerpf(tf.b[i - 1], tf.b[i], w)}};
 }
 
 CDSM_HD CDSM_INLINE float voxel_at(const SceneView& s, const VolumeData& v, int i, int j, int k) {
   if (i < 0 || j < 0 || k < 0 || i >= v.nx || j >= v.ny || k >= v.nz) return v.background;
-  return s.voxels[v.voxel_offset + (uint64_t(k) * uint64_t(v.ny) + uint64_t(j)) * uint64_t(v.nx) +
-                  uint64_t(i)];
+  return s.voxels[v.voxel_offset + (uint64_t(k) * uint64_t(v.ny) + uint64_t(j)) * uint64_t(v.nx) + uint64_t(i)];
 }
 
 // Index positions beyond this are far outside any grid: clamped so that
@@ -99,8 +99,7 @@ CDSM_HD CDSM_NOINLINE inline float nano_density_at_index(const SceneView& s, con
 CDSM_HD CDSM_INLINE float density_at_index(const SceneView& s, const VolumeData& v, Vec3 q) {
   switch (v.grid_kind) {
 #if CDSM_HAVE_NANOVDB
-    case kGridNano:
-      return nano_density_at_index(s, v, q);
+    case kGridNano: return nano_density_at_index(s, v, q);
 #endif
     case kGridDense:
     default:
@@ -131,8 +130,7 @@ CDSM_HD CDSM_INLINE Vec3 density_gradient(const SceneView& s, const VolumeData& 
   g = g * 0.5f;
   // d/dworld = (d index / d world)^T * d/dindex
   const Mat4& m = v.world_to_index;
-  return {m.m[0][0] * g.x + m.m[1][0] * g.y + m.m[2][0] * g.z,
-          m.m[0][1] * g.x + m.m[1][1] * g.y + m.m[2][1] * g.z,
+  return {m.m[0][0] * g.x + m.m[1][0] * g.y + m.m[2][0] * g.z, m.m[0][1] * g.x + m.m[1][1] * g.y + m.m[2][1] * g.z,
           m.m[0][2] * g.x + m.m[1][2] * g.y + m.m[2][2] * g.z};
 }
 
@@ -181,8 +179,7 @@ CDSM_HD CDSM_INLINE float macro_max_at(const SceneView& s, const VolumeData& v, 
   cj += 1;
   ck += 1;
   if (ci < 0 || cj < 0 || ck < 0 || ci >= v.mx || cj >= v.my || ck >= v.mz) return -1.0f;
-  return s.macro_max[v.macro_offset + (uint64_t(ck) * uint64_t(v.my) + uint64_t(cj)) * uint64_t(v.mx) +
-                     uint64_t(ci)];
+  return s.macro_max[v.macro_offset + (uint64_t(ck) * uint64_t(v.my) + uint64_t(cj)) * uint64_t(v.mx) + uint64_t(ci)];
 }
 
 // Ray parameter where the ray leaves the macro-cell that contains the point
@@ -195,8 +192,10 @@ CDSM_HD CDSM_INLINE float macro_cell_exit(Vec3 qo, Vec3 qd, float t) {
   for (int a = 0; a < 3; ++a) {
     float c = floorf((q[a] + 0.5f) / float(kMacroCell));
     float d = qd[a];
-    if (d > 0.0f) best = fminf(best, ((c + 1.0f) * kMacroCell - 0.5f - qo[a]) / d);
-    else if (d < 0.0f) best = fminf(best, (c * kMacroCell - 0.5f - qo[a]) / d);
+    if (d > 0.0f)
+      best = fminf(best, ((c + 1.0f) * kMacroCell - 0.5f - qo[a]) / d);
+    else if (d < 0.0f)
+      best = fminf(best, (c * kMacroCell - 0.5f - qo[a]) / d);
   }
   return best;
 }

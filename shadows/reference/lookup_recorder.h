@@ -16,9 +16,9 @@ namespace cdsm {
 
 struct RecordedLookup {
   int light;
-  Receiver at;          // point, plane, own step
-  Vec3 transmittance;   // what the camera pass used, per colour channel
-  float weight;         // the shaded point's compositing weight
+  Receiver at;         // point, plane, own step
+  Vec3 transmittance;  // what the camera pass used, per colour channel
+  float weight;        // the shaded point's compositing weight
 };
 
 // Wraps the camera pass's visibility functor; lookups wait in `pending`

@@ -66,8 +66,7 @@ void value_box(const SceneView& s, const VolumeData& v, Vec3& lo, Vec3& hi) {
 
 }  // namespace
 
-ReferenceRenderer::ReferenceRenderer(const SceneView& scene, std::vector<LightData> lights,
-                                     ReferenceOptions opt)
+ReferenceRenderer::ReferenceRenderer(const SceneView& scene, std::vector<LightData> lights, ReferenceOptions opt)
     : scene_(scene), lights_(std::move(lights)), opt_(opt) {
   caster_words_.assign((scene.objects.size() + 31) / 32, 0u);
   for (uint32_t o = 0; o < scene.objects.size(); ++o)
@@ -79,17 +78,15 @@ ReferenceRenderer::ReferenceRenderer(const SceneView& scene, std::vector<LightDa
   }
 }
 
-void ReferenceRenderer::hits_along(Vec3 org, Vec3 dir, float tmax, ObjectMask mask,
-                                   std::vector<Hit>& out) const {
+void ReferenceRenderer::hits_along(Vec3 org, Vec3 dir, float tmax, ObjectMask mask, std::vector<Hit>& out) const {
   out.clear();
   for_each_hit(scene_, mask, org, dir, 0.0f, tmax, [&](uint32_t tri, const TriHit& h) {
     const uint32_t o = scene_.tri_object[tri];
     const bool front = dot(geometric_normal(scene_, tri), dir) < 0.0f;
     out.push_back({h.t, o, surface_rank((scene_.objects[o].flags & kObjClosed) != 0u, front)});
   });
-  std::sort(out.begin(), out.end(), [](const Hit& a, const Hit& b) {
-    return a.t != b.t ? a.t < b.t : a.object < b.object;
-  });
+  std::sort(out.begin(), out.end(),
+            [](const Hit& a, const Hit& b) { return a.t != b.t ? a.t < b.t : a.object < b.object; });
 }
 
 // The ray's interval inside volume vi's value box (slabs in index space),
@@ -154,8 +151,10 @@ void for_each_inside_interval(const std::vector<float>& ts, float t_end, F&& f) 
   bool inside = (n & 1u) != 0u;
   float start = 0.0f;
   for (size_t i = 0; i < n; ++i) {
-    if (inside) f(start, std::min(ts[i], t_end));
-    else start = ts[i];
+    if (inside)
+      f(start, std::min(ts[i], t_end));
+    else
+      start = ts[i];
     inside = !inside;
     if (ts[i] >= t_end) return;
   }
@@ -207,7 +206,8 @@ Vec3 ReferenceRenderer::transmittance_segment(Vec3 a, Vec3 b, ObjectMask members
   thread_local std::vector<float> ts;
   for (uint32_t o = 0; o < scene_.objects.size(); ++o) {
     const ObjectData& od = scene_.objects[o];
-    if (od.interior == InteriorKind::None || !(od.flags & kObjClosed) || !(od.flags & kObjCastsShadows) || !members.contains(o))
+    if (od.interior == InteriorKind::None || !(od.flags & kObjClosed) || !(od.flags & kObjCastsShadows) ||
+        !members.contains(o))
       continue;
     ts.clear();
     for (const Hit& h : hits)
@@ -289,7 +289,8 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
           float step = 3e38f;
           interval_media(ta, tb, [&](uint32_t o) {
             const ObjectData& od = scene_.objects[o];
-            if (od.interior == InteriorKind::Constant) sigma = sigma + od.sigma;
+            if (od.interior == InteriorKind::Constant)
+              sigma = sigma + od.sigma;
             else if (od.volume >= 0 && nv < kMaxEnclosing) {
               vols[nv++] = uint32_t(od.volume);
               step = std::min(step, opt_.step_voxels * scene_.volumes[uint32_t(od.volume)].voxel_world);

@@ -35,9 +35,8 @@ struct Builder {
   // Pads a box so float rounding in the slab test never culls a hit.
   static Box3 padded(Box3 b) {
     Vec3 e = b.extent();
-    float pad = 1e-5f * std::max({e.x, e.y, e.z, std::fabs(b.lo.x), std::fabs(b.lo.y),
-                                  std::fabs(b.lo.z), std::fabs(b.hi.x), std::fabs(b.hi.y),
-                                  std::fabs(b.hi.z), 1e-3f});
+    float pad = 1e-5f * std::max({e.x, e.y, e.z, std::fabs(b.lo.x), std::fabs(b.lo.y), std::fabs(b.lo.z),
+                                  std::fabs(b.hi.x), std::fabs(b.hi.y), std::fabs(b.hi.z), 1e-3f});
     b.lo = b.lo - vec3(pad);
     b.hi = b.hi + vec3(pad);
     return b;
@@ -104,10 +103,8 @@ struct Builder {
       if (e.y > e.x) axis = 1;
       if (e.z > e[axis]) axis = 2;
       mid = first + count / 2;
-      std::nth_element(sb.bvh_prims.begin() + first, sb.bvh_prims.begin() + mid,
-                       sb.bvh_prims.begin() + first + count, [&](uint32_t a, uint32_t b) {
-                         return tri_center[a][axis] < tri_center[b][axis];
-                       });
+      std::nth_element(sb.bvh_prims.begin() + first, sb.bvh_prims.begin() + mid, sb.bvh_prims.begin() + first + count,
+                       [&](uint32_t a, uint32_t b) { return tri_center[a][axis] < tri_center[b][axis]; });
     } else {
       const float lo = cbounds.lo[best_axis], hi = cbounds.hi[best_axis];
       auto it = std::partition(sb.bvh_prims.begin() + first, sb.bvh_prims.begin() + first + count,

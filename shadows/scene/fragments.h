@@ -15,7 +15,7 @@ namespace cdsm {
 // Owner of one view's fragment lists (also the read-back target of GL).
 struct FragmentBuffers {
   int32_t width = 0, height = 0;
-  std::vector<uint32_t> offsets;    // width*height + 1
+  std::vector<uint32_t> offsets;  // width*height + 1
   std::vector<Fragment> fragments;
   FragmentLists lists() {
     FragmentLists l;
@@ -32,8 +32,7 @@ struct FragmentBuffers {
 // `mask`, whose view-axis coordinate lies in [near, far]. Lists are not
 // sorted (consumers sort). Count pass, prefix sum, fill pass, on CPU
 // threads (defined in shadows/exec/host_exec.cpp).
-void cast_fragments(const SceneView& scene, const PinholeView& view, ObjectMask mask,
-                    FragmentBuffers& out);
+void cast_fragments(const SceneView& scene, const PinholeView& view, ObjectMask mask, FragmentBuffers& out);
 
 }  // namespace cdsm
 

@@ -23,11 +23,11 @@ struct SceneBuffers {
   std::vector<VolumeData> volumes;
   std::vector<float> voxels;
   std::vector<float> macro_max;
-  std::vector<GridBlock> nano_pool;         // NanoVDB grids, each 32-byte aligned
+  std::vector<GridBlock> nano_pool;  // NanoVDB grids, each 32-byte aligned
   std::vector<BvhNode> bvh;
   std::vector<uint32_t> bvh_prims;
-  std::vector<Box3> object_bounds;  // world-space box per object
-  Box3 bounds;                      // whole scene
+  std::vector<Box3> object_bounds;    // world-space box per object
+  Box3 bounds;                        // whole scene
   std::vector<std::string> warnings;  // content the renderer cannot honour (reported, not fatal)
 
   SceneView view() const;

@@ -122,8 +122,8 @@ TEST(Cli, OptionRangesAreTheFieldTables) {
     const std::string range = "[" + std::to_string(int64_t(row.lo)) + ", " + std::to_string(int64_t(row.hi)) + "]";
     EXPECT_NE(help.find(option + " INT:" + range), std::string::npos) << option << " " << range << "\n" << help;
     for (const int64_t bad : {int64_t(row.lo) - 1, int64_t(row.hi) + 1}) {
-      CliRun r = run_cdsm("render '" + kScene + "' -o '" + output_dir() + "/range.png' " + option + " " +
-                          std::to_string(bad));
+      CliRun r =
+          run_cdsm("render '" + kScene + "' -o '" + output_dir() + "/range.png' " + option + " " + std::to_string(bad));
       EXPECT_EQ(r.code, 1) << option << " " << bad;
       EXPECT_EQ(r.err, "cdsm: error: " + option + ": must be within " + range + ", got " + std::to_string(bad) + "\n");
       EXPECT_EQ(r.out.find("scene "), std::string::npos) << "rendered before refusing: " << r.out;
@@ -147,22 +147,22 @@ TEST(Cli, BadCommandLinesAreOneLineNamingTheOption) {
   struct Case {
     std::string args, starts;
   } cases[] = {
-      {"render '" + kScene + "'" + out + " --eps", "cdsm: error: --eps: "},
-      {"render '" + kScene + "'" + out + " --eps 2", "cdsm: error: --eps: must be within ["},
-      {"render '" + kScene + "'" + out + " --dsm-res 64x", "cdsm: error: --dsm-res: expected an integer, got '64x'"},
-      {"render '" + kScene + "'" + out + " --layout tiled",
-       "cdsm: error: --layout: unknown layout 'tiled' (packed, fixed or chunked)"},
-      {"render '" + kScene + "'" + out + " --filtering maybe", "cdsm: error: --filtering: unknown value 'maybe'"},
-      {"render '" + kScene + "'" + out + " --splits 1", "cdsm: error: --splits: must be 0 (off) or at least 2, got 1"},
-      {"render '" + kScene + "'" + out + " --no-such-option", "cdsm: error: --no-such-option: unknown option"},
-      {"render '" + kScene + "' second.json" + out, "cdsm: error: second.json: unexpected argument"},
-      {"render '" + kScene + "'", "cdsm: error: --output is required"},
-      {"bench '" + kScene + "' --sweep res=2 --out '" + output_dir() + "/bench'",
-       "cdsm: error: --sweep res: must be within ["},
-      {"bench '" + kScene + "' --methods osm0 --out '" + output_dir() + "/bench'", "cdsm: error: --methods osm0: "},
-      {"bench '" + kScene + "' --repeat 0", "cdsm: error: --repeat: must be within [1, 1000], got 0"},
+    {"render '" + kScene + "'" + out + " --eps", "cdsm: error: --eps: "},
+    {"render '" + kScene + "'" + out + " --eps 2", "cdsm: error: --eps: must be within ["},
+    {"render '" + kScene + "'" + out + " --dsm-res 64x", "cdsm: error: --dsm-res: expected an integer, got '64x'"},
+    {"render '" + kScene + "'" + out + " --layout tiled",
+     "cdsm: error: --layout: unknown layout 'tiled' (packed, fixed or chunked)"},
+    {"render '" + kScene + "'" + out + " --filtering maybe", "cdsm: error: --filtering: unknown value 'maybe'"},
+    {"render '" + kScene + "'" + out + " --splits 1", "cdsm: error: --splits: must be 0 (off) or at least 2, got 1"},
+    {"render '" + kScene + "'" + out + " --no-such-option", "cdsm: error: --no-such-option: unknown option"},
+    {"render '" + kScene + "' second.json" + out, "cdsm: error: second.json: unexpected argument"},
+    {"render '" + kScene + "'", "cdsm: error: --output is required"},
+    {"bench '" + kScene + "' --sweep res=2 --out '" + output_dir() + "/bench'",
+     "cdsm: error: --sweep res: must be within ["},
+    {"bench '" + kScene + "' --methods osm0 --out '" + output_dir() + "/bench'", "cdsm: error: --methods osm0: "},
+    {"bench '" + kScene + "' --repeat 0", "cdsm: error: --repeat: must be within [1, 1000], got 0"},
 #if CDSM_HAVE_EDITOR
-      {"edit '" + kScene + "' --width 10", "cdsm: error: --width: must be within [640, 8192], got 10"},
+    {"edit '" + kScene + "' --width 10", "cdsm: error: --width: must be within [640, 8192], got 10"},
 #endif
   };
   for (const Case& c : cases) {

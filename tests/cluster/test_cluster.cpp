@@ -99,7 +99,8 @@ TEST(Clustering, TwoFarGroupsMakeTwoClusters) {
     ASSERT_EQ(k.views.size(), 1u);
     EXPECT_FALSE(k.split);
     for (int32_t id : k.members)
-      for (int i = 0; i < 8; ++i) EXPECT_TRUE(inside_with_guard(k.views[0], casters[size_t(id - 10)].bounds.corner(i), 1.0f));
+      for (int i = 0; i < 8; ++i)
+        EXPECT_TRUE(inside_with_guard(k.views[0], casters[size_t(id - 10)].bounds.corner(i), 1.0f));
   }
   // m = 1: everything in one cluster.
   s.max_clusters = 1;
@@ -117,11 +118,10 @@ TEST(Clustering, TwoFarGroupsMakeTwoClusters) {
 TEST(Clustering, OmniDistancesUseOnlyFacesBothCastersOccupy) {
   LightShape pl = point_light(vec3(0, 3, 0));
   PinholeView cam = camera_at(vec3(0, 5, 9.5f), vec3(0, 2, 0), 90.0f);
-  std::vector<Caster> casters = {
-      {0, cube(vec3(6, 3, 0), 0.3f)},              // +X only
-      {1, box(vec3(5, 2.5f, 4.6f), vec3(5.6f, 3.5f, 5.4f))},  // straddles +X / +Z
-      {2, cube(vec3(-6, 3, 0), 0.3f)},             // -X only
-      {3, cube(vec3(6, 3, 1.5f), 0.3f)}};          // +X only
+  std::vector<Caster> casters = {{0, cube(vec3(6, 3, 0), 0.3f)},                         // +X only
+                                 {1, box(vec3(5, 2.5f, 4.6f), vec3(5.6f, 3.5f, 5.4f))},  // straddles +X / +Z
+                                 {2, cube(vec3(-6, 3, 0), 0.3f)},                        // -X only
+                                 {3, cube(vec3(6, 3, 1.5f), 0.3f)}};                     // +X only
   ClusterSettings s;
   s.resolution = 256;
   CasterDistances D = caster_distances(pl, cam, kScene, casters, s);
@@ -175,9 +175,10 @@ TEST(Clustering, RandomLayoutsKeepTheInvariants) {
   for (int layout = 0; layout < 30; ++layout) {
     const bool omni = layout % 2 == 1;
     LightShape light = omni ? point_light(vec3(ux(rng) * 0.5f, 4.0f + u01(rng), ux(rng) * 0.5f))
-                       : spot_light(vec3(ux(rng) * 0.3f, 11, ux(rng) * 0.3f), vec3(ux(rng) * 0.05f, -1, ux(rng) * 0.05f),
-                                    30.0f + 25.0f * u01(rng));
-    PinholeView cam = camera_at(vec3(ux(rng), 1.0f + 4.0f * u01(rng), 12.0f), vec3(ux(rng) * 0.3f, 0.5f, ux(rng) * 0.3f));
+                            : spot_light(vec3(ux(rng) * 0.3f, 11, ux(rng) * 0.3f),
+                                         vec3(ux(rng) * 0.05f, -1, ux(rng) * 0.05f), 30.0f + 25.0f * u01(rng));
+    PinholeView cam =
+        camera_at(vec3(ux(rng), 1.0f + 4.0f * u01(rng), 12.0f), vec3(ux(rng) * 0.3f, 0.5f, ux(rng) * 0.3f));
     const int n = 1 + int(u01(rng) * 15.0f);
     std::vector<Caster> casters;
     for (int i = 0; i < n; ++i) {

@@ -87,8 +87,8 @@ TEST(ClusteringGain, SparseSceneFourClustersBeatOneMapAtEqualTexels) {
   scene.shadows.max_clusters = 4;
   scene.shadows.resolution = 512;
   Probe four = probe(scene);
-  std::printf("near (<10 m): error %.5f -> %.5f, texel %.4f -> %.4f m (%d points)\n", one.near.mean(),
-              four.near.mean(), one.near.mean_texel(), four.near.mean_texel(), four.near.points);
+  std::printf("near (<10 m): error %.5f -> %.5f, texel %.4f -> %.4f m (%d points)\n", one.near.mean(), four.near.mean(),
+              one.near.mean_texel(), four.near.mean_texel(), four.near.points);
   std::printf("far (>30 m):  error %.5f -> %.5f (%d points)\n", one.far.mean(), four.far.mean(), four.far.points);
   ASSERT_GT(one.near.points, 100);
   ASSERT_GT(one.far.points, 20) << "the view must hold far receivers for the far-field check";

@@ -72,12 +72,12 @@ TEST(Convex, FrustumPlanesMatchTheView) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> uni(-1.3f, 1.3f), depth(0.0f, 120.0f);
   for (int i = 0; i < 2000; ++i) {
-    Vec3 p = v.eye + view_direction(v, (uni(rng) * 0.5f + 0.5f) * float(v.width),
-                                    (uni(rng) * 0.5f + 0.5f) * float(v.height)) *
-                         depth(rng);
+    Vec3 p = v.eye +
+             view_direction(v, (uni(rng) * 0.5f + 0.5f) * float(v.width), (uni(rng) * 0.5f + 0.5f) * float(v.height)) *
+                 depth(rng);
     ViewProjection q = project(v, p);
-    bool in_view = q.u >= 0 && q.u <= float(v.width) && q.v >= 0 && q.v <= float(v.height) &&
-                   q.axial >= v.near && q.axial <= v.far;
+    bool in_view = q.u >= 0 && q.u <= float(v.width) && q.v >= 0 && q.v <= float(v.height) && q.axial >= v.near &&
+                   q.axial <= v.far;
     bool in_planes = true;
     for (const Plane& pl : planes) in_planes &= signed_distance(pl, p) >= 0.0f;
     if (std::fabs(q.u) > 0.01f && std::fabs(q.u - float(v.width)) > 0.01f && std::fabs(q.v) > 0.01f &&
@@ -91,7 +91,8 @@ TEST(Convex, FrustumPlanesMatchTheView) {
 
 // Samples of the camera frustum inside the scene box and the light frustum
 // must lie in B; B must be convex.
-static void check_body(const PinholeView& cam, Vec3 light_pos, const PinholeView* light_frustum, int min_samples = 200) {
+static void check_body(const PinholeView& cam, Vec3 light_pos, const PinholeView* light_frustum,
+                       int min_samples = 200) {
   ConvexBody B = lispsm_body(cam, light_pos, kScene, light_frustum);
   ASSERT_FALSE(B.empty());
   expect_convex(B, 2e-3f);

@@ -126,7 +126,8 @@ TEST(SubtexelCasters, ShippedScenesSayNothing) {
     Built b;
     build(s, b);
     EXPECT_EQ(subtexel_warnings(b.frame), 0u) << e.path() << ": " << b.frame.warnings[0];
-    std::printf("[ scene    ] %s: %zu maps, no caster-size warning\n", e.path().filename().c_str(), b.frame.maps.size());
+    std::printf("[ scene    ] %s: %zu maps, no caster-size warning\n", e.path().filename().c_str(),
+                b.frame.maps.size());
     ++scenes;
   }
   EXPECT_GE(scenes, 5);

@@ -48,10 +48,14 @@ struct Case {
 
 const std::vector<Case>& cases() {
   static const std::vector<Case> c = {
-      {"default_packed", "default", DsmLayout::Packed},   {"default_fixed", "default", DsmLayout::Fixed},
-      {"default_chunked", "default", DsmLayout::Chunked}, {"primitives", "primitives", DsmLayout::Packed},
-      {"teapot_omni", "teapot_omni", DsmLayout::Packed},  {"ct_xray", "ct_xray", DsmLayout::Packed},
-      {"sparse", "sparse", DsmLayout::Packed},            {"smoke_gltf", "smoke_gltf", DsmLayout::Packed},
+      {"default_packed", "default", DsmLayout::Packed},
+      {"default_fixed", "default", DsmLayout::Fixed},
+      {"default_chunked", "default", DsmLayout::Chunked},
+      {"primitives", "primitives", DsmLayout::Packed},
+      {"teapot_omni", "teapot_omni", DsmLayout::Packed},
+      {"ct_xray", "ct_xray", DsmLayout::Packed},
+      {"sparse", "sparse", DsmLayout::Packed},
+      {"smoke_gltf", "smoke_gltf", DsmLayout::Packed},
   };
   return c;
 }

@@ -72,8 +72,8 @@ void check_beer_lambert(TriangleMesh mesh, const char* what) {
     through += len > 0.0;
     ++probes;
   }
-  std::printf("%s, sigma (0.5, 2, 8): %d points (%d through it), max |dT_k| DSM %.2e, reference %.2e\n", what,
-              probes, through, dsm_err, ref_err);
+  std::printf("%s, sigma (0.5, 2, 8): %d points (%d through it), max |dT_k| DSM %.2e, reference %.2e\n", what, probes,
+              through, dsm_err, ref_err);
   EXPECT_GE(probes, 4000);
   EXPECT_GT(through, 1000);
   EXPECT_LT(deepest, 1e-3) << "the blue channel must be nearly opaque through the medium";
@@ -265,7 +265,8 @@ TEST(StainedGlass, MatchesReferencePerChannel) {
               (unsigned long long)e.points, e.channel_mean[0], e.channel_mean[1], e.channel_mean[2], e.p99);
   EXPECT_GT(e.points, 5000u);
   for (int k = 0; k < 3; ++k) EXPECT_LE(e.channel_mean[k], 0.01) << "channel " << k;
-  EXPECT_GT(std::max({e.channel_mean[0], e.channel_mean[1], e.channel_mean[2]}), 0.0) << "no error at all: not compared";
+  EXPECT_GT(std::max({e.channel_mean[0], e.channel_mean[1], e.channel_mean[2]}), 0.0)
+      << "no error at all: not compared";
 }
 
 // The default scene with its tinted pane and box: per-channel mean |dT|

@@ -63,15 +63,16 @@ inline double sup_change(const std::vector<cdsm::DsmNode>& f, const std::vector<
     };
     if (n.empty()) return 0.0;
     if (right) {  // j: first node with z_j > z
-      size_t j = size_t(std::upper_bound(n.begin(), n.end(), z, [](double v, const cdsm::DsmNode& a) { return v < a.z; }) -
-                        n.begin());
+      size_t j =
+          size_t(std::upper_bound(n.begin(), n.end(), z, [](double v, const cdsm::DsmNode& a) { return v < a.z; }) -
+                 n.begin());
       if (j == 0) return 0.0;
       if (j == n.size() || double(n[j - 1].z) == z) return n[j - 1].alpha;
       return lerp(n[j - 1], n[j], z);
     }
     // j: first node with z_j >= z
-    size_t j = size_t(std::lower_bound(n.begin(), n.end(), z, [](const cdsm::DsmNode& a, double v) { return a.z < v; }) -
-                      n.begin());
+    size_t j = size_t(
+        std::lower_bound(n.begin(), n.end(), z, [](const cdsm::DsmNode& a, double v) { return a.z < v; }) - n.begin());
     if (j == 0) return 0.0;
     if (j == n.size()) return n.back().alpha;
     return lerp(n[j - 1], n[j], z);

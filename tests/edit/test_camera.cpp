@@ -31,8 +31,8 @@ TEST(EditCamera, OrbitKeepsTheDistancePanMovesBoth) {
   const Vec3 p0 = o.position();
   o.orbit(100.0f, 0.0f);  // 30 degrees of yaw
   EXPECT_NEAR(dist(o.position(), o.target), 3.0f, 1e-5f);
-  EXPECT_NEAR(std::acos(dot(normalize(p0 - o.target), normalize(o.position() - o.target))) * 180.0f / 3.14159265f, 30.0f,
-              1e-3f);
+  EXPECT_NEAR(std::acos(dot(normalize(p0 - o.target), normalize(o.position() - o.target))) * 180.0f / 3.14159265f,
+              30.0f, 1e-3f);
   o.orbit(0.0f, 1e6f);
   EXPECT_LE(o.pitch_deg, 89.0f);  // never over the pole
   const Vec3 t0 = o.target, q0 = o.position();

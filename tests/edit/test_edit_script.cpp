@@ -124,7 +124,8 @@ TEST(EditScript, ParametersChangeTheViewportAndItMatchesTheLibrary) {
          << "quit\n";
   script.close();
   int status = 0;
-  const std::string out = run("'" + kScene + "' --script '" + s + "script.txt' --width 1280 --height 800 --hidden", &status);
+  const std::string out =
+      run("'" + kScene + "' --script '" + s + "script.txt' --width 1280 --height 800 --hidden", &status);
   std::printf("%s", out.c_str());
   if (status != 0 && out.find("no window") != std::string::npos && !xvfb_required()) GTEST_SKIP() << out;
   // The one failure the script provokes on purpose: saving over the opened file.
@@ -150,10 +151,11 @@ TEST(EditScript, ParametersChangeTheViewportAndItMatchesTheLibrary) {
     EXPECT_GT(bright, 500u) << "panel text";
   }
   const std::vector<float> a = crop(eps001), b = crop(eps02), n = crop(noop), c = crop(m4), k = crop(clusters);
-  std::printf("[ edit     ] viewport %dx%d: eps 0.01->0.2 %zu pixels differ (PSNR %.1f dB); no-op %zu; m 1->4 %zu; "
-              "cluster view %zu\n",
-              eps001.vw, eps001.vh, differing(a, b, 2.5f / 255), psnr(a, b), differing(b, n, 0.0f),
-              differing(b, c, 2.5f / 255), differing(crop(read_shot(s + "d03.png")), k, 2.5f / 255));
+  std::printf(
+      "[ edit     ] viewport %dx%d: eps 0.01->0.2 %zu pixels differ (PSNR %.1f dB); no-op %zu; m 1->4 %zu; "
+      "cluster view %zu\n",
+      eps001.vw, eps001.vh, differing(a, b, 2.5f / 255), psnr(a, b), differing(b, n, 0.0f), differing(b, c, 2.5f / 255),
+      differing(crop(read_shot(s + "d03.png")), k, 2.5f / 255));
   EXPECT_GT(differing(a, b, 2.5f / 255), 200u) << "epsilon 0.01 -> 0.2 changes the shadows";
   EXPECT_EQ(differing(b, n, 0.0f), 0u) << "a no-op edit changes nothing";
   EXPECT_GT(differing(b, c, 2.5f / 255), 200u) << "m 1 -> 4 changes the maps";
@@ -195,7 +197,8 @@ TEST(EditScript, ParametersChangeTheViewportAndItMatchesTheLibrary) {
   }
   // Every change reached a refined frame; the times are printed above.
   size_t refined = 0;
-  for (size_t at = out.find("refined after"); at != std::string::npos; at = out.find("refined after", at + 1)) ++refined;
+  for (size_t at = out.find("refined after"); at != std::string::npos; at = out.find("refined after", at + 1))
+    ++refined;
   EXPECT_GE(refined, 6u);
 
   // The saved scene reloads to the edited one: the opened scene with the

@@ -107,7 +107,8 @@ struct SceneComparer {
 
   bool volume(const std::string& at, const cdsm::Volume& a, const cdsm::Volume& b) {
     if (!fields(at, a, b) || !dense(at + "/grid", a.grid.get(), b.grid.get()) ||
-        !sparse(at + "/grid", a.sparse.get(), b.sparse.get()) || !s(at + "/grid_source", a.grid_source, b.grid_source) ||
+        !sparse(at + "/grid", a.sparse.get(), b.sparse.get()) ||
+        !s(at + "/grid_source", a.grid_source, b.grid_source) ||
         !m(at + "/index_to_object", a.index_to_object, b.index_to_object) ||
         !i(at + "/transfer (count)", a.transfer.size(), b.transfer.size()))
       return false;
@@ -133,11 +134,16 @@ struct SceneComparer {
       using T = std::remove_cv_t<std::remove_reference_t<decltype(x)>>;
       const std::string path = at + "/" + fd.key;
       if (!same) return;
-      if constexpr (std::is_same_v<T, float>) same = f(path, x, y);
-      else if constexpr (std::is_same_v<T, cdsm::Vec3>) same = v(path, x, y);
-      else if constexpr (std::is_enum_v<T>) same = i(path, uint32_t(x), uint32_t(y));
-      else if constexpr (std::is_same_v<T, std::string>) same = s(path, x, y);
-      else same = i(path, x, y);
+      if constexpr (std::is_same_v<T, float>)
+        same = f(path, x, y);
+      else if constexpr (std::is_same_v<T, cdsm::Vec3>)
+        same = v(path, x, y);
+      else if constexpr (std::is_enum_v<T>)
+        same = i(path, uint32_t(x), uint32_t(y));
+      else if constexpr (std::is_same_v<T, std::string>)
+        same = s(path, x, y);
+      else
+        same = i(path, x, y);
     });
     return same;
   }
@@ -145,8 +151,8 @@ struct SceneComparer {
   bool shadows(const cdsm::ShadowSettings& a, const cdsm::ShadowSettings& b) { return fields("/shadows", a, b); }
 
   bool scene(const cdsm::Scene& a, const cdsm::Scene& b) {
-    if (!camera(a.camera, b.camera) || !shadows(a.shadows, b.shadows) || !v("/background", a.background, b.background) ||
-        !i("/objects (count)", a.objects.size(), b.objects.size()) ||
+    if (!camera(a.camera, b.camera) || !shadows(a.shadows, b.shadows) ||
+        !v("/background", a.background, b.background) || !i("/objects (count)", a.objects.size(), b.objects.size()) ||
         !i("/volumes (count)", a.volumes.size(), b.volumes.size()) ||
         !i("/lights (count)", a.lights.size(), b.lights.size()))
       return false;

@@ -68,12 +68,12 @@ Scene test_scene() {
     s.objects.push_back(o);
     return s.objects.back();
   };
-  add("ground", make_ground(8, 8), {0, 0, 0}).casts_shadows = false;               // 0
+  add("ground", make_ground(8, 8), {0, 0, 0}).casts_shadows = false;              // 0
   Object& sphere = add("sphere", make_sphere(0.3f, 16, 8), {1.5f, 0.31f, 0.0f});  // 1
   sphere.surface.opacity = 0.4f;
-  add("box", make_box({0.4f, 0.5f, 0.4f}), {-1.5f, 0.251f, 0.2f});                   // 2
+  add("box", make_box({0.4f, 0.5f, 0.4f}), {-1.5f, 0.251f, 0.2f});                         // 2
   add("tile", make_box({0.3f, 0.02f, 0.3f}), {0.0f, 0.011f, 1.5f}).casts_shadows = false;  // 3
-  Object& glass = add("glass", make_box({0.4f, 0.4f, 0.4f}), {-0.3f, 0.201f, -1.6f});  // 4
+  Object& glass = add("glass", make_box({0.4f, 0.4f, 0.4f}), {-0.3f, 0.201f, -1.6f});      // 4
   glass.surface.opacity = 0.2f;
   glass.interior = InteriorKind::Constant;
   glass.sigma = {1.0f, 2.0f, 3.0f};
@@ -119,46 +119,62 @@ Document test_document() {
 // Every kind of edit: made on the document as it is.
 std::vector<std::pair<std::string, std::function<Edit(const Document&)>>> every_kind() {
   return {
-      {"settings", [](const Document& d) {
+      {"settings",
+       [](const Document& d) {
          ShadowSettings s = d.scene.shadows;
          s.epsilon = 0.05f;
          s.max_clusters = 3;
          return set_settings(d, s);
        }},
-      {"camera", [](const Document& d) {
+      {"camera",
+       [](const Document& d) {
          Camera c = d.scene.camera;
          c.position.x += 0.5f;
          c.fov_y_deg = 50;
          return set_camera(d, c);
        }},
-      {"background", [](const Document& d) { return set_background(d, {0.2f, 0.1f, 0.0f}); }},
-      {"light", [](const Document& d) {
+      {"background",
+       [](const Document& d) {
+         return set_background(d, {0.2f, 0.1f, 0.0f});
+       }},
+      {"light",
+       [](const Document& d) {
          Light l = d.scene.lights[1];
          l.position.y = 3;
          l.color = {0.5f, 0.5f, 1.0f};
          return set_light(d, 1, l);
        }},
-      {"add light", [](const Document& d) {
+      {"add light",
+       [](const Document& d) {
          Light l;
          l.name = "new";
          l.position = {-2, 3, 1};
          return add_light(d, l);
        }},
       {"remove light", [](const Document& d) { return remove_light(d, 0); }},
-      {"transform", [](const Document& d) {
+      {"transform",
+       [](const Document& d) {
          return set_transform(d, 2, make_transform({-1.4f, 0.251f, 0.3f}, {0, 30, 0}, {1, 1.2f, 1}));
        }},
-      {"surface", [](const Document& d) {
+      {"surface",
+       [](const Document& d) {
          SurfaceMaterial m = d.scene.objects[1].surface;
          m.color = {0.1f, 0.9f, 0.2f};
          m.opacity = 0.7f;
          m.transmission_color = {1.0f, 0.5f, 0.5f};
          return set_surface(d, 1, m);
        }},
-      {"interior", [](const Document& d) { return set_interior(d, 2, InteriorKind::Constant, {2, 2, 2}, -1); }},
-      {"interior sigma", [](const Document& d) { return set_interior(d, 4, InteriorKind::Constant, {0.5f, 1, 2}, -1); }},
+      {"interior",
+       [](const Document& d) {
+         return set_interior(d, 2, InteriorKind::Constant, {2, 2, 2}, -1);
+       }},
+      {"interior sigma",
+       [](const Document& d) {
+         return set_interior(d, 4, InteriorKind::Constant, {0.5f, 1, 2}, -1);
+       }},
       {"casts shadows", [](const Document& d) { return set_casts_shadows(d, 3, true); }},
-      {"transfer", [](const Document& d) {
+      {"transfer",
+       [](const Document& d) {
          std::vector<TransferPoint> t = d.scene.volumes[0].transfer;
          t[1].extinction = {8, 6, 4};
          t.push_back({2.0f, {10, 10, 10}, {0.5f, 0.5f, 0.5f}});
@@ -219,7 +235,8 @@ TEST(History, ASliderDragIsOneStep) {
   Document doc = test_document();
   History h;
   // Within 0.5 s of each other: one step.
-  for (int i = 1; i <= 10; ++i) ASSERT_TRUE(h.apply(doc, set_settings(doc, with_epsilon(doc, 0.01f * float(i + 1))), 0.1 * i));
+  for (int i = 1; i <= 10; ++i)
+    ASSERT_TRUE(h.apply(doc, set_settings(doc, with_epsilon(doc, 0.01f * float(i + 1))), 0.1 * i));
   EXPECT_EQ(h.size(), 1u);
   EXPECT_EQ(doc.scene.shadows.epsilon, 0.11f);
   // Later than 0.5 s after the last: a new step.
@@ -427,8 +444,8 @@ TEST(Trs, DecomposeGivesBackWhatComposeWasGiven) {
       {{0.5f, 0.25f, -0.3f}, {10, 33.3f, -71}, {1, 1.5f, 0.8f}},
       {{0, 0, 0}, {-45, 60, 170}, {2, 0.5f, 3}},
       {{3, 2, 1}, {12.5f, -80, 0.25f}, {0.02f, 0.02f, 0.02f}},
-      {{0, 1, 0}, {0, 0, 0}, {-1, 1, 1}},        // mirrored
-      {{0, 1, 0}, {0, 45, 0}, {1, -2, 1}},       // mirrored in y
+      {{0, 1, 0}, {0, 0, 0}, {-1, 1, 1}},   // mirrored
+      {{0, 1, 0}, {0, 45, 0}, {1, -2, 1}},  // mirrored in y
       {{0, 0, 0}, {90, 0, 0}, {1, 1, 1}},
       {{0, 0, 0}, {0, 0, 179.5f}, {1.25f, 1.25f, 1.25f}},
   };
@@ -559,9 +576,7 @@ struct Bench {
     auto count = [&](RebuildReason r) { return why[int(r)]; };
     using Maps = Invalidation::Maps;
     switch (inv.maps) {
-      case Maps::None:
-        EXPECT_EQ(st.maps_rebuilt, 0u) << inv.describe() << "; rebuilt" << keys_text(rebuilt);
-        break;
+      case Maps::None: EXPECT_EQ(st.maps_rebuilt, 0u) << inv.describe() << "; rebuilt" << keys_text(rebuilt); break;
       case Maps::All:
         EXPECT_EQ(st.maps_rebuilt, after.size()) << inv.describe();
         EXPECT_EQ(count(RebuildReason::Settings), st.maps_rebuilt);
@@ -721,9 +736,7 @@ TEST(SystemBinding, EditsAndUndosRenderLikeAFreshSystem) {
   Bench b;
   Document& d = b.doc;
   double t = 0.0;
-  auto apply = [&](const Edit& e) {
-    ASSERT_TRUE(b.history.apply(d, e, t += 1.0)) << b.history.last_refusal();
-  };
+  auto apply = [&](const Edit& e) { ASSERT_TRUE(b.history.apply(d, e, t += 1.0)) << b.history.last_refusal(); };
   auto replay = [&] {
     for (const Edit& e : b.history.take_pending()) b.binding->apply(e, d.scene);
   };
@@ -774,7 +787,8 @@ TEST(SystemBinding, EditsAndUndosRenderLikeAFreshSystem) {
   const Image clean = fresh.render();
   ASSERT_EQ(edited.rgb.size(), clean.rgb.size());
   size_t differ = 0;
-  for (size_t i = 0; i < clean.rgb.size(); ++i) differ += std::memcmp(&edited.rgb[i], &clean.rgb[i], sizeof(float)) != 0;
+  for (size_t i = 0; i < clean.rgb.size(); ++i)
+    differ += std::memcmp(&edited.rgb[i], &clean.rgb[i], sizeof(float)) != 0;
   EXPECT_EQ(differ, 0u) << "of " << clean.rgb.size() << " channel values";
   // And the scene is not trivially dark: shadows of several kinds show.
   float lo = 1e9f, hi = -1e9f;
@@ -786,9 +800,8 @@ TEST(SystemBinding, EditsAndUndosRenderLikeAFreshSystem) {
 // Objects panel): density between its neighbours, extinction not below 0
 // and scaled in every channel alike; the result is a valid set_transfer.
 TEST(TransferDrag, StaysSortedAndNonNegative) {
-  const std::vector<TransferPoint> tf = {{0.0f, {0, 0, 0}, {1, 1, 1}},
-                                         {0.2f, {2, 1, 0.5f}, {1, 1, 1}},
-                                         {0.8f, {8, 8, 8}, {1, 1, 1}}};
+  const std::vector<TransferPoint> tf = {
+      {0.0f, {0, 0, 0}, {1, 1, 1}}, {0.2f, {2, 1, 0.5f}, {1, 1, 1}}, {0.8f, {8, 8, 8}, {1, 1, 1}}};
   std::vector<TransferPoint> d = drag_transfer_point(tf, 1, 0.1f, 2.0f);  // right and up
   EXPECT_FLOAT_EQ(d[1].density, 0.3f);
   EXPECT_FLOAT_EQ(d[1].extinction.x, 4.0f);  // largest channel 2 -> 4, others alike

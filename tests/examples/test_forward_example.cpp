@@ -98,7 +98,7 @@ double masked_psnr(const cdsm::Image& a, const cdsm::Image& b, const std::vector
 TEST(ForwardExample, MatchesTheLibrarysCameraPassOnOpaqueSurfaces) {
   const std::string size = " --width " + std::to_string(kWidth) + " --height " + std::to_string(kHeight);
   const ExampleRun run = run_example("'" + kScene + "' -o '" + kOut + ".png' --raw '" + kOut + ".pfm' --mask '" + kOut +
-                              ".mask.pgm'" + size);
+                                     ".mask.pgm'" + size);
   if (run.status != 0 && run.output.find("no 4.5 context") != std::string::npos && !gl_required())
     GTEST_SKIP() << run.output;
   ASSERT_EQ(run.status, 0) << run.output;
@@ -122,8 +122,8 @@ TEST(ForwardExample, MatchesTheLibrarysCameraPassOnOpaqueSurfaces) {
   for (unsigned char m : mask) opaque += m != 0;
   const double share = double(opaque) / double(mask.size());
   const double psnr = masked_psnr(example, library, mask);
-  std::printf("[ forward  ] opaque-only pixels %.1f%%, PSNR on them %.2f dB, whole image %.2f dB\n", 100.0 * share, psnr,
-              cdsm::compare_images(example, library).psnr);
+  std::printf("[ forward  ] opaque-only pixels %.1f%%, PSNR on them %.2f dB, whole image %.2f dB\n", 100.0 * share,
+              psnr, cdsm::compare_images(example, library).psnr);
   EXPECT_GT(share, 0.5) << "the mask must cover most of the ground and the opaque meshes";
   EXPECT_GE(psnr, 35.0);
   // The whole image too: translucent meshes (their constant media absorbed
@@ -132,7 +132,7 @@ TEST(ForwardExample, MatchesTheLibrarysCameraPassOnOpaqueSurfaces) {
 
   // Without shadows the same pixels differ: the shadows are in the mask.
   const ExampleRun flat = run_example("'" + kScene + "' -o '" + kOut + ".noshadow.png' --raw '" + kOut +
-                               ".noshadow.pfm' --no-shadows" + size);
+                                      ".noshadow.pfm' --no-shadows" + size);
   ASSERT_EQ(flat.status, 0) << flat.output;
   const double flat_psnr = masked_psnr(read_pfm(kOut + ".noshadow.pfm"), library, mask);
   std::printf("[ forward  ] without shadows: PSNR on the same pixels %.2f dB\n", flat_psnr);
@@ -148,7 +148,8 @@ TEST(ForwardExample, MatchesTheLibrarysCameraPassOnOpaqueSurfaces) {
 // nothing changes.
 TEST(ForwardExample, VolumeLightGridsMatchLookupsPerSample) {
   const std::string size = " --width " + std::to_string(kWidth) + " --height " + std::to_string(kHeight);
-  const ExampleRun exact = run_example("'" + kScene + "' -o '" + kOut + ".exact.png' --raw '" + kOut + ".exact.pfm'" + size);
+  const ExampleRun exact =
+      run_example("'" + kScene + "' -o '" + kOut + ".exact.png' --raw '" + kOut + ".exact.pfm'" + size);
   if (exact.status != 0 && exact.output.find("no 4.5 context") != std::string::npos && !gl_required())
     GTEST_SKIP() << exact.output;
   ASSERT_EQ(exact.status, 0) << exact.output;
@@ -163,7 +164,8 @@ TEST(ForwardExample, VolumeLightGridsMatchLookupsPerSample) {
   std::printf("[ forward  ] light grids + voxel steps against a lookup per half-voxel sample: %.2f dB\n", psnr);
   EXPECT_GE(psnr, 50.0);
   // ... and the grids hold shadows: the smoke unshadowed is far from both.
-  const ExampleRun flat = run_example("'" + kScene + "' -o '" + kOut + ".flat.png' --raw '" + kOut + ".flat.pfm' --no-shadows" + size);
+  const ExampleRun flat =
+      run_example("'" + kScene + "' -o '" + kOut + ".flat.png' --raw '" + kOut + ".flat.pfm' --no-shadows" + size);
   ASSERT_EQ(flat.status, 0) << flat.output;
   EXPECT_LT(cdsm::compare_images(read_pfm(kOut + ".flat.pfm"), a).psnr, psnr - 15.0);
 }
@@ -177,7 +179,8 @@ TEST(ForwardExample, EveryLayoutDrawsTheSameImage) {
   const size_t at = json.find("\"shadows\": {");
   ASSERT_NE(at, std::string::npos);
   const std::string size = " --width 160 --height 120";
-  const ExampleRun packed = run_example("'" + kScene + "' -o '" + kOut + ".packed.png' --raw '" + kOut + ".packed.pfm'" + size);
+  const ExampleRun packed =
+      run_example("'" + kScene + "' -o '" + kOut + ".packed.png' --raw '" + kOut + ".packed.pfm'" + size);
   if (packed.status != 0 && packed.output.find("no 4.5 context") != std::string::npos && !gl_required())
     GTEST_SKIP() << packed.output;
   ASSERT_EQ(packed.status, 0) << packed.output;
@@ -187,7 +190,8 @@ TEST(ForwardExample, EveryLayoutDrawsTheSameImage) {
     variant.insert(at + std::strlen("\"shadows\": {"), std::string("\"layout\": \"") + layout + "\", ");
     const std::string path = kOut + "." + layout + ".json";
     std::ofstream(path) << variant;
-    const ExampleRun run = run_example("'" + path + "' -o '" + kOut + "." + layout + ".png' --raw '" + kOut + "." + layout + ".pfm'" + size);
+    const ExampleRun run = run_example("'" + path + "' -o '" + kOut + "." + layout + ".png' --raw '" + kOut + "." +
+                                       layout + ".pfm'" + size);
     ASSERT_EQ(run.status, 0) << run.output;
     const cdsm::Image b = read_pfm(kOut + "." + layout + ".pfm");
     ASSERT_EQ(a.rgb.size(), b.rgb.size());

@@ -60,12 +60,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   d.normalize = (flags & 4) != 0;
   d.header_bytes = in.byte() % 64;
   if (flags & 8) d.header_bytes = ~uint64_t(0) - in.u32();  // near 2^64: the size sum wraps
-  if (flags & 16) d.nx = -d.nx;                              // invalid dimensions
+  if (flags & 16) d.nx = -d.nx;                             // invalid dimensions
   std::vector<unsigned char> content = in.rest();
   if (flags & 32) {  // fit: exactly the size the descriptor needs (cycling the bytes)
-    const uint64_t need = (d.header_bytes < 64 ? d.header_bytes : 0) +
-                          uint64_t(d.nx > 0 ? d.nx : -d.nx) * uint64_t(d.ny) * uint64_t(d.nz) *
-                              (d.format == cdsm::RawFormat::UInt16 ? 2 : 1);
+    const uint64_t need =
+        (d.header_bytes < 64 ? d.header_bytes : 0) + uint64_t(d.nx > 0 ? d.nx : -d.nx) * uint64_t(d.ny) *
+                                                         uint64_t(d.nz) * (d.format == cdsm::RawFormat::UInt16 ? 2 : 1);
     std::vector<unsigned char> fit(need);
     for (size_t i = 0; i < fit.size(); ++i) fit[i] = content.empty() ? uint8_t(i) : content[i % content.size()];
     content.swap(fit);

@@ -81,9 +81,18 @@ void add_object(cdsm::Scene& scene, ByteReader& in) {
   const int kind = in.range(0, 4);
   bool closed = true;
   switch (kind) {
-    case 0: o.mesh = std::make_shared<cdsm::TriangleMesh>(cdsm::make_box({in.unit(0.1f, 1.0f), in.unit(0.1f, 1.0f), in.unit(0.1f, 1.0f)})); break;
-    case 1: o.mesh = std::make_shared<cdsm::TriangleMesh>(cdsm::make_sphere(in.unit(0.1f, 0.8f), in.range(3, 12), in.range(2, 8))); break;
-    case 2: o.mesh = std::make_shared<cdsm::TriangleMesh>(cdsm::make_ground(in.unit(2.0f, 8.0f), in.unit(2.0f, 8.0f), in.unit(0.01f, 0.1f))); break;
+    case 0:
+      o.mesh = std::make_shared<cdsm::TriangleMesh>(
+          cdsm::make_box({in.unit(0.1f, 1.0f), in.unit(0.1f, 1.0f), in.unit(0.1f, 1.0f)}));
+      break;
+    case 1:
+      o.mesh =
+          std::make_shared<cdsm::TriangleMesh>(cdsm::make_sphere(in.unit(0.1f, 0.8f), in.range(3, 12), in.range(2, 8)));
+      break;
+    case 2:
+      o.mesh = std::make_shared<cdsm::TriangleMesh>(
+          cdsm::make_ground(in.unit(2.0f, 8.0f), in.unit(2.0f, 8.0f), in.unit(0.01f, 0.1f)));
+      break;
     case 3:
       o.mesh = std::make_shared<cdsm::TriangleMesh>(cdsm::make_quad(in.unit(0.2f, 2.0f), in.unit(0.2f, 2.0f)));
       closed = false;

@@ -92,13 +92,15 @@ std::string gltf_json(const BoxBuffer& b, const std::string& buffer_uri) {
   j += R"("nodes":[{"name":"root","children":[1,2,3],"rotation":[0,0.3826834,0,0.9238795]},)";
   j += R"({"name":"box","mesh":0,"translation":[0,0.3,0]},)";
   j += R"({"name":"glass","mesh":1,"translation":[1.2,0.3,0],"scale":[0.5,-0.5,0.5]},)";
-  j += R"({"name":"lamp","translation":[0,3,0],"rotation":[-0.7071068,0,0,0.7071068],"extensions":{"KHR_lights_punctual":{"light":0}}},)";
+  j +=
+      R"({"name":"lamp","translation":[0,3,0],"rotation":[-0.7071068,0,0,0.7071068],"extensions":{"KHR_lights_punctual":{"light":0}}},)";
   j += R"({"name":"eye","camera":0,"matrix":[1,0,0,0, 0,0.9701425,0.2425356,0, 0,-0.2425356,0.9701425,0, 0,1.5,5,1],)";
   j += R"("extensions":{"KHR_lights_punctual":{"light":1}}}],)";
   j += R"("cameras":[{"type":"perspective","perspective":{"yfov":0.7,"znear":0.05,"zfar":50,"aspectRatio":1.5}}],)";
   j += R"("extensions":{"KHR_lights_punctual":{"lights":[{"type":"spot","intensity":20,"color":[1,0.9,0.8],)";
   j += R"("spot":{"innerConeAngle":0.3,"outerConeAngle":0.6}},{"type":"point","intensity":5}]}},)";
-  j += R"("materials":[{"name":"red","pbrMetallicRoughness":{"baseColorFactor":[0.8,0.1,0.1,0.5],"metallicFactor":0.2,"roughnessFactor":0.5},"alphaMode":"BLEND"},)";
+  j +=
+      R"("materials":[{"name":"red","pbrMetallicRoughness":{"baseColorFactor":[0.8,0.1,0.1,0.5],"metallicFactor":0.2,"roughnessFactor":0.5},"alphaMode":"BLEND"},)";
   j += R"({"name":"gel","extensions":{"KHR_materials_transmission":{"transmissionFactor":0.7},)";
   j += R"("KHR_materials_volume":{"attenuationColor":[0.5,0.8,0.5],"attenuationDistance":0.4}}}],)";
   j += R"("meshes":[{"name":"box","primitives":[{"attributes":{"POSITION":1,"NORMAL":2},"indices":0,"material":0}]},)";
@@ -142,11 +144,12 @@ void gltf_seeds(const std::string& dir) {
   // The smallest scene: one triangle, no indices, no normals, no light.
   Bytes tri;
   for (float f : {0.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 0.0f, 1.0f, 0.0f}) append(tri, f);
-  write(dir + "/triangle.gltf",
-        R"({"asset":{"version":"2.0"},"nodes":[{"mesh":0}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],)"
-        R"("accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],)"
-        R"("bufferViews":[{"buffer":0,"byteLength":36}],"buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,)" +
-            base64(tri) + R"("}]})");
+  write(
+      dir + "/triangle.gltf",
+      R"({"asset":{"version":"2.0"},"nodes":[{"mesh":0}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],)"
+      R"("accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],)"
+      R"("bufferViews":[{"buffer":0,"byteLength":36}],"buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,)" +
+          base64(tri) + R"("}]})");
 }
 
 // ---- OpenVDB -----------------------------------------------------------------
@@ -156,7 +159,8 @@ openvdb::FloatGrid::Ptr float_box(int lo, int hi, float background, bool varying
   auto acc = g->getAccessor();
   for (int z = lo; z <= hi; ++z)
     for (int y = lo; y <= hi; ++y)
-      for (int x = lo; x <= hi; ++x) acc.setValue({x, y, z}, varying ? 0.1f + 0.05f * float((x + 2 * y + 3 * z) % 9) : 1.0f);
+      for (int x = lo; x <= hi; ++x)
+        acc.setValue({x, y, z}, varying ? 0.1f + 0.05f * float((x + 2 * y + 3 * z) % 9) : 1.0f);
   g->setName("density");
   g->setGridClass(openvdb::GRID_FOG_VOLUME);
   return g;
@@ -220,9 +224,10 @@ void vdb_seeds(const std::string& dir) {
 
 void raw_seeds(const std::string& dir) {
   // nx ny nz flags header, content (flags: 1 uint16, 2 big endian, 4 normalize, 32 fit).
-  write(dir + "/u8_4x4x2.raw", Bytes{3, 3, 1, 4, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18,
-                                     19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 255});
-  write(dir + "/u16_be_header.raw", Bytes{1, 1, 0, 1 | 2 | 4, 2, 0xAB, 0xCD, 0x00, 0x01, 0xFF, 0xFF, 0x12, 0x34, 0x80, 0x00});
+  write(dir + "/u8_4x4x2.raw", Bytes{3,  3,  1,  4,  0,  1,  2,  3,  4,  5,  6,  7,  8,  9,  10, 11, 12, 13, 14,
+                                     15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 255});
+  write(dir + "/u16_be_header.raw",
+        Bytes{1, 1, 0, 1 | 2 | 4, 2, 0xAB, 0xCD, 0x00, 0x01, 0xFF, 0xFF, 0x12, 0x34, 0x80, 0x00});
   write(dir + "/fit_u16.raw", Bytes{7, 5, 3, 1 | 32, 8, 0x10, 0x20, 0x30});
   write(dir + "/wrong_size.raw", Bytes{1, 1, 1, 0, 0, 1, 2, 3});
 }

@@ -42,10 +42,8 @@ TestScene& scene(int which) {
 }
 
 cdsm::PinholeView view_for(int which, int res) {
-  if (which == 0)
-    return cdsm::test::look_at({0.5f, 2.5f, 6.5f}, {0, 0.6f, 0}, {0, 1, 0}, 50.0f, res, res, 0.1f, 50.0f);
-  if (which == 1)
-    return cdsm::test::look_at({0.0f, 9.0f, 11.0f}, {0, 0, 0}, {0, 1, 0}, 50.0f, res, res, 0.1f, 60.0f);
+  if (which == 0) return cdsm::test::look_at({0.5f, 2.5f, 6.5f}, {0, 0.6f, 0}, {0, 1, 0}, 50.0f, res, res, 0.1f, 50.0f);
+  if (which == 1) return cdsm::test::look_at({0.0f, 9.0f, 11.0f}, {0, 0, 0}, {0, 1, 0}, 50.0f, res, res, 0.1f, 60.0f);
   const cdsm::Camera& c = g_scene_camera;  // square view with the camera's vertical field of view
   return cdsm::test::look_at(c.position, c.target, c.up, c.fov_y_deg, res, res, c.near, c.far);
 }
@@ -73,7 +71,8 @@ void set_counters(benchmark::State& st, const TestScene& s, const cdsm::Fragment
   st.counters["triangles"] = double(s.sb.tri_object.size());
   st.counters["fragments"] = double(out.total());
   st.counters["frag/px"] = double(out.total()) / double(uint64_t(out.width) * uint64_t(out.height));
-  st.counters["Mfrag/s"] = benchmark::Counter(double(out.total()) * 1e-6, benchmark::Counter::kIsIterationInvariantRate);
+  st.counters["Mfrag/s"] =
+      benchmark::Counter(double(out.total()) * 1e-6, benchmark::Counter::kIsIterationInvariantRate);
 }
 
 // Args: scene (0 small, 1 ~1M triangles), resolution.

@@ -145,8 +145,8 @@ TestScene many_spheres_scene(int count, int segments, int rings) {
 
 // ---- views ------------------------------------------------------------------
 
-PinholeView look_at(Vec3 eye, Vec3 target, Vec3 up_hint, float fov_y_deg, int width, int height,
-                    float near_plane, float far_plane, Vec2 center) {
+PinholeView look_at(Vec3 eye, Vec3 target, Vec3 up_hint, float fov_y_deg, int width, int height, float near_plane,
+                    float far_plane, Vec2 center) {
   PinholeView v;
   v.eye = eye;
   v.forward = normalize(target - eye);
@@ -327,8 +327,8 @@ Comparison compare_fragments(const TestScene& scene, const PinholeView& view, co
         if (std::getenv("CDSM_TEST_VERBOSE") && shown++ < 40) {
           std::sort(a.begin(), a.end(), frag_less);
           std::sort(b.begin(), b.end(), frag_less);
-          std::printf("  explained (%d, %d) edge %.2e px\n    gl: %s\n    cpu:%s\n", px, gy, worst,
-                      describe(a).c_str(), describe(b).c_str());
+          std::printf("  explained (%d, %d) edge %.2e px\n    gl: %s\n    cpu:%s\n", px, gy, worst, describe(a).c_str(),
+                      describe(b).c_str());
         }
       } else {
         ++c.unexplained;
@@ -405,8 +405,8 @@ std::string gl_maps_differ(const GlMapBuffers& b, const DsmStorage& s) {
     const unsigned char* want = static_cast<const unsigned char*>(a.data);
     for (uint64_t i = 0; i < a.bytes; ++i)
       if (gl[i] != want[i]) {
-        out += std::string(out.empty() ? "" : "; ") + a.name + ": first difference at byte " + std::to_string(i) + " of " +
-               std::to_string(a.bytes);
+        out += std::string(out.empty() ? "" : "; ") + a.name + ": first difference at byte " + std::to_string(i) +
+               " of " + std::to_string(a.bytes);
         break;
       }
   }

@@ -66,8 +66,8 @@ TestScene closed_meshes_scene();
 TestScene many_spheres_scene(int count, int segments, int rings);
 
 // A perspective view looking from `eye` at `target` (fov in degrees, vertical).
-PinholeView look_at(Vec3 eye, Vec3 target, Vec3 up_hint, float fov_y_deg, int width, int height,
-                    float near_plane, float far_plane, Vec2 center = {});
+PinholeView look_at(Vec3 eye, Vec3 target, Vec3 up_hint, float fov_y_deg, int width, int height, float near_plane,
+                    float far_plane, Vec2 center = {});
 // The six 90-degree faces of an omni light at `eye`.
 std::array<PinholeView, 6> omni_faces(Vec3 eye, int resolution, float near_plane, float far_plane);
 
@@ -89,10 +89,10 @@ inline constexpr double kMinEqualFraction = 0.998;
 
 struct Comparison {
   uint64_t pixels = 0;
-  uint64_t equal = 0;          // lists equal after sorting by (depth, bits)
-  uint64_t explained = 0;      // unequal, every disputed fragment within edge_tol of its triangle's edge
-  uint64_t order_ties = 0;     // of those: same fragments, order swapped by depths within 1e-4
-  uint64_t unexplained = 0;    // unequal otherwise (a bug)
+  uint64_t equal = 0;        // lists equal after sorting by (depth, bits)
+  uint64_t explained = 0;    // unequal, every disputed fragment within edge_tol of its triangle's edge
+  uint64_t order_ties = 0;   // of those: same fragments, order swapped by depths within 1e-4
+  uint64_t unexplained = 0;  // unequal otherwise (a bug)
   uint64_t gl_fragments = 0, cpu_fragments = 0;
   double max_rel_depth = 0.0;  // over fragments paired by primitive
   std::string report;          // the first unexplained pixels, for messages
@@ -104,8 +104,7 @@ struct Comparison {
 // are compared with rows [0, row_b - row_a) of `cpu` (row_view slices) when
 // `cpu_rows_offset` says so; by default whole views of equal size.
 Comparison compare_fragments(const TestScene& scene, const PinholeView& view, const FragmentBuffers& gl,
-                             const FragmentBuffers& cpu, double edge_tol_px = 1.0 / 64.0,
-                             int gl_row = -1);
+                             const FragmentBuffers& cpu, double edge_tol_px = 1.0 / 64.0, int gl_row = -1);
 
 // Closed-mesh check on one producer's lists: per pixel and object, after
 // sorting by depth and the walker's silhouette rule (hd/segments.h

@@ -14,7 +14,6 @@
 namespace cdsm::test {
 namespace {
 
-
 struct ViewRun {
   FragmentBuffers gl, cpu;
   Comparison cmp;
@@ -30,12 +29,12 @@ ViewRun run_view(gl::FragmentRasterizer& r, const TestScene& s, const PinholeVie
 
 void expect_agreement(const ViewRun& run, const char* name) {
   const Comparison& c = run.cmp;
-  std::printf("[  compare ] %-12s %7llu px, %8llu GL / %8llu CPU fragments, %.4f%% pixels differ "
-              "(%llu at edges, %llu order ties, %llu unexplained), max rel depth %.2e\n",
-              name, (unsigned long long)c.pixels, (unsigned long long)c.gl_fragments,
-              (unsigned long long)c.cpu_fragments, c.mismatch_percent(),
-              (unsigned long long)(c.explained - c.order_ties), (unsigned long long)c.order_ties,
-              (unsigned long long)c.unexplained, c.max_rel_depth);
+  std::printf(
+      "[  compare ] %-12s %7llu px, %8llu GL / %8llu CPU fragments, %.4f%% pixels differ "
+      "(%llu at edges, %llu order ties, %llu unexplained), max rel depth %.2e\n",
+      name, (unsigned long long)c.pixels, (unsigned long long)c.gl_fragments, (unsigned long long)c.cpu_fragments,
+      c.mismatch_percent(), (unsigned long long)(c.explained - c.order_ties), (unsigned long long)c.order_ties,
+      (unsigned long long)c.unexplained, c.max_rel_depth);
   EXPECT_GT(c.cpu_fragments, 0u) << name;
   EXPECT_GE(double(c.equal), kMinEqualFraction * double(c.pixels)) << name;
   EXPECT_EQ(c.unexplained, 0u) << name << ": pixels differing away from every triangle edge:\n" << c.report;
@@ -92,8 +91,8 @@ TEST_F(FragmentRaster, MatchesCpuForCameraSpotAndOmniViews) {
   EXPECT_EQ(count_unpaired_pixels(s, cam.gl, nullptr), count_unpaired_pixels(s, cam.cpu, nullptr));
 
   // Off-centre window (a focused cluster frustum).
-  ViewRun off = run_view(r, s, look_at({-3.0f, 3.0f, 4.0f}, {0, 0.5f, 0}, {0, 1, 0}, 30.0f, 200, 150, 0.5f, 20.0f,
-                                   Vec2{0.21f, -0.13f}));
+  ViewRun off = run_view(
+      r, s, look_at({-3.0f, 3.0f, 4.0f}, {0, 0.5f, 0}, {0, 1, 0}, 30.0f, 200, 150, 0.5f, 20.0f, Vec2{0.21f, -0.13f}));
   expect_agreement(off, "off-centre");
 
   ViewRun spot = run_view(r, s, look_at({2.5f, 6.0f, 2.0f}, {0, 0, 0}, {0, 1, 0}, 70.0f, 256, 256, 0.5f, 30.0f));
@@ -117,7 +116,8 @@ TEST_F(FragmentRaster, ObjectMaskKeepsGlobalPrimitiveIds) {
   // Objects 1, 3, 6 only (object 7 exists: words cover it).
   std::vector<uint32_t> words = {(1u << 1) | (1u << 3) | (1u << 6)};
   ObjectMask mask{{words.data(), words.size()}};
-  ViewRun run = run_view(r, s, look_at({0.5f, 2.5f, 6.5f}, {0, 0.6f, 0}, {0, 1, 0}, 50.0f, 200, 150, 0.1f, 50.0f), mask);
+  ViewRun run =
+      run_view(r, s, look_at({0.5f, 2.5f, 6.5f}, {0, 0.6f, 0}, {0, 1, 0}, 50.0f, 200, 150, 0.1f, 50.0f), mask);
   expect_agreement(run, "masked");
   for (const Fragment& f : run.gl.fragments) {
     uint32_t o = s.sb.tri_object[frag_prim(f)];
@@ -239,10 +239,11 @@ TEST_F(FragmentRaster, TilesAtTheSsboLimitWithDefaultOptions) {
   FragmentBuffers gl;
   r.rasterize(v, {}, gl);
   const uint64_t ssbo = uint64_t(context().limits().max_ssbo_block_size);
-  std::printf("[  tiles   ] 4096^2 default options: %llu fragments (%.0f MiB), %u tiles, pool %.0f MiB "
-              "(SSBO limit %.0f MiB), %.0f ms\n",
-              (unsigned long long)r.stats().fragments, double(r.stats().fragments * 8) / (1 << 20), r.stats().tiles,
-              double(r.stats().pool_bytes) / (1 << 20), double(ssbo) / (1 << 20), r.stats().gpu_ms);
+  std::printf(
+      "[  tiles   ] 4096^2 default options: %llu fragments (%.0f MiB), %u tiles, pool %.0f MiB "
+      "(SSBO limit %.0f MiB), %.0f ms\n",
+      (unsigned long long)r.stats().fragments, double(r.stats().fragments * 8) / (1 << 20), r.stats().tiles,
+      double(r.stats().pool_bytes) / (1 << 20), double(ssbo) / (1 << 20), r.stats().gpu_ms);
   EXPECT_LE(r.stats().pool_bytes, ssbo);
   if (r.stats().fragments * sizeof(Fragment) > ssbo) {
     EXPECT_GT(r.stats().tiles, 1u);
@@ -307,14 +308,16 @@ TEST_F(FragmentRaster, SplitsRowsWhenOneRowExceedsThePool) {
   EXPECT_EQ(b.stats().pool_bytes, tiny.max_pool_bytes);
   ASSERT_EQ(fa.offsets, fb.offsets);
   uint32_t widest = 0;
-  for (int y = 0; y < v.height; ++y) widest = std::max(widest, fa.offsets[size_t(y + 1) * 64] - fa.offsets[size_t(y) * 64]);
+  for (int y = 0; y < v.height; ++y)
+    widest = std::max(widest, fa.offsets[size_t(y + 1) * 64] - fa.offsets[size_t(y) * 64]);
   EXPECT_GT(widest, 48u) << "no row exceeds the pool: the row-splitting path was not taken";
   for (size_t i = 0; i + 1 < fa.offsets.size(); ++i) {
     std::vector<Fragment> x(fa.fragments.begin() + fa.offsets[i], fa.fragments.begin() + fa.offsets[i + 1]);
     std::vector<Fragment> y(fb.fragments.begin() + fb.offsets[i], fb.fragments.begin() + fb.offsets[i + 1]);
     std::sort(x.begin(), x.end(), frag_less);
     std::sort(y.begin(), y.end(), frag_less);
-    for (size_t k = 0; k < x.size(); ++k) ASSERT_TRUE(x[k].bits == y[k].bits && x[k].depth == y[k].depth) << "pixel " << i;
+    for (size_t k = 0; k < x.size(); ++k)
+      ASSERT_TRUE(x[k].bits == y[k].bits && x[k].depth == y[k].depth) << "pixel " << i;
   }
 }
 
@@ -404,9 +407,9 @@ TEST_F(FragmentRaster, WatertightOnPixelCentres) {
     size_t i = size_t(py) * size_t(b.width) + size_t(px);
     return b.offsets[i + 1] - b.offsets[i];
   };
-  EXPECT_EQ(count(run.gl, 32, 32), 2u);   // front + back face
-  EXPECT_EQ(count(run.gl, 12, 30), 2u);   // side + back face
-  EXPECT_EQ(count(run.gl, 88, 32), 2u);   // both apexes
+  EXPECT_EQ(count(run.gl, 32, 32), 2u);  // front + back face
+  EXPECT_EQ(count(run.gl, 12, 30), 2u);  // side + back face
+  EXPECT_EQ(count(run.gl, 88, 32), 2u);  // both apexes
   EXPECT_EQ(count(run.gl, 4, 4), 0u);
   EXPECT_EQ(count(run.cpu, 32, 32), 2u);
   EXPECT_EQ(count(run.cpu, 88, 32), 2u);
@@ -443,15 +446,17 @@ TEST_F(FragmentRaster, ClosedBoxesLeaveNoUnmatchedFragments) {
     const std::string at = " " + std::to_string(res) + "px";
     views.push_back({"face-on" + at, look_at({0, 0, 6}, {0, 0, 0}, {0, 1, 0}, 30.0f, res, res, 0.1f, 50.0f)});
     views.push_back({"edge-on" + at, look_at({0, 1, 6}, {0, 1, 0}, {0, 1, 0}, 30.0f, res, res, 0.1f, 50.0f)});
-    views.push_back({"edge-on side" + at, look_at({1, 0.3f, 6}, {1, 0.3f, 0}, {0, 1, 0}, 40.0f, res, res, 0.1f, 50.0f)});
+    views.push_back(
+        {"edge-on side" + at, look_at({1, 0.3f, 6}, {1, 0.3f, 0}, {0, 1, 0}, 40.0f, res, res, 0.1f, 50.0f)});
     for (Vec3 corner : {Vec3{1, -1, 1}, Vec3{1, 1, -1}, Vec3{-1, 1, 1}, Vec3{3, -3, -1.5f}})
       views.push_back({"corner" + at, look_at({4, 3, 5}, corner, {0, 1, 0}, 30.0f, res, res, 0.1f, 50.0f)});
   }
   // A spot light's map (tests/unit/test_view_clipping.cpp) in which the big
   // box's corner (3, -3, -1.5) projects 1e-4 px from the centre of texel
   // (165, 233): GL snaps it onto the centre.
-  views.push_back({"vertex on a pixel centre", light_view({3, 3, 1}, normalize(Vec3{-3, -3, -9}), {0, 1, 0},
-                                                          std::tan(40.0f * 3.14159265f / 180.0f), 256, 1, 1e-3f, 30.0f)});
+  views.push_back(
+      {"vertex on a pixel centre", light_view({3, 3, 1}, normalize(Vec3{-3, -3, -9}), {0, 1, 0},
+                                              std::tan(40.0f * 3.14159265f / 180.0f), 256, 1, 1e-3f, 30.0f)});
   std::mt19937 rng(5u);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   for (int i = 0; i < 240; ++i) {

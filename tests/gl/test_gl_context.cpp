@@ -105,8 +105,8 @@ TEST_F(GlPrefixSum, MatchesCpuAcrossLevelBoundaries) {
   gl::PrefixSum scan(context());
   gl::Buffer in("cdsm.test.scan_in"), out("cdsm.test.scan_out");
   std::mt19937 rng(7);
-  for (uint64_t n : {0ull, 1ull, 5ull, 1023ull, 1024ull, 1025ull, 300000ull, 1048576ull, 1048577ull,
-                     4096ull * 4096ull + 3ull}) {
+  for (uint64_t n :
+       {0ull, 1ull, 5ull, 1023ull, 1024ull, 1025ull, 300000ull, 1048576ull, 1048577ull, 4096ull * 4096ull + 3ull}) {
     std::vector<uint32_t> v(n);
     for (auto& x : v) x = rng() % 9;  // mostly small, like fragment counts
     in.reserve(std::max<uint64_t>(n * 4, 4));

@@ -175,26 +175,28 @@ class GlLookup : public GlTest {
     for (const DsmMap& m : sv.maps) rgb_maps += m.rgb;
     EXPECT_EQ(sys.gl_buffers().layout, scene.shadows.layout) << what;
     for (int run = 0; run < (variant ? 2 : 1); ++run)
-    for (int l = 0; l < int(sv.lights.size()); ++l) {
-      const std::vector<Vec3> g = glsl_lookups(sys, pts, l, run == 0 ? -1 : int(uint32_t(sys.gl_buffers().layout)));
-      double worst = 0.0;
-      size_t identical = 0, shadowed = 0, worst_at = 0;
-      for (size_t i = 0; i < pts.size(); ++i) {
-        const LookupPoint& q = pts[i];
-        const Receiver r{q.p, q.surface ? q.plane : Vec3{0, 0, 0}, q.surface ? q.object : kNoObject};
-        const Vec3 c = one_minus(shadow_alpha(sv, sv.lights[uint32_t(l)], r));
-        double d = 0.0;
-        for (int k = 0; k < 3; ++k) d = std::max(d, double(std::fabs(c[k] - g[i][k])));
-        if (!(d <= worst) || std::isnan(d)) worst = std::isnan(d) ? 1e9 : d, worst_at = i;
-        identical += d == 0.0;
-        shadowed += min_channel(c) < 0.999f;
+      for (int l = 0; l < int(sv.lights.size()); ++l) {
+        const std::vector<Vec3> g = glsl_lookups(sys, pts, l, run == 0 ? -1 : int(uint32_t(sys.gl_buffers().layout)));
+        double worst = 0.0;
+        size_t identical = 0, shadowed = 0, worst_at = 0;
+        for (size_t i = 0; i < pts.size(); ++i) {
+          const LookupPoint& q = pts[i];
+          const Receiver r{q.p, q.surface ? q.plane : Vec3{0, 0, 0}, q.surface ? q.object : kNoObject};
+          const Vec3 c = one_minus(shadow_alpha(sv, sv.lights[uint32_t(l)], r));
+          double d = 0.0;
+          for (int k = 0; k < 3; ++k) d = std::max(d, double(std::fabs(c[k] - g[i][k])));
+          if (!(d <= worst) || std::isnan(d)) worst = std::isnan(d) ? 1e9 : d, worst_at = i;
+          identical += d == 0.0;
+          shadowed += min_channel(c) < 0.999f;
+        }
+        std::printf(
+            "[ lookup   ] %s%s light %d: %zu points (%zu shadowed), %u RGB of %zu maps, max |dT| %.3g, %.2f%% "
+            "bit-identical\n",
+            what, run ? " (CDSM_LAYOUT variant)" : "", l, pts.size(), shadowed, rgb_maps, sv.maps.size(), worst,
+            100.0 * double(identical) / double(pts.size()));
+        EXPECT_LE(worst, 1e-5) << what << " light " << l << " at point " << worst_at;
+        EXPECT_GT(shadowed, pts.size() / 20) << what << ": the points must probe shadows, not only lit space";
       }
-      std::printf("[ lookup   ] %s%s light %d: %zu points (%zu shadowed), %u RGB of %zu maps, max |dT| %.3g, %.2f%% bit-identical\n",
-                  what, run ? " (CDSM_LAYOUT variant)" : "", l, pts.size(), shadowed, rgb_maps, sv.maps.size(), worst,
-                  100.0 * double(identical) / double(pts.size()));
-      EXPECT_LE(worst, 1e-5) << what << " light " << l << " at point " << worst_at;
-      EXPECT_GT(shadowed, pts.size() / 20) << what << ": the points must probe shadows, not only lit space";
-    }
   }
 
   std::map<int, GLuint> programs_;  // by variant
@@ -266,9 +268,12 @@ TEST_F(GlLookup, SurfacesInContact) {
       for (Vec3 c : {Vec3{-2, 0, -2}, Vec3{2, 0, -2}, Vec3{-2, 0, 2}, Vec3{2, 0, 2}})
         for (int i = 0; i < 20; ++i)
           for (int j = 0; j < 20; ++j)
-            extra.push_back({c + Vec3{-0.6f + 1.2f * (i + 0.5f) / 20, 0, -0.6f + 1.2f * (j + 0.5f) / 20}, {0, 1, 0}, slab, true});
+            extra.push_back(
+                {c + Vec3{-0.6f + 1.2f * (i + 0.5f) / 20, 0, -0.6f + 1.2f * (j + 0.5f) / 20}, {0, 1, 0}, slab, true});
       const std::string what = std::string("contact ") + (tinted ? "RGB " : "grey ") +
-                               (layout == DsmLayout::Packed ? "packed" : layout == DsmLayout::Fixed ? "fixed" : "chunked");
+                               (layout == DsmLayout::Packed  ? "packed"
+                                : layout == DsmLayout::Fixed ? "fixed"
+                                                             : "chunked");
       expect_agreement(scene, 20000, 2000, 2000, what.c_str(), true, extra);
     }
 }
@@ -320,9 +325,11 @@ TEST_F(GlLookup, SurfacesInContactWithGlFragments) {
         ++n;
       }
   for (float x = 6.5f; x <= 9.5f; x += 0.25f)
-    for (float z = 6.5f; z <= 9.5f; z += 0.25f) lit = std::max(lit, 1.0 - grey_of(vis(0, Receiver{{x, 0, z}, {0, 1, 0}, slab})));
-  std::printf("[ contact  ] GL fragments: slab under the cap and the glass, %d points, max |dT| %.4f; lit slab max %.5f\n",
-              n, worst, lit);
+    for (float z = 6.5f; z <= 9.5f; z += 0.25f)
+      lit = std::max(lit, 1.0 - grey_of(vis(0, Receiver{{x, 0, z}, {0, 1, 0}, slab})));
+  std::printf(
+      "[ contact  ] GL fragments: slab under the cap and the glass, %d points, max |dT| %.4f; lit slab max %.5f\n", n,
+      worst, lit);
   EXPECT_LE(worst, 0.01 + 0.005);
   EXPECT_LE(lit, 1e-3);
 }

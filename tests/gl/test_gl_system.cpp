@@ -64,7 +64,7 @@ struct GlStateSnapshot {
     glGetIntegerv(GL_SCISSOR_BOX, s.scissor);
     glGetIntegerv(GL_POLYGON_MODE, s.polygon);
     glGetBooleani_v(GL_COLOR_WRITEMASK, 0, s.mask);
-    const GLenum caps[8] = {GL_SCISSOR_TEST, GL_DEPTH_CLAMP, GL_CLIP_DISTANCE0, GL_DEPTH_TEST,
+    const GLenum caps[8] = {GL_SCISSOR_TEST, GL_DEPTH_CLAMP, GL_CLIP_DISTANCE0,     GL_DEPTH_TEST,
                             GL_CULL_FACE,    GL_BLEND,       GL_RASTERIZER_DISCARD, GL_MULTISAMPLE};
     for (int i = 0; i < 8; ++i) s.caps[i] = glIsEnabled(caps[i]);
     glGetIntegerv(GL_SHADER_STORAGE_BUFFER_BINDING, &s.ssbo_generic);
@@ -99,8 +99,10 @@ TEST_F(GlSystem, LeavesTheApplicationsGlStateAsItFoundIt) {
   glCreateBuffers(8, bufs);
   for (GLuint i = 0; i < 8; ++i) {
     glNamedBufferStorage(bufs[i], 4096, nullptr, 0);
-    if (i % 2) glBindBufferRange(GL_SHADER_STORAGE_BUFFER, i, bufs[i], 256, 512);
-    else glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, bufs[i]);
+    if (i % 2)
+      glBindBufferRange(GL_SHADER_STORAGE_BUFFER, i, bufs[i], 256, 512);
+    else
+      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, bufs[i]);
   }
   glBindBuffer(GL_SHADER_STORAGE_BUFFER, bufs[5]);
   glUseProgram(prog);
@@ -225,9 +227,11 @@ TEST_F(GlSystem, UploadsOnlyWhatChanged) {
   EXPECT_TRUE(omni.update.gl_map_full_upload);
   const DsmStorage s2 = I.backend->storage();
   EXPECT_EQ(omni.update.gl_map_upload_bytes, array_bytes(s2) + frame1);
-  std::printf("[ uploads  ] first %llu B (full), unchanged %llu B, spot added %llu B (appended), omni moved %llu B (compacted, full)\n",
-              (unsigned long long)first.update.gl_map_upload_bytes, (unsigned long long)again.update.gl_map_upload_bytes,
-              (unsigned long long)moved.update.gl_map_upload_bytes, (unsigned long long)omni.update.gl_map_upload_bytes);
+  std::printf(
+      "[ uploads  ] first %llu B (full), unchanged %llu B, spot added %llu B (appended), omni moved %llu B (compacted, "
+      "full)\n",
+      (unsigned long long)first.update.gl_map_upload_bytes, (unsigned long long)again.update.gl_map_upload_bytes,
+      (unsigned long long)moved.update.gl_map_upload_bytes, (unsigned long long)omni.update.gl_map_upload_bytes);
 
   // The GL buffers hold exactly the backend's arrays.
   const GlMapBuffers b = sys.gl_buffers();
@@ -503,13 +507,14 @@ class InPlaceBackend final : public ShadowBackend {
       throw std::runtime_error("in-place test double: write failed");
     }
     const DsmStorage s = inner_->storage();
-    const void* src[kStorageArrays] = {s.texels.data(),     s.nodes.data(),     s.chunks.data(), s.rgb_texels.data(),
+    const void* src[kStorageArrays] = {s.texels.data(),    s.nodes.data(),      s.chunks.data(), s.rgb_texels.data(),
                                        s.rgb_nodes.data(), s.rgb_chunks.data(), s.tags.data(),   s.rgb_tags.data()};
     static_assert(kStorageArrays == 8, "one source per storage array");
     for (int i = 0; i < n; ++i) {
       const auto known = registered.find(w[i].gl_buffer);
       if (known != registered.end() && known->second != w[i].gl_buffer_generation)
-        violations.push_back("buffer " + std::to_string(w[i].gl_buffer) + " written under a new generation, never released");
+        violations.push_back("buffer " + std::to_string(w[i].gl_buffer) +
+                             " written under a new generation, never released");
       registered[w[i].gl_buffer] = w[i].gl_buffer_generation;
       GLint64 size = 0;
       glGetNamedBufferParameteri64v(w[i].gl_buffer, GL_BUFFER_SIZE, &size);

@@ -146,9 +146,12 @@ int main(int argc, char** argv) {
   int repeat = 3;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--out" && i + 1 < argc) out = argv[++i];
-    else if (a == "--scene" && i + 1 < argc) scene_path = argv[++i];
-    else if (a == "--repeat" && i + 1 < argc) repeat = std::max(1, std::atoi(argv[++i]));
+    if (a == "--out" && i + 1 < argc)
+      out = argv[++i];
+    else if (a == "--scene" && i + 1 < argc)
+      scene_path = argv[++i];
+    else if (a == "--repeat" && i + 1 < argc)
+      repeat = std::max(1, std::atoi(argv[++i]));
     else {
       std::fprintf(stderr, "usage: bench_gpu [--out DIR] [--scene FILE] [--repeat N]\n");
       return 2;
@@ -165,8 +168,10 @@ int main(int argc, char** argv) {
   all["scene"] = scene_path;
   std::string md = "# GPU benchmark\n\nDevice: " + dev.description + "; scene " + scene_path +
                    ", 4 clusters at 512², median of " + std::to_string(repeat) + " cold frames.\n\n";
-  md += "| resolution | backend | fragments (light) ms | DSM build ms | camera fragments ms | camera pass ms | total ms |\n"
-        "|---|---|---|---|---|---|---|\n";
+  md +=
+      "| resolution | backend | fragments (light) ms | DSM build ms | camera fragments ms | camera pass ms | total ms "
+      "|\n"
+      "|---|---|---|---|---|---|---|\n";
   std::string md2, md3;
   bool gl_failed = false;
   for (const auto& wh : {std::pair<int, int>{1280, 720}, std::pair<int, int>{1920, 1080}}) {
@@ -186,21 +191,25 @@ int main(int argc, char** argv) {
       char line[256];
       std::snprintf(line, sizeof line, "| %s | %s | %.1f | %.1f | %.1f | %.1f | %.1f |\n", res.c_str(), b,
                     t["light_fragments_ms"].get<double>(), t["dsm_build_ms"].get<double>(),
-                    t["camera_fragments_ms"].get<double>(), t["camera_pass_ms"].get<double>(), t["total_ms"].get<double>());
+                    t["camera_fragments_ms"].get<double>(), t["camera_pass_ms"].get<double>(),
+                    t["total_ms"].get<double>());
       md += line;
     }
-    const double build_ratio = r["cpu"]["dsm_build_ms"].get<double>() / std::max(1e-6, r["cuda"]["dsm_build_ms"].get<double>());
-    const double cam_ratio = r["cpu"]["camera_pass_ms"].get<double>() / std::max(1e-6, r["cuda"]["camera_pass_ms"].get<double>());
+    const double build_ratio =
+        r["cpu"]["dsm_build_ms"].get<double>() / std::max(1e-6, r["cuda"]["dsm_build_ms"].get<double>());
+    const double cam_ratio =
+        r["cpu"]["camera_pass_ms"].get<double>() / std::max(1e-6, r["cuda"]["camera_pass_ms"].get<double>());
     r["cpu_over_cuda"] = {{"dsm_build", build_ratio}, {"camera_pass", cam_ratio}};
     SceneBuffers sb = compile_scene(s);
     r["fragments"] = fragment_producers(s, sb, repeat);
     r["light_pass"]["k32"] = light_pass_walk(s, sb, 32);
     r["light_pass"]["k64"] = light_pass_walk(s, sb, 64);
     char line[512];
-    std::snprintf(line, sizeof line, "| %s | %.2fx | %.2fx | %.2f | %.2f | %s %.2f / %.2f |\n", res.c_str(), build_ratio,
-                  cam_ratio, r["fragments"]["cuda_kernels_ms"].get<double>(),
+    std::snprintf(line, sizeof line, "| %s | %.2fx | %.2fx | %.2f | %.2f | %s %.2f / %.2f |\n", res.c_str(),
+                  build_ratio, cam_ratio, r["fragments"]["cuda_kernels_ms"].get<double>(),
                   r["fragments"]["cuda_wall_ms"].get<double>(), r["fragments"]["gl_source"].get<std::string>().c_str(),
-                  r["fragments"]["gl_camera_fragments_ms"].get<double>(), r["fragments"]["gl_light_fragments_ms"].get<double>());
+                  r["fragments"]["gl_camera_fragments_ms"].get<double>(),
+                  r["fragments"]["gl_light_fragments_ms"].get<double>());
     md2 += line;
     std::snprintf(line, sizeof line, "| %s | %.2f | %llu | %.2f | %llu |\n", res.c_str(),
                   r["light_pass"]["k32"]["light_pass_kernels_ms"].get<double>(),
@@ -212,11 +221,16 @@ int main(int argc, char** argv) {
     all[res] = r;
     std::fprintf(stderr, "bench_gpu: %s done\n", res.c_str());
   }
-  md += "\n| resolution | CPU/CUDA DSM build | CPU/CUDA camera pass | CUDA fragments kernels ms | CUDA fragments wall ms (lists kept on the device) | GL (producer) camera / light-view fragments ms |\n"
-        "|---|---|---|---|---|---|\n" + md2;
-  md += "\nLight pass (all maps of the frame, CUDA events):\n\n"
-        "| resolution | first walk into 32 nodes: ms | texels walked twice | into 64 nodes: ms | texels walked twice |\n"
-        "|---|---|---|---|---|\n" + md3;
+  md +=
+      "\n| resolution | CPU/CUDA DSM build | CPU/CUDA camera pass | CUDA fragments kernels ms | CUDA fragments wall ms "
+      "(lists kept on the device) | GL (producer) camera / light-view fragments ms |\n"
+      "|---|---|---|---|---|---|\n" +
+      md2;
+  md +=
+      "\nLight pass (all maps of the frame, CUDA events):\n\n"
+      "| resolution | first walk into 32 nodes: ms | texels walked twice | into 64 nodes: ms | texels walked twice |\n"
+      "|---|---|---|---|---|\n" +
+      md3;
   std::ofstream(out + "/bench_gpu.md") << md;
   std::ofstream(out + "/bench_gpu.json") << all.dump(2) << "\n";
   std::fputs(md.c_str(), stdout);

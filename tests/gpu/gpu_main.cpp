@@ -79,11 +79,13 @@ int verdict(int gtest_code) {
   }
   if (skipped == 0) return 0;
   if (gpu_required()) {
-    std::printf("[ verdict  ] FAILED: CDSM_REQUIRE_GPU=1 and %d of %d tests skipped:%s\n", skipped, ran, listed.c_str());
+    std::printf("[ verdict  ] FAILED: CDSM_REQUIRE_GPU=1 and %d of %d tests skipped:%s\n", skipped, ran,
+                listed.c_str());
     return 1;
   }
   if (skipped == ran) {
-    std::printf("[ verdict  ] all %d tests skipped (exit %d, \"Skipped\" in ctest):%s\n", ran, kAllSkipped, listed.c_str());
+    std::printf("[ verdict  ] all %d tests skipped (exit %d, \"Skipped\" in ctest):%s\n", ran, kAllSkipped,
+                listed.c_str());
     return kAllSkipped;
   }
   std::printf("[ verdict  ] passed; %d of %d tests skipped:%s\n", skipped, ran, listed.c_str());

@@ -20,23 +20,23 @@ inline bool gpu_required() {
 }  // namespace cdsm::test
 
 // First statement of a GPU test.
-#define CDSM_REQUIRE_DEVICE()                                                        \
-  do {                                                                               \
-    const ::cdsm::cuda::DeviceInfo cdsm_device_ = ::cdsm::cuda::probe_device();       \
-    if (!cdsm_device_.available) {                                                   \
+#define CDSM_REQUIRE_DEVICE()                                                                            \
+  do {                                                                                                   \
+    const ::cdsm::cuda::DeviceInfo cdsm_device_ = ::cdsm::cuda::probe_device();                          \
+    if (!cdsm_device_.available) {                                                                       \
       if (::cdsm::test::gpu_required()) FAIL() << "CDSM_REQUIRE_GPU=1 but " << cdsm_device_.description; \
-      GTEST_SKIP() << cdsm_device_.description;                                      \
-    }                                                                                \
+      GTEST_SKIP() << cdsm_device_.description;                                                          \
+    }                                                                                                    \
   } while (0)
 
 // First statement of a GPU test that also needs the GL context on the CUDA
 // device (CUDA-GL interop; include gl_interop.h).
-#define CDSM_REQUIRE_GL_ON_DEVICE()                                                  \
-  do {                                                                               \
-    CDSM_REQUIRE_DEVICE();                                                           \
-    std::string cdsm_why_;                                                           \
+#define CDSM_REQUIRE_GL_ON_DEVICE()                                                             \
+  do {                                                                                          \
+    CDSM_REQUIRE_DEVICE();                                                                      \
+    std::string cdsm_why_;                                                                      \
     if (!::cdsm::cuda::gl_context_on_device(::cdsm::cuda::probe_device().device, &cdsm_why_)) { \
-      if (::cdsm::test::gpu_required()) FAIL() << cdsm_why_;                         \
-      GTEST_SKIP() << cdsm_why_;                                                     \
-    }                                                                                \
+      if (::cdsm::test::gpu_required()) FAIL() << cdsm_why_;                                    \
+      GTEST_SKIP() << cdsm_why_;                                                                \
+    }                                                                                           \
   } while (0)

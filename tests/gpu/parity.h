@@ -147,14 +147,15 @@ inline MapComparison compare_maps(const DsmStorage& sa, const DsmMap& ma, const 
         continue;
       }
       if (r.first_difference.empty())
-        r.first_difference = "texel (" + std::to_string(tx) + ", " + std::to_string(ty) + "): " +
-                             std::to_string(a.z.size()) + " vs " + std::to_string(b.z.size()) + " nodes";
+        r.first_difference = "texel (" + std::to_string(tx) + ", " + std::to_string(ty) +
+                             "): " + std::to_string(a.z.size()) + " vs " + std::to_string(b.z.size()) + " nodes";
       std::vector<float> zs = a.z;
       zs.insert(zs.end(), b.z.begin(), b.z.end());
       for (float z : zs)
         for (float zz : {z, std::nextafter(z, 0.0f)}) {
           const std::vector<float> x = alpha_at(sa, ma, tx, ty, zz), y = alpha_at(sb, mb, tx, ty, zz);
-          for (size_t k = 0; k < x.size(); ++k) r.max_alpha_diff = std::max(r.max_alpha_diff, double(std::fabs(x[k] - y[k])));
+          for (size_t k = 0; k < x.size(); ++k)
+            r.max_alpha_diff = std::max(r.max_alpha_diff, double(std::fabs(x[k] - y[k])));
         }
     }
   if (r.nodes_a == 0 && r.nodes_b == 0 && !may_be_empty)
@@ -167,8 +168,8 @@ inline MapComparison compare_maps(const DsmStorage& sa, const DsmMap& ma, const 
 // nothing was compared.
 inline double psnr(const std::vector<float>& a, const std::vector<float>& b) {
   if (a.empty() || a.size() != b.size()) {
-    ADD_FAILURE() << "psnr: images of " << a.size() << " and " << b.size() << " values: "
-                  << (a.empty() ? "empty, nothing to compare" : "different sizes");
+    ADD_FAILURE() << "psnr: images of " << a.size() << " and " << b.size()
+                  << " values: " << (a.empty() ? "empty, nothing to compare" : "different sizes");
     return -INFINITY;
   }
   double se = 0.0;

@@ -66,7 +66,8 @@ TEST(BackendChoice, AutoNeedsTheGlContextOnTheDevice) {
   on.context = "NVIDIA Corporation NVIDIA H200/PCIe/SSE2";
   GlProbe llvmpipe;
   llvmpipe.placement = GlPlacement::Elsewhere;
-  llvmpipe.context = "Mesa llvmpipe (LLVM 15.0.6, 256 bits) (the GL context is not on a CUDA device (cudaErrorNoDevice))";
+  llvmpipe.context =
+      "Mesa llvmpipe (LLVM 15.0.6, 256 bits) (the GL context is not on a CUDA device (cudaErrorNoDevice))";
 
   // No device: cpu with the device's reason, whatever GL does.
   for (const GlProbe& g : {no_gl, on, llvmpipe}) {

@@ -65,7 +65,8 @@ TEST(CliBackend, DefaultWithoutDeviceFallsBackToCpuAndSaysWhy) {
   std::remove(png.c_str());
   CliRun r = cdsm(kNoGpu, "render '" + kScene + "'" + kSmall + "-o '" + png + "' --stats '" + stats + "'");
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_EQ(line_of(r.err, "cdsm: backend "), "cdsm: backend cpu: no CUDA device: disabled by CDSM_CUDA_DISABLE") << r.err;
+  EXPECT_EQ(line_of(r.err, "cdsm: backend "), "cdsm: backend cpu: no CUDA device: disabled by CDSM_CUDA_DISABLE")
+      << r.err;
   EXPECT_EQ(::access(png.c_str(), F_OK), 0) << "the frame was rendered";
   EXPECT_EQ(nlohmann::json::parse(slurp(stats))["backend"], "cpu");
 }
@@ -88,8 +89,9 @@ TEST(CliBackend, CudaFragmentsNeedTheCudaBackend) {
   std::remove(png.c_str());
   CliRun r = cdsm(kNoGpu, "render '" + kScene + "'" + kSmall + "-o '" + png + "' --fragments cuda");
   EXPECT_EQ(r.code, 1) << r.err;
-  EXPECT_EQ(r.err, "cdsm: error: --fragments cuda: the CUDA fragment producer needs the cuda backend (no CUDA device: "
-                   "disabled by CDSM_CUDA_DISABLE)\n");
+  EXPECT_EQ(r.err,
+            "cdsm: error: --fragments cuda: the CUDA fragment producer needs the cuda backend (no CUDA device: "
+            "disabled by CDSM_CUDA_DISABLE)\n");
   EXPECT_NE(::access(png.c_str(), F_OK), 0) << "nothing rendered";
 }
 

@@ -79,7 +79,8 @@ TEST(CudaBackend, SpilledTexelsMatchTheBoundedBuffer) {
   SceneBuffers sb = compile_scene(s);
   const SceneView sv = sb.view();
   LightSetup ls = setup_lights(s.lights, sb, s.shadows.resolution);
-  std::vector<uint32_t> casters = sb.mask_where([&](uint32_t o) { return (sb.objects[o].flags & kObjCastsShadows) != 0u; });
+  std::vector<uint32_t> casters =
+      sb.mask_where([&](uint32_t o) { return (sb.objects[o].flags & kObjCastsShadows) != 0u; });
   ObjectMask mask{{casters.data(), casters.size()}};
   FragmentBuffers f1, f2;
   cast_fragments(sv, ls.maps[0].view, mask, f1);
@@ -161,7 +162,8 @@ TEST(CudaBackend, KernelTimesInFrameStats) {
   EXPECT_GT(st.times.kernel_camera_fragments_ms, 0.0);
   EXPECT_GT(st.times.kernel_camera_ms, 0.0);
   EXPECT_FALSE(st.times.kernels.empty());
-  for (const KernelTime& k : st.times.kernels) std::printf("[ kernel   ] %-32s %9.3f ms  %llu launches\n", k.name.c_str(), k.ms, (unsigned long long)k.launches);
+  for (const KernelTime& k : st.times.kernels)
+    std::printf("[ kernel   ] %-32s %9.3f ms  %llu launches\n", k.name.c_str(), k.ms, (unsigned long long)k.launches);
 }
 
 TEST(CudaBackend, StageTimesFromEvents) {

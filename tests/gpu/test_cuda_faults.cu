@@ -30,7 +30,8 @@ bool contains(const std::string& s, const std::string& part) { return s.find(par
 // lambda may not live in a test body, a private member function).
 void launch_fault(cuda::CudaExec& ex) {
   int* bad = reinterpret_cast<int*>(uintptr_t(0x10));
-  ex.parallel_for("faults: write to an invalid address", 1, CDSM_LAMBDA(uint64_t) { *bad = 1; });
+  ex.parallel_for(
+      "faults: write to an invalid address", 1, CDSM_LAMBDA(uint64_t) { *bad = 1; });
 }
 
 }  // namespace
@@ -76,7 +77,8 @@ TEST(CudaFaults, StickyErrorsMarkCudaUnusableOnceAndLaterCallsFailFast) {
   EXPECT_TRUE(contains(again, "cudaErrorLaunchFailure")) << again;
   EXPECT_TRUE(contains(again, "since: launch.cuh:7")) << "a later error names the first: " << again;
   size_t lines = 0;
-  for (size_t p = said.find("CUDA is unusable"); p != std::string::npos; p = said.find("CUDA is unusable", p + 1)) ++lines;
+  for (size_t p = said.find("CUDA is unusable"); p != std::string::npos; p = said.find("CUDA is unusable", p + 1))
+    ++lines;
   EXPECT_EQ(lines, 1u) << "said once:\n" << said;
   EXPECT_TRUE(contains(said, "cudaErrorIllegalAddress")) << said;
 

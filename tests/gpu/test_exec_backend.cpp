@@ -76,16 +76,18 @@ std::vector<SerialTexel> serial_map(const SceneBuffers& sb, const LightPassParam
         NodeBufferN<std::decay_t<decltype(nodes[0])>::kChannels> b{nodes.data(), capacity};
         b.tags = t.tags.data();
         const uint32_t k = uint32_t(capacity);
-        b.scratch = RemovalScratch{words.data(), words.data() + k, words.data() + 2 * k, words.data() + 3 * k,
-                                   floats.data(), floats.data() + k};
+        b.scratch = RemovalScratch{words.data(),         words.data() + k, words.data() + 2 * k,
+                                   words.data() + 3 * k, floats.data(),    floats.data() + k};
         WalkStats st;
         build_texel(sv, p, lists.pixel(tx, ty), tx, ty, b, st);
         nodes.resize(size_t(b.count));
         t.recompressed = b.removed > 0;
         t.extra = b.extra_error;
       };
-      if (p.rgb) walk(t.rgb);
-      else walk(t.grey);
+      if (p.rgb)
+        walk(t.rgb);
+      else
+        walk(t.grey);
       t.tags.resize(t.size());
     }
   return out;
@@ -112,16 +114,15 @@ uint64_t expect_map_equals_serial(const ShadowBackend& b, MapId id, const std::v
         if (layout.layout == DsmLayout::Fixed) {
           std::vector<DsmNodeRgb> slots(static_cast<size_t>(L));
           std::vector<SurfaceTag> slot_tags(static_cast<size_t>(L));
-          const FixedFit fit = write_fixed_texel(Span<const DsmNodeRgb>{want.data(), want.size()}, want_tags.data(), eps,
-                                                 slots.data(), slot_tags.data(), L);
+          const FixedFit fit = write_fixed_texel(Span<const DsmNodeRgb>{want.data(), want.size()}, want_tags.data(),
+                                                 eps, slots.data(), slot_tags.data(), L);
           want.assign(slots.begin(), slots.begin() + fit.count);
           want_tags.assign(slot_tags.begin(), slot_tags.begin() + fit.count);
         }
         const uint32_t c = read_texel(st, m, tx, ty, got.data(), uint32_t(got.size()), tags.data());
         same = c == want.size();
         for (uint32_t i = 0; same && i < c; ++i)
-          same = got[i].z == want[i].z && same_channels(got[i].alpha, want[i].alpha) &&
-                 tags[i] == want_tags[i];
+          same = got[i].z == want[i].z && same_channels(got[i].alpha, want[i].alpha) && tags[i] == want_tags[i];
       } else {
         std::vector<DsmNode> got(8192), want = s.grey;
         if (layout.layout == DsmLayout::Fixed) {
@@ -201,7 +202,8 @@ TEST(ExecBackend, SecondWalkOnlyForTexelsThatNeedIt) {
     const std::vector<SerialTexel> serial = serial_map(v.sb, v.params, v.frags, kTexelNodeCapacity);
     for (int K : {8, 16, 64})
       for (uint64_t batch : {uint64_t(64) << 20, uint64_t(4096)}) {
-        const std::string what = std::string(rgb ? "rgb" : "grey") + " K " + std::to_string(K) + " batch " + std::to_string(batch);
+        const std::string what =
+            std::string(rgb ? "rgb" : "grey") + " K " + std::to_string(K) + " batch " + std::to_string(batch);
         HostBackend ex("cpu");
         ex.update_scene(v.sb, SceneChange::all());
         ex.light_pass().walk_nodes = K;
@@ -316,8 +318,8 @@ std::vector<std::vector<unsigned char>> store_bytes(const DsmStorage& s) {
     const auto* p = reinterpret_cast<const unsigned char*>(span.data());
     return std::vector<unsigned char>(p, p + span.size() * sizeof(*span.data()));
   };
-  return {bytes(s.texels), bytes(s.nodes), bytes(s.chunks), bytes(s.rgb_texels), bytes(s.rgb_nodes), bytes(s.rgb_chunks),
-          bytes(s.tags), bytes(s.rgb_tags)};
+  return {bytes(s.texels),    bytes(s.nodes),      bytes(s.chunks), bytes(s.rgb_texels),
+          bytes(s.rgb_nodes), bytes(s.rgb_chunks), bytes(s.tags),   bytes(s.rgb_tags)};
 }
 
 // A build that fails at any of its steps (each allocation and each launch in
@@ -354,7 +356,8 @@ TEST(ExecBackend, AFailedBuildLeavesTheStoreAsItWas) {
       ex.executor().fail_after = -1;
       if (!threw) {
         EXPECT_GE(failures, 6) << "kind " << tag_name(kind) << ": a build has that many steps to fail";
-        std::printf("[ failure  ] layout %u: a failure injected at each of %d steps left the store intact\n", unsigned(kind), failures);
+        std::printf("[ failure  ] layout %u: a failure injected at each of %d steps left the store intact\n",
+                    unsigned(kind), failures);
         break;
       }
       ++failures;
@@ -439,7 +442,8 @@ TEST(ExecBackend, FragmentsEqualASerialRayCast) {
     HostBackend ex("cpu");
     ex.update_scene(sb, SceneChange::all());
     const PinholeView cam = camera_view(s.camera);
-    std::vector<uint32_t> casters = sb.mask_where([&](uint32_t o) { return (sb.objects[o].flags & kObjCastsShadows) != 0u; });
+    std::vector<uint32_t> casters =
+        sb.mask_where([&](uint32_t o) { return (sb.objects[o].flags & kObjCastsShadows) != 0u; });
     for (ObjectMask mask : {ObjectMask{}, ObjectMask{{casters.data(), casters.size()}}}) {
       std::vector<uint32_t> offsets{0};
       std::vector<Fragment> fragments;
@@ -492,7 +496,8 @@ TEST(ExecBackend, FragmentListsAreHeldWhereTheyAreUsed) {
     ex.read_lists(id, back);
     EXPECT_EQ(back.offsets, original.offsets) << "lists " << id;
     ASSERT_EQ(back.fragments.size(), original.fragments.size());
-    EXPECT_EQ(std::memcmp(back.fragments.data(), original.fragments.data(), back.fragments.size() * sizeof(Fragment)), 0);
+    EXPECT_EQ(std::memcmp(back.fragments.data(), original.fragments.data(), back.fragments.size() * sizeof(Fragment)),
+              0);
   }
   EXPECT_EQ(ex.take_transfers().backend_to_host, 3 * bytes) << "reads to the host are counted";
   EXPECT_EQ(ex.map_store().lists, 3u);
@@ -582,7 +587,8 @@ TEST(ExecBackend, StageTimesNameEveryLaunch) {
   const std::vector<exec::StageTime> t = ex.take_stage_times();
   std::vector<std::string> names;
   for (const exec::StageTime& st : t) names.push_back(st.name);
-  for (const char* want : kLightPassLaunches) EXPECT_NE(std::find(names.begin(), names.end(), want), names.end()) << want;
+  for (const char* want : kLightPassLaunches)
+    EXPECT_NE(std::find(names.begin(), names.end(), want), names.end()) << want;
   EXPECT_NE(std::find(names.begin(), names.end(), "camera pass"), names.end());
   EXPECT_TRUE(ex.take_stage_times().empty()) << "taken: the next call starts empty";
 }
@@ -609,7 +615,8 @@ TEST(ExecBackend, KernelTimesReachFrameStats) {
     names.push_back(k.name);
     (k.name == "camera pass" ? camera : build) += k.ms;
   }
-  for (const char* want : kLightPassLaunches) EXPECT_NE(std::find(names.begin(), names.end(), want), names.end()) << want;
+  for (const char* want : kLightPassLaunches)
+    EXPECT_NE(std::find(names.begin(), names.end(), want), names.end()) << want;
   EXPECT_DOUBLE_EQ(build, se.times.kernel_dsm_build_ms);
   EXPECT_DOUBLE_EQ(camera, se.times.kernel_camera_ms);
 

@@ -92,8 +92,10 @@ TEST_F(GlInterop, CudaBackendWritesTheMapBuffersInPlace) {
     FrameStats st;
     sys.update(&st);
     EXPECT_EQ(test::gl_maps_differ(sys.gl_buffers(), I.backend->storage()), "");
-    if (expect_device_bytes) EXPECT_GT(st.update.gl_map_device_bytes, 0u);
-    else EXPECT_EQ(st.update.gl_map_device_bytes, 0u);
+    if (expect_device_bytes)
+      EXPECT_GT(st.update.gl_map_device_bytes, 0u);
+    else
+      EXPECT_EQ(st.update.gl_map_device_bytes, 0u);
     const uint64_t frame_block = 32 + 64 * kMaxLights + 96 * I.frame.headers.size();
     EXPECT_TRUE(st.update.gl_map_upload_bytes == 0 || st.update.gl_map_upload_bytes == frame_block)
         << "only the frame block from the host: " << st.update.gl_map_upload_bytes;

@@ -74,18 +74,22 @@ TEST(ParityGuards, MapsWithoutTexelsOrNodesCompareNothing) {
   EXPECT_EQ(same.nodes_a, 32u);
 
   const SmallMap none(0, 0);
-  EXPECT_NONFATAL_FAILURE(parity::compare_maps(none.storage(), none.map, none.storage(), none.map), "nothing to compare");
+  EXPECT_NONFATAL_FAILURE(parity::compare_maps(none.storage(), none.map, none.storage(), none.map),
+                          "nothing to compare");
   const SmallMap other(8, 2);
   EXPECT_NONFATAL_FAILURE(parity::compare_maps(m.storage(), m.map, other.storage(), other.map), "nothing to compare");
   EXPECT_NONFATAL_FAILURE(parity::compare_maps(m.storage(), m.map, DsmStorage{}, m.map), "lacks its map's texels");
   const SmallMap empty(4, 0);
   EXPECT_NONFATAL_FAILURE(parity::compare_maps(empty.storage(), empty.map, empty.storage(), empty.map), "holds a node");
   // One map of a frame may be empty (a cube face seeing no caster): compared, not failed.
-  const parity::MapComparison empty_face = parity::compare_maps(empty.storage(), empty.map, empty.storage(), empty.map, true);
+  const parity::MapComparison empty_face =
+      parity::compare_maps(empty.storage(), empty.map, empty.storage(), empty.map, true);
   EXPECT_EQ(empty_face.nodes_a + empty_face.nodes_b, 0u);
   EXPECT_EQ(empty_face.identical, empty_face.texels);
 
   parity::MapComparison nothing;
-  EXPECT_NONFATAL_FAILURE(nothing = parity::compare_maps(none.storage(), none.map, none.storage(), none.map), "nothing");
-  EXPECT_TRUE(std::isnan(double(nothing.identical) / double(nothing.texels))) << "no bound accepts a comparison of nothing";
+  EXPECT_NONFATAL_FAILURE(nothing = parity::compare_maps(none.storage(), none.map, none.storage(), none.map),
+                          "nothing");
+  EXPECT_TRUE(std::isnan(double(nothing.identical) / double(nothing.texels)))
+      << "no bound accepts a comparison of nothing";
 }

@@ -128,8 +128,7 @@ struct Fixture {
   }
 
   // One map in `layout` (eps: compression bound; 0 keeps every sample).
-  DsmBuildStats build(const DsmLayoutParams& layout, HostMaps& out, float eps = 0.002f,
-                      PinholeView v = PinholeView{}) {
+  DsmBuildStats build(const DsmLayoutParams& layout, HostMaps& out, float eps = 0.002f, PinholeView v = PinholeView{}) {
     LightPassParams lp{v.width > 1 ? v : view, eps, {inside.data(), inside.size()}};
     if (v.width > 1) {
       FragmentBuffers fb;
@@ -342,7 +341,9 @@ TEST(Layouts, ChunkedLinksLongTexelsAcrossChunks) {
       std::set<uint32_t> chunks;
       uint32_t slot = h.offset, prev = 0;
       for (uint32_t i = 0; i < h.count; ++i) {
-        if (i > 0) { EXPECT_GT(slot, prev) << "a tile fills its chunks layer by layer"; }
+        if (i > 0) {
+          EXPECT_GT(slot, prev) << "a tile fills its chunks layer by layer";
+        }
         chunks.insert(slot / 64);
         prev = slot;
         slot = c.chunks[slot].next;
@@ -399,7 +400,9 @@ TEST(Layouts, ChunkedTileWriterLinksThreeChunks) {
       slot = pool[slot].next;
     }
     EXPECT_EQ(slot, kChunkEnd);
-    if (k == 9) { EXPECT_GE(visited.size(), 3u) << "150 nodes span at least three chunks"; }
+    if (k == 9) {
+      EXPECT_GE(visited.size(), 3u) << "150 nodes span at least three chunks";
+    }
   }
   // The walk gives the same alpha as a binary search over the same nodes.
   TexelRange h = heads[9];
@@ -433,11 +436,11 @@ TEST(Layouts, ChunkedTexelWriterEqualsTheTileWriter) {
     std::vector<SurfaceTag> ta(slots, SurfaceTag(999)), tb = ta;
     std::vector<TexelRange> ha(64), hb(64);
     write_chunked_tile(
-        counts.data(), 64, [&](int k) { return texel[size_t(k)].data(); }, [&](int k) { return tags[size_t(k)].data(); },
-        first, C, a.data(), ta.data(), ha.data());
+        counts.data(), 64, [&](int k) { return texel[size_t(k)].data(); },
+        [&](int k) { return tags[size_t(k)].data(); }, first, C, a.data(), ta.data(), ha.data());
     for (int k = 63; k >= 0; --k)  // any order: each texel writes its own slots
-      write_chunked_texel(counts.data(), 64, k, texel[size_t(k)].data(), tags[size_t(k)].data(), first, C, b.data(), tb.data(),
-                          hb[size_t(k)]);
+      write_chunked_texel(counts.data(), 64, k, texel[size_t(k)].data(), tags[size_t(k)].data(), first, C, b.data(),
+                          tb.data(), hb[size_t(k)]);
     ASSERT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(ChunkNode)), 0) << "trial " << trial;
     ASSERT_EQ(ta, tb) << "trial " << trial;
     ASSERT_EQ(std::memcmp(ha.data(), hb.data(), ha.size() * sizeof(TexelRange)), 0) << "trial " << trial;
@@ -557,7 +560,8 @@ TEST(Layouts, FixedSmallLayersRecordOverflow) {
       worst = std::max(worst, d);
       // Lookups through the padded slots agree with the stored nodes.
       for (float z : probe_depths(a))
-        EXPECT_EQ(texel_alpha<1>(x.storage(), x.maps[0], tx, ty, z), lookup_alpha(Span<const DsmNode>{b.data(), b.size()}, z));
+        EXPECT_EQ(texel_alpha<1>(x.storage(), x.maps[0], tx, ty, z),
+                  lookup_alpha(Span<const DsmNode>{b.data(), b.size()}, z));
     }
   EXPECT_GT(worst, 0.0);
   EXPECT_LE(worst, double(st.max_extra_error) + 1e-5) << "the recorded error bounds the change";

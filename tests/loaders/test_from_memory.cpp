@@ -30,7 +30,8 @@ void expect_same_scene(const Scene& a, const Scene& b) {
     ASSERT_TRUE(x.mesh && y.mesh);
     EXPECT_EQ(x.mesh->indices, y.mesh->indices);
     ASSERT_EQ(x.mesh->positions.size(), y.mesh->positions.size());
-    EXPECT_EQ(0, std::memcmp(x.mesh->positions.data(), y.mesh->positions.data(), x.mesh->positions.size() * sizeof(Vec3)));
+    EXPECT_EQ(0,
+              std::memcmp(x.mesh->positions.data(), y.mesh->positions.data(), x.mesh->positions.size() * sizeof(Vec3)));
     EXPECT_EQ(0, std::memcmp(&x.transform, &y.transform, sizeof(Mat4)));
     EXPECT_EQ(x.surface.opacity, y.surface.opacity);
     EXPECT_EQ(x.interior, y.interior);
@@ -120,7 +121,8 @@ TEST(FromMemory, RawMatchesTheFileLoader) {
   // 2^64 to the data's size (a file read fails there; memory must not be read).
   d.nx = 6;
   d.header_bytes = ~uint64_t(0) - 15;  // 2^64 - 16, + 48 voxel bytes = 32 (mod 2^64)
-  expect_error([&] { load_raw_from_memory(u16, "wrap.raw", d); }, {"wrap.raw", "header", "longer than the 32-byte data"});
+  expect_error([&] { load_raw_from_memory(u16, "wrap.raw", d); },
+               {"wrap.raw", "header", "longer than the 32-byte data"});
   d.header_bytes = 0;
   d.nz = 0;
   expect_error([&] { load_raw_from_memory(u16, "zero.raw", d); }, {"zero.raw", ">= 1"});

@@ -108,7 +108,8 @@ void add_cube_mesh(tinygltf::Model& m) {
   tinygltf::Accessor pa, ia;
   pa.bufferView = 0, pa.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT, pa.count = 8, pa.type = TINYGLTF_TYPE_VEC3;
   pa.minValues = {-.5, -.5, -.5}, pa.maxValues = {.5, .5, .5};
-  ia.bufferView = 1, ia.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, ia.count = 36, ia.type = TINYGLTF_TYPE_SCALAR;
+  ia.bufferView = 1, ia.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, ia.count = 36,
+  ia.type = TINYGLTF_TYPE_SCALAR;
   m.accessors = {pa, ia};
   tinygltf::Primitive prim;
   prim.attributes["POSITION"] = 0;
@@ -352,9 +353,9 @@ TEST(Gltf, UnsupportedFeaturesAreListedOnce) {
   Scene s = load_scene(path);
   ASSERT_EQ(warnings.lines.size(), 1u) << warnings.all();
   const std::string& w = warnings.lines[0];
-  for (const char* part : {"unsupported glTF features", "textures (material 0 'blend')", "emission",
-                           "extension KHR_materials_clearcoat", "directional lights ('fill' (node 4))",
-                           "light range", "'key' (node 3)"})
+  for (const char* part :
+       {"unsupported glTF features", "textures (material 0 'blend')", "emission", "extension KHR_materials_clearcoat",
+        "directional lights ('fill' (node 4))", "light range", "'key' (node 3)"})
     EXPECT_NE(w.find(part), std::string::npos) << part << " not in: " << w;
   EXPECT_EQ(s.lights.size(), 1u);
 }
@@ -430,11 +431,14 @@ TEST(GltfBad, ReferencesOutsideTheirData) {
     expect_error([&] { load_gltf_mesh(p); }, parts);
     expect_error([&] { load_scene(p); }, parts);
   };
-  check("acc_count.gltf", [](json& j) { j["accessors"][2]["count"] = 25; }, {"accessor 2", "reads past the end of buffer view 1"});
+  check("acc_count.gltf", [](json& j) { j["accessors"][2]["count"] = 25; },
+        {"accessor 2", "reads past the end of buffer view 1"});
   check("acc_offset.gltf", [](json& j) { j["accessors"][1]["byteOffset"] = 1 << 20; }, {"accessor 1", "past the end"});
-  check("view_len.gltf", [](json& j) { j["bufferViews"][0]["byteLength"] = 100; }, {"buffer view 0", "outside buffer 0"});
+  check("view_len.gltf", [](json& j) { j["bufferViews"][0]["byteLength"] = 100; },
+        {"buffer view 0", "outside buffer 0"});
   check("view_buf.gltf", [](json& j) { j["bufferViews"][1]["buffer"] = 3; }, {"buffer 3"});
-  check("bad_index.gltf", [](json& j) { j["meshes"][0]["primitives"][0]["indices"] = 9; }, {"accessor", "out of bounds"});
+  check("bad_index.gltf", [](json& j) { j["meshes"][0]["primitives"][0]["indices"] = 9; },
+        {"accessor", "out of bounds"});
   check("bad_attr.gltf", [](json& j) { j["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = 0; },
         {"is not VEC3 of FLOAT"});
   check("bad_mesh.gltf", [](json& j) { j["nodes"][1]["mesh"] = 4; }, {"mesh 4", "does not exist"});
@@ -476,11 +480,12 @@ TEST(Gltf, BadNormalsAreRecomputedWithAWarning) {
   tinygltf::Model m = fixture_model();
   // Per-vertex normals of the 8 cube corners (outward diagonals), three bad.
   std::vector<float> n(24);
-  const float c[8][3] = {{-1, -1, -1}, {1, -1, -1}, {-1, 1, -1}, {1, 1, -1}, {-1, -1, 1}, {1, -1, 1}, {-1, 1, 1}, {1, 1, 1}};
+  const float c[8][3] = {{-1, -1, -1}, {1, -1, -1}, {-1, 1, -1}, {1, 1, -1},
+                         {-1, -1, 1},  {1, -1, 1},  {-1, 1, 1},  {1, 1, 1}};
   for (int v = 0; v < 8; ++v)
     for (int k = 0; k < 3; ++k) n[size_t(3 * v + k)] = c[v][k] / std::sqrt(3.0f);
-  n[3 * 2 + 1] = std::nanf("");  // vertex 2: NaN
-  n[3 * 5 + 0] = INFINITY;       // vertex 5: infinite
+  n[3 * 2 + 1] = std::nanf("");                       // vertex 2: NaN
+  n[3 * 5 + 0] = INFINITY;                            // vertex 5: infinite
   n[3 * 7 + 0] = n[3 * 7 + 1] = n[3 * 7 + 2] = 0.0f;  // vertex 7: zero
   tinygltf::Buffer& buf = m.buffers[0];
   size_t at = buf.data.size();
@@ -537,7 +542,8 @@ TEST(GltfBad, ValuesOutsideTheirRange) {
   }
   std::string glb = write_model(fixture_model(), dir + "/ok.glb", true);
   const std::string scene = std::string(R"({"camera": {"position": [0, 2, 6], "target": [0, 0, 0]},
-    "objects": [{"name": "m", "mesh": {"type": "gltf", "file": ")") + glb + R"(", "node": ""}}],
+    "objects": [{"name": "m", "mesh": {"type": "gltf", "file": ")") +
+                            glb + R"(", "node": ""}}],
     "lights": [{"type": "point", "position": [0, 3, 0]}]})";
   expect_error([&] { parse_scene(scene, dir + "/s.json", dir); }, {"/objects/0/mesh/node", "names no node"});
   // A .glb header of version 1 (binary glTF 1.0; tinygltf read it as 2),

@@ -113,7 +113,8 @@ TEST(RawVolume, DimensionsThatDoNotMatchTheFileSize) {
 
 std::string raw_scene(const std::string& grid, const std::string& volume_extra = "") {
   return R"({"camera": {"position": [0, 0.5, 3], "target": [0, 0.1, 0], "width": 48, "height": 32},
-    "volumes": [{"name": "v", "grid": )" + grid + volume_extra + R"(, "shading": "phong",
+    "volumes": [{"name": "v", "grid": )" +
+         grid + volume_extra + R"(, "shading": "phong",
                  "transfer": [{"density": 0, "extinction": 0}, {"density": 1, "extinction": 20}]}],
     "objects": [{"name": "v", "interior": {"type": "volume", "volume": "v"}, "material": {"opacity": 0}}],
     "lights": [{"type": "spot", "position": [0, 3, 1], "target": [0, 0, 0]}]})";
@@ -123,7 +124,8 @@ TEST(RawVolume, SceneFileFields) {
   std::string dir = scratch_dir();
   write_bytes(dir + "/be.raw", raw16(5, 4, 3, true, 0));
   Scene s = parse_scene(raw_scene(R"({"type": "raw", "file": "be.raw", "dims": [5, 4, 3], "format": "uint16",
-      "byte_order": "big", "normalize": false, "spacing": [0.1, 0.2, 0.3]})"), dir + "/s.json", dir);
+      "byte_order": "big", "normalize": false, "spacing": [0.1, 0.2, 0.3]})"),
+                        dir + "/s.json", dir);
   ASSERT_EQ(s.volumes.size(), 1u);
   ASSERT_TRUE(s.volumes[0].grid);
   EXPECT_EQ(s.volumes[0].grid->at(2, 1, 0), float(2000 + 100 + 7));
@@ -140,21 +142,31 @@ TEST(RawVolume, SceneFileFields) {
   EXPECT_TRUE(is_closed(*s.objects[0].mesh));
 
   // Errors name the scene location and the raw file.
-  expect_error([&] {
-    parse_scene(raw_scene(R"({"type": "raw", "file": "be.raw", "dims": [5, 4, 4], "format": "uint16"})"),
-                dir + "/s.json", dir);
-  }, {dir + "/s.json: /volumes/0/grid/file", dir + "/be.raw", "need 160"});
-  expect_error([&] {
-    parse_scene(raw_scene(R"({"type": "raw", "file": "be.raw", "dims": [5, 4, 3], "format": "uint12"})"),
-                dir + "/s.json", dir);
-  }, {"/volumes/0/grid/format", "uint8 or uint16"});
-  expect_error([&] {
-    parse_scene(raw_scene(R"({"type": "raw", "file": "nothere.raw", "dims": [5, 4, 3]})"), dir + "/s.json", dir);
-  }, {"/volumes/0/grid/file", "'nothere.raw' not found", dir + "/nothere.raw", "shared"});
-  expect_error([&] {
-    parse_scene(raw_scene(R"({"type": "raw", "file": "be.raw", "dims": [5, 4, 3], "format": "uint16",
-                             "spacing": 0.1})", R"(, "voxel_size": 0.1)"), dir + "/s.json", dir);
-  }, {"spacing", "voxel_size", "not both"});
+  expect_error(
+      [&] {
+        parse_scene(raw_scene(R"({"type": "raw", "file": "be.raw", "dims": [5, 4, 4], "format": "uint16"})"),
+                    dir + "/s.json", dir);
+      },
+      {dir + "/s.json: /volumes/0/grid/file", dir + "/be.raw", "need 160"});
+  expect_error(
+      [&] {
+        parse_scene(raw_scene(R"({"type": "raw", "file": "be.raw", "dims": [5, 4, 3], "format": "uint12"})"),
+                    dir + "/s.json", dir);
+      },
+      {"/volumes/0/grid/format", "uint8 or uint16"});
+  expect_error(
+      [&] {
+        parse_scene(raw_scene(R"({"type": "raw", "file": "nothere.raw", "dims": [5, 4, 3]})"), dir + "/s.json", dir);
+      },
+      {"/volumes/0/grid/file", "'nothere.raw' not found", dir + "/nothere.raw", "shared"});
+  expect_error(
+      [&] {
+        parse_scene(raw_scene(R"({"type": "raw", "file": "be.raw", "dims": [5, 4, 3], "format": "uint16",
+                             "spacing": 0.1})",
+                              R"(, "voxel_size": 0.1)"),
+                    dir + "/s.json", dir);
+      },
+      {"spacing", "voxel_size", "not both"});
 }
 
 // The gradient of a raw grid (phong shading) through the shared sampling:
@@ -166,8 +178,9 @@ TEST(RawVolume, GradientOfARampForPhongShading) {
     for (int j = 0; j < 6; ++j)
       for (int i = 0; i < 6; ++i) b.push_back(char(40 * i));
   write_bytes(dir + "/ramp.raw", b);
-  Scene s = parse_scene(raw_scene(R"({"type": "raw", "file": "ramp.raw", "dims": [6, 6, 6]})", R"(, "voxel_size": 0.5)"),
-                        dir + "/s.json", dir);
+  Scene s =
+      parse_scene(raw_scene(R"({"type": "raw", "file": "ramp.raw", "dims": [6, 6, 6]})", R"(, "voxel_size": 0.5)"),
+                  dir + "/s.json", dir);
   SceneBuffers sb = compile_scene(s);
   SceneView v = sb.view();
   Vec3 g = density_gradient(v, v.volumes[0], s.volumes[0].index_to_object.point({2.5f, 2.5f, 2.5f}));

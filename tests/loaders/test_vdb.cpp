@@ -141,8 +141,9 @@ TEST(Vdb, SharedGridsMatchTheManifest) {
   VdbVolume torus = load_vdb(data_path("vdb/arnoldusd_torus_fog.vdb"), "voxel_fog_density");
   EXPECT_NEAR(torus.grid->max_value, 100.0f, 1e-3f);
   // The torus' grid is not called "density": the error lists what there is.
-  expect_error([&] { load_vdb(data_path("vdb/arnoldusd_torus_fog.vdb")); },
-               {"arnoldusd_torus_fog.vdb", "no grid named 'density'", "'voxel_fog_density' (float, 2450 active voxels)"});
+  expect_error(
+      [&] { load_vdb(data_path("vdb/arnoldusd_torus_fog.vdb")); },
+      {"arnoldusd_torus_fog.vdb", "no grid named 'density'", "'voxel_fog_density' (float, 2450 active voxels)"});
 }
 
 // vpt_box_fog: 21^3 voxels of density 1 and background 1.0. With extinction
@@ -174,7 +175,8 @@ TEST(Vdb, ConstantBoxFogMatchesBeerLambert) {
 
 Mat4 rotated_scaled() {
   // T * Rz(30) * Rx(20) * S(0.1, 0.2, 0.05).
-  return make_transform({0.3f, -0.2f, 0.1f}, {20, 0, 30}, {1, 1, 1}) * make_transform({0, 0, 0}, {0, 0, 0}, {0.1f, 0.2f, 0.05f});
+  return make_transform({0.3f, -0.2f, 0.1f}, {20, 0, 30}, {1, 1, 1}) *
+         make_transform({0, 0, 0}, {0, 0, 0}, {0.1f, 0.2f, 0.05f});
 }
 
 TEST(VdbFixture, RotatedAndNonUniformlyScaledTransform) {
@@ -198,7 +200,8 @@ TEST(VdbFixture, RotatedAndNonUniformlyScaledTransform) {
   EXPECT_TRUE(is_closed(box));
   Box3 expect_bounds;
   for (int i = 0; i < 8; ++i)
-    expect_bounds.grow(g.index_to_world.point({(i & 1) ? 6.5f : -3.5f, (i & 2) ? 7.5f : 1.5f, (i & 4) ? 15.5f : -8.5f}));
+    expect_bounds.grow(
+        g.index_to_world.point({(i & 1) ? 6.5f : -3.5f, (i & 2) ? 7.5f : 1.5f, (i & 4) ? 15.5f : -8.5f}));
   Box3 b = world_bounds(box, Mat4{});
   for (int a = 0; a < 3; ++a) {
     EXPECT_NEAR(b.lo[a], expect_bounds.lo[a], 1e-5f);
@@ -328,14 +331,16 @@ TEST(VdbBad, TruncatedCorruptMissing) {
       std::vector<char> b = good;
       for (int n = 0, flips = 1 + int(rng() % 6); n < flips; ++n) {
         size_t at = rng() % b.size();
-        if (k % 2 == 0) b[at] ^= char(1 + rng() % 255);
+        if (k % 2 == 0)
+          b[at] ^= char(1 + rng() % 255);
         else
           for (size_t j = at; j < at + 8 && j < b.size(); ++j) b[j] = char(rng());
       }
       if (k % 5 == 4) b.resize(rng() % b.size());
       write_bytes(dir + "/corrupt.vdb", b);
       try {
-        load_vdb(dir + "/corrupt.vdb", std::string(f).find("torus") != std::string::npos ? "voxel_fog_density" : "density");
+        load_vdb(dir + "/corrupt.vdb",
+                 std::string(f).find("torus") != std::string::npos ? "voxel_fog_density" : "density");
       } catch (const Error& e) {
         ++errors;
         EXPECT_NE(std::string(e.what()).find("corrupt.vdb"), std::string::npos) << e.what();
@@ -473,8 +478,9 @@ MarchCount count_marching(const Scene& scene, Vec3 eye, int n) {
       std::sort(ts.begin(), ts.end());
       for (size_t k = 0; k + 1 < ts.size(); k += 2) {
         mc.inside += ts[k + 1] - ts[k];
-        march_segment(sv, media, eye, dir, ts[k], ts[k + 1], [&](const MarchSample&) { return ++mc.samples, true; },
-                      [&](float, float) { ++mc.skips; });
+        march_segment(
+            sv, media, eye, dir, ts[k], ts[k + 1], [&](const MarchSample&) { return ++mc.samples, true; },
+            [&](float, float) { ++mc.skips; });
       }
     }
   return mc;
@@ -513,7 +519,8 @@ TEST(VdbProxy, LeafHullIsClosedTighterAndMarchesFewerSamples) {
   const Vec3 eye = wb.center() + Vec3{0.3f, 0.4f, 1.0f} * (2.0f * length(wb.extent()));
   MarchCount mb = count_marching(sbox, eye, 96), mh = count_marching(shull, eye, 96);
   std::printf("smoke1 proxies, %d rays: box %zu tris, volume %.0f, inside %.0f, samples %llu, skip steps %llu\n",
-              96 * 96, box.triangle_count(), vb, mb.inside, (unsigned long long)mb.samples, (unsigned long long)mb.skips);
+              96 * 96, box.triangle_count(), vb, mb.inside, (unsigned long long)mb.samples,
+              (unsigned long long)mb.skips);
   std::printf("                          leaves %zu tris, volume %.0f, inside %.0f, samples %llu, skip steps %llu\n",
               hull.triangle_count(), vh, mh.inside, (unsigned long long)mh.samples, (unsigned long long)mh.skips);
   std::printf("  reduction: volume %.1f%%, inside length %.1f%%, marched samples %.1f%%, samples+skips %.1f%%\n",

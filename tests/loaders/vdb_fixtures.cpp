@@ -13,9 +13,9 @@ template <class GridT>
 typename GridT::Ptr box_grid(const VdbFixtureGrid& g, typename GridT::ValueType value,
                              typename GridT::ValueType background) {
   auto grid = GridT::create(background);
-  grid->tree().fill(openvdb::CoordBBox(openvdb::Coord(g.lo[0], g.lo[1], g.lo[2]),
-                                       openvdb::Coord(g.hi[0], g.hi[1], g.hi[2])),
-                    value, true);
+  grid->tree().fill(
+      openvdb::CoordBBox(openvdb::Coord(g.lo[0], g.lo[1], g.lo[2]), openvdb::Coord(g.hi[0], g.hi[1], g.hi[2])), value,
+      true);
   if (!g.active_tiles) grid->tree().voxelizeActiveTiles();
   return grid;
 }

@@ -14,11 +14,11 @@ struct VdbFixtureGrid {
   std::string name = "density";
   Kind kind = Kind::Float;
   int lo[3] = {0, 0, 0}, hi[3] = {7, 7, 7};  // active voxels: the box [lo, hi], inclusive
-  float value = 1.0f;                         // their value
+  float value = 1.0f;                        // their value
   float background = 0.0f;
-  cdsm::Mat4 index_to_world;                  // affine
-  bool nan_voxel = false;                     // one active voxel NaN
-  bool active_tiles = false;                  // prune constant regions into active tiles
+  cdsm::Mat4 index_to_world;  // affine
+  bool nan_voxel = false;     // one active voxel NaN
+  bool active_tiles = false;  // prune constant regions into active tiles
 };
 
 // Writes the grids into one .vdb file (names may repeat).

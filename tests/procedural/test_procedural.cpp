@@ -25,9 +25,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-std::string newell_file(const char* name) {
-  return std::string(CDSM_CONTENT_DIR_TEST) + "/meshes/newell/" + name;
-}
+std::string newell_file(const char* name) { return std::string(CDSM_CONTENT_DIR_TEST) + "/meshes/newell/" + name; }
 
 // Independent closedness check: weld vertices at identical positions, then
 // every directed edge must occur once and its reverse once.
@@ -53,9 +51,8 @@ bool closed_by_edges(const TriangleMesh& m, std::string* why = nullptr) {
     auto rev = directed.find({e.second, e.first});
     if (n != 1 || rev == directed.end() || rev->second != 1) {
       if (why)
-        *why = "edge " + std::to_string(e.first) + "-" + std::to_string(e.second) + " used " +
-               std::to_string(n) + " times, reverse " +
-               std::to_string(rev == directed.end() ? 0 : rev->second);
+        *why = "edge " + std::to_string(e.first) + "-" + std::to_string(e.second) + " used " + std::to_string(n) +
+               " times, reverse " + std::to_string(rev == directed.end() ? 0 : rev->second);
       return false;
     }
   }
@@ -68,8 +65,7 @@ double signed_volume(const TriangleMesh& m) {
   for (size_t t = 0; t < m.triangle_count(); ++t) {
     const Vec3 a = m.positions[m.indices[3 * t]], b = m.positions[m.indices[3 * t + 1]];
     const Vec3 c = m.positions[m.indices[3 * t + 2]];
-    v += double(a.x) * (double(b.y) * c.z - double(b.z) * c.y) +
-         double(a.y) * (double(b.z) * c.x - double(b.x) * c.z) +
+    v += double(a.x) * (double(b.y) * c.z - double(b.z) * c.y) + double(a.y) * (double(b.z) * c.x - double(b.x) * c.z) +
          double(a.z) * (double(b.x) * c.y - double(b.y) * c.x);
   }
   return v / 6.0;
@@ -90,8 +86,7 @@ double normals_agreeing(const TriangleMesh& m) {
   size_t agree = 0;
   for (size_t t = 0; t < m.triangle_count(); ++t) {
     const uint32_t* f = &m.indices[3 * t];
-    const Vec3 fn =
-        cross(m.positions[f[1]] - m.positions[f[0]], m.positions[f[2]] - m.positions[f[0]]);
+    const Vec3 fn = cross(m.positions[f[1]] - m.positions[f[0]], m.positions[f[2]] - m.positions[f[0]]);
     for (int k = 0; k < 3; ++k) agree += dot(fn, m.normals[f[k]]) > 0.0f;
   }
   return double(agree) / double(3 * m.triangle_count());
@@ -136,8 +131,7 @@ TEST(Shapes, SphereIsClosedWithinOnePercentOfAnalyticVolume) {
   EXPECT_EQ(poles, 2);
   for (size_t t = 0; t < m.triangle_count(); ++t) {
     const uint32_t* f = &m.indices[3 * t];
-    const Vec3 n =
-        cross(m.positions[f[1]] - m.positions[f[0]], m.positions[f[2]] - m.positions[f[0]]);
+    const Vec3 n = cross(m.positions[f[1]] - m.positions[f[0]], m.positions[f[2]] - m.positions[f[0]]);
     EXPECT_GT(length(n), 1e-6f) << "triangle " << t;
   }
   for (size_t i = 0; i < m.positions.size(); ++i) EXPECT_NEAR(length(m.positions[i]), r, 1e-5f);
@@ -170,8 +164,7 @@ TEST(Shapes, QuadFacesUpAndIsOpen) {
   EXPECT_FALSE(closed_by_edges(m));
   for (size_t t = 0; t < 2; ++t) {
     const uint32_t* f = &m.indices[3 * t];
-    const Vec3 n =
-        cross(m.positions[f[1]] - m.positions[f[0]], m.positions[f[2]] - m.positions[f[0]]);
+    const Vec3 n = cross(m.positions[f[1]] - m.positions[f[0]], m.positions[f[2]] - m.positions[f[0]]);
     EXPECT_GT(n.y, 0.0f);
     EXPECT_FLOAT_EQ(n.x, 0.0f);
   }
@@ -290,8 +283,7 @@ TEST(Newell, TessellationConverges) {
   EXPECT_TRUE(closed_by_edges(fine_mesh));
   EXPECT_LT(coarse, fine);
   EXPECT_NEAR(coarse, fine, 0.05 * fine);
-  EXPECT_GT(fine_mesh.triangle_count(),
-            4 * make_newell_mesh(newell_file("teapot"), 4).triangle_count());
+  EXPECT_GT(fine_mesh.triangle_count(), 4 * make_newell_mesh(newell_file("teapot"), 4).triangle_count());
 }
 
 // A scratch directory for broken patch files, removed at the end.
@@ -342,21 +334,15 @@ TEST_F(NewellErrors, PatchCountBeyondTheFile) {
   expect_error(broken("too_many", 1, "400"), 34);
 }
 
-TEST_F(NewellErrors, ShortPatchLine) {
-  expect_error(broken("short", 3, "4,17,18,19,8,20,21,22,12"), 3);
-}
+TEST_F(NewellErrors, ShortPatchLine) { expect_error(broken("short", 3, "4,17,18,19,8,20,21,22,12"), 3); }
 
 TEST_F(NewellErrors, IndexOutOfRange) {
   expect_error(broken("range", 5, "31,41,42,1,34,43,44,5,37,45,46,9,40,47,48,999"), 5);
 }
 
-TEST_F(NewellErrors, ZeroIndex) {
-  expect_error(broken("zero", 2, "0,2,3,4,5,6,7,8,9,10,11,12,13,14,15,16"), 2);
-}
+TEST_F(NewellErrors, ZeroIndex) { expect_error(broken("zero", 2, "0,2,3,4,5,6,7,8,9,10,11,12,13,14,15,16"), 2); }
 
-TEST_F(NewellErrors, NonNumericCoordinate) {
-  expect_error(broken("coord", 40, "1.4,oops,2.4"), 40);
-}
+TEST_F(NewellErrors, NonNumericCoordinate) { expect_error(broken("coord", 40, "1.4,oops,2.4"), 40); }
 
 TEST_F(NewellErrors, TruncatedPoints) {
   const std::string path = (dir_ / "truncated").string();
@@ -396,8 +382,7 @@ TEST(NoiseVolume, DeterministicPerSeed) {
   ASSERT_EQ(a->values.size(), size_t(24 * 40 * 20));
   EXPECT_EQ(a->values, b->values);
   size_t differing = 0;
-  for (size_t i = 0; i < a->values.size(); ++i)
-    differing += std::fabs(a->values[i] - c->values[i]) > 1e-3f;
+  for (size_t i = 0; i < a->values.size(); ++i) differing += std::fabs(a->values[i] - c->values[i]) > 1e-3f;
   EXPECT_GT(differing, a->values.size() / 20);
 }
 
@@ -412,8 +397,7 @@ void check_volume(const DenseGrid& g, float scale) {
         const float v = g.at(i, j, k);
         ASSERT_GE(v, 0.0f);
         ASSERT_LE(v, scale);
-        const bool border =
-            i == 0 || j == 0 || k == 0 || i == g.nx - 1 || j == g.ny - 1 || k == g.nz - 1;
+        const bool border = i == 0 || j == 0 || k == 0 || i == g.nx - 1 || j == g.ny - 1 || k == g.nz - 1;
         if (border) {
           ASSERT_EQ(v, 0.0f) << i << "," << j << "," << k;
         }
@@ -423,8 +407,7 @@ void check_volume(const DenseGrid& g, float scale) {
 }
 
 TEST(NoiseVolume, PlumeInRangeWithEmptyBorder) {
-  for (uint32_t seed : {1u, 2u, 99u})
-    check_volume(*make_noise_volume(small_params(seed, 1.0f)), 2.5f);
+  for (uint32_t seed : {1u, 2u, 99u}) check_volume(*make_noise_volume(small_params(seed, 1.0f)), 2.5f);
   check_volume(*make_noise_volume(NoiseVolumeParams{}), 1.0f);  // default 48x96x48
 }
 

@@ -92,7 +92,8 @@ Scene soak_scene() {
   v.name = "puff";
   v.grid = make_noise_volume(np);
   v.index_to_object = make_transform({0.02f, 0.02f, 0.02f}, {0, 0, 0}, {0.04f, 0.04f, 0.04f});
-  v.transfer = {TransferPoint{0.0f, vec3(0.0f), {0.9f, 0.9f, 0.9f}}, TransferPoint{1.0f, vec3(6.0f), {0.9f, 0.9f, 0.9f}}};
+  v.transfer = {TransferPoint{0.0f, vec3(0.0f), {0.9f, 0.9f, 0.9f}},
+                TransferPoint{1.0f, vec3(6.0f), {0.9f, 0.9f, 0.9f}}};
   s.volumes.push_back(v);
   Object puff;
   puff.name = "puff";
@@ -189,9 +190,10 @@ TEST(Soak, ThousandsOfChangingFrames) {
   const double early = median(std::vector<double>(ms.begin() + 100, ms.begin() + 300));
   const double again = median(replay);
   const double last = median(std::vector<double>(ms.end() - 200, ms.end()));
-  std::printf("[ soak ] resident memory peak %ld KiB (frames 300-800) -> %ld KiB (last 500); median frame %.1f ms "
-              "(frames 100-300), %.1f ms (the same frames replayed at the end), %.1f ms (the last 200)\n",
-              warm, late, early, again, last);
+  std::printf(
+      "[ soak ] resident memory peak %ld KiB (frames 300-800) -> %ld KiB (last 500); median frame %.1f ms "
+      "(frames 100-300), %.1f ms (the same frames replayed at the end), %.1f ms (the last 200)\n",
+      warm, late, early, again, last);
   EXPECT_LT(double(late), 1.01 * double(warm)) << "resident memory grew after warm-up";
   // The library's own counters (FrameStats::update), the same windows.
   const uint64_t gl_warm = *std::max_element(gl_bytes.begin() + 300, gl_bytes.begin() + 800);

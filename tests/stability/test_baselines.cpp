@@ -10,7 +10,8 @@ Scene layered(ShadowMethod method, float param) {
   TriangleMesh quad = make_quad(3, 3);
   s.objects.push_back(surface_object("glass", quad, at({0, 3.2f, 0}), 0.3f));
   s.objects.push_back(surface_object("glass", quad, at({0, 3.0f, 0}), 0.3f));
-  add_uniform_volume(s, "fog", {-1.5f, 1, -1.5f}, {1.5f, 2, 1.5f}, 2.0f, box_mesh({-1.5f, 1, -1.5f}, {1.5f, 2, 1.5f}), 16);
+  add_uniform_volume(s, "fog", {-1.5f, 1, -1.5f}, {1.5f, 2, 1.5f}, 2.0f, box_mesh({-1.5f, 1, -1.5f}, {1.5f, 2, 1.5f}),
+                     16);
   s.objects.push_back(surface_object("ground", make_quad(10, 10), Mat4{}, 1.0f, false));
   s.lights.push_back(spot({0, 6, 0}, {0, -1, 0}, 15, 10));
   s.shadows.resolution = 17;  // odd: the centre texel's ray is the axis
@@ -131,8 +132,8 @@ TEST(Baselines, SceneFilesNameTheMethod) {
     EXPECT_NE(std::string(e.what()).find("/shadows/method_param"), std::string::npos) << e.what();
   }
   try {
-    parse_scene(R"({"camera": {"position": [0, 2, 6], "target": [0, 0, 0]}, "shadows": {"method": "vsm"}})",
-                "bad.json", ".");
+    parse_scene(R"({"camera": {"position": [0, 2, 6], "target": [0, 0, 0]}, "shadows": {"method": "vsm"}})", "bad.json",
+                ".");
     ADD_FAILURE() << "an unknown method accepted";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("unknown method"), std::string::npos) << e.what();

@@ -56,8 +56,8 @@ Scene stacked_media(bool swap, bool identical) {
   Scene s = scene_named("touching media");
   // a: y in [0.5, 1.5], b: y in [1.5, 2.5] (sharing the face y = 1.5), or both the same box.
   Object a = medium_object("a", box_mesh({-1, 0.5f, -1}, {1, 1.5f, 1}), Mat4{}, 1.0f);
-  Object b = medium_object("b", identical ? box_mesh({-1, 0.5f, -1}, {1, 1.5f, 1}) : box_mesh({-1, 1.5f, -1}, {1, 2.5f, 1}),
-                           Mat4{}, 2.0f);
+  Object b = medium_object(
+      "b", identical ? box_mesh({-1, 0.5f, -1}, {1, 1.5f, 1}) : box_mesh({-1, 1.5f, -1}, {1, 2.5f, 1}), Mat4{}, 2.0f);
   s.objects.push_back(swap ? b : a);
   s.objects.push_back(swap ? a : b);
   s.lights.push_back(spot({0, 4, 0}, {0, -1, 0}, 30, 25));
@@ -94,9 +94,11 @@ TriangleMesh grid_mesh(int cells, float cell) {
   for (int j = 0; j < cells; ++j)
     for (int i = 0; i < cells; ++i) {
       if ((i + j) % 2 == 0)
-        m.indices.insert(m.indices.end(), {v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j), v(i + 1, j + 1), v(i, j + 1)});
+        m.indices.insert(m.indices.end(),
+                         {v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j), v(i + 1, j + 1), v(i, j + 1)});
       else
-        m.indices.insert(m.indices.end(), {v(i, j), v(i + 1, j), v(i, j + 1), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)});
+        m.indices.insert(m.indices.end(),
+                         {v(i, j), v(i + 1, j), v(i, j + 1), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)});
     }
   return m;
 }
@@ -330,7 +332,8 @@ TEST(ManyFragments, OverAThousandLayersInALightTexel) {
   Scene s = scene_named("light stack");
   TriangleMesh quad = make_quad(3, 3);
   for (int i = 0; i < layers; ++i)
-    s.objects.push_back(surface_object("layer", quad, at({0, 1.0f + 0.0005f * float(i), 0}), i % 100 == 0 ? 0.05f : 0.0f));
+    s.objects.push_back(
+        surface_object("layer", quad, at({0, 1.0f + 0.0005f * float(i), 0}), i % 100 == 0 ? 0.05f : 0.0f));
   s.lights.push_back(spot({0, 5, 0}, {0, -1, 0}, 15, 10));
   s.shadows.resolution = 16;
   s.shadows.epsilon = 0.001f;
@@ -435,8 +438,8 @@ TEST(Degenerate, ExtremeCoordinatesBuildAValidBvh) {
     // Traversal: a ray through the middle returns (finite depths only).
     SceneView sv = sb.view();
     int hits = 0;
-    bool complete = for_each_hit(sv, ObjectMask{}, Vec3{0.05f, 1.2f, -10.0f} * scale, normalize(Vec3{0.01f, 0.02f, 1.0f}),
-                                 0.0f, 3e38f, [&](uint32_t, const TriHit& h) {
+    bool complete = for_each_hit(sv, ObjectMask{}, Vec3{0.05f, 1.2f, -10.0f} * scale,
+                                 normalize(Vec3{0.01f, 0.02f, 1.0f}), 0.0f, 3e38f, [&](uint32_t, const TriHit& h) {
                                    EXPECT_TRUE(std::isfinite(h.t));
                                    ++hits;
                                  });

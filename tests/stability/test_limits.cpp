@@ -137,7 +137,8 @@ Scene mixed(float eps) {
   TriangleMesh quad = make_quad(3, 3);
   for (int i = 0; i < 10; ++i) s.objects.push_back(surface_object("layer", quad, at({0, 3.0f + 0.05f * i, 0}), 0.1f));
   s.objects.push_back(medium_object("absorber", box_mesh({-1.5f, 2, -1.5f}, {1.5f, 2.5f, 1.5f}), Mat4{}, 1.2f));
-  add_uniform_volume(s, "fog", {-1.5f, 1, -1.5f}, {1.5f, 1.8f, 1.5f}, 0.8f, box_mesh({-1.5f, 1, -1.5f}, {1.5f, 1.8f, 1.5f}), 16);
+  add_uniform_volume(s, "fog", {-1.5f, 1, -1.5f}, {1.5f, 1.8f, 1.5f}, 0.8f,
+                     box_mesh({-1.5f, 1, -1.5f}, {1.5f, 1.8f, 1.5f}), 16);
   s.objects.push_back(surface_object("ground", make_quad(10, 10), Mat4{}, 1.0f, false));
   s.lights.push_back(spot({0, 6, 0}, {0, -1, 0}, 15, 10));
   s.shadows.epsilon = eps;
@@ -197,7 +198,8 @@ Scene wide_spot() {
   s.objects.push_back(surface_object("below", make_box({0.4f, 0.4f, 0.4f}), at({0, 1.5f, 0}), 1.0f));
   // 75 degrees off the axis, 2 from the light: its shadow lands near x = 11.2.
   const float a = 75.0f * 3.14159265f / 180.0f;
-  s.objects.push_back(surface_object("aside", make_box({0.3f, 0.3f, 0.3f}), at({2 * std::sin(a), 3 - 2 * std::cos(a), 0}), 1.0f));
+  s.objects.push_back(
+      surface_object("aside", make_box({0.3f, 0.3f, 0.3f}), at({2 * std::sin(a), 3 - 2 * std::cos(a), 0}), 1.0f));
   s.objects.push_back(surface_object("ground", make_quad(200, 200), Mat4{}, 1.0f, false));
   s.lights.push_back(spot({0, 3, 0}, {0, -1, 0}, 85, 80));
   s.shadows.resolution = 128;
@@ -252,8 +254,8 @@ TEST(WideSpot, SceneFilesAcceptAn85DegreeHalfAngle) {
 Scene parallel_view(Vec3 camera_dir) {
   Scene s = scene_named("view parallel to light");
   for (int i = 0; i < 6; ++i)
-    s.objects.push_back(
-        surface_object("pillar", make_box({0.5f, 4.0f, 0.5f}), at({-3.0f + 1.2f * i, 2.0f, (i % 2) ? 1.5f : -1.5f}), 1.0f));
+    s.objects.push_back(surface_object("pillar", make_box({0.5f, 4.0f, 0.5f}),
+                                       at({-3.0f + 1.2f * i, 2.0f, (i % 2) ? 1.5f : -1.5f}), 1.0f));
   s.objects.push_back(surface_object("ground", make_quad(14, 14), Mat4{}, 1.0f, false));
   s.lights.push_back(spot({0, 10, 0}, {0, -1, 0}, 35, 30));
   s.camera.position = {0.7f, 9.0f, 0.4f};
@@ -354,11 +356,13 @@ TEST(BadNumbers, NaNOrInfInLightsCameraAndMaterialsIsRejected) {
       {"camera position", [](Scene& s) { s.camera.position.z = std::nanf(""); }},
       {"surface opacity", [](Scene& s) { s.objects[0].surface.opacity = std::nanf(""); }},
       {"transmission colour", [](Scene& s) { s.objects[0].surface.transmission_color.y = std::nanf(""); }},
-      {"medium sigma channel", [](Scene& s) {
+      {"medium sigma channel",
+       [](Scene& s) {
          s.objects[0].interior = InteriorKind::Constant;
          s.objects[0].sigma = {1.0f, std::nanf(""), 1.0f};
        }},
-      {"medium sigma", [](Scene& s) {
+      {"medium sigma",
+       [](Scene& s) {
          s.objects[0].interior = InteriorKind::Constant;
          s.objects[0].sigma = vec3(INFINITY);
        }},
@@ -440,22 +444,26 @@ TEST(MemoryLimits, HugeSettingsAreRefusedUpFrontNamingTheSetting) {
 }
 
 TEST(MemoryLimits, TheSceneReaderRefusesHugeGridsAndMeshesBeforeMakingThem) {
-  const std::string head = R"({"camera": {"position": [0, 2, 6], "target": [0, 0, 0]}, "shadows": {"max_memory": 2048},)";
+  const std::string head =
+      R"({"camera": {"position": [0, 2, 6], "target": [0, 0, 0]}, "shadows": {"max_memory": 2048},)";
   const std::string tail = R"("lights": [{"type": "point", "position": [0, 3, 0]}]})";
   // A 1024^3 noise grid (4 GiB of floats): refused in milliseconds, not generated for minutes.
   expect_refused(
       [&] {
         parse_scene(head + R"("volumes": [{"name": "fog", "grid": {"type": "noise", "size": [1024, 1024, 1024]},
           "transfer": [{"density": 0, "extinction": 1}]}], "objects": [{"name": "fog",
-          "interior": {"type": "volume", "volume": "fog"}}],)" + tail,
+          "interior": {"type": "volume", "volume": "fog"}}],)" +
+                        tail,
                     "big.json", ".");
       },
       {"big.json: /volumes/0/grid/size", "1024x1024x1024 grid needs 8 GiB", "limit of 2 GiB"});
   // A sphere of 4096 x 4096 segments (33 M triangles).
   expect_refused(
       [&] {
-        parse_scene(head + R"("objects": [{"name": "ball", "mesh": {"type": "sphere", "segments": 4096, "rings": 4096}}],)" + tail,
-                    "ball.json", ".");
+        parse_scene(
+            head + R"("objects": [{"name": "ball", "mesh": {"type": "sphere", "segments": 4096, "rings": 4096}}],)" +
+                tail,
+            "ball.json", ".");
       },
       {"ball.json: /objects/0/mesh", "sphere of 4096 x 4096 segments", "limit of 2 GiB"});
 }

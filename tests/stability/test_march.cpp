@@ -107,7 +107,8 @@ TEST(March, UnmarchableVolumeIsAnError) {
 // In a scene file a voxel_size of 1e-8 is out of range.
 TEST(March, TinyVoxelSizeInAFileIsAnError) {
   std::string path = std::string(CDSM_TEST_OUTPUT_DIR) + "/tiny_voxels.json";
-  std::ofstream(path) << R"({"camera": {"position": [0, 0, 3], "target": [0, 0, 0]}, "volumes": [{"name": "fog", "grid": {"type": "dense", "size": [4, 4, 4], "fill": 1},
+  std::ofstream(path)
+      << R"({"camera": {"position": [0, 0, 3], "target": [0, 0, 0]}, "volumes": [{"name": "fog", "grid": {"type": "dense", "size": [4, 4, 4], "fill": 1},
     "voxel_size": [1e-8, 1e-8, 1e-8], "transfer": [{"density": 0, "extinction": 1}]}],
     "objects": [{"name": "fog", "mesh": {"type": "volume_box", "volume": "fog"},
                  "interior": {"type": "volume", "volume": "fog"}}],
@@ -210,8 +211,8 @@ TEST(March, ReferenceImageOfAnOversizedProxyEqualsATightOne) {
 
 TEST(March, ProxyFarLargerThanItsGridMarchesOnlyTheGrid) {
   Scene s = scene_named("big proxy");
-  add_uniform_volume(s, "fog", {-0.16f, 0.5f, -0.16f}, {0.16f, 0.82f, 0.16f}, 3.0f, box_mesh({-1e5f, -1e5f, -1e5f}, {1e5f, 1e5f, 1e5f}),
-                     32, {0.8f, 0.8f, 0.8f}, 0.5f);
+  add_uniform_volume(s, "fog", {-0.16f, 0.5f, -0.16f}, {0.16f, 0.82f, 0.16f}, 3.0f,
+                     box_mesh({-1e5f, -1e5f, -1e5f}, {1e5f, 1e5f, 1e5f}), 32, {0.8f, 0.8f, 0.8f}, 0.5f);
   s.volumes.back().grid = [] {  // data in the middle, background 0 around it
     auto g = std::make_shared<DenseGrid>();
     g->nx = g->ny = g->nz = 32;

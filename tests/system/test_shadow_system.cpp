@@ -229,7 +229,8 @@ TEST(ShadowSystem, KeptFragmentListsServeEpsilonEditsAndNeverOutliveAContentEdit
   const ShadowBackend& backend = *internals(sys).backend;
   EXPECT_EQ(backend.map_store().lists, maps + 1);
   EXPECT_EQ(backend.map_store().list_bytes - st.update.fragment_cache_bytes,
-            (uint64_t(s.camera.width) * uint64_t(s.camera.height) + 1) * sizeof(uint32_t) + st.camera_fragments * sizeof(Fragment));
+            (uint64_t(s.camera.width) * uint64_t(s.camera.height) + 1) * sizeof(uint32_t) +
+                st.camera_fragments * sizeof(Fragment));
   auto fresh = [](const Scene& scene) {
     ShadowSystem f;
     add_scene(f, scene);
@@ -354,7 +355,11 @@ TEST(ShadowSystem, EditedStepByStepRendersBitIdenticallyToAFreshBuild) {
   const size_t ball = index_of(s, "ball"), pane = index_of(s, "amber pane");
   start.objects.erase(start.objects.begin() + ptrdiff_t(ball));
   add_scene(edited, start);
-  edited.set_settings([&] { ShadowSettings x = s.shadows; x.epsilon = 0.1f; return x; }());
+  edited.set_settings([&] {
+    ShadowSettings x = s.shadows;
+    x.epsilon = 0.1f;
+    return x;
+  }());
   edited.render();
   // The ball back, at the end (where it is in `s` after the same reorder).
   Scene want = start;
@@ -684,11 +689,10 @@ TEST(ShadowSystem, HostBackendBytesFollowWhatChanged) {
   FrameStats first;
   sys.update(&first);
   const SceneBuffers& sb = internals(sys).sb;
-  uint64_t scene_bytes = (sb.tri_vertices.size() + sb.tri_normals.size()) * sizeof(Vec3) +
-                         sb.tri_object.size() * 4 + sb.objects.size() * sizeof(ObjectData) +
-                         sb.volumes.size() * sizeof(VolumeData) + (sb.voxels.size() + sb.macro_max.size()) * 4 +
-                         sb.nano_pool.size() * sizeof(GridBlock) + sb.bvh.size() * sizeof(BvhNode) +
-                         sb.bvh_prims.size() * 4;
+  uint64_t scene_bytes = (sb.tri_vertices.size() + sb.tri_normals.size()) * sizeof(Vec3) + sb.tri_object.size() * 4 +
+                         sb.objects.size() * sizeof(ObjectData) + sb.volumes.size() * sizeof(VolumeData) +
+                         (sb.voxels.size() + sb.macro_max.size()) * 4 + sb.nano_pool.size() * sizeof(GridBlock) +
+                         sb.bvh.size() * sizeof(BvhNode) + sb.bvh_prims.size() * 4;
   EXPECT_GE(first.update.host_to_backend_bytes, scene_bytes) << "the first frame uploads the scene";
 
   FrameStats again;
@@ -715,16 +719,15 @@ TEST(ShadowSystem, HostBackendBytesFollowWhatChanged) {
   Object teapot = scene.objects[oi];
   for (int step = 1; step <= 2; ++step) {
     const std::vector<BvhNode> bvh_before = sb.bvh;
-    sys.set_transform(sys.objects()[oi],
-                      make_transform({0.05f * float(step), 0.0f, 0.02f}, {0, 10.0f * float(step), 0}, {1, 1, 1}) *
-                          teapot.transform);
+    sys.set_transform(
+        sys.objects()[oi],
+        make_transform({0.05f * float(step), 0.0f, 0.02f}, {0, 10.0f * float(step), 0}, {1, 1, 1}) * teapot.transform);
     FrameStats moved;
     sys.update(&moved);
     ASSERT_EQ(moved.update.bvh_refits, 1u);
     ASSERT_EQ(sb.bvh.size(), bvh_before.size());
     uint64_t nodes = 0;
-    for (size_t i = 0; i < sb.bvh.size(); ++i)
-      nodes += std::memcmp(&sb.bvh[i], &bvh_before[i], sizeof(BvhNode)) != 0;
+    for (size_t i = 0; i < sb.bvh.size(); ++i) nodes += std::memcmp(&sb.bvh[i], &bvh_before[i], sizeof(BvhNode)) != 0;
     ASSERT_GT(nodes, 0u);
     if (step == 2) EXPECT_LT(nodes, sb.bvh.size() / 2) << "a move changes its own branches of the tree";
     const uint64_t tris = uint64_t(od.tri_count) * 3 * sizeof(Vec3) * (sb.tri_normals.empty() ? 1 : 2);

@@ -96,7 +96,8 @@ TEST(CameraMatrices, RoundTripOfTheLookAtForm) {
   for (const Camera& c : cams)
     for (ClipDepth d : {ClipDepth::MinusOneToOne, ClipDepth::ZeroToOne}) {
       const Camera back = Camera::from_matrices(c.view_matrix(), c.projection_matrix(d), c.width, c.height, d);
-      expect_same_view(c, back, "fov " + std::to_string(c.fov_y_deg) + (d == ClipDepth::ZeroToOne ? " [0,1]" : " [-1,1]"));
+      expect_same_view(c, back,
+                       "fov " + std::to_string(c.fov_y_deg) + (d == ClipDepth::ZeroToOne ? " [0,1]" : " [-1,1]"));
       EXPECT_NEAR(back.fov_y_deg, c.fov_y_deg, 1e-3f);
     }
 }
@@ -109,10 +110,12 @@ TEST(CameraMatrices, EngineMatricesOfEveryDepthConvention) {
   const float fovy = 50.0f * 3.14159265f / 180.0f, aspect = 800.0f / 450.0f;
   const Mat4 view = engine_look_at(eye, center, up);
 
-  expect_same_view(want, Camera::from_matrices(view, engine_perspective(fovy, aspect, 0.1f, 300.0f, false), 800, 450), "RH_NO");
-  expect_same_view(want,
-                   Camera::from_matrices(view, engine_perspective(fovy, aspect, 0.1f, 300.0f, true), 800, 450, ClipDepth::ZeroToOne),
-                   "RH_ZO");
+  expect_same_view(want, Camera::from_matrices(view, engine_perspective(fovy, aspect, 0.1f, 300.0f, false), 800, 450),
+                   "RH_NO");
+  expect_same_view(
+      want,
+      Camera::from_matrices(view, engine_perspective(fovy, aspect, 0.1f, 300.0f, true), 800, 450, ClipDepth::ZeroToOne),
+      "RH_ZO");
 
   // Reversed depth, [0, 1]: near -> 1, far -> 0.
   Mat4 rev = engine_perspective(fovy, aspect, 0.1f, 300.0f, true);

@@ -15,8 +15,8 @@
 #include "unit_util.h"
 
 using namespace cdsm;
-using cdsm_test::NodeFunction;
 using cdsm_test::minimax_fit_error;
+using cdsm_test::NodeFunction;
 using cdsm_test::sup_change;
 
 namespace {
@@ -93,7 +93,7 @@ std::vector<Sample> make_sequence(std::mt19937& rng, Kind kind) {
           a = a + op * (1.0f - a);
           s.push_back({z, a, true});
           if (u(rng) < 0.5f) s.push_back({z, a, false});  // a segment starting at the surface
-          if (u(rng) < 0.15f) {  // a coincident second surface
+          if (u(rng) < 0.15f) {                           // a coincident second surface
             a = a + 0.3f * (1.0f - a);
             s.push_back({z, a, true});
           }
@@ -113,8 +113,7 @@ std::vector<Sample> make_sequence(std::mt19937& rng, Kind kind) {
       }
       break;
     }
-    default:
-      break;
+    default: break;
   }
   return s;
 }
@@ -131,8 +130,10 @@ Compressed compress(const std::vector<Sample>& seq, float eps, int capacity) {
   buf.eps = eps;
   WedgeCompressor c(eps);
   for (const Sample& s : seq) {
-    if (s.step) c.step(buf, s.z, s.a);
-    else c.push(buf, s.z, s.a);
+    if (s.step)
+      c.step(buf, s.z, s.a);
+    else
+      c.push(buf, s.z, s.a);
   }
   c.finish(buf);
   Compressed r;
@@ -177,8 +178,7 @@ double max_deviation(const std::vector<Sample>& seq, const std::vector<DsmNode>&
     if (i > 0 && n[i].z < n[i - 1].z)
       return ::testing::AssertionFailure() << "node " << i << " depth " << n[i].z << " < " << n[i - 1].z;
     if (i > 0 && n[i].alpha < n[i - 1].alpha)
-      return ::testing::AssertionFailure()
-             << "node " << i << " alpha " << n[i].alpha << " < " << n[i - 1].alpha;
+      return ::testing::AssertionFailure() << "node " << i << " alpha " << n[i].alpha << " < " << n[i - 1].alpha;
   }
   return ::testing::AssertionSuccess();
 }
@@ -214,22 +214,21 @@ TEST(Compression, ErrorBoundMonotoneAndNodeCounts) {
       bool last_ok = !c.nodes.empty() && c.nodes.back().z == seq.back().z;
       if ((!ok || !phys || !last_ok || c.removed != 0) && failures < 10) {
         ++failures;
-        ADD_FAILURE() << "sequence " << q << " kind " << int(kind) << " eps " << kEps[e]
-                      << ": deviation " << dev << ", " << phys.message() << ", last node depth "
-                      << (c.nodes.empty() ? -1.0f : c.nodes.back().z) << " vs " << seq.back().z
-                      << ", removed " << c.removed;
+        ADD_FAILURE() << "sequence " << q << " kind " << int(kind) << " eps " << kEps[e] << ": deviation " << dev
+                      << ", " << phys.message() << ", last node depth " << (c.nodes.empty() ? -1.0f : c.nodes.back().z)
+                      << " vs " << seq.back().z << ", removed " << c.removed;
       }
     }
     for (int e = 1; e < 4; ++e)
       if (counts[e] > counts[0] && failures < 10) {
         ++failures;
-        ADD_FAILURE() << "sequence " << q << " kind " << int(kind) << ": " << counts[e]
-                      << " nodes at eps " << kEps[e] << " > " << counts[0] << " at eps 0";
+        ADD_FAILURE() << "sequence " << q << " kind " << int(kind) << ": " << counts[e] << " nodes at eps " << kEps[e]
+                      << " > " << counts[0] << " at eps 0";
       }
   }
   for (int e = 0; e < 4; ++e) {
-    std::cout << "eps " << kEps[e] << ": mean nodes " << count_sum[e] / kSequences
-              << ", worst deviation " << worst[e] << "\n";
+    std::cout << "eps " << kEps[e] << ": mean nodes " << count_sum[e] / kSequences << ", worst deviation " << worst[e]
+              << "\n";
     RecordProperty("mean_nodes_eps" + std::to_string(e), std::to_string(count_sum[e] / kSequences));
   }
   EXPECT_LE(worst[0], 1e-6) << "eps = 0 must reproduce every sample";
@@ -254,7 +253,7 @@ std::vector<RgbSample> tint(const std::vector<Sample>& grey, std::mt19937& rng) 
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   float p[3];
   for (float& x : p) x = std::pow(10.0f, -0.7f + 1.4f * u(rng));  // 0.2 .. 5
-  if (u(rng) < 0.2f) p[1] = p[0];  // sometimes two equal channels
+  if (u(rng) < 0.2f) p[1] = p[0];                                 // sometimes two equal channels
   std::vector<RgbSample> out;
   for (const Sample& s : grey) {
     const float t = 1.0f - s.a;
@@ -268,8 +267,10 @@ std::vector<DsmNodeRgb> compress_rgb(const std::vector<RgbSample>& seq, float ep
   RgbNodeBuffer buf{storage.data(), int(storage.size())};
   Wedge<RgbNodeBuffer> c(eps);
   for (const RgbSample& s : seq) {
-    if (s.step) c.step(buf, s.z, s.a);
-    else c.push(buf, s.z, s.a);
+    if (s.step)
+      c.step(buf, s.z, s.a);
+    else
+      c.push(buf, s.z, s.a);
   }
   c.finish(buf);
   EXPECT_EQ(buf.removed, 0);
@@ -434,8 +435,8 @@ void expect_overflow_ok(const std::vector<Sample>& seq, float eps, int capacity)
                 c.nodes.size(), change, best, change / std::max(best, 1e-12));
     // Streaming greedy removal is a heuristic: on these 100 noisy sequences
     // it stays within 2.9x of the offline optimum (measured), so 4x.
-    EXPECT_LE(change, 4.0 * best + 1e-6) << "true change " << change << ", optimum with " << c.nodes.size()
-                                         << " nodes " << best << ", removed " << c.removed;
+    EXPECT_LE(change, 4.0 * best + 1e-6) << "true change " << change << ", optimum with " << c.nodes.size() << " nodes "
+                                         << best << ", removed " << c.removed;
   }
 }
 
@@ -452,8 +453,8 @@ TEST(Compression, OverflowRecompressesWithinRecordedError) {
     int steps = (trial / 3) % 2 == 0 ? 0 : 3;
     std::vector<Sample> seq = long_sequence(rng, 3000, steps);
     size_t needed = compress(seq, eps, 1 << 14).nodes.size();
-    SCOPED_TRACE("trial " + std::to_string(trial) + " eps " + std::to_string(eps) + " steps " +
-                 std::to_string(steps) + " nodes needed " + std::to_string(needed));
+    SCOPED_TRACE("trial " + std::to_string(trial) + " eps " + std::to_string(eps) + " steps " + std::to_string(steps) +
+                 " nodes needed " + std::to_string(needed));
     ++trials;
     ASSERT_GT(needed, size_t(kCapacity)) << "the sequence does not exercise the overflow path";
     ++overflowing;
@@ -470,8 +471,8 @@ TEST(Compression, OverflowKeepsAlphaMonotone) {
     float eps = kEps[trial % 3];
     std::vector<Sample> seq = long_sequence(rng, 3000, (trial / 3) % 2 == 0 ? 0 : 3);
     Compressed c = compress(seq, eps, 16);
-    EXPECT_TRUE(physical(c.nodes)) << "trial " << trial << " eps " << eps << " extra_error "
-                                   << c.extra_error << " removed " << c.removed;
+    EXPECT_TRUE(physical(c.nodes)) << "trial " << trial << " eps " << eps << " extra_error " << c.extra_error
+                                   << " removed " << c.removed;
   }
 }
 
@@ -485,8 +486,10 @@ Compressed compress_guarded(const std::vector<Sample>& seq, float eps, int capac
   buf.eps = eps;
   WedgeCompressor c(eps);
   for (const Sample& s : seq) {
-    if (s.step) c.step(buf, s.z, s.a);
-    else c.push(buf, s.z, s.a);
+    if (s.step)
+      c.step(buf, s.z, s.a);
+    else
+      c.push(buf, s.z, s.a);
   }
   c.finish(buf);
   Compressed r;
@@ -538,8 +541,9 @@ TEST(Compression, StaircaseRecompressionWithinTwiceTheOptimum) {
       std::vector<float> floats(2 * size_t(k.capacity));
       NodeBuffer buf{storage.data(), k.capacity};
       if (with_scratch)
-        buf.scratch = {words.data(), words.data() + k.capacity, words.data() + 2 * k.capacity,
-                       words.data() + 3 * k.capacity, floats.data(), floats.data() + k.capacity};
+        buf.scratch = {
+            words.data(),  words.data() + k.capacity, words.data() + 2 * k.capacity, words.data() + 3 * k.capacity,
+            floats.data(), floats.data() + k.capacity};
       WedgeCompressor c(0.0f);
       exact.clear();
       a = 0.0f;
@@ -559,9 +563,10 @@ TEST(Compression, StaircaseRecompressionWithinTwiceTheOptimum) {
     const std::vector<DsmNode>& got = kept[1];
     double change = sup_change(exact, got);
     double best = minimax_fit_error(exact, got.size());
-    std::printf("[ recompress ] %3d steps into %3d nodes: kept %3zu, true error %.4f, optimum %.4f (x%.2f), "
-                "recorded %.4f (scan: %.4f)\n",
-                k.steps, k.capacity, got.size(), change, best, change / best, recorded[1], recorded[0]);
+    std::printf(
+        "[ recompress ] %3d steps into %3d nodes: kept %3zu, true error %.4f, optimum %.4f (x%.2f), "
+        "recorded %.4f (scan: %.4f)\n",
+        k.steps, k.capacity, got.size(), change, best, change / best, recorded[1], recorded[0]);
     EXPECT_TRUE(physical(got));
     EXPECT_EQ(got.back().alpha, a) << "the final opacity";
     EXPECT_LE(change, 2.0 * best + 1e-6) << k.steps << " steps into " << k.capacity;
@@ -591,8 +596,8 @@ TEST(CompressionRgb, OverflowKeepsTheSameNodesWithHeapOrScan) {
       std::vector<float> floats(2 * static_cast<size_t>(capacity));
       RgbNodeBuffer buf{storage.data(), capacity};
       if (with_scratch)
-        buf.scratch = {words.data(), words.data() + capacity, words.data() + 2 * capacity,
-                       words.data() + 3 * capacity, floats.data(), floats.data() + capacity};
+        buf.scratch = {words.data(),  words.data() + capacity, words.data() + 2 * capacity, words.data() + 3 * capacity,
+                       floats.data(), floats.data() + capacity};
       WedgeCompressorRgb c(0.0f);
       exact.clear();
       Vec3 a{0, 0, 0};
@@ -612,9 +617,10 @@ TEST(CompressionRgb, OverflowKeepsTheSameNodesWithHeapOrScan) {
     }
     const Span<const DsmNodeRgb> want{exact.data(), exact.size()};
     const float change = max_change(want, Span<const DsmNodeRgb>{kept[1].data(), kept[1].size()});
-    std::printf("[ recompress rgb ] 40 tinted steps into %2d nodes: kept %2zu, true error %.4f, recorded %.4f "
-                "(scan: %.4f)\n",
-                capacity, kept[1].size(), change, recorded[1], recorded[0]);
+    std::printf(
+        "[ recompress rgb ] 40 tinted steps into %2d nodes: kept %2zu, true error %.4f, recorded %.4f "
+        "(scan: %.4f)\n",
+        capacity, kept[1].size(), change, recorded[1], recorded[0]);
     EXPECT_GT(change, 0.0f);
     EXPECT_GE(recorded[1] + 1e-6f, change) << "heap: recorded error below the true error, " << capacity;
     EXPECT_GE(recorded[0] + 1e-6f, change) << "scan: recorded error below the true error, " << capacity;

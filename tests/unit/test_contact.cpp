@@ -164,9 +164,10 @@ TEST(Contact, SlabPillarAndGlassOfTheIssue) {
         const Receiver r{Vec3{x, 0, z} * scale, {0, 1, 0}, slab};
         lit.add(grey_of(vis(0, r)), 1.0);
       }
-    std::printf("scale %g: under the cap %d points max |dT| %.4f (ref %.4f), under the glass %d max %.4f (ref %.4f), "
-                "lit slab max %.5f\n",
-                scale, cap.n, cap.worst, ref_cap, glass.n, glass.worst, ref_glass, lit.worst);
+    std::printf(
+        "scale %g: under the cap %d points max |dT| %.4f (ref %.4f), under the glass %d max %.4f (ref %.4f), "
+        "lit slab max %.5f\n",
+        scale, cap.n, cap.worst, ref_cap, glass.n, glass.worst, ref_glass, lit.worst);
     ASSERT_GT(cap.n, 100);
     ASSERT_GT(glass.n, 100);
     // The reference is the closed form: one face, and the medium's 0.8 mm.
@@ -216,8 +217,8 @@ TEST(Contact, GapsFromATenthOfAMillimetreAtEveryResolutionAndIncidence) {
           }
         const bool ok = under.n > 50 && under.worst <= 0.015 && lit.worst <= 1e-3;
         failures += !ok;
-        std::printf("gap %.1f mm, %4d^2, %2.0f deg: under the plate %3d points max |dT| %.4f, lit max %.5f%s\n",
-                    gap_mm, res, deg, under.n, under.worst, lit.worst, ok ? "" : "  FAIL");
+        std::printf("gap %.1f mm, %4d^2, %2.0f deg: under the plate %3d points max |dT| %.4f, lit max %.5f%s\n", gap_mm,
+                    res, deg, under.n, under.worst, lit.worst, ok ? "" : "  FAIL");
         EXPECT_GT(under.n, 50);
         EXPECT_LE(under.worst, 0.01 + 0.005) << gap_mm << " mm, " << res << "^2, " << deg << " deg";
         EXPECT_LE(lit.worst, 1e-3) << gap_mm << " mm, " << res << "^2, " << deg << " deg";
@@ -271,9 +272,10 @@ TEST(Contact, TranslucentPlinthSunkIntoACastingFloor) {
         const Receiver r{{x, y, 0.5f}, {0, 0, 1}, 1};
         front.add(grey_of(vis(0, r)), filtered_exact(sv, ref, r));
       }
-    std::printf("plinth %d^2: map error on the floor inside it %d points max %.4f; |dT| behind it %d max %.4f; map "
-                "error on its front face %d max %.4f\n",
-                res, inside.n, inside.worst, behind.n, behind.worst, front.n, front.worst);
+    std::printf(
+        "plinth %d^2: map error on the floor inside it %d points max %.4f; |dT| behind it %d max %.4f; map "
+        "error on its front face %d max %.4f\n",
+        res, inside.n, inside.worst, behind.n, behind.worst, front.n, front.worst);
     ASSERT_GT(behind.n, 100);
     EXPECT_LE(inside.worst, 0.01 + 0.005) << res;
     EXPECT_LE(behind.worst, 0.01 + 0.005) << res;
@@ -303,7 +305,8 @@ TEST(Contact, InterpenetratingTranslucentBoxes) {
       const Vec3 q = along_to_height(p, s.lights[0].position, h);
       if (q.y <= p.y) continue;
       for (float e : {-0.5f, 0.5f, 0.0f, 1.0f})
-        if (std::fabs(q.x - e) < 3 * fp || std::fabs(q.z - (e - 0.2f)) < 3 * fp || std::fabs(q.z - e) < 3 * fp) return false;
+        if (std::fabs(q.x - e) < 3 * fp || std::fabs(q.z - (e - 0.2f)) < 3 * fp || std::fabs(q.z - e) < 3 * fp)
+          return false;
     }
     return true;
   };

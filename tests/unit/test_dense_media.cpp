@@ -99,8 +99,8 @@ TEST(DenseMedia, BaselinePiecesFollowTheExponential) {
     Fit f;
     f.nodes.assign(buf.nodes, buf.nodes + buf.count);
     probe(f, t0, t0 + len, sigma, 0.0);
-    std::printf("[ dense ] fixed nodes sigma*L %6.0f: %3zu nodes, max |alpha' - alpha| %.2e\n", optical,
-                f.nodes.size(), f.worst);
+    std::printf("[ dense ] fixed nodes sigma*L %6.0f: %3zu nodes, max |alpha' - alpha| %.2e\n", optical, f.nodes.size(),
+                f.worst);
     EXPECT_LE(f.worst, 1e-3) << "sigma*L " << optical;
   }
 }

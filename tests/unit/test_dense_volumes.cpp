@@ -31,9 +31,9 @@ Scene volume_scene(const std::string& name, std::shared_ptr<DenseGrid> grid, flo
   Volume v;
   v.name = name;
   v.grid = grid;
-  v.index_to_object = make_transform({-0.5f * voxel * float(grid->nx - 1), -0.5f * voxel * float(grid->ny - 1),
-                                      -0.5f * voxel * float(grid->nz - 1)},
-                                     {0, 0, 0}, vec3(voxel));
+  v.index_to_object = make_transform(
+      {-0.5f * voxel * float(grid->nx - 1), -0.5f * voxel * float(grid->ny - 1), -0.5f * voxel * float(grid->nz - 1)},
+      {0, 0, 0}, vec3(voxel));
   v.transfer = std::move(transfer);
   v.step_voxels = 0.5f;
   s.volumes.push_back(v);
@@ -77,9 +77,10 @@ std::vector<TransferPoint> grey_ramp(std::vector<std::pair<float, float>> points
 void expect_within(const std::string& what, const Scene& scene, float sigma_max) {
   const float eps = scene.shadows.epsilon;
   const MapError m = map_error_along_rays(scene, sigma_max);
-  std::printf("[ dense vol ] %-40s eps %.3f: %2d rays, %zu points: map error p99 %.4f max %.4f "
-              "(at %.4f of the chord: map T %.4f, reference %.4f)\n",
-              what.c_str(), eps, m.rays, m.points, m.p99, m.max, m.worst_depth, m.map_at_worst, m.exact_at_worst);
+  std::printf(
+      "[ dense vol ] %-40s eps %.3f: %2d rays, %zu points: map error p99 %.4f max %.4f "
+      "(at %.4f of the chord: map T %.4f, reference %.4f)\n",
+      what.c_str(), eps, m.rays, m.points, m.p99, m.max, m.worst_depth, m.map_at_worst, m.exact_at_worst);
   EXPECT_LE(m.max, eps + 0.005) << what;
 }
 
@@ -91,8 +92,8 @@ TEST(DenseVolumes, UniformGridsWithinEpsilonAtAnyExtinction) {
     for (float sigma : {10.0f, 100.0f, 1000.0f, 10000.0f}) {
       char what[64];
       std::snprintf(what, sizeof what, "4^3 grid, extinction %g", double(sigma));
-      expect_within(what, volume_scene(what, uniform_grid(4, 1.0f), 0.08f, grey_ramp({{0.0f, 0.0f}, {1.0f, sigma}}), eps),
-                    sigma);
+      expect_within(
+          what, volume_scene(what, uniform_grid(4, 1.0f), 0.08f, grey_ramp({{0.0f, 0.0f}, {1.0f, sigma}}), eps), sigma);
     }
 }
 
@@ -116,7 +117,8 @@ TEST(DenseVolumes, ThresholdedSmokeWithinEpsilon) {
   const float voxel = 0.02f, sigma = 150.0f;  // sigma * step = 1.5 in the dense part
   for (float eps : {0.01f, 0.002f}) {
     expect_within("smoke, threshold at density 0.3",
-                  volume_scene("threshold", smoke_grid(), voxel, grey_ramp({{0.3f, 0.0f}, {0.31f, sigma}}), eps), sigma);
+                  volume_scene("threshold", smoke_grid(), voxel, grey_ramp({{0.3f, 0.0f}, {0.31f, sigma}}), eps),
+                  sigma);
     expect_within("smoke, smooth ramp",
                   volume_scene("ramp", smoke_grid(), voxel, grey_ramp({{0.0f, 0.0f}, {1.0f, sigma}}), eps), sigma);
   }

@@ -101,7 +101,8 @@ TEST(SelfShadowing, LitPlaneUpTo80Degrees) {
 // a lit ground (incidence 10..80 degrees inside the cone) against the
 // reference, filtering on.
 TEST(SelfShadowing, LitPlaneThroughRendererProbe) {
-  Scene s = ground_scene(spot_light({0, 2, 0}, {std::sin(45 * kDeg), -std::cos(45 * kDeg), 0}, 35.0f, 30.0f), 512, true);
+  Scene s =
+      ground_scene(spot_light({0, 2, 0}, {std::sin(45 * kDeg), -std::cos(45 * kDeg), 0}, 35.0f, 30.0f), 512, true);
   s.camera.position = {5.0f, 10.0f, 4.0f};
   s.camera.target = {5.0f, 0.0f, 0.0f};
   s.camera.width = 160;
@@ -111,7 +112,8 @@ TEST(SelfShadowing, LitPlaneThroughRendererProbe) {
   opt.fragments = FragmentSource::Cpu;
   opt.error_samples = 10000;
   TransmittanceError e = r.transmittance_error(s, opt);
-  std::cout << "lit plane: " << e.points << " points, mean " << e.mean << ", p99 " << e.p99 << ", max " << e.max << "\n";
+  std::cout << "lit plane: " << e.points << " points, mean " << e.mean << ", p99 " << e.p99 << ", max " << e.max
+            << "\n";
   EXPECT_GT(e.points, 1500u);
   EXPECT_LE(e.max, 1e-3);
 }
@@ -371,8 +373,8 @@ TEST(BeerLambert, VolumeSlab) {
     ref_err.add(std::fabs(double(grey_of(ref.transmittance(0, p))) - (1.0 - expect)), p);
     ++probes;
   }
-  std::cout << "slab: longest chord " << longest << ", reference max |dT| " << ref_err.err
-            << ", DSM max |dT| " << dsm_err.err << " over " << probes << " probes\n";
+  std::cout << "slab: longest chord " << longest << ", reference max |dT| " << ref_err.err << ", DSM max |dT| "
+            << dsm_err.err << " over " << probes << " probes\n";
   EXPECT_GT(probes, 8000);
   EXPECT_GT(longest, 0.2 / std::cos(40.0 * kDeg)) << "corner rays must be oblique";
   EXPECT_LE(ref_err.err, 1e-3) << "reference vs exp(-sigma chord): " << ref_err;
@@ -421,7 +423,8 @@ TEST(BeerLambert, StackedTranslucentQuads) {
   for (bool filtering : {false, true}) {
     Scene s = empty_scene("quads");
     for (int i = 0; i < 3; ++i)
-      s.objects.push_back(make_object("q" + std::to_string(i), make_quad(2.0f, 2.0f), translation({0, y[i], 0}), op[i]));
+      s.objects.push_back(
+          make_object("q" + std::to_string(i), make_quad(2.0f, 2.0f), translation({0, y[i], 0}), op[i]));
     s.lights.push_back(spot_light({0.02f, 5.0f, 0.01f}, {0, -1, 0}, 30.0f, 25.0f));
     s.shadows.resolution = 256;
     s.shadows.filtering = filtering;

@@ -27,7 +27,7 @@ Scene default_scene(int width, int height) {
 struct ProbeResult {
   int probes = 0, partial = 0, through_constant = 0;
   double mean = 0.0;
-  double worst = 0.0;            // over all probes
+  double worst = 0.0;              // over all probes
   double worst_no_constant = 0.0;  // over probes whose light ray crosses no constant medium
   Vec3 worst_at;
 };
@@ -46,7 +46,8 @@ ProbeResult texel_centre_probe() {
   ReferenceRenderer ref(sc, fx.frame.setup.lights, ReferenceOptions{0.25f});
   EXPECT_EQ(fx.frame.headers.size(), 1u) << "the default scene has one spot light, one map";
   const PinholeView& mv = fx.map_view(0);
-  std::vector<uint32_t> casters = fx.sb.mask_where([&](uint32_t o) { return (sc.objects[o].flags & kObjCastsShadows) != 0u; });
+  std::vector<uint32_t> casters =
+      fx.sb.mask_where([&](uint32_t o) { return (sc.objects[o].flags & kObjCastsShadows) != 0u; });
   ObjectMask mask{{casters.data(), casters.size()}};
   std::vector<uint32_t> constant_media;
   for (uint32_t o = 0; o < sc.objects.size(); ++o)
@@ -90,8 +91,8 @@ ProbeResult texel_centre_probe() {
   r.mean = sum / std::max(1, r.probes);
   std::cout << r.probes << " probes (" << r.partial << " partly transmitted, " << r.through_constant
             << " through a constant medium): mean |dT| " << r.mean << ", max " << r.worst << " at (" << r.worst_at.x
-            << ", " << r.worst_at.y << ", " << r.worst_at.z << "), max without constant media "
-            << r.worst_no_constant << "\n";
+            << ", " << r.worst_at.y << ", " << r.worst_at.z << "), max without constant media " << r.worst_no_constant
+            << "\n";
   return r;
 }
 
@@ -210,17 +211,18 @@ TEST(EndToEnd, ErrorDecompositionSeparatesEpsilonFromResolution) {
     scene.shadows.epsilon = eps;
     scene.shadows.resolution = res;
     TransmittanceError e = r.transmittance_error(scene, opt);
-    std::printf("eps %.3f res %d: map p99 %.4f mean %.5f, resolution p99 %.4f mean %.5f, total p99 %.4f; "
-                "interior %.1f%% (total p99 %.4f), edge %.1f%%\n",
-                eps, res, e.map.p99, e.map.mean, e.resolution.p99, e.resolution.mean, e.total.p99,
-                100 * e.interior.share, e.interior.total.p99, 100 * e.edge.share);
+    std::printf(
+        "eps %.3f res %d: map p99 %.4f mean %.5f, resolution p99 %.4f mean %.5f, total p99 %.4f; "
+        "interior %.1f%% (total p99 %.4f), edge %.1f%%\n",
+        eps, res, e.map.p99, e.map.mean, e.resolution.p99, e.resolution.mean, e.total.p99, 100 * e.interior.share,
+        e.interior.total.p99, 100 * e.edge.share);
     return e;
   };
   const TransmittanceError fine = run(0.001f, 256), coarse = run(0.1f, 256), sharp = run(0.001f, 1024);
   EXPECT_EQ(fine.points, coarse.points);
   EXPECT_NEAR(fine.resolution.mean, coarse.resolution.mean, 1e-6);
   EXPECT_NEAR(fine.resolution.p99, coarse.resolution.p99, 1e-6);
-  EXPECT_GT(coarse.map.p99, 0.03);  // epsilon 0.1 shows in the map error (0.084 measured)
+  EXPECT_GT(coarse.map.p99, 0.03);         // epsilon 0.1 shows in the map error (0.084 measured)
   EXPECT_LE(fine.map.p99, 0.001 + 0.005);  // map p99 <= eps + 0.005 (0.0006 measured)
   EXPECT_LT(sharp.resolution.mean, 0.7 * fine.resolution.mean);
   EXPECT_NEAR(fine.edge.share + fine.interior.share, 1.0, 1e-9);

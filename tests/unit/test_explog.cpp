@@ -55,10 +55,10 @@ uint32_t stride_from_environment() {
 const uint32_t kStride = stride_from_environment();
 
 struct Sweep {
-  int64_t max_ulps = 0;        // against the correctly rounded result
-  float worst = 0.0f;          // an input where max_ulps is reached
-  double max_rel_libm = 0.0;   // |f - libm| / |libm|, libm's result normal and non-zero
-  uint64_t same_as_libm = 0;   // bit-identical to glibc
+  int64_t max_ulps = 0;       // against the correctly rounded result
+  float worst = 0.0f;         // an input where max_ulps is reached
+  double max_rel_libm = 0.0;  // |f - libm| / |libm|, libm's result normal and non-zero
+  uint64_t same_as_libm = 0;  // bit-identical to glibc
   uint64_t count = 0;
 };
 
@@ -80,10 +80,11 @@ Sweep sweep(uint32_t first, uint64_t end, F f, Exact exact, Libm libm, float lo,
 }
 
 void report(const char* name, const Sweep& s) {
-  std::printf("%s: %llu inputs (every %u-th float): max %lld ulp from the rounded exact value (at %a), "
-              "max relative difference from glibc %.3g, bit-identical to glibc %.3f%%\n",
-              name, (unsigned long long)s.count, kStride, (long long)s.max_ulps, double(s.worst), s.max_rel_libm,
-              100.0 * double(s.same_as_libm) / double(s.count));
+  std::printf(
+      "%s: %llu inputs (every %u-th float): max %lld ulp from the rounded exact value (at %a), "
+      "max relative difference from glibc %.3g, bit-identical to glibc %.3f%%\n",
+      name, (unsigned long long)s.count, kStride, (long long)s.max_ulps, double(s.worst), s.max_rel_libm,
+      100.0 * double(s.same_as_libm) / double(s.count));
 }
 
 // Every float in [-104, 89] (below, exp rounds to 0; above, to inf): at most
@@ -121,10 +122,10 @@ TEST(ExpHd, SpecialValues) {
   EXPECT_EQ(expf_hd(-INFINITY), 0.0f);
   EXPECT_EQ(expf_hd(0.0f), 1.0f);
   EXPECT_EQ(expf_hd(-0.0f), 1.0f);
-  EXPECT_EQ(expf_hd(88.8f), INFINITY);       // above ln(FLT_MAX) = 88.7228
+  EXPECT_EQ(expf_hd(88.8f), INFINITY);  // above ln(FLT_MAX) = 88.7228
   EXPECT_EQ(expf_hd(1e30f), INFINITY);
   EXPECT_EQ(expf_hd(-1e30f), 0.0f);
-  EXPECT_EQ(expf_hd(-103.98f), 0.0f);        // below ln(2^-150)
+  EXPECT_EQ(expf_hd(-103.98f), 0.0f);         // below ln(2^-150)
   EXPECT_EQ(expf_hd(-103.2789f), 0x1p-149f);  // the smallest subnormal
   EXPECT_TRUE(std::isfinite(expf_hd(88.72f)));
 }

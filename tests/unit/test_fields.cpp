@@ -31,12 +31,10 @@ struct TestSettings {
 template <>
 struct FieldTable<TestSettings> {
   using S = TestSettings;
-  static constexpr auto fields = std::make_tuple(field("a", &S::a, 0.0, 1.0, kAffectsMaps, ""),
-                                                 field("b", &S::b, 1, 8, kAffectsClusters, ""),
-                                                 field("c", &S::c, 0, 1, kAffectsLookup, ""),
-                                                 field("d", &S::d, 0.0, 1.0, kAffectsLookup, ""),
-                                                 field("e", &S::e, 0, 0, kAffectsMaps, ""),
-                                                 field("added", &S::added, 0.0, 10.0, kAffectsPlan, ""));
+  static constexpr auto fields = std::make_tuple(
+      field("a", &S::a, 0.0, 1.0, kAffectsMaps, ""), field("b", &S::b, 1, 8, kAffectsClusters, ""),
+      field("c", &S::c, 0, 1, kAffectsLookup, ""), field("d", &S::d, 0.0, 1.0, kAffectsLookup, ""),
+      field("e", &S::e, 0, 0, kAffectsMaps, ""), field("added", &S::added, 0.0, 10.0, kAffectsPlan, ""));
 };
 
 namespace {
@@ -90,10 +88,14 @@ TEST(Fields, AFieldInTheTableReachesEveryGenericConsumer) {
 // A value just outside field f's range, or a name no tag has.
 template <class T>
 T outside(double lo, double hi) {
-  if constexpr (std::is_same_v<T, float>) return float(hi) * 2.0f + 1.0f;
-  else if constexpr (std::is_same_v<T, Vec3>) return Vec3{float(hi) * 2.0f + 1.0f, 0.0f, 0.0f};
-  else if constexpr (std::is_enum_v<T>) return T(tag_count<T>());
-  else return T(hi + 1);
+  if constexpr (std::is_same_v<T, float>)
+    return float(hi) * 2.0f + 1.0f;
+  else if constexpr (std::is_same_v<T, Vec3>)
+    return Vec3{float(hi) * 2.0f + 1.0f, 0.0f, 0.0f};
+  else if constexpr (std::is_enum_v<T>)
+    return T(tag_count<T>());
+  else
+    return T(hi + 1);
   (void)lo;
 }
 
@@ -128,14 +130,18 @@ TEST(Fields, EveryFieldOfEveryTableIsWrittenReadAndRangeChecked) {
   Scene base = cdsm_test::empty_scene("fields");
   base.lights.push_back(cdsm_test::spot_light({0, 5, 0}, {0, -1, 0}, 30, 25));
   base.lights[0].name = "lamp";
-  check_table<ShadowSettings>(base, [](Scene& s) -> ShadowSettings& { return s.shadows; }, "/shadows");
-  check_table<Camera>(base, [](Scene& s) -> Camera& { return s.camera; }, "/camera");
-  check_table<Light>(base, [](Scene& s) -> Light& { return s.lights[0]; }, "/lights/0");
+  check_table<ShadowSettings>(
+      base, [](Scene& s) -> ShadowSettings& { return s.shadows; }, "/shadows");
+  check_table<Camera>(
+      base, [](Scene& s) -> Camera& { return s.camera; }, "/camera");
+  check_table<Light>(
+      base, [](Scene& s) -> Light& { return s.lights[0]; }, "/lights/0");
   base.objects.push_back(cdsm_test::make_object("ground", make_quad(4.0f, 4.0f)));
-  check_table<SurfaceMaterial>(base, [](Scene& s) -> SurfaceMaterial& { return s.objects[0].surface; },
-                               "/objects/0/material");
+  check_table<SurfaceMaterial>(
+      base, [](Scene& s) -> SurfaceMaterial& { return s.objects[0].surface; }, "/objects/0/material");
   base.objects[0].name = "ground";
-  check_table<Object>(base, [](Scene& s) -> Object& { return s.objects[0]; }, "/objects/0");
+  check_table<Object>(
+      base, [](Scene& s) -> Object& { return s.objects[0]; }, "/objects/0");
   Volume smoke;
   smoke.name = "smoke";
   NoiseVolumeParams noise;
@@ -147,7 +153,8 @@ TEST(Fields, EveryFieldOfEveryTableIsWrittenReadAndRangeChecked) {
   box.interior = InteriorKind::Volume;
   box.volume = 0;
   base.objects.push_back(box);
-  check_table<Volume>(base, [](Scene& s) -> Volume& { return s.volumes[0]; }, "/volumes/0");
+  check_table<Volume>(
+      base, [](Scene& s) -> Volume& { return s.volumes[0]; }, "/volumes/0");
 }
 
 }  // namespace

@@ -77,9 +77,10 @@ void add_nested_volume(Scene& s, int i, int n) {
 
 MapError expect_map_right(const std::string& what, const Scene& scene) {
   const MapError m = map_error_along_rays(scene, 4.0f, 0.02f);  // rays through the innermost object
-  std::printf("[ nested ] %-40s %zu points: map error p99 %.4f max %.4f (at %.3f of the chord: map T %.4f, "
-              "reference %.4f)\n",
-              what.c_str(), m.points, m.p99, m.max, m.worst_depth, m.map_at_worst, m.exact_at_worst);
+  std::printf(
+      "[ nested ] %-40s %zu points: map error p99 %.4f max %.4f (at %.3f of the chord: map T %.4f, "
+      "reference %.4f)\n",
+      what.c_str(), m.points, m.p99, m.max, m.worst_depth, m.map_at_worst, m.exact_at_worst);
   EXPECT_LE(m.max, scene.shadows.epsilon + 0.005) << what;
   return m;
 }
@@ -141,8 +142,8 @@ TEST(NestedMedia, VolumesBeyondSixteenAreLeftOutAndWarned) {
   Scene s17 = nested_scene("17 nested volumes");
   for (int i = 0; i < 17; ++i) add_nested_volume(s17, i, 17);
   const MapError m = map_error_along_rays(s17, 4.0f, 0.02f);
-  std::printf("[ nested ] %-40s %zu points: map error max %.4f (the innermost volume left out)\n",
-              s17.source.c_str(), m.points, m.max);
+  std::printf("[ nested ] %-40s %zu points: map error max %.4f (the innermost volume left out)\n", s17.source.c_str(),
+              m.points, m.max);
   const FrameStats st17 = render_stats(s17);
   EXPECT_GT(st17.enclosing_overflow, 0u);
   EXPECT_TRUE(warns_of_left_out_volumes(st17));

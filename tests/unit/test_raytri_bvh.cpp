@@ -31,22 +31,22 @@ struct RayHit {
 std::vector<RayHit> bvh_hits(const SceneView& s, Vec3 org, Vec3 dir, float tmin = 0.0f, float tmax = 3.0e38f,
                              ObjectMask mask = {}) {
   std::vector<RayHit> h;
-  bool ok = for_each_hit(s, mask, org, dir, tmin, tmax,
-                         [&](uint32_t tri, const TriHit& th) { h.push_back({tri, th.t, th.front}); });
+  bool ok = for_each_hit(s, mask, org, dir, tmin, tmax, [&](uint32_t tri, const TriHit& th) {
+    h.push_back({tri, th.t, th.front});
+  });
   EXPECT_TRUE(ok) << "BVH stack overflow";
   std::sort(h.begin(), h.end());
   return h;
 }
 
-std::vector<RayHit> brute_hits(const SceneView& s, Vec3 org, Vec3 dir, float tmin, float tmax,
-                               ObjectMask mask = {}) {
+std::vector<RayHit> brute_hits(const SceneView& s, Vec3 org, Vec3 dir, float tmin, float tmax, ObjectMask mask = {}) {
   std::vector<RayHit> h;
   WatertightRay wr = make_watertight_ray(org, dir);
   for (uint32_t tri = 0; tri < s.tri_object.size(); ++tri) {
     if (!mask.contains(s.tri_object[tri])) continue;
     TriHit th;
-    if (intersect_triangle(wr, s.tri_vertices[3 * tri], s.tri_vertices[3 * tri + 1], s.tri_vertices[3 * tri + 2],
-                           tmin, tmax, th))
+    if (intersect_triangle(wr, s.tri_vertices[3 * tri], s.tri_vertices[3 * tri + 1], s.tri_vertices[3 * tri + 2], tmin,
+                           tmax, th))
       h.push_back({tri, th.t, th.front});
   }
   std::sort(h.begin(), h.end());
@@ -68,8 +68,10 @@ TriangleMesh octahedron(float r) {
       for (int sz = 0; sz < 2; ++sz) {
         uint32_t a = uint32_t(sx), b = uint32_t(2 + sy), c = uint32_t(4 + sz);
         bool positive = ((sx + sy + sz) % 2) == 0;  // sign product of the octant
-        if (positive) m.indices.insert(m.indices.end(), {a, b, c});
-        else m.indices.insert(m.indices.end(), {a, c, b});
+        if (positive)
+          m.indices.insert(m.indices.end(), {a, b, c});
+        else
+          m.indices.insert(m.indices.end(), {a, c, b});
       }
   return m;
 }
@@ -109,8 +111,8 @@ TEST(RayTriangle, BoxAxisRaysThroughEdgesAndVertices) {
           org[(axis + 2) % 3] = v;
           dir[axis] = sign;
           std::vector<RayHit> h = bvh_hits(sv, org, dir);
-          SCOPED_TRACE("axis " + std::to_string(axis) + " sign " + std::to_string(sign) + " u " +
-                       std::to_string(u) + " v " + std::to_string(v));
+          SCOPED_TRACE("axis " + std::to_string(axis) + " sign " + std::to_string(sign) + " u " + std::to_string(u) +
+                       " v " + std::to_string(v));
           bool strictly_in = std::fabs(u) < 1.0f && std::fabs(v) < 1.0f;
           bool outside = std::fabs(u) > 1.0f || std::fabs(v) > 1.0f;
           if (strictly_in) {
@@ -189,12 +191,11 @@ TEST(RayTriangle, BoxObliqueDyadicLinesThroughEdgesAndCorners) {
 TEST(RayTriangle, FanAroundVertexExactlyOneHit) {
   const Vec3 ring[8] = {{2, 0, 0}, {2, 2, 0}, {0, 2, 0}, {-2, 2, 0}, {-2, 0, 0}, {-2, -2, 0}, {0, -2, 0}, {2, -2, 0}};
   const Vec3 centre{0, 0, 0};
-  const Vec3 targets[] = {{0, 0, 0},   {1, 0, 0},      {1, 1, 0},     {0, 1, 0},   {-1, 1, 0},
-                          {-1, 0, 0},  {-1, -1, 0},    {0, -1, 0},    {1, -1, 0},  {0.5f, 0.25f, 0},
+  const Vec3 targets[] = {{0, 0, 0},    {1, 0, 0},        {1, 1, 0},          {0, 1, 0},     {-1, 1, 0},
+                          {-1, 0, 0},   {-1, -1, 0},      {0, -1, 0},         {1, -1, 0},    {0.5f, 0.25f, 0},
                           {1.5f, 1, 0}, {-0.5f, 0.5f, 0}, {0.25f, -0.75f, 0}, {-1.5f, 0, 0}, {0, 1.5f, 0}};
-  const Vec3 dirs[] = {{0, 0, 1},     {0, 0, -1},      {0.5f, 0.25f, 1},  {-0.5f, 0.25f, -1},
-                       {1, 1, 2},     {-1, 0.5f, 0.25f}, {0.25f, -1, 0.5f}, {3, -2, 1},
-                       {-2, -3, -4},  {1, 0, 0.125f}};
+  const Vec3 dirs[] = {{0, 0, 1},         {0, 0, -1},        {0.5f, 0.25f, 1}, {-0.5f, 0.25f, -1}, {1, 1, 2},
+                       {-1, 0.5f, 0.25f}, {0.25f, -1, 0.5f}, {3, -2, 1},       {-2, -3, -4},       {1, 0, 0.125f}};
   int cases = 0;
   for (bool reversed : {false, true})
     for (const Vec3& target : targets)
@@ -212,8 +213,8 @@ TEST(RayTriangle, FanAroundVertexExactlyOneHit) {
             EXPECT_NEAR(h.t, 4.0f, 1e-5f);  // unnormalized direction: t in units of d
           }
         }
-        EXPECT_EQ(hits, 1) << "target (" << target.x << ", " << target.y << ") dir (" << d.x << ", " << d.y
-                           << ", " << d.z << ") reversed " << reversed;
+        EXPECT_EQ(hits, 1) << "target (" << target.x << ", " << target.y << ") dir (" << d.x << ", " << d.y << ", "
+                           << d.z << ") reversed " << reversed;
         ++cases;
       }
   EXPECT_EQ(cases, 2 * 15 * 10);
@@ -238,7 +239,7 @@ TEST(RayTriangle, OctahedronLinesThroughVerticesAndEdges) {
       for (int y = -1; y <= 1; ++y)
         for (int z = -1; z <= 1; ++z) {
           if (std::abs(x) + std::abs(y) + std::abs(z) >= 4) continue;  // on the surface
-          Vec3 c{float(x), float(y), float(z)};  // strictly interior
+          Vec3 c{float(x), float(y), float(z)};                        // strictly interior
           Vec3 d = c - target;
           if (length(d) == 0.0f) continue;
           Vec3 dir = normalize(d);
@@ -341,8 +342,7 @@ TEST(Bvh, ForEachHitEqualsBruteForce) {
       case 1:  // towards the middle of the scene
         dir = normalize(Vec3{u(rng), u(rng), u(rng)} - org);
         break;
-      default:
-        dir = normalize(Vec3{u(rng), u(rng), u(rng)});
+      default: dir = normalize(Vec3{u(rng), u(rng), u(rng)});
     }
     float tmin = i % 5 == 0 ? 2.0f * u01(rng) : 0.0f;
     float tmax = i % 7 == 0 ? tmin + 4.0f * u01(rng) : 3.0e38f;
@@ -374,9 +374,8 @@ TEST(RayTriangle, ClosedMeshesAlternateEntriesAndExits) {
       Vec3 org = target - dir * 30.0f;  // outside every object
       std::vector<RayHit> h = bvh_hits(sv, org, dir);
       // Grazing a vertex gives an entry and an exit at the same depth: entry first.
-      std::stable_sort(h.begin(), h.end(), [](const RayHit& x, const RayHit& y) {
-        return x.t != y.t ? x.t < y.t : (x.front && !y.front);
-      });
+      std::stable_sort(h.begin(), h.end(),
+                       [](const RayHit& x, const RayHit& y) { return x.t != y.t ? x.t < y.t : (x.front && !y.front); });
       std::vector<int> state(sv.objects.size(), 0);
       for (const RayHit& hit : h) {
         uint32_t o = sv.tri_object[hit.tri];
@@ -485,8 +484,10 @@ TEST(Fragments, ListsEqualAxiallyClippedHits) {
       std::vector<RayHit> expect;
       for (const RayHit& h : all) {
         float ax = h.t * dot(dir, view.forward);
-        if (ax >= view.near && ax <= view.far) expect.push_back(h);
-        else ++clipped;
+        if (ax >= view.near && ax <= view.far)
+          expect.push_back(h);
+        else
+          ++clipped;
       }
       std::vector<RayHit> got;
       for (const Fragment& f : fl.pixel(px, py)) got.push_back({frag_prim(f), f.depth, frag_front(f)});
@@ -530,10 +531,14 @@ TEST(HostMinMax, BitIdenticalToTheCLibrary) {
     for (float b : v) {
       const float lib_min = lib_fminf(a, b), lib_max = lib_fmaxf(a, b);
       const float our_min = cdsm::fminf(a, b), our_max = cdsm::fmaxf(a, b);
-      if (std::isnan(lib_min)) EXPECT_TRUE(std::isnan(our_min)) << a << " " << b;
-      else EXPECT_EQ(bits_of(our_min), bits_of(lib_min)) << "fminf(" << a << ", " << b << ")";
-      if (std::isnan(lib_max)) EXPECT_TRUE(std::isnan(our_max)) << a << " " << b;
-      else EXPECT_EQ(bits_of(our_max), bits_of(lib_max)) << "fmaxf(" << a << ", " << b << ")";
+      if (std::isnan(lib_min))
+        EXPECT_TRUE(std::isnan(our_min)) << a << " " << b;
+      else
+        EXPECT_EQ(bits_of(our_min), bits_of(lib_min)) << "fminf(" << a << ", " << b << ")";
+      if (std::isnan(lib_max))
+        EXPECT_TRUE(std::isnan(our_max)) << a << " " << b;
+      else
+        EXPECT_EQ(bits_of(our_max), bits_of(lib_max)) << "fmaxf(" << a << ", " << b << ")";
       ++checked;
     }
   EXPECT_EQ(checked, v.size() * v.size());

@@ -263,7 +263,8 @@ TEST(Receivers, TranslucentBoxOneMillimetreAboveTheGround) {
       }
       bool in_light = true;
       for (Vec3 o : {Vec3{0, 0, 0}, Vec3{0.03f, 0, 0}, Vec3{-0.03f, 0, 0}, Vec3{0, 0, 0.03f}, Vec3{0, 0, -0.03f}})
-        in_light = in_light && grey_of(ref.transmittance(l.light, Receiver{l.at.p + o, l.at.plane, l.at.object})) >= 1.0f;
+        in_light =
+            in_light && grey_of(ref.transmittance(l.light, Receiver{l.at.p + o, l.at.plane, l.at.object})) >= 1.0f;
       if (in_light) {
         lit_worst = std::max(lit_worst, e);
         ++lit;

@@ -17,10 +17,10 @@ using namespace cdsm_test;
 namespace {
 
 struct Convergence {
-  double quarter_eighth = 0.0;     // max |T(1/4) - T(1/8)|
-  double eighth_sixteenth = 0.0;   // max |T(1/8) - T(1/16)|
+  double quarter_eighth = 0.0;    // max |T(1/4) - T(1/8)|
+  double eighth_sixteenth = 0.0;  // max |T(1/8) - T(1/16)|
   Vec3 worst_at;
-  int partial = 0;                 // probes with 0.01 < T < 0.999
+  int partial = 0;  // probes with 0.01 < T < 0.999
 };
 
 Convergence measure_convergence() {
@@ -87,8 +87,8 @@ Convergence measure_convergence() {
     }
   }
   std::cout << points.size() << " points, " << shadowed << " shadowed, " << in_volume_shadow
-            << " partly transmitted in the volumes; max |T(1/4) - T(1/8)| = " << worst << " at (" << worst_at.x
-            << ", " << worst_at.y << ", " << worst_at.z << "); max |T(1/8) - T(1/16)| = " << worst_finer << "\n";
+            << " partly transmitted in the volumes; max |T(1/4) - T(1/8)| = " << worst << " at (" << worst_at.x << ", "
+            << worst_at.y << ", " << worst_at.z << "); max |T(1/8) - T(1/16)| = " << worst_finer << "\n";
   c.partial = in_volume_shadow;
   return c;
 }

@@ -84,7 +84,8 @@ std::string text_of(const json& j) {
     parse_scene(text_of(j), "scene.json", "/nonexistent-base");
   } catch (const Error& e) {
     std::string expect = "scene.json: " + path;
-    if (e.where() != expect) return ::testing::AssertionFailure() << "where() '" << e.where() << "' != '" << expect << "'";
+    if (e.where() != expect)
+      return ::testing::AssertionFailure() << "where() '" << e.where() << "' != '" << expect << "'";
   }
   return ::testing::AssertionSuccess();
 }
@@ -200,8 +201,8 @@ TEST(SceneJson, NanOrInfinity) {
       ADD_FAILURE() << "no error for " << c.path;
     } catch (const Error& e) {
       int line = 0, col = 0;
-      bool located = e.where() == "scene.json: " + c.path ||
-                     std::sscanf(e.where().c_str(), "scene.json:%d:%d", &line, &col) == 2;
+      bool located =
+          e.where() == "scene.json: " + c.path || std::sscanf(e.where().c_str(), "scene.json:%d:%d", &line, &col) == 2;
       EXPECT_TRUE(located) << "where() '" << e.where() << "' names neither " << c.path << " nor line:column";
       EXPECT_TRUE(e.problem().find("inf") != std::string::npos || e.problem().find("range") != std::string::npos)
           << e.problem();
@@ -303,21 +304,56 @@ TEST(SceneJson, RangesOfEveryKindOfField) {
     std::string path, problem;
   };
   const Case cases[] = {
-      {[](json& j) { j["objects"][1]["material"] = {{"color", {0.5, -0.1, 0.5}}}; }, "/objects/1/material/color/1",
-       "must be within [0, 100], got -0.1"},
-      {[](json& j) { j["objects"][1]["material"] = {{"diffuse", -1}}; }, "/objects/1/material/diffuse", "got -1"},
-      {[](json& j) { j["objects"][1]["material"] = {{"specular", -0.5}}; }, "/objects/1/material/specular", "got -0.5"},
-      {[](json& j) { j["objects"][1]["material"] = {{"ambient", -0.5}}; }, "/objects/1/material/ambient", "got -0.5"},
-      {[](json& j) { j["lights"][0]["color"] = {1, 1, -2}; }, "/lights/0/color/2", "got -2"},
-      {[](json& j) { j["volumes"][0]["transfer"][1]["color"] = {-1, 0, 0}; }, "/volumes/0/transfer/1/color/0", "got -1"},
-      {[](json& j) { j["shadows"]["ambient"] = {-1, 0, 0}; }, "/shadows/ambient/0", "got -1"},
-      {[](json& j) { j["background"] = {0.1, -0.2, 0}; }, "/background/1", "got -0.2"},
-      {[](json& j) { j["volumes"][0]["gradient_scale"] = -3; }, "/volumes/0/gradient_scale", "within [0, 1e+06], got -3"},
-      {[](json& j) { j["volumes"][0]["grid"] = {{"type", "noise"}, {"octaves", -1}}; }, "/volumes/0/grid/octaves", "got -1"},
-      {[](json& j) { j["volumes"][0]["grid"] = {{"type", "noise"}, {"octaves", 2147483647}}; }, "/volumes/0/grid/octaves",
-       "within [1, 12]"},
-      {[](json& j) { j["volumes"][0]["grid"] = {{"type", "noise"}, {"scale", -1}}; }, "/volumes/0/grid/scale", "got -1"},
-      {[](json& j) { j["volumes"][0]["grid"] = {{"type", "noise"}, {"frequency", 0}}; }, "/volumes/0/grid/frequency", "got 0"},
+      {[](json& j) {
+         j["objects"][1]["material"] = {{"color", {0.5, -0.1, 0.5}}};
+       },
+       "/objects/1/material/color/1", "must be within [0, 100], got -0.1"},
+      {[](json& j) {
+         j["objects"][1]["material"] = {{"diffuse", -1}};
+       },
+       "/objects/1/material/diffuse", "got -1"},
+      {[](json& j) {
+         j["objects"][1]["material"] = {{"specular", -0.5}};
+       },
+       "/objects/1/material/specular", "got -0.5"},
+      {[](json& j) {
+         j["objects"][1]["material"] = {{"ambient", -0.5}};
+       },
+       "/objects/1/material/ambient", "got -0.5"},
+      {[](json& j) {
+         j["lights"][0]["color"] = {1, 1, -2};
+       },
+       "/lights/0/color/2", "got -2"},
+      {[](json& j) {
+         j["volumes"][0]["transfer"][1]["color"] = {-1, 0, 0};
+       },
+       "/volumes/0/transfer/1/color/0", "got -1"},
+      {[](json& j) {
+         j["shadows"]["ambient"] = {-1, 0, 0};
+       },
+       "/shadows/ambient/0", "got -1"},
+      {[](json& j) {
+         j["background"] = {0.1, -0.2, 0};
+       },
+       "/background/1", "got -0.2"},
+      {[](json& j) { j["volumes"][0]["gradient_scale"] = -3; }, "/volumes/0/gradient_scale",
+       "within [0, 1e+06], got -3"},
+      {[](json& j) {
+         j["volumes"][0]["grid"] = {{"type", "noise"}, {"octaves", -1}};
+       },
+       "/volumes/0/grid/octaves", "got -1"},
+      {[](json& j) {
+         j["volumes"][0]["grid"] = {{"type", "noise"}, {"octaves", 2147483647}};
+       },
+       "/volumes/0/grid/octaves", "within [1, 12]"},
+      {[](json& j) {
+         j["volumes"][0]["grid"] = {{"type", "noise"}, {"scale", -1}};
+       },
+       "/volumes/0/grid/scale", "got -1"},
+      {[](json& j) {
+         j["volumes"][0]["grid"] = {{"type", "noise"}, {"frequency", 0}};
+       },
+       "/volumes/0/grid/frequency", "got 0"},
       {[](json& j) { j["volumes"][0]["grid"]["fill"] = -1; }, "/volumes/0/grid/fill", "must be >= 0, got -1"},
       {[](json& j) { j["shadows"]["d0"] = 9; }, "/shadows/d0", "within [0, 4], got 9"},
       {[](json& j) { j["shadows"]["bias_slope"] = 1000; }, "/shadows/bias_slope", "within [0, 100], got 1000"},
@@ -326,7 +362,10 @@ TEST(SceneJson, RangesOfEveryKindOfField) {
       {[](json& j) { j["shadows"]["epsilon"] = 2; }, "/shadows/epsilon", "within [0, 1], got 2"},
       {[](json& j) { j["shadows"]["max_memory"] = -5; }, "/shadows/max_memory", "got -5"},
       {[](json& j) { j["lights"][0]["intensity"] = -1; }, "/lights/0/intensity", "got -1"},
-      {[](json& j) { j["objects"][1]["material"] = {{"shininess", 1e9}}; }, "/objects/1/material/shininess", "within [0, 10000]"},
+      {[](json& j) {
+         j["objects"][1]["material"] = {{"shininess", 1e9}};
+       },
+       "/objects/1/material/shininess", "within [0, 10000]"},
   };
   for (const Case& c : cases) {
     json j = base();
@@ -379,7 +418,8 @@ namespace {
     parse_scene(text, "scene.json", "/nonexistent-base");
   } catch (const Error& e) {
     std::string expect = "scene.json:" + std::to_string(line) + ":" + std::to_string(col);
-    if (e.where() != expect) return ::testing::AssertionFailure() << "where() '" << e.where() << "' != '" << expect << "'";
+    if (e.where() != expect)
+      return ::testing::AssertionFailure() << "where() '" << e.where() << "' != '" << expect << "'";
     if (e.problem().find("invalid JSON") == std::string::npos)
       return ::testing::AssertionFailure() << "problem() '" << e.problem() << "'";
     return ::testing::AssertionSuccess();

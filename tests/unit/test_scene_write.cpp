@@ -185,29 +185,43 @@ std::string write_gltf_fixture(const std::string& path) {
        {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", sizeof p}},
         {{"buffer", 0}, {"byteOffset", sizeof p}, {"byteLength", sizeof idx}}}},
       {"accessors",
-       {{{"bufferView", 0}, {"componentType", 5126}, {"count", 8}, {"type", "VEC3"}, {"min", {-.5, -.5, -.5}},
+       {{{"bufferView", 0},
+         {"componentType", 5126},
+         {"count", 8},
+         {"type", "VEC3"},
+         {"min", {-.5, -.5, -.5}},
          {"max", {.5, .5, .5}}},
         {{"bufferView", 1}, {"componentType", 5123}, {"count", 36}, {"type", "SCALAR"}}}},
       {"materials",
-       {{{"name", "blend"}, {"alphaMode", "BLEND"}, {"pbrMetallicRoughness", {{"baseColorFactor", {0.2, 0.4, 0.6, 0.4}}}}},
+       {{{"name", "blend"},
+         {"alphaMode", "BLEND"},
+         {"pbrMetallicRoughness", {{"baseColorFactor", {0.2, 0.4, 0.6, 0.4}}}}},
         {{"name", "glass"},
          {"pbrMetallicRoughness", {{"baseColorFactor", {0.9, 0.6, 0.3, 1.0}}}},
          {"extensions", {{"KHR_materials_transmission", {{"transmissionFactor", 0.5}}}}}}}},
       {"meshes",
        {{{"name", "cube"}, {"primitives", {{{"attributes", {{"POSITION", 0}}}, {"indices", 1}, {"material", 0}}}}},
-        {{"name", "glass cube"}, {"primitives", {{{"attributes", {{"POSITION", 0}}}, {"indices", 1}, {"material", 1}}}}}}},
+        {{"name", "glass cube"},
+         {"primitives", {{{"attributes", {{"POSITION", 0}}}, {"indices", 1}, {"material", 1}}}}}}},
       {"extensions",
        {{"KHR_lights_punctual",
          {{"lights",
-           {{{"type", "spot"}, {"name", "key"}, {"color", {1, 0.5, 0.25}}, {"intensity", 200},
+           {{{"type", "spot"},
+             {"name", "key"},
+             {"color", {1, 0.5, 0.25}},
+             {"intensity", 200},
              {"spot", {{"outerConeAngle", 0.5}, {"innerConeAngle", 0.25}}}},
             {{"type", "point"}, {"intensity", 50}}}}}}}},
-      {"cameras", {{{"type", "perspective"}, {"perspective", {{"yfov", 0.8}, {"znear", 0.1}, {"zfar", 100}, {"aspectRatio", 1.5}}}}}},
+      {"cameras",
+       {{{"type", "perspective"},
+         {"perspective", {{"yfov", 0.8}, {"znear", 0.1}, {"zfar", 100}, {"aspectRatio", 1.5}}}}}},
       {"nodes",
        {{{"name", "rig"}, {"translation", {1, 2, 3}}, {"rotation", {0, h, 0, h}}, {"children", {1}}},
         {{"name", "big"}, {"scale", {2, 2, 2}}, {"mesh", 0}},
         {{"name", "mirror"}, {"scale", {-1, 1, 1}}, {"translation", {-3, 0, 0}}, {"mesh", 1}},
-        {{"name", "key"}, {"translation", {0, 10, 0}}, {"rotation", {-h, 0, 0, h}},
+        {{"name", "key"},
+         {"translation", {0, 10, 0}},
+         {"rotation", {-h, 0, 0, h}},
          {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}},
         {{"name", "fill"}, {"translation", {5, 5, 5}}, {"extensions", {{"KHR_lights_punctual", {{"light", 1}}}}}},
         {{"name", "cam"}, {"translation", {0, 1, 10}}, {"camera", 0}}}},
@@ -285,7 +299,8 @@ Scene code_scene() {
   haze.name = "";
   haze.index_to_object = Mat4{};
   haze.index_to_object.m[0][0] = 0.011f, haze.index_to_object.m[1][1] = 0.013f, haze.index_to_object.m[2][2] = 0.017f;
-  haze.index_to_object.m[0][3] = -0.70399994f, haze.index_to_object.m[1][3] = 0.3f, haze.index_to_object.m[2][3] = 123.456f;
+  haze.index_to_object.m[0][3] = -0.70399994f, haze.index_to_object.m[1][3] = 0.3f,
+  haze.index_to_object.m[2][3] = 123.456f;
   s.volumes.push_back(haze);
 
   auto add = [&](const std::string& name, TriangleMesh mesh, Mat4 xf) -> Object& {
@@ -410,7 +425,7 @@ TEST(SceneWrite, FilesBesideTheSceneStayFoundFromAnotherFolder) {
   save_scene(s, b + "/moved.json");
   json saved = json::parse(read_text(b + "/moved.json"));
   EXPECT_EQ(saved["volumes"][0]["grid"]["file"], "../../a/vol.raw");  // relative to the new folder
-  EXPECT_FALSE(saved["volumes"][0].contains("voxel_size"));          // the raw grid's spacing says it
+  EXPECT_FALSE(saved["volumes"][0].contains("voxel_size"));           // the raw grid's spacing says it
   Scene back = load_scene(b + "/moved.json");
   std::string why;
   EXPECT_TRUE(equal_scenes(s, back, &why)) << why;
@@ -451,7 +466,8 @@ TEST(SceneWrite, StaleDescriptionsGiveWayToData) {
 TEST(SceneWrite, BadPathsAreErrorsNamingThePath) {
   const Scene s = code_scene();
   const std::string dir = scratch_dir();
-  expect_error([&] { save_scene(s, dir + "/missing/folder/x.json"); }, {dir + "/missing/folder/x.json", "cannot create"});
+  expect_error([&] { save_scene(s, dir + "/missing/folder/x.json"); },
+               {dir + "/missing/folder/x.json", "cannot create"});
   expect_error([&] { save_scene(s, dir); }, {dir, "is a directory"});
   expect_error([&] { save_scene(s, dir + "/x.gltf"); }, {dir + "/x.gltf", "JSON"});
   expect_error([&] { save_scene(s, dir + "/x.GLB"); }, {dir + "/x.GLB", "JSON"});
@@ -535,8 +551,9 @@ TEST(SceneWrite, ReaderChecksTrianglesAndMatrices) {
     expect_error([&] { parse_scene(text, "r.json", ""); }, parts);
   };
   const std::string tri = R"({"type": "triangles", "positions": [0,0,0, 1,0,0, 0,1,0], "indices": [0, 1, 2]})";
-  Scene ok = parse_scene(scene_with(R"({"mesh": )" + tri + R"(, "transform": {"matrix": [1,0,0,1, 0,1,0,2, 0,0,1,3, 0,0,0,1]}})"),
-                         "r.json", "");
+  Scene ok = parse_scene(
+      scene_with(R"({"mesh": )" + tri + R"(, "transform": {"matrix": [1,0,0,1, 0,1,0,2, 0,0,1,3, 0,0,0,1]}})"),
+      "r.json", "");
   ASSERT_EQ(ok.objects[1].mesh->triangle_count(), 1u);
   EXPECT_EQ(ok.objects[1].transform.m[1][3], 2.0f);
   fails(scene_with(R"({"mesh": {"type": "triangles", "positions": [0,0,0, 1,0], "indices": []}})"),
@@ -545,15 +562,19 @@ TEST(SceneWrite, ReaderChecksTrianglesAndMatrices) {
         {"r.json: /objects/1/mesh/indices/2", "within [0, 3)"});
   fails(scene_with(R"({"mesh": {"type": "triangles", "positions": [0,0,0, 1,0,0, 0,1,0], "indices": [0, 1]}})"),
         {"r.json: /objects/1/mesh/indices", "3 indices per triangle"});
-  fails(scene_with(R"({"mesh": {"type": "triangles", "positions": [0,0,0, 1,0,0, 0,1,0], "indices": [0, 1, 2], "normals": [0, 1, 0]}})"),
-        {"r.json: /objects/1/mesh/normals", "one normal per vertex"});
+  fails(
+      scene_with(
+          R"({"mesh": {"type": "triangles", "positions": [0,0,0, 1,0,0, 0,1,0], "indices": [0, 1, 2], "normals": [0, 1, 0]}})"),
+      {"r.json: /objects/1/mesh/normals", "one normal per vertex"});
   fails(scene_with(R"({"mesh": )" + tri + R"(, "transform": {"matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0]}})"),
         {"r.json: /objects/1/transform/matrix", "16 numbers"});
   fails(scene_with(R"({"mesh": )" + tri + R"(, "transform": {"matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,1,1]}})"),
         {"r.json: /objects/1/transform/matrix", "0 0 0 1"});
-  fails(scene_with(R"({"mesh": )" + tri + R"(, "transform": {"matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1], "scale": 2}})"),
+  fails(scene_with(R"({"mesh": )" + tri +
+                   R"(, "transform": {"matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1], "scale": 2}})"),
         {"r.json: /objects/1/transform/scale", "unknown field"});
-  fails(scene_with(R"({"mesh": )" + tri + "}", R"(, "voxel_size": 0.1, "index_to_object": {"matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]})"),
+  fails(scene_with(R"({"mesh": )" + tri + "}",
+                   R"(, "voxel_size": 0.1, "index_to_object": {"matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]})"),
         {"r.json: /volumes/0", "not both"});
 }
 

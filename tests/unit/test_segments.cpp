@@ -92,9 +92,10 @@ Recorder walk(const SceneView& s, std::vector<Fragment> frags, const std::vector
 
 // Removes the fragments of `object` with the given facing.
 std::vector<Fragment> without(const SceneView& s, std::vector<Fragment> f, uint32_t object, bool front) {
-  f.erase(std::remove_if(f.begin(), f.end(),
-                         [&](const Fragment& x) { return s.tri_object[frag_prim(x)] == object && frag_front(x) == front; }),
-          f.end());
+  f.erase(
+      std::remove_if(f.begin(), f.end(),
+                     [&](const Fragment& x) { return s.tri_object[frag_prim(x)] == object && frag_front(x) == front; }),
+      f.end());
   return f;
 }
 
@@ -236,7 +237,7 @@ TEST(SegmentWalker, EnclosingSetOverflowSummed) {
   ASSERT_EQ(r.segments.size(), size_t(2 * n - 1));
   for (const SegmentCall& c : r.segments) {
     const float x = 0.5f * (c.t0 + c.t1) - 25.0f;  // the segment's middle; shell i encloses |x| < n - i
-    float expect = 0.0f;                          // (sums of powers of two: exact in any order)
+    float expect = 0.0f;                           // (sums of powers of two: exact in any order)
     for (int i = 0; i < n && std::fabs(x) < float(n - i); ++i) expect += std::ldexp(1.0f, -i);
     EXPECT_FLOAT_EQ(c.sigma, expect) << "segment at x = " << x;
   }
@@ -265,7 +266,8 @@ TEST(SegmentWalker, MoreObjectsThanTheMatcherTracks) {
   Scene s = empty_scene("row");
   const int n = 40;
   for (int i = 0; i < n; ++i)
-    s.objects.push_back(box_with_sigma("b" + std::to_string(i), 1.0f, 1.0f + 0.01f * float(i), {2.0f * float(i), 0, 0}));
+    s.objects.push_back(
+        box_with_sigma("b" + std::to_string(i), 1.0f, 1.0f + 0.01f * float(i), {2.0f * float(i), 0, 0}));
   SceneBuffers sb = compile_scene(s);
   SceneView sv = sb.view();
   const Vec3 org{100.0f, 0.1f, 0.3f}, dir{-1, 0, 0};
@@ -325,7 +327,8 @@ TEST(SegmentWalker, CountersReachFrameStats) {
   FrameStats st;
   r.render(s, opt, &st);
   EXPECT_GT(st.camera_fragments, 0u);
-  EXPECT_GT(st.match_overflow, 0u) << st.camera_fragments << " camera fragments, " << st.unmatched_fragments << " unmatched";
+  EXPECT_GT(st.match_overflow, 0u) << st.camera_fragments << " camera fragments, " << st.unmatched_fragments
+                                   << " unmatched";
   EXPECT_EQ(st.enclosing_overflow, 0u);
 }
 

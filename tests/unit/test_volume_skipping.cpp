@@ -180,7 +180,8 @@ TEST(VolumeSkipping, DenseProxyLargerThanTheGrid) {
       for (int i = 0; i < 16; ++i)  // strongest at the grid's faces
         g->values[(size_t(k) * 16 + j) * 16 + i] =
             0.3f + 0.7f * std::max({std::fabs(i - 7.5f), std::fabs(j - 7.5f), std::fabs(k - 7.5f)}) / 7.5f;
-  expect_agreement(make_medium("dense, proxy 2 voxels larger", g, nullptr, {-2.5f, -2.5f, -2.5f}, {17.5f, 17.5f, 17.5f}));
+  expect_agreement(
+      make_medium("dense, proxy 2 voxels larger", g, nullptr, {-2.5f, -2.5f, -2.5f}, {17.5f, 17.5f, 17.5f}));
 }
 
 // A NanoVDB grid made in code: a uniform 32^3 block (pruned to tiles of the
@@ -189,15 +190,16 @@ TEST(VolumeSkipping, DenseProxyLargerThanTheGrid) {
 TEST(VolumeSkipping, SparseGridWithTilesAboveLeafLevel) {
   auto value = [](const nanovdb::Coord& ijk) -> float {
     int x = ijk[0], y = ijk[1], z = ijk[2];
-    if (x >= 8 && x < 40 && y >= 8 && y < 40 && z >= 8 && z < 40) return 0.8f;  // 4^3 leaves, uniform: tiles
+    if (x >= 8 && x < 40 && y >= 8 && y < 40 && z >= 8 && z < 40) return 0.8f;     // 4^3 leaves, uniform: tiles
     if (x >= 56 && x < 64 && y >= 16 && y < 24 && z >= 16 && z < 24) return 0.5f;  // one lone uniform leaf: a tile
-    if (x >= 0 && x < 48 && y >= 0 && y < 48 && z >= 0 && z < 48)  // a noisy shell around the block
+    if (x >= 0 && x < 48 && y >= 0 && y < 48 && z >= 0 && z < 48)                  // a noisy shell around the block
       return 0.2f + 0.1f * float((x * 7 + y * 13 + z * 3) % 5);
     return 0.0f;
   };
   auto sg = sparse_grid(value, nanovdb::CoordBBox(nanovdb::Coord(0), nanovdb::Coord(70, 47, 47)), 0.0f);
   ASSERT_GT(count_tiles(*sg), 60) << "the builder must have pruned uniform leaves into tiles";
-  expect_agreement(make_medium("sparse, tiles above leaf level", nullptr, sg, {-0.5f, -0.5f, -0.5f}, {71.5f, 47.5f, 47.5f}));
+  expect_agreement(
+      make_medium("sparse, tiles above leaf level", nullptr, sg, {-0.5f, -0.5f, -0.5f}, {71.5f, 47.5f, 47.5f}));
 }
 
 // The same grid with a non-zero background (every unstored voxel reads it).
@@ -210,7 +212,8 @@ TEST(VolumeSkipping, SparseGridWithTilesAndABackground) {
   };
   auto sg = sparse_grid(value, nanovdb::CoordBBox(nanovdb::Coord(0), nanovdb::Coord(39, 39, 39)), 0.1f);
   ASSERT_GT(count_tiles(*sg), 0);
-  expect_agreement(make_medium("sparse, tiles, background 0.1", nullptr, sg, {-4.5f, -4.5f, -4.5f}, {43.5f, 43.5f, 43.5f}));
+  expect_agreement(
+      make_medium("sparse, tiles, background 0.1", nullptr, sg, {-4.5f, -4.5f, -4.5f}, {43.5f, 43.5f, 43.5f}));
 }
 
 // The dense trilinear read (hd/volume.h density_at_index): its in-grid

@@ -26,8 +26,7 @@ inline std::shared_ptr<const TriangleMesh> share(TriangleMesh m) {
 }
 
 // An object with the given mesh, placement and surface opacity.
-inline Object make_object(const std::string& name, TriangleMesh mesh, Mat4 transform = Mat4{},
-                          float opacity = 1.0f) {
+inline Object make_object(const std::string& name, TriangleMesh mesh, Mat4 transform = Mat4{}, float opacity = 1.0f) {
   Object o;
   o.name = name;
   o.mesh = share(std::move(mesh));
@@ -74,8 +73,8 @@ inline std::vector<float> object_hits(const SceneView& s, uint32_t object, Vec3 
   const ObjectData& od = s.objects[object];
   for (uint32_t tri = od.first_tri; tri < od.first_tri + od.tri_count; ++tri) {
     TriHit h;
-    if (intersect_triangle(wr, s.tri_vertices[3 * tri], s.tri_vertices[3 * tri + 1],
-                           s.tri_vertices[3 * tri + 2], 0.0f, 3.0e38f, h))
+    if (intersect_triangle(wr, s.tri_vertices[3 * tri], s.tri_vertices[3 * tri + 1], s.tri_vertices[3 * tri + 2], 0.0f,
+                           3.0e38f, h))
       ts.push_back(h.t);
   }
   std::sort(ts.begin(), ts.end());
@@ -90,8 +89,10 @@ inline double inside_length(const std::vector<float>& ts, double tmax) {
   bool inside = (ts.size() & 1u) != 0u;
   double start = 0.0;
   for (float t : ts) {
-    if (inside) len += std::max(0.0, std::min<double>(t, tmax) - start);
-    else start = std::min<double>(t, tmax);
+    if (inside)
+      len += std::max(0.0, std::min<double>(t, tmax) - start);
+    else
+      start = std::min<double>(t, tmax);
     inside = !inside;
   }
   if (inside) len += std::max(0.0, tmax - start);
@@ -113,8 +114,7 @@ struct NodeFunction {
     return a.alpha + w * (double(b.alpha) - a.alpha);
   }
   double left(double z) const {
-    auto it = std::lower_bound(n.begin(), n.end(), z,
-                               [](const DsmNode& a, double v) { return double(a.z) < v; });
+    auto it = std::lower_bound(n.begin(), n.end(), z, [](const DsmNode& a, double v) { return double(a.z) < v; });
     size_t j = size_t(it - n.begin());  // first node with depth >= z
     if (j == n.size()) return n.empty() ? 0.0 : n.back().alpha;
     if (double(n[j].z) == z) return n[j].alpha;
@@ -122,8 +122,7 @@ struct NodeFunction {
     return lerp_nodes(n[j - 1], n[j], z);
   }
   double right(double z) const {
-    auto it = std::upper_bound(n.begin(), n.end(), z,
-                               [](double v, const DsmNode& a) { return v < double(a.z); });
+    auto it = std::upper_bound(n.begin(), n.end(), z, [](double v, const DsmNode& a) { return v < double(a.z); });
     size_t j = size_t(it - n.begin());  // first node with depth > z
     if (j == 0) return 0.0;
     if (j == n.size() || double(n[j - 1].z) == z) return n[j - 1].alpha;

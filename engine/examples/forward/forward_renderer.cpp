@@ -64,7 +64,9 @@ GLuint link(std::initializer_list<GLuint> shaders) {
 void set_mat4(GLuint p, const char* name, const cdsm::Mat4& m) {
   glProgramUniformMatrix4fv(p, glGetUniformLocation(p, name), 1, GL_TRUE, &m.m[0][0]);
 }
-void set_vec3(GLuint p, const char* name, cdsm::Vec3 v) { glProgramUniform3f(p, glGetUniformLocation(p, name), v.x, v.y, v.z); }
+void set_vec3(GLuint p, const char* name, cdsm::Vec3 v) {
+  glProgramUniform3f(p, glGetUniformLocation(p, name), v.x, v.y, v.z);
+}
 
 cdsm::Mat4 inverse(const cdsm::Mat4& m) {
   cdsm::Mat4 inv;
@@ -81,7 +83,6 @@ bool passes_all(const cdsm::SurfaceMaterial& s) {
 }
 
 }  // namespace
-
 
 struct ForwardRenderer::Mesh {
   std::shared_ptr<const cdsm::TriangleMesh> keep;  // identity: kept alive while uploaded
@@ -154,8 +155,8 @@ void ForwardRenderer::use_layout(uint32_t layout) {
   volume_programs_[1] = mesh_program(std::string("#define LIGHT_GRID 1\n") + kVolumeFragment, l);
   light_grid_program_ = link({compile(GL_COMPUTE_SHADER, kLightGridCompute, l)});
   const GLint light_units[LightGrid::kLights] = {4, 5, 6, 7, 8, 9, 10, 11};
-  glProgramUniform1iv(volume_programs_[1], glGetUniformLocation(volume_programs_[1], "u_light_vis[0]"), LightGrid::kLights,
-                      light_units);
+  glProgramUniform1iv(volume_programs_[1], glGetUniformLocation(volume_programs_[1], "u_light_vis[0]"),
+                      LightGrid::kLights, light_units);
   cdsm_layout_ = layout;
 }
 
@@ -164,7 +165,8 @@ ForwardRenderer::ForwardRenderer() {
   solid_program_ = mesh_program(kSolidFragment, kNoCdsm);
   distance_program_ = mesh_program(kDistanceFragment, kNoCdsm);
   display_program_ = link({compile(GL_COMPUTE_SHADER, kDisplayCompute, kNoCdsm)});
-  line_program_ = link({compile(GL_VERTEX_SHADER, kLineVertex, kNoCdsm), compile(GL_FRAGMENT_SHADER, kLineFragment, kNoCdsm)});
+  line_program_ =
+      link({compile(GL_VERTEX_SHADER, kLineVertex, kNoCdsm), compile(GL_FRAGMENT_SHADER, kLineFragment, kNoCdsm)});
   glCreateVertexArrays(1, &line_vao_);
   for (GLuint a = 0; a < 2; ++a) {
     glEnableVertexArrayAttrib(line_vao_, a);
@@ -178,8 +180,8 @@ ForwardRenderer::~ForwardRenderer() {
   meshes_.clear();
   grids_.clear();
   light_grids_.clear();
-  for (GLuint p : {surface_program_, volume_programs_[0], volume_programs_[1], pick_program_, solid_program_, line_program_,
-                   distance_program_, display_program_, light_grid_program_})
+  for (GLuint p : {surface_program_, volume_programs_[0], volume_programs_[1], pick_program_, solid_program_,
+                   line_program_, distance_program_, display_program_, light_grid_program_})
     glDeleteProgram(p);
   resize(0, 0);
   glDeleteVertexArrays(1, &line_vao_);
@@ -229,8 +231,8 @@ void ForwardRenderer::upload(const cdsm::Scene& scene, std::vector<std::string>*
       continue;
     const cdsm::Volume& v = scene.volumes[size_t(obj.volume)];
     if (!v.grid || v.shading != cdsm::VolumeShading::Scatter) {
-      const std::string note = "volume '" + v.name + "': " +
-                               (v.grid ? "Phong-shaded volumes" : "sparse (NanoVDB) grids") +
+      const std::string note = "volume '" + v.name +
+                               "': " + (v.grid ? "Phong-shaded volumes" : "sparse (NanoVDB) grids") +
                                " are not drawn by this renderer (their shadows are)";
       if (notes && std::find(noted_.begin(), noted_.end(), note) == noted_.end()) notes->push_back(note);
       noted_.push_back(note);
@@ -280,7 +282,8 @@ void ForwardRenderer::upload(const cdsm::Scene& scene, std::vector<std::string>*
   for (auto it = meshes_.begin(); it != meshes_.end();) it = it->second->used ? std::next(it) : meshes_.erase(it);
   for (auto it = grids_.begin(); it != grids_.end();) it = it->second->used ? std::next(it) : grids_.erase(it);
   for (auto it = light_grids_.begin(); it != light_grids_.end();) {
-    const bool volume = it->first < scene.objects.size() && scene.objects[it->first].interior == cdsm::InteriorKind::Volume;
+    const bool volume =
+        it->first < scene.objects.size() && scene.objects[it->first].interior == cdsm::InteriorKind::Volume;
     it = volume ? std::next(it) : light_grids_.erase(it);
   }
 }
@@ -372,10 +375,12 @@ void ForwardRenderer::resize(int width, int height) {
   if (width == width_ && height == height_) return;
   GLuint fbos[4] = {fbo_, depth_copy_fbo_, pick_fbo_, back_fbo_};
   glDeleteFramebuffers(4, fbos);
-  GLuint texs[9] = {color_, depth_, depth_copy_, pick_id_, pick_pos_, pick_plane_, pick_depth_, back_distance_, display_};
+  GLuint texs[9] = {color_,      depth_,      depth_copy_,    pick_id_, pick_pos_,
+                    pick_plane_, pick_depth_, back_distance_, display_};
   glDeleteTextures(9, texs);
   display_ = 0;
-  fbo_ = depth_copy_fbo_ = pick_fbo_ = back_fbo_ = color_ = depth_ = depth_copy_ = pick_id_ = pick_pos_ = pick_depth_ = 0;
+  fbo_ = depth_copy_fbo_ = pick_fbo_ = back_fbo_ = color_ = depth_ = depth_copy_ = pick_id_ = pick_pos_ = pick_depth_ =
+      0;
   pick_plane_ = back_distance_ = 0;
   width_ = width;
   height_ = height;
@@ -472,7 +477,8 @@ FrameTimes ForwardRenderer::draw(cdsm::ShadowSystem& system, const cdsm::Scene& 
   }
   auto visible = [&](const cdsm::Object& o) { return o.mesh && meshes_.count(o.mesh.get()) && !passes_all(o.surface); };
   auto drawn_volume = [&](const cdsm::Object& o) -> const Grid* {
-    if (o.interior != cdsm::InteriorKind::Volume || o.volume < 0 || size_t(o.volume) >= scene.volumes.size()) return nullptr;
+    if (o.interior != cdsm::InteriorKind::Volume || o.volume < 0 || size_t(o.volume) >= scene.volumes.size())
+      return nullptr;
     const cdsm::Volume& v = scene.volumes[size_t(o.volume)];
     if (!v.grid || v.shading != cdsm::VolumeShading::Scatter || !o.mesh || !meshes_.count(o.mesh.get())) return nullptr;
     auto it = grids_.find(v.grid.get());
@@ -552,7 +558,8 @@ FrameTimes ForwardRenderer::draw(cdsm::ShadowSystem& system, const cdsm::Scene& 
       float voxel = 1e30f;
       for (int c = 0; c < 3; ++c)
         voxel = std::min(voxel, cdsm::length({index_to_world.m[0][c], index_to_world.m[1][c], index_to_world.m[2][c]}));
-      glProgramUniform1f(p, glGetUniformLocation(p, "u_step"), v.step_voxels * voxel * std::max(opt.volume_step_scale, 1.0f));
+      glProgramUniform1f(p, glGetUniformLocation(p, "u_step"),
+                         v.step_voxels * voxel * std::max(opt.volume_step_scale, 1.0f));
       const int n = int(std::min<size_t>(v.transfer.size(), 16));
       glProgramUniform1i(p, glGetUniformLocation(p, "u_points"), n);
       for (int k = 0; k < n; ++k) {
@@ -568,7 +575,7 @@ FrameTimes ForwardRenderer::draw(cdsm::ShadowSystem& system, const cdsm::Scene& 
       glProgramUniform1f(p, glGetUniformLocation(p, "u_empty_below"), empty_below(v.transfer));
       glProgramUniform1i(p, glGetUniformLocation(p, "u_lookup_every"), std::max(opt.volume_lookup_every, 1));
       glDisable(GL_DEPTH_TEST);  // the march itself stops at the opaque depth
-      glCullFace(GL_FRONT);  // its back faces
+      glCullFace(GL_FRONT);      // its back faces
       draw_object(i, o, p, opt);
       glEnable(GL_DEPTH_TEST);
       continue;
@@ -628,8 +635,9 @@ FrameTimes ForwardRenderer::draw(cdsm::ShadowSystem& system, const cdsm::Scene& 
   }
   if (!opt.lines.empty()) {
     std::vector<float> v;
-    for (const Line& l : opt.lines) v.insert(v.end(), {l.a.x, l.a.y, l.a.z, l.color.x, l.color.y, l.color.z, l.b.x, l.b.y,
-                                                       l.b.z, l.color.x, l.color.y, l.color.z});
+    for (const Line& l : opt.lines)
+      v.insert(v.end(), {l.a.x, l.a.y, l.a.z, l.color.x, l.color.y, l.color.z, l.b.x, l.b.y, l.b.z, l.color.x,
+                         l.color.y, l.color.z});
     const uint64_t bytes = v.size() * sizeof(float);
     if (bytes > line_capacity_) {
       glDeleteBuffers(1, &line_vbo_);
@@ -686,7 +694,8 @@ Pick ForwardRenderer::pick(const cdsm::Scene& scene, const cdsm::Camera& camera_
   glUseProgram(pick_program_);
   DrawOptions none;
   for (size_t i = 0; i < scene.objects.size(); ++i)
-    if (scene.objects[i].mesh && meshes_.count(scene.objects[i].mesh.get())) draw_object(i, scene.objects[i], pick_program_, none);
+    if (scene.objects[i].mesh && meshes_.count(scene.objects[i].mesh.get()))
+      draw_object(i, scene.objects[i], pick_program_, none);
   check("pick: draw");
   const int gy = height_ - 1 - y;  // GL rows go up
   GLuint id = 0;

@@ -33,8 +33,8 @@
 namespace forward {
 
 struct FrameTimes {
-  double update_ms = 0.0;   // ShadowSystem::update (callers that update themselves leave it 0)
-  double draw_ms = 0.0;     // the passes, to glFinish
+  double update_ms = 0.0;      // ShadowSystem::update (callers that update themselves leave it 0)
+  double draw_ms = 0.0;        // the passes, to glFinish
   double light_grid_ms = 0.0;  // of draw_ms: the volumes' light grids recomputed (VolumeShadows::LightGrid)
   int light_grids = 0;         // grids (volume x light) recomputed this frame
   double total_ms = 0.0;
@@ -49,10 +49,10 @@ enum class VolumeShadows { PerSample, LightGrid };
 inline constexpr int kMaxLightGrid = 128;
 
 struct DrawOptions {
-  int width = 0, height = 0;         // the frame's size (0: the scene camera's)
-  bool shadows = true;               // false: every light unshadowed (what the maps change)
-  float volume_step_scale = 1.0f;    // > 1: coarser volume marching (the editor while interacting)
-  int volume_lookup_every = 1;       // volume samples per shadow lookup (1: every sample, as cdsm render)
+  int width = 0, height = 0;       // the frame's size (0: the scene camera's)
+  bool shadows = true;             // false: every light unshadowed (what the maps change)
+  float volume_step_scale = 1.0f;  // > 1: coarser volume marching (the editor while interacting)
+  int volume_lookup_every = 1;     // volume samples per shadow lookup (1: every sample, as cdsm render)
   // How volume samples get the lights' transmittance: a lookup in the maps
   // per sample (or per volume_lookup_every samples), or a trilinear fetch
   // from a grid per volume and light (a texel per light_grid_voxels density
@@ -68,15 +68,15 @@ struct DrawOptions {
   // with weight w (the editor's cluster view); w = 0: none.
   std::vector<cdsm::Vec3> tint;
   std::vector<float> tint_weight;
-  int selected = -1;                 // drawn with an outline
-  std::vector<Line> lines;           // drawn over the scene, depth-tested
+  int selected = -1;        // drawn with an outline
+  std::vector<Line> lines;  // drawn over the scene, depth-tested
 };
 
 // What a pixel shows (pick()).
 struct Pick {
-  int object = -1;         // -1: background
-  cdsm::Vec3 position;     // the nearest surface's world position
-  cdsm::Vec3 plane;        // its triangle's unit normal
+  int object = -1;      // -1: background
+  cdsm::Vec3 position;  // the nearest surface's world position
+  cdsm::Vec3 plane;     // its triangle's unit normal
 };
 
 class ForwardRenderer {

@@ -48,14 +48,16 @@ void write_pgm(const std::vector<unsigned char>& mask, int w, int h, const std::
 int parse_int(const std::string& opt, const std::string& v) {
   char* end = nullptr;
   const long n = std::strtol(v.c_str(), &end, 10);
-  if (v.empty() || *end != '\0' || n < 1 || n > 16384) throw cdsm::Error(opt, "needs a whole number in 1..16384, got '" + v + "'");
+  if (v.empty() || *end != '\0' || n < 1 || n > 16384)
+    throw cdsm::Error(opt, "needs a whole number in 1..16384, got '" + v + "'");
   return int(n);
 }
 
 float parse_float(const std::string& opt, const std::string& v) {
   char* end = nullptr;
   const float x = std::strtof(v.c_str(), &end);
-  if (v.empty() || *end != '\0' || !(x >= 1.0f && x <= 16.0f)) throw cdsm::Error(opt, "needs a number in 1..16, got '" + v + "'");
+  if (v.empty() || *end != '\0' || !(x >= 1.0f && x <= 16.0f))
+    throw cdsm::Error(opt, "needs a number in 1..16, got '" + v + "'");
   return x;
 }
 
@@ -74,22 +76,35 @@ int main(int argc, char** argv) {
         if (i + 1 >= args.size()) throw cdsm::Error(a, "needs a value");
         return args[++i];
       };
-      if (a == "-o") out = value();
-      else if (a == "--width") width = parse_int(a, value());
-      else if (a == "--height") height = parse_int(a, value());
-      else if (a == "--frames") frames = parse_int(a, value());
-      else if (a == "--raw") raw = value();
-      else if (a == "--mask") mask_path = value();
-      else if (a == "--no-shadows") shadows_on = false;
-      else if (a == "--lookup-every") lookup_every = parse_int(a, value());
-      else if (a == "--step-scale") step_scale = parse_float(a, value());
-      else if (a == "--light-grid") light_grid = parse_int(a, value());
-      else if (a == "--window") window = true;
+      if (a == "-o")
+        out = value();
+      else if (a == "--width")
+        width = parse_int(a, value());
+      else if (a == "--height")
+        height = parse_int(a, value());
+      else if (a == "--frames")
+        frames = parse_int(a, value());
+      else if (a == "--raw")
+        raw = value();
+      else if (a == "--mask")
+        mask_path = value();
+      else if (a == "--no-shadows")
+        shadows_on = false;
+      else if (a == "--lookup-every")
+        lookup_every = parse_int(a, value());
+      else if (a == "--step-scale")
+        step_scale = parse_float(a, value());
+      else if (a == "--light-grid")
+        light_grid = parse_int(a, value());
+      else if (a == "--window")
+        window = true;
       else if (a == "--help" || a == "-h") {
         std::fputs(kUsage, stdout);
         return 0;
-      } else if (!a.empty() && a[0] == '-') throw cdsm::Error(a, "unknown option (cdsm_forward --help)");
-      else scene_path = a;
+      } else if (!a.empty() && a[0] == '-')
+        throw cdsm::Error(a, "unknown option (cdsm_forward --help)");
+      else
+        scene_path = a;
     }
     if (scene_path.empty() || out.empty()) {
       std::fputs(kUsage, stderr);
@@ -98,9 +113,9 @@ int main(int argc, char** argv) {
 
     // The application's context: the renderer and the shadow system share it.
     std::string why;
-    auto context = window ? cdsm::GlContext::create_window(width ? width : 720, height ? height : 480, "cdsm_forward",
-                                                           true, &why)
-                          : cdsm::GlContext::create_headless(&why);
+    auto context =
+        window ? cdsm::GlContext::create_window(width ? width : 720, height ? height : 480, "cdsm_forward", true, &why)
+               : cdsm::GlContext::create_headless(&why);
     if (!context) throw cdsm::Error("OpenGL", "no 4.5 context: " + why);
     std::fprintf(stderr, "cdsm_forward: %s\n", context->description().c_str());
 
@@ -123,7 +138,8 @@ int main(int argc, char** argv) {
     for (size_t i = 0; i < scene.objects.size(); ++i) {
       cdsm::Object o = scene.objects[i];
       o.mesh = shadows.read_gl_mesh(renderer.mesh_source(scene, i));
-      shadows.add_object(o, o.interior == cdsm::InteriorKind::Volume ? volumes[size_t(o.volume)] : cdsm::VolumeHandle{});
+      shadows.add_object(o,
+                         o.interior == cdsm::InteriorKind::Volume ? volumes[size_t(o.volume)] : cdsm::VolumeHandle{});
     }
     for (const cdsm::Light& l : scene.lights) shadows.add_light(l);
     shadows.set_camera(scene.camera);
@@ -148,10 +164,11 @@ int main(int argc, char** argv) {
       const forward::FrameTimes t = renderer.draw(shadows, scene, scene.camera, draw);
       const double total_ms = update_ms + t.draw_ms;
       if (f == 0) {
-        std::printf("frame 1: %.1f ms (shadow update %.1f ms: %u maps built, %.1f KiB uploaded to GL, %.1f KiB read back "
-                    "from the application's buffers; draw %.1f ms, of it %d light grids %.1f ms)\n",
-                    total_ms, update_ms, st.maps_rebuilt, double(st.update.gl_map_upload_bytes) / 1024.0,
-                    double(st.update.gl_readback_bytes) / 1024.0, t.draw_ms, t.light_grids, t.light_grid_ms);
+        std::printf(
+            "frame 1: %.1f ms (shadow update %.1f ms: %u maps built, %.1f KiB uploaded to GL, %.1f KiB read back "
+            "from the application's buffers; draw %.1f ms, of it %d light grids %.1f ms)\n",
+            total_ms, update_ms, st.maps_rebuilt, double(st.update.gl_map_upload_bytes) / 1024.0,
+            double(st.update.gl_readback_bytes) / 1024.0, t.draw_ms, t.light_grids, t.light_grid_ms);
       } else {
         sum_total += total_ms;
         sum_draw += t.draw_ms;
@@ -164,9 +181,10 @@ int main(int argc, char** argv) {
       for (const std::string& w : st.warnings) std::fprintf(stderr, "cdsm_forward: warning: %s\n", w.c_str());
     }
     if (frames > 1)
-      std::printf("frames 2..%d: mean %.2f ms (shadow update %.3f ms, draw %.2f ms) at %dx%d; light grids recomputed %d\n",
-                  frames, sum_total / (frames - 1), sum_update / (frames - 1), sum_draw / (frames - 1),
-                  scene.camera.width, scene.camera.height, later_grids);
+      std::printf(
+          "frames 2..%d: mean %.2f ms (shadow update %.3f ms, draw %.2f ms) at %dx%d; light grids recomputed %d\n",
+          frames, sum_total / (frames - 1), sum_update / (frames - 1), sum_draw / (frames - 1), scene.camera.width,
+          scene.camera.height, later_grids);
 
     const cdsm::Image img = renderer.read_color();
     cdsm::write_png(img, out);

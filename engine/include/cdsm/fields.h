@@ -148,7 +148,8 @@ struct FieldTable<Light> {
       field("name", &S::name, 0, 0, kAffectsNothing, "shown in the editor and in messages"),
       field("type", &S::type, 0, 0, kShape, "spot or point"),
       field("position", &S::position, -kBig, kBig, kShape, "world position"),
-      field("direction", &S::direction, -kBig, kBig, kShape, "spot: the cone's axis (a file may give a target instead)"),
+      field("direction", &S::direction, -kBig, kBig, kShape,
+            "spot: the cone's axis (a file may give a target instead)"),
       field("outer_cone", &S::outer_cone_deg, 0.0, 89.5, kShape, "spot: half-angle where the light ends, degrees"),
       field("inner_cone", &S::inner_cone_deg, 0.0, 89.5, kAffectsLookup,
             "spot: half-angle of full intensity, degrees (at most outer_cone)"),
@@ -179,7 +180,8 @@ struct FieldTable<Volume> {
   using S = Volume;
   static constexpr auto fields = std::make_tuple(
       field("name", &S::name, 0, 0, kAffectsNothing, "how objects name it, shown in the editor"),
-      field("shading", &S::shading, 0, 0, kAffectsLookup, "scatter (lit by the maps) or phong (a surface at its gradient)"),
+      field("shading", &S::shading, 0, 0, kAffectsLookup,
+            "scatter (lit by the maps) or phong (a surface at its gradient)"),
       field("step_voxels", &S::step_voxels, 0.05, 8.0, kAffectsMaps, "march step, in voxels"),
       field("gradient_scale", &S::gradient_scale, 0.0, 1e6, kAffectsLookup, "phong: the gradient's scale"));
 };
@@ -187,10 +189,10 @@ struct FieldTable<Volume> {
 template <>
 struct FieldTable<Object> {
   using S = Object;
-  static constexpr auto fields = std::make_tuple(
-      field("name", &S::name, 0, 0, kAffectsNothing, "shown in the editor and in messages"),
-      field("casts_shadows", &S::casts_shadows, 0, 1, kAffectsPlan | kAffectsClusters | kAffectsMaps,
-            "false: a receiver only (in no map; a large ground should be one)"));
+  static constexpr auto fields =
+      std::make_tuple(field("name", &S::name, 0, 0, kAffectsNothing, "shown in the editor and in messages"),
+                      field("casts_shadows", &S::casts_shadows, 0, 1, kAffectsPlan | kAffectsClusters | kAffectsMaps,
+                            "false: a receiver only (in no map; a large ground should be one)"));
 };
 
 template <>

@@ -53,15 +53,15 @@ struct DsmMemory {
   uint64_t tag_bytes = 0;    // the node slots' surface tags (2 bytes each: which surface made a step)
   double avg_nodes_per_texel = 0.0;
   uint32_t max_nodes_per_texel = 0;
-  uint64_t overflow_texels = 0;   // re-compressed to fit the per-texel buffer
-  uint64_t rewalked_texels = 0;   // light rays walked twice: more nodes than the first walk's buffer holds
-  float max_extra_error = 0.0f;   // error those re-compressions added (bound)
+  uint64_t overflow_texels = 0;  // re-compressed to fit the per-texel buffer
+  uint64_t rewalked_texels = 0;  // light rays walked twice: more nodes than the first walk's buffer holds
+  float max_extra_error = 0.0f;  // error those re-compressions added (bound)
   // Per map kind: grey maps store scalar nodes (8 bytes; chunked slots 12),
   // RGB maps (a coloured caster among their members) 16 bytes (chunked 20).
   uint64_t rgb_maps = 0;
-  uint64_t grey_bytes = 0;        // index + node + slack + tag bytes of the grey maps
-  uint64_t rgb_bytes = 0;         // the same of the RGB maps
-  uint64_t rgb_nodes = 0;         // nodes in RGB maps (of `nodes`)
+  uint64_t grey_bytes = 0;  // index + node + slack + tag bytes of the grey maps
+  uint64_t rgb_bytes = 0;   // the same of the RGB maps
+  uint64_t rgb_nodes = 0;   // nodes in RGB maps (of `nodes`)
 };
 
 // Compositing-weighted statistics of one kind of transmittance error.
@@ -106,15 +106,15 @@ struct TransmittanceError {
 
 // The clusters of one light in a frame (thesis Alg. 4.2).
 struct LightClusterStats {
-  bool clustered = false;          // false: unclustered maps (m = 1 or a fallback)
+  bool clustered = false;  // false: unclustered maps (m = 1 or a fallback)
   std::string fallback_reason;
-  bool reclustered = false;        // membership recomputed this frame (else kept by hysteresis)
+  bool reclustered = false;               // membership recomputed this frame (else kept by hysteresis)
   std::vector<std::vector<int>> members;  // object indices per cluster
   std::vector<uint8_t> changed;           // per cluster: member set or frustum changed since the last frame
-  uint32_t maps = 0;               // DSMs of this light
-  int32_t directions = 0;          // light directions the clustering measured (1 or 6)
-  int32_t warped_directions = 0;   // of those, measured in LiSPSM space (the rest: uniform light
-                                   // space, where the view is parallel to the light)
+  uint32_t maps = 0;                      // DSMs of this light
+  int32_t directions = 0;                 // light directions the clustering measured (1 or 6)
+  int32_t warped_directions = 0;          // of those, measured in LiSPSM space (the rest: uniform light
+                                          // space, where the view is parallel to the light)
 };
 
 // Change of shadowing at static receivers when a light's maps changed
@@ -148,21 +148,21 @@ struct MapRebuild {
 
 // What the frame's update did to the persistent state (ShadowSystem).
 struct UpdateStats {
-  uint32_t full_compiles = 0;     // geometry arrays and BVH rebuilt from every object (objects added / removed)
-  uint32_t objects_compiled = 0;  // objects whose world-space data was recomputed (moved, added)
-  uint32_t volumes_compiled = 0;  // volumes whose grid was compiled (voxels copied, macro-cells built)
-  uint32_t bvh_refits = 0;        // BVH refitted after objects moved
-  uint32_t bvh_rebuilds = 0;      // BVH built (full compiles, or a refit that degraded the tree)
-  uint64_t gl_upload_bytes = 0;   // bytes uploaded to GL buffers (scene geometry)
-  uint32_t maps_freed = 0;        // maps whose memory was released
+  uint32_t full_compiles = 0;          // geometry arrays and BVH rebuilt from every object (objects added / removed)
+  uint32_t objects_compiled = 0;       // objects whose world-space data was recomputed (moved, added)
+  uint32_t volumes_compiled = 0;       // volumes whose grid was compiled (voxels copied, macro-cells built)
+  uint32_t bvh_refits = 0;             // BVH refitted after objects moved
+  uint32_t bvh_rebuilds = 0;           // BVH built (full compiles, or a refit that degraded the tree)
+  uint64_t gl_upload_bytes = 0;        // bytes uploaded to GL buffers (scene geometry)
+  uint32_t maps_freed = 0;             // maps whose memory was released
   uint32_t fragment_lists_reused = 0;  // maps rebuilt from kept fragment lists (SystemOptions::keep_fragment_lists)
   uint64_t fragment_cache_bytes = 0;   // the kept fragment lists, allocated
   uint32_t rebuilt_by_reason[kRebuildReasons] = {};  // maps_rebuilt split by RebuildReason
   std::vector<MapRebuild> rebuilds;                  // every rebuilt map and why
-  uint64_t map_store_bytes = 0;   // the backend's map store, allocated (holes included)
-  uint64_t map_live_bytes = 0;    // of which in maps of this frame (or kept for the popping probe)
-  uint64_t scene_bytes = 0;       // the compiled scene's arrays (triangles, BVH, voxels), allocated
-  uint64_t gl_scene_bytes = 0;    // GL buffers holding the scene geometry, allocated
+  uint64_t map_store_bytes = 0;                      // the backend's map store, allocated (holes included)
+  uint64_t map_live_bytes = 0;                       // of which in maps of this frame (or kept for the popping probe)
+  uint64_t scene_bytes = 0;                          // the compiled scene's arrays (triangles, BVH, voxels), allocated
+  uint64_t gl_scene_bytes = 0;                       // GL buffers holding the scene geometry, allocated
   // Maps in GL buffers (SystemOptions::gl_context = Application):
   uint64_t gl_map_upload_bytes = 0;  // host -> GL bytes of map data this update (new maps' nodes,
                                      // the frame block when it changed; 0 when nothing changed)
@@ -186,8 +186,8 @@ struct FrameStats {
   StageTimes times;
   DsmMemory memory;
   uint32_t lights = 0;
-  uint32_t maps_rebuilt = 0;   // DSMs built this frame
-  uint32_t maps_reused = 0;    // DSMs whose inputs did not change (kept from an earlier frame)
+  uint32_t maps_rebuilt = 0;  // DSMs built this frame
+  uint32_t maps_reused = 0;   // DSMs whose inputs did not change (kept from an earlier frame)
   UpdateStats update;
   double cluster_ms = 0.0;
   std::vector<LightClusterStats> clusters;  // per light
@@ -197,14 +197,14 @@ struct FrameStats {
   std::string fragment_source;         // "gl", "cuda" or "cpu"
   std::string fragment_source_reason;  // why it was chosen
   // Segment walker counters over the frame's maps and camera pass:
-  uint64_t unmatched_fragments = 0;    // entries/exits without partner (open meshes), ignored
-  uint64_t enclosing_overflow = 0;     // volume entries left out: inside kMaxEnclosing volumes already
-  uint64_t match_overflow = 0;         // rays with more than kMaxRayObjects objects (matched in
-                                       // extra passes: the answer is unchanged, only slower)
-  uint64_t march_lengthened = 0;       // volume segments marched with a step lengthened to the
-                                       // float resolution at their depth (volumes far from the
-                                       // eye or light; warned about)
-  std::vector<std::string> warnings;   // scene content that could not be honoured
+  uint64_t unmatched_fragments = 0;   // entries/exits without partner (open meshes), ignored
+  uint64_t enclosing_overflow = 0;    // volume entries left out: inside kMaxEnclosing volumes already
+  uint64_t match_overflow = 0;        // rays with more than kMaxRayObjects objects (matched in
+                                      // extra passes: the answer is unchanged, only slower)
+  uint64_t march_lengthened = 0;      // volume segments marched with a step lengthened to the
+                                      // float resolution at their depth (volumes far from the
+                                      // eye or light; warned about)
+  std::vector<std::string> warnings;  // scene content that could not be honoured
   bool has_reference = false;
   TransmittanceError transmittance;
   ImageError image;

@@ -27,8 +27,8 @@ class GlContext {
   static std::unique_ptr<GlContext> create_headless(std::string* reason = nullptr);
   // A GLFW window (needs a display: X11, or Xvfb through xvfb-run) with a
   // 4.5 core context. nullptr + `*reason` when none can be made.
-  static std::unique_ptr<GlContext> create_window(int width, int height, const std::string& title,
-                                                  bool visible = true, std::string* reason = nullptr);
+  static std::unique_ptr<GlContext> create_window(int width, int height, const std::string& title, bool visible = true,
+                                                  std::string* reason = nullptr);
   ~GlContext();
   GlContext(const GlContext&) = delete;
   GlContext& operator=(const GlContext&) = delete;
@@ -58,17 +58,17 @@ class GlContext {
 // kernels need the triangles on the host. Counts and offsets are checked
 // against the buffers' sizes.
 struct GlMeshSource {
-  uint32_t vertex_buffer = 0;   // GL buffer name holding positions, 3 floats each (object space)
-  uint64_t vertex_offset = 0;   // bytes from the buffer's start to the first position
-  uint32_t vertex_stride = 0;   // bytes between positions; 0: tightly packed (12)
+  uint32_t vertex_buffer = 0;  // GL buffer name holding positions, 3 floats each (object space)
+  uint64_t vertex_offset = 0;  // bytes from the buffer's start to the first position
+  uint32_t vertex_stride = 0;  // bytes between positions; 0: tightly packed (12)
   uint32_t vertex_count = 0;
-  uint32_t index_buffer = 0;    // 0: not indexed (vertex_count / 3 triangles)
-  uint64_t index_offset = 0;    // bytes to the first index
-  uint32_t index_type = 0x1405; // GL_UNSIGNED_INT (0x1405), GL_UNSIGNED_SHORT (0x1403), GL_UNSIGNED_BYTE (0x1401)
-  uint32_t index_count = 0;     // a multiple of 3
-  uint32_t normal_buffer = 0;   // optional shading normals, 3 floats per vertex; 0: none
+  uint32_t index_buffer = 0;     // 0: not indexed (vertex_count / 3 triangles)
+  uint64_t index_offset = 0;     // bytes to the first index
+  uint32_t index_type = 0x1405;  // GL_UNSIGNED_INT (0x1405), GL_UNSIGNED_SHORT (0x1403), GL_UNSIGNED_BYTE (0x1401)
+  uint32_t index_count = 0;      // a multiple of 3
+  uint32_t normal_buffer = 0;    // optional shading normals, 3 floats per vertex; 0: none
   uint64_t normal_offset = 0;
-  uint32_t normal_stride = 0;   // 0: tightly packed
+  uint32_t normal_stride = 0;  // 0: tightly packed
 };
 
 // The GL buffer names of a frame's maps after ShadowSystem::update(), one
@@ -76,15 +76,15 @@ struct GlMeshSource {
 // below). Valid until the next update(), which may replace them when they
 // grow.
 struct GlMapBuffers {
-  uint32_t frame = 0;       // CdsmFrame: lookup settings, lights, map headers
-  uint32_t texels = 0;      // CdsmTexels: per-texel {offset, count}
-  uint32_t nodes = 0;       // CdsmNodes: scalar nodes {z, alpha}
-  uint32_t chunks = 0;      // CdsmChunks: chunked layout slots
-  uint32_t rgb_texels = 0;  // CdsmRgbTexels
-  uint32_t rgb_nodes = 0;   // CdsmRgbNodes: {z, r, g, b}
-  uint32_t rgb_chunks = 0;  // CdsmRgbChunks
-  uint32_t tags = 0;        // CdsmTags: the grey pool's surface tags, 16 bits per slot
-  uint32_t rgb_tags = 0;    // CdsmRgbTags
+  uint32_t frame = 0;            // CdsmFrame: lookup settings, lights, map headers
+  uint32_t texels = 0;           // CdsmTexels: per-texel {offset, count}
+  uint32_t nodes = 0;            // CdsmNodes: scalar nodes {z, alpha}
+  uint32_t chunks = 0;           // CdsmChunks: chunked layout slots
+  uint32_t rgb_texels = 0;       // CdsmRgbTexels
+  uint32_t rgb_nodes = 0;        // CdsmRgbNodes: {z, r, g, b}
+  uint32_t rgb_chunks = 0;       // CdsmRgbChunks
+  uint32_t tags = 0;             // CdsmTags: the grey pool's surface tags, 16 bits per slot
+  uint32_t rgb_tags = 0;         // CdsmRgbTags
   int default_binding_base = 8;  // CDSM_BINDING_BASE when the shader does not define it
   // The node layout of the maps in these buffers (the settings' DsmLayout;
   // cdsm_layout in the shader). A shader compiled with `#define CDSM_LAYOUT

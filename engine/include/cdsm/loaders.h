@@ -78,9 +78,9 @@ enum class RawFormat { UInt8, UInt16 };
 struct RawVolumeDesc {
   int32_t nx = 0, ny = 0, nz = 0;  // voxels; x fastest, then y, then z
   RawFormat format = RawFormat::UInt8;
-  bool big_endian = false;         // byte order of 16-bit values
-  uint64_t header_bytes = 0;       // skipped at the start of the file
-  bool normalize = true;           // values / 255 (or / 65535) into [0, 1]; else the integers
+  bool big_endian = false;    // byte order of 16-bit values
+  uint64_t header_bytes = 0;  // skipped at the start of the file
+  bool normalize = true;      // values / 255 (or / 65535) into [0, 1]; else the integers
 };
 
 // Reads a raw scalar volume into a dense grid (background 0). The file size

@@ -38,9 +38,9 @@ TriangleMesh make_newell_mesh(const std::string& patch_file, int subdivisions = 
 struct NoiseVolumeParams {
   int32_t nx = 48, ny = 96, nz = 48;  // grid resolution
   uint32_t seed = 1;
-  float frequency = 3.0f;   // noise features across the grid
-  float octaves = 4;        // fractal octaves
-  float plume = 1.0f;       // 1: density shaped as a rising plume; 0: a soft ball
+  float frequency = 3.0f;  // noise features across the grid
+  float octaves = 4;       // fractal octaves
+  float plume = 1.0f;      // 1: density shaped as a rising plume; 0: a soft ball
   float density_scale = 1.0f;
 };
 

@@ -21,10 +21,10 @@ namespace cdsm {
 struct RenderOptions {
   Backend backend = Backend::Cpu;
   FragmentSource fragments = FragmentSource::Auto;  // Auto: GL when a context can be made
-  bool compare_reference = false;   // transmittance + image error against the reference
-  bool measure_popping = false;     // |dT| at the last frame's receivers when maps changed (costs a
-                                    // 48x48 receiver walk and keeps replaced maps one frame)
-  int error_samples = 20000;        // shaded points for the transmittance error
+  bool compare_reference = false;                   // transmittance + image error against the reference
+  bool measure_popping = false;                     // |dT| at the last frame's receivers when maps changed (costs a
+                                                    // 48x48 receiver walk and keeps replaced maps one frame)
+  int error_samples = 20000;                        // shaded points for the transmittance error
   float reference_step_voxels = 0.25f;
   RenderProgress* progress = nullptr;  // optional: the reference's progress, cancellation
 };

@@ -43,12 +43,12 @@ struct TriangleMesh {
 // f = ((1 - a) + a t c) / (1 - a (1 - t)), which is the same light passed.
 struct SurfaceMaterial {
   Vec3 color{0.8f, 0.8f, 0.8f};
-  float opacity = 1.0f;    // coverage a: 1 = opaque, 0 = a pure filter (or, white, an invisible proxy)
+  float opacity = 1.0f;  // coverage a: 1 = opaque, 0 = a pure filter (or, white, an invisible proxy)
   Vec3 transmission_color{1.0f, 1.0f, 1.0f};  // filter f of the uncovered part, linear RGB in [0, 1]
-  float ambient = 0.15f;   // k_a
-  float diffuse = 0.85f;   // k_d
-  float specular = 0.25f;  // k_s
-  float shininess = 32.0f; // n_s
+  float ambient = 0.15f;                      // k_a
+  float diffuse = 0.85f;                      // k_d
+  float specular = 0.25f;                     // k_s
+  float shininess = 32.0f;                    // n_s
 };
 
 // A dense scalar grid, x fastest. Voxel (i,j,k) sits at index coordinates
@@ -63,7 +63,7 @@ struct DenseGrid {
 
 // One control point of a piecewise-linear transfer function.
 struct TransferPoint {
-  float density = 0.0f;     // input value of the grid
+  float density = 0.0f;      // input value of the grid
   Vec3 extinction{0, 0, 0};  // sigma_t per colour channel, per world unit (equal channels: grey)
   Vec3 color{1, 1, 1};       // albedo (scatter) or base colour (phong)
 };
@@ -87,9 +87,9 @@ struct SparseGrid {
   struct alignas(32) Block {
     unsigned char bytes[32];
   };
-  std::string name;            // the grid's name in its file
-  std::vector<Block> nanovdb;  // the NanoVDB grid, 32-byte aligned
-  uint64_t nanovdb_bytes = 0;  // its size in bytes (<= 32 * nanovdb.size())
+  std::string name;                   // the grid's name in its file
+  std::vector<Block> nanovdb;         // the NanoVDB grid, 32-byte aligned
+  uint64_t nanovdb_bytes = 0;         // its size in bytes (<= 32 * nanovdb.size())
   int32_t active_min[3] = {0, 0, 0};  // inclusive index bounds of the active voxels
   int32_t active_max[3] = {-1, -1, -1};
   uint64_t active_voxels = 0;
@@ -103,11 +103,11 @@ struct Volume {
   std::string name;
   std::shared_ptr<const DenseGrid> grid;     // a dense grid (noise, dense, raw) ...
   std::shared_ptr<const SparseGrid> sparse;  // ... or a sparse one (vdb): exactly one is set
-  Mat4 index_to_object;                 // voxel index coordinates -> object space
-  std::vector<TransferPoint> transfer;  // sorted by density, at least 1 point
+  Mat4 index_to_object;                      // voxel index coordinates -> object space
+  std::vector<TransferPoint> transfer;       // sorted by density, at least 1 point
   VolumeShading shading = VolumeShading::Scatter;
-  float step_voxels = 0.5f;             // march step, in voxels
-  float gradient_scale = 1.0f;          // phong: normal from -grad(density)
+  float step_voxels = 0.5f;     // march step, in voxels
+  float gradient_scale = 1.0f;  // phong: normal from -grad(density)
   // How the grid was described: the JSON text of the scene file's `grid`
   // node as read, compact ({"type":"noise","seed":7,...}; a file found
   // beside the scene made absolute), so save_scene() (cdsm/scene_io.h)
@@ -144,9 +144,9 @@ struct Light {
   std::string name;
   LightType type = LightType::Spot;
   Vec3 position{0, 5, 0};
-  Vec3 direction{0, -1, 0};     // spot: cone axis
-  float outer_cone_deg = 30.0f; // spot: half-angle where light ends
-  float inner_cone_deg = 25.0f; // spot: half-angle of full intensity
+  Vec3 direction{0, -1, 0};      // spot: cone axis
+  float outer_cone_deg = 30.0f;  // spot: half-angle where light ends
+  float inner_cone_deg = 25.0f;  // spot: half-angle of full intensity
   Vec3 color{1, 1, 1};
   float intensity = 1.0f;
 };
@@ -188,9 +188,9 @@ struct Camera {
 };
 
 struct ShadowSettings {
-  float epsilon = 0.01f;        // compression error bound (DESIGN.md §2.4)
-  int32_t resolution = 512;     // DSM texels per side
-  bool filtering = true;        // bilinear lookup (thesis eq. 4.18-4.19)
+  float epsilon = 0.01f;     // compression error bound (DESIGN.md §2.4)
+  int32_t resolution = 512;  // DSM texels per side
+  bool filtering = true;     // bilinear lookup (thesis eq. 4.18-4.19)
   // Casters' own surfaces: each lookup tap stops this far short of the
   // surface's plane along its ray (hd/lights.h Receiver): world units, plus
   // bias_slope texel footprints, plus 2e-5 of the depth. Receive-only
@@ -198,15 +198,15 @@ struct ShadowSettings {
   float bias_constant = 0.0002f;
   float bias_slope = 0.05f;
   ReceiverLookup receiver = ReceiverLookup::Plane;
-  int32_t max_clusters = 1;     // m
+  int32_t max_clusters = 1;  // m
   // Baseline arrangement: > 1 replaces a spot light's map (and any clusters)
   // by that many parallel-split maps along the camera's view (Zhang et al.
   // 2006, the cascades clustering competes with); 0 = off.
   int32_t parallel_splits = 0;
-  float d0 = 0.25f;             // clustering threshold, normalized map units
+  float d0 = 0.25f;  // clustering threshold, normalized map units
   DsmLayout layout = DsmLayout::Packed;
-  int32_t fixed_layers = 32;    // fixed layout: L, node slots per texel (thesis §4.2.1)
-  int32_t chunk_nodes = 64;     // chunked layout: node slots per chunk (thesis §4.2.2)
+  int32_t fixed_layers = 32;  // fixed layout: L, node slots per texel (thesis §4.2.1)
+  int32_t chunk_nodes = 64;   // chunked layout: node slots per chunk (thesis §4.2.2)
   ShadowMethod method = ShadowMethod::Dsm;
   float method_param = 0.0f;    // ShadowMap: opacity threshold; slices / nodes count
   Vec3 ambient_light{1, 1, 1};  // i_a

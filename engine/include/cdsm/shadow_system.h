@@ -232,16 +232,16 @@ class ShadowSystem {
 
   // ---- inspection of the last update()'s maps (the editor's views) --------
   struct MapInfo {
-    int light = 0;              // light index (handle order)
-    int slot = 0;               // map within its light: cluster, cube face or split
-    int res = 0;                // texels per side
-    bool rgb = false;           // RGB nodes (a coloured caster among its members)
-    bool rebuilt = false;       // built by the last update()
-    std::vector<int> members;   // the caster objects in it (object indices, handle order)
-    Vec3 corners[8];            // its frustum: near plane, then far plane (world)
+    int light = 0;                  // light index (handle order)
+    int slot = 0;                   // map within its light: cluster, cube face or split
+    int res = 0;                    // texels per side
+    bool rgb = false;               // RGB nodes (a coloured caster among its members)
+    bool rebuilt = false;           // built by the last update()
+    std::vector<int> members;       // the caster objects in it (object indices, handle order)
+    Vec3 corners[8];                // its frustum: near plane, then far plane (world)
     float near = 0.0f, far = 0.0f;  // view-axis range of its depths
     uint64_t nodes = 0;
-    uint32_t max_nodes = 0;     // per texel
+    uint32_t max_nodes = 0;  // per texel
     uint64_t index_bytes = 0, node_bytes = 0, slack_bytes = 0;
   };
   std::vector<MapInfo> maps() const;  // cheap
@@ -267,9 +267,9 @@ class ShadowSystem {
   };
   struct TexelInspection {
     bool found = false;
-    std::string why;             // when not found
+    std::string why;  // when not found
     int map = -1, light = -1, slot = -1, tx = -1, ty = -1;
-    float depth = 0.0f;          // p's radial depth from the light
+    float depth = 0.0f;  // p's radial depth from the light
     float epsilon = 0.0f;
     bool rgb = false;
     std::vector<AlphaSample> nodes;  // the map's

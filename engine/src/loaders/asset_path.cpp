@@ -38,8 +38,10 @@ void set_warning_sink(WarningSink sink) {
 
 void warn(const std::string& text) {
   std::lock_guard<std::mutex> lock(g_sink_mutex);
-  if (g_sink) g_sink(text);
-  else std::fprintf(stderr, "cdsm: warning: %s\n", text.c_str());
+  if (g_sink)
+    g_sink(text);
+  else
+    std::fprintf(stderr, "cdsm: warning: %s\n", text.c_str());
 }
 
 std::string shared_data_dir() {

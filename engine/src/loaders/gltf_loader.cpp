@@ -38,7 +38,8 @@ Vec3 vec3_member(const tinygltf::Value& obj, const char* key, Vec3 def) {
 bool has_texture(const tinygltf::Value& ext, const char* key) { return ext.IsObject() && ext.Has(key); }
 
 std::string material_label(const tinygltf::Model& m, int i) {
-  return "material " + std::to_string(i) + (m.materials[size_t(i)].name.empty() ? "" : " '" + m.materials[size_t(i)].name + "'");
+  return "material " + std::to_string(i) +
+         (m.materials[size_t(i)].name.empty() ? "" : " '" + m.materials[size_t(i)].name + "'");
 }
 
 // glTF metallic-roughness -> this renderer's Phong constants (thesis eq.
@@ -67,9 +68,12 @@ MaterialResult convert_material(const File& f, int index, const std::string& nod
     c[i] = std::min(std::max(c[i], 0.0f), 1.0f);
   }
   r.surface.color = {c[0], c[1], c[2]};
-  if (mat.alphaMode == "BLEND") r.surface.opacity = c[3];
-  else if (mat.alphaMode == "MASK") r.surface.opacity = c[3] >= float(mat.alphaCutoff) ? 1.0f : 0.0f;
-  else r.surface.opacity = 1.0f;
+  if (mat.alphaMode == "BLEND")
+    r.surface.opacity = c[3];
+  else if (mat.alphaMode == "MASK")
+    r.surface.opacity = c[3] >= float(mat.alphaCutoff) ? 1.0f : 0.0f;
+  else
+    r.surface.opacity = 1.0f;
   const float rough = std::min(std::max(float(pbr.roughnessFactor), 0.0f), 1.0f);
   const float a = std::max(rough * rough, 0.01f);
   r.surface.shininess = std::min(std::max(2.0f / (a * a) - 2.0f, 1.0f), 256.0f);
@@ -78,7 +82,8 @@ MaterialResult convert_material(const File& f, int index, const std::string& nod
   if (pbr.baseColorTexture.index >= 0 || pbr.metallicRoughnessTexture.index >= 0 || mat.normalTexture.index >= 0 ||
       mat.occlusionTexture.index >= 0 || mat.emissiveTexture.index >= 0)
     un.add("textures", label);
-  if (mat.emissiveFactor.size() == 3 && (mat.emissiveFactor[0] > 0 || mat.emissiveFactor[1] > 0 || mat.emissiveFactor[2] > 0))
+  if (mat.emissiveFactor.size() == 3 &&
+      (mat.emissiveFactor[0] > 0 || mat.emissiveFactor[1] > 0 || mat.emissiveFactor[2] > 0))
     un.add("emission", label);
   for (const auto& [name, ext] : mat.extensions) {
     if (name == "KHR_materials_transmission") {
@@ -167,7 +172,8 @@ TriangleMesh load_gltf_mesh(const std::string& path, const std::string& node, bo
     if (nd.skin >= 0) un.add("skins (the bind pose is used)", gltf::node_label(f, ni));
     if (nd.mesh < 0) return;
     if (size_t(nd.mesh) >= f.model.meshes.size())
-      throw Error(path, "node " + gltf::node_label(f, ni) + " uses mesh " + std::to_string(nd.mesh) + ", which does not exist");
+      throw Error(
+          path, "node " + gltf::node_label(f, ni) + " uses mesh " + std::to_string(nd.mesh) + ", which does not exist");
     for (size_t p = 0; p < f.model.meshes[size_t(nd.mesh)].primitives.size(); ++p) {
       TriangleMesh prim;
       if (!gltf::read_primitive(f, nd.mesh, int(p), gltf::node_label(f, ni), un, prim)) continue;

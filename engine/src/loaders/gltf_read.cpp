@@ -235,7 +235,7 @@ std::vector<uint32_t> read_indices(const File& f, int index, size_t vertices, co
     const unsigned char* p = v.base + i * v.stride;
     uint32_t x = v.component == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE    ? uint32_t(*p)
                  : v.component == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT ? uint32_t(load<uint16_t>(p))
-                                                                          : load<uint32_t>(p);
+                                                                         : load<uint32_t>(p);
     if (x >= vertices)
       throw Error(f.path, what + ": index " + std::to_string(i) + " is " + std::to_string(x) + ", but there are " +
                               std::to_string(vertices) + " vertices");
@@ -302,10 +302,11 @@ File parse_bytes(const std::string& path, const std::vector<unsigned char>& byte
     throw Error(path, "glTF file of " + std::to_string(bytes.size()) + " bytes is larger than 4 GiB");
   if (binary) {  // the 12-byte header: magic, version, total length (little-endian)
     if (bytes.size() < 12) throw Error(path, "invalid or truncated .glb file: the 12-byte header is cut off");
-    const uint32_t version = uint32_t(bytes[4]) | uint32_t(bytes[5]) << 8 | uint32_t(bytes[6]) << 16 |
-                             uint32_t(bytes[7]) << 24;
+    const uint32_t version =
+        uint32_t(bytes[4]) | uint32_t(bytes[5]) << 8 | uint32_t(bytes[6]) << 16 | uint32_t(bytes[7]) << 24;
     if (version != 2)
-      throw Error(path, "the .glb header says version " + std::to_string(version) + "; only binary glTF 2 is supported");
+      throw Error(path,
+                  "the .glb header says version " + std::to_string(version) + "; only binary glTF 2 is supported");
   }
   try {
     if (binary)
@@ -331,7 +332,8 @@ File parse_bytes(const std::string& path, const std::vector<unsigned char>& byte
       throw Error(path, "requires the glTF extension " + ext + ", which this loader does not support");
   for (const std::string& ext : m.extensionsUsed)
     if (!kHandled.count(ext)) unsupported.add("extension " + ext, "file");
-  if (!m.animations.empty()) unsupported.add("animations (the static pose is used)", std::to_string(m.animations.size()) + " animations");
+  if (!m.animations.empty())
+    unsupported.add("animations (the static pose is used)", std::to_string(m.animations.size()) + " animations");
 
   // The node hierarchy must be a forest.
   f.parent.assign(m.nodes.size(), -1);
@@ -514,7 +516,8 @@ bool read_primitive(const File& f, int mesh, int prim, const std::string& where,
     out.indices = std::move(idx);
   }
   if (size_t bad = repair_normals(out))
-    warn(f.path + ": " + what + ": " + std::to_string(bad) + " normals are NaN, infinite or zero; recomputed from the geometry");
+    warn(f.path + ": " + what + ": " + std::to_string(bad) +
+         " normals are NaN, infinite or zero; recomputed from the geometry");
   return true;
 }
 

@@ -14,8 +14,8 @@ namespace {
 // The voxel count of a valid descriptor.
 uint64_t voxel_count(const std::string& path, const RawVolumeDesc& d) {
   if (d.nx < 1 || d.ny < 1 || d.nz < 1)
-    throw Error(path, "raw volume dimensions must be >= 1 (got " + std::to_string(d.nx) + "x" +
-                          std::to_string(d.ny) + "x" + std::to_string(d.nz) + ")");
+    throw Error(path, "raw volume dimensions must be >= 1 (got " + std::to_string(d.nx) + "x" + std::to_string(d.ny) +
+                          "x" + std::to_string(d.nz) + ")");
   const uint64_t count = uint64_t(d.nx) * uint64_t(d.ny) * uint64_t(d.nz);
   if (count > (uint64_t(1) << 31)) throw Error(path, "raw volume has more than 2^31 voxels");
   return count;
@@ -29,9 +29,8 @@ void check_size(const std::string& path, const RawVolumeDesc& d, uint64_t count,
   const uint64_t expected = d.header_bytes + count * bpv;
   if (size != expected) {
     std::string msg = "raw volume is " + std::to_string(size) + " bytes, but " + std::to_string(d.nx) + "x" +
-                      std::to_string(d.ny) + "x" + std::to_string(d.nz) + " voxels of " +
-                      std::to_string(bpv * 8) + " bits" +
-                      (d.header_bytes ? " after a " + std::to_string(d.header_bytes) + "-byte header" : "") +
+                      std::to_string(d.ny) + "x" + std::to_string(d.nz) + " voxels of " + std::to_string(bpv * 8) +
+                      " bits" + (d.header_bytes ? " after a " + std::to_string(d.header_bytes) + "-byte header" : "") +
                       " need " + std::to_string(expected);
     // Name the likely cause when the size fits the other voxel format.
     if (size == d.header_bytes + count * (3 - bpv))

@@ -41,11 +41,12 @@ int64_t read_chunk_size(std::istream& is, size_t expected, const char* codec) {
   if (!is.good()) OPENVDB_THROW(RuntimeError, std::string("stream failure reading the size of a ") + codec + " chunk");
   if (n <= 0) {
     if (n == std::numeric_limits<int64_t>::min() || uint64_t(-n) != expected)
-      OPENVDB_THROW(RuntimeError, "expected a " + std::to_string(expected) + "-byte uncompressed chunk, the file says " +
+      OPENVDB_THROW(RuntimeError, "expected a " + std::to_string(expected) +
+                                      "-byte uncompressed chunk, the file says " +
                                       std::to_string(n == std::numeric_limits<int64_t>::min() ? 0 : -n));
   } else if (uint64_t(n) > uint64_t(expected) + (uint64_t(expected) >> 3) + 4096) {
-    OPENVDB_THROW(RuntimeError, std::string("a ") + codec + " chunk of " + std::to_string(n) +
-                                    " bytes cannot hold " + std::to_string(expected) + " bytes");
+    OPENVDB_THROW(RuntimeError, std::string("a ") + codec + " chunk of " + std::to_string(n) + " bytes cannot hold " +
+                                    std::to_string(expected) + " bytes");
   }
   return n;
 }
@@ -60,8 +61,10 @@ void read_exact(std::istream& is, char* data, size_t n) {
 void bloscFromStream(std::istream& is, char* data, size_t numBytes) {
   const int64_t n = read_chunk_size(is, numBytes, "blosc");
   if (n <= 0) {
-    if (data) read_exact(is, data, numBytes);
-    else is.seekg(std::streamoff(numBytes), std::ios_base::cur);
+    if (data)
+      read_exact(is, data, numBytes);
+    else
+      is.seekg(std::streamoff(numBytes), std::ios_base::cur);
     return;
   }
   if (!data) {
@@ -75,8 +78,8 @@ void bloscFromStream(std::istream& is, char* data, size_t numBytes) {
     OPENVDB_THROW(RuntimeError, "corrupt blosc chunk header");
   blosc_cbuffer_sizes(packed.data(), &nbytes, &cbytes, &blocksize);
   if (nbytes != numBytes || cbytes != size_t(n))
-    OPENVDB_THROW(RuntimeError, "blosc chunk header says " + std::to_string(nbytes) + " bytes, expected " +
-                                    std::to_string(numBytes));
+    OPENVDB_THROW(RuntimeError,
+                  "blosc chunk header says " + std::to_string(nbytes) + " bytes, expected " + std::to_string(numBytes));
   if (blosc_decompress_ctx(packed.data(), data, numBytes, 1) != int(numBytes))
     OPENVDB_THROW(RuntimeError, "corrupt blosc chunk");
 }
@@ -84,8 +87,10 @@ void bloscFromStream(std::istream& is, char* data, size_t numBytes) {
 void unzipFromStream(std::istream& is, char* data, size_t numBytes) {
   const int64_t n = read_chunk_size(is, numBytes, "zip");
   if (n <= 0) {
-    if (data) read_exact(is, data, numBytes);
-    else is.seekg(std::streamoff(numBytes), std::ios_base::cur);
+    if (data)
+      read_exact(is, data, numBytes);
+    else
+      is.seekg(std::streamoff(numBytes), std::ios_base::cur);
     return;
   }
   if (!data) {
@@ -95,7 +100,8 @@ void unzipFromStream(std::istream& is, char* data, size_t numBytes) {
   std::vector<char> packed(static_cast<size_t>(n));
   read_exact(is, packed.data(), size_t(n));
   uLongf out = uLongf(numBytes);
-  if (uncompress(reinterpret_cast<Bytef*>(data), &out, reinterpret_cast<const Bytef*>(packed.data()), uLong(n)) != Z_OK ||
+  if (uncompress(reinterpret_cast<Bytef*>(data), &out, reinterpret_cast<const Bytef*>(packed.data()), uLong(n)) !=
+          Z_OK ||
       out != numBytes)
     OPENVDB_THROW(RuntimeError, "corrupt zip chunk");
 }
@@ -145,11 +151,11 @@ void split_index(const std::string& s, std::string& name, int& index) {
 struct VdbLayout {
   uint64_t header_end = 0;  // magic, versions, offsets flag, UUID: [0, header_end)
   struct Grid {
-    std::string name, parent;     // unique name; instance parent ("" if none)
-    uint64_t begin = 0;           // descriptor [begin, grid_pos)
-    uint64_t grid_pos = 0;        // + the compression flags (4 bytes)
-    std::string metadata;         // the checked entries, serialized
-    uint64_t rest = 0, end = 0;   // transform, topology, buffers: [rest, end)
+    std::string name, parent;    // unique name; instance parent ("" if none)
+    uint64_t begin = 0;          // descriptor [begin, grid_pos)
+    uint64_t grid_pos = 0;       // + the compression flags (4 bytes)
+    std::string metadata;        // the checked entries, serialized
+    uint64_t rest = 0, end = 0;  // transform, topology, buffers: [rest, end)
   };
   std::vector<Grid> grids;
 };
@@ -167,8 +173,9 @@ class Prologue {
     u32();  // library major, minor
     u32();
     if (u8() == 0)
-      throw Error(path_, "VDB file without grid offsets (written as a stream) is not supported; "
-                         "save it with openvdb::io::File");
+      throw Error(path_,
+                  "VDB file without grid offsets (written as a stream) is not supported; "
+                  "save it with openvdb::io::File");
     skip(36);  // UUID
     VdbLayout layout;
     layout.header_end = uint64_t(in_.tellg());
@@ -192,9 +199,10 @@ class Prologue {
       u32();  // compression flags
       metadata("metadata of grid '" + grid.name + "'", &grid.metadata);
       grid.rest = uint64_t(in_.tellg());
-      if (grid.rest > end_pos) throw Error(path_, "corrupt VDB file: the metadata of grid '" + grid.name + "' run past its end");
+      if (grid.rest > end_pos)
+        throw Error(path_, "corrupt VDB file: the metadata of grid '" + grid.name + "' run past its end");
       str("transform of grid '" + grid.name + "'");  // the map's type name
-      seek(end_pos);  // the next descriptor follows the grid
+      seek(end_pos);                                 // the next descriptor follows the grid
       grid.end = end_pos;
       layout.grids.push_back(std::move(grid));
     }
@@ -206,7 +214,8 @@ class Prologue {
     const uint64_t at = uint64_t(in_.tellg());
     if (n > size_ || at > size_ - n)
       throw Error(path_, "corrupt or truncated VDB file: " + what + " of " + std::to_string(n) + " bytes at byte " +
-                             std::to_string(at) + " runs past the end of the file (" + std::to_string(size_) + " bytes)");
+                             std::to_string(at) + " runs past the end of the file (" + std::to_string(size_) +
+                             " bytes)");
   }
   template <class T>
   T pod(const char* what) {
@@ -240,9 +249,9 @@ class Prologue {
   // types) are dropped. `keep` receives the checked entries, serialized.
   void metadata(const std::string& what, std::string* keep) {
     static const std::pair<const char*, uint32_t> kSizes[] = {
-        {"bool", 1},    {"int32", 4},   {"int64", 8},   {"float", 4},   {"double", 8},  {"vec2i", 8},
-        {"vec2s", 8},   {"vec2d", 16},  {"vec3i", 12},  {"vec3s", 12},  {"vec3d", 24},  {"vec4i", 16},
-        {"vec4s", 16},  {"vec4d", 32},  {"mat4s", 64},  {"mat4d", 128}};
+        {"bool", 1},   {"int32", 4},  {"int64", 8},  {"float", 4},  {"double", 8}, {"vec2i", 8},
+        {"vec2s", 8},  {"vec2d", 16}, {"vec3i", 12}, {"vec3s", 12}, {"vec3d", 24}, {"vec4i", 16},
+        {"vec4s", 16}, {"vec4d", 32}, {"mat4s", 64}, {"mat4d", 128}};
     const uint32_t count = u32();
     std::string entries;
     uint32_t kept = 0;
@@ -380,9 +389,8 @@ openvdb::GridBase::Ptr select_grid(const std::string& path, const openvdb::GridP
   if (matches.size() == 1)
     throw Error(path, missing + "only one grid is named '" + name + "' (use '" + name + "' or '" + name +
                           "[0]'); the file has " + list);
-  throw Error(path, missing + std::to_string(matches.size()) + " grids are named '" + name + "' (pick one as '" +
-                        name + "[0]' to '" + name + "[" + std::to_string(matches.size() - 1) + "]'); the file has " +
-                        list);
+  throw Error(path, missing + std::to_string(matches.size()) + " grids are named '" + name + "' (pick one as '" + name +
+                        "[0]' to '" + name + "[" + std::to_string(matches.size() - 1) + "]'); the file has " + list);
 }
 
 openvdb::FloatGrid::Ptr as_float_grid(const std::string& path, const openvdb::GridBase::Ptr& g) {
@@ -395,8 +403,9 @@ openvdb::FloatGrid::Ptr as_float_grid(const std::string& path, const openvdb::Gr
     f->setGridClass(d->getGridClass());
     return f;
   }
-  throw Error(path, "grid " + describe(*g) + " is not a scalar float grid; only float, half and double "
-                    "density grids are volumes");
+  throw Error(path, "grid " + describe(*g) +
+                        " is not a scalar float grid; only float, half and double "
+                        "density grids are volumes");
 }
 
 Mat4 index_to_object(const std::string& path, const std::string& grid, const openvdb::math::Transform& xf) {
@@ -430,7 +439,8 @@ VdbVolume convert_grid(const std::string& path, const openvdb::GridPtrVec& grids
   openvdb::GridBase::Ptr base = select_grid(path, grids, grid_name);
   const std::string name = base->getName();
   if (base->getGridClass() == openvdb::GRID_LEVEL_SET)
-    throw Error(path, "grid '" + name + "' is a level set (signed distances), not a density; convert it to a fog volume");
+    throw Error(path,
+                "grid '" + name + "' is a level set (signed distances), not a density; convert it to a fog volume");
   openvdb::FloatGrid::Ptr grid = as_float_grid(path, base);
   openvdb::FloatTree& tree = grid->tree();
   const Mat4 xf = index_to_object(path, name, grid->transform());

@@ -50,8 +50,7 @@ Key pack(int64_t x, int64_t y, int64_t z) {
 
 // Union of the active 8^3 leaf blocks, clipped to the active box.
 TriangleMesh leaf_hull(const SparseGrid& g, const Mat4& index_to_object) {
-  if (g.nanovdb_bytes < sizeof(nanovdb::GridData) ||
-      g.nanovdb_bytes > g.nanovdb.size() * sizeof(SparseGrid::Block))
+  if (g.nanovdb_bytes < sizeof(nanovdb::GridData) || g.nanovdb_bytes > g.nanovdb.size() * sizeof(SparseGrid::Block))
     throw Error(g.name, "sparse grid holds no NanoVDB grid");
   const auto* grid = reinterpret_cast<const nanovdb::FloatGrid*>(g.data());
   if (!grid->isValid() || grid->gridType() != nanovdb::GridType::Float)
@@ -131,8 +130,7 @@ TriangleMesh make_volume_proxy(const Volume& v, VolumeProxy kind) {
     return index_box({g.active_min[0] - 0.5f, g.active_min[1] - 0.5f, g.active_min[2] - 0.5f},
                      {g.active_max[0] + 0.5f, g.active_max[1] + 0.5f, g.active_max[2] + 0.5f}, v.index_to_object);
   }
-  if (!v.grid || v.grid->nx < 1 || v.grid->ny < 1 || v.grid->nz < 1)
-    throw Error(v.name, "volume has no grid to bound");
+  if (!v.grid || v.grid->nx < 1 || v.grid->ny < 1 || v.grid->nz < 1) throw Error(v.name, "volume has no grid to bound");
   const DenseGrid& g = *v.grid;
   return index_box({-0.5f, -0.5f, -0.5f}, {g.nx - 0.5f, g.ny - 0.5f, g.nz - 0.5f}, v.index_to_object);
 }

@@ -59,9 +59,8 @@ class PatchReader {
     for (size_t p = 0; p < f.patches.size(); ++p) {
       for (uint32_t idx : f.patches[p]) {
         if (idx >= f.points.size()) {
-          throw Error(where(patch_lines[p]), "control-point index " + std::to_string(idx + 1) +
-                                                 " out of range (" + std::to_string(point_count) +
-                                                 " points)");
+          throw Error(where(patch_lines[p]), "control-point index " + std::to_string(idx + 1) + " out of range (" +
+                                                 std::to_string(point_count) + " points)");
         }
       }
     }
@@ -112,8 +111,7 @@ class PatchReader {
 
   long read_count(const char* what) {
     const double c = read_numbers(1, what)[0];
-    if (c != std::floor(c) || c < 1.0 || c > 1e7)
-      fail(std::string(what) + " must be an integer in [1, 10^7]");
+    if (c != std::floor(c) || c < 1.0 || c > 1e7) fail(std::string(what) + " must be an integer in [1, 10^7]");
     return long(c);
   }
 
@@ -173,8 +171,7 @@ class Welder {
 
  private:
   std::array<int64_t, 3> cell(Vec3 p) const {
-    return {int64_t(std::floor(p.x / tol_)), int64_t(std::floor(p.y / tol_)),
-            int64_t(std::floor(p.z / tol_))};
+    return {int64_t(std::floor(p.x / tol_)), int64_t(std::floor(p.y / tol_)), int64_t(std::floor(p.z / tol_))};
   }
   float tol_;
   std::vector<Vec3> points_;
@@ -194,8 +191,7 @@ std::vector<Tri> tessellate(const PatchFile& f, int n, std::vector<Vec3>& positi
     for (int i = 0; i < 16; ++i) cp[i] = f.points[patch[i]];
     for (int i = 0; i <= n; ++i)
       for (int j = 0; j <= n; ++j)
-        grid[i * (n + 1) + j] =
-            welder.add(bezier_point(cp, float(i) / float(n), float(j) / float(n)));
+        grid[i * (n + 1) + j] = welder.add(bezier_point(cp, float(i) / float(n), float(j) / float(n)));
     for (int i = 0; i < n; ++i)
       for (int j = 0; j < n; ++j) {
         const uint32_t a = grid[i * (n + 1) + j], b = grid[(i + 1) * (n + 1) + j];
@@ -226,9 +222,7 @@ std::vector<Tri> remove_coincident(const std::vector<Tri>& tris) {
 
 // ---- topology ---------------------------------------------------------------
 
-uint64_t edge_key(uint32_t a, uint32_t b) {
-  return a < b ? (uint64_t(a) << 32) | b : (uint64_t(b) << 32) | a;
-}
+uint64_t edge_key(uint32_t a, uint32_t b) { return a < b ? (uint64_t(a) << 32) | b : (uint64_t(b) << 32) | a; }
 
 // For every undirected edge, the triangles using it.
 std::unordered_map<uint64_t, std::vector<uint32_t>> edge_triangles(const std::vector<Tri>& tris) {
@@ -314,14 +308,11 @@ struct Cap {
 // Sum of edge cross products (Newell's polygon normal, length = 2 * area).
 Vec3 polygon_normal(const std::vector<uint32_t>& poly, const std::vector<Vec3>& pos) {
   Vec3 n{};
-  for (size_t i = 0; i < poly.size(); ++i)
-    n += cross(pos[poly[i]], pos[poly[(i + 1) % poly.size()]]);
+  for (size_t i = 0; i < poly.size(); ++i) n += cross(pos[poly[i]], pos[poly[(i + 1) % poly.size()]]);
   return n;
 }
 
-float cross2(Vec2 o, Vec2 a, Vec2 b) {
-  return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
-}
+float cross2(Vec2 o, Vec2 a, Vec2 b) { return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x); }
 
 // Triangulates the polygon `poly` (vertex order kept in every triangle) by ear
 // clipping in its best-fit plane; when the projection has no ear left (a
@@ -359,8 +350,7 @@ Cap triangulate(std::vector<uint32_t> poly, std::vector<Vec3>& pos) {
     for (uint32_t i : poly) centre += pos[i];
     pos.push_back(centre / float(poly.size()));
     const uint32_t c = uint32_t(pos.size() - 1);
-    for (size_t i = 0; i < poly.size(); ++i)
-      cap.tris.push_back({poly[i], poly[(i + 1) % poly.size()], c});
+    for (size_t i = 0; i < poly.size(); ++i) cap.tris.push_back({poly[i], poly[(i + 1) % poly.size()], c});
   }
   return cap;
 }
@@ -397,8 +387,7 @@ TriangleMesh make_newell_mesh(const std::string& patch_file, int subdivisions) {
   std::vector<Tri> all = surface;
   for (const Cap& c : caps) all.insert(all.end(), c.tris.begin(), c.tris.end());
   const std::vector<uint32_t> component = orient_consistently(all);
-  const uint32_t components =
-      component.empty() ? 0 : *std::max_element(component.begin(), component.end()) + 1;
+  const uint32_t components = component.empty() ? 0 : *std::max_element(component.begin(), component.end()) + 1;
   std::vector<std::vector<Tri>> shells(components);
   for (size_t t = 0; t < all.size(); ++t) shells[component[t]].push_back(all[t]);
   std::vector<bool> flip(components);
@@ -413,9 +402,7 @@ TriangleMesh make_newell_mesh(const std::string& patch_file, int subdivisions) {
   TriangleMesh mesh;
   size_t begin = 0;
   for (size_t g = 0; g < group_end.size(); begin = group_end[g++]) {
-    auto face_normal = [&](const Tri& f) {
-      return cross(pos[f[1]] - pos[f[0]], pos[f[2]] - pos[f[0]]);
-    };
+    auto face_normal = [&](const Tri& f) { return cross(pos[f[1]] - pos[f[0]], pos[f[2]] - pos[f[0]]); };
     Vec3 flat{};
     for (size_t t = begin; t < group_end[g]; ++t) flat += face_normal(all[t]);
     std::unordered_map<uint32_t, uint32_t> copy;  // position index -> mesh vertex

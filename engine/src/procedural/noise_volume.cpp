@@ -38,8 +38,7 @@ float value_noise(float x, float y, float z, uint32_t seed) {
   float c[2][2];
   for (int dz = 0; dz < 2; ++dz)
     for (int dy = 0; dy < 2; ++dy)
-      c[dz][dy] =
-          lerpf(lattice(ix, iy + dy, iz + dz, seed), lattice(ix + 1, iy + dy, iz + dz, seed), tx);
+      c[dz][dy] = lerpf(lattice(ix, iy + dy, iz + dz, seed), lattice(ix + 1, iy + dy, iz + dz, seed), tx);
   return lerpf(lerpf(c[0][0], c[0][1], ty), lerpf(c[1][0], c[1][1], ty), tz);
 }
 
@@ -75,8 +74,7 @@ float plume_shape(Vec3 u, Vec3 q, float octaves, uint32_t seed) {
   const float r = std::sqrt((u.x - cx) * (u.x - cx) + (u.z - cz) * (u.z - cz));
   // Domain-warped fBm, stretched upward, gives wispy detail; fbm() is mostly
   // within +-0.4, so n is rescaled to about +-1.
-  const Vec3 warp{fbm(q + Vec3{1.7f, 0.0f, 4.2f}, 2.0f, seed + 37u),
-                  fbm(q + Vec3{8.3f, 2.8f, 0.0f}, 2.0f, seed + 41u),
+  const Vec3 warp{fbm(q + Vec3{1.7f, 0.0f, 4.2f}, 2.0f, seed + 37u), fbm(q + Vec3{8.3f, 2.8f, 0.0f}, 2.0f, seed + 41u),
                   fbm(q + Vec3{0.0f, 5.9f, 3.1f}, 2.0f, seed + 43u)};
   const Vec3 stretched{q.x, q.y * 0.6f - h * 1.5f, q.z};
   const float n = 2.5f * fbm(stretched + warp * 1.2f, octaves, seed);

@@ -71,17 +71,14 @@ TriangleMesh make_sphere(float radius, int segments, int rings) {
     const float theta = kPi * float(r) / float(rings);
     for (int s = 0; s < segments; ++s) {
       const float phi = 2.0f * kPi * float(s) / float(segments);
-      add_vertex(
-          {std::sin(theta) * std::cos(phi), std::cos(theta), -std::sin(theta) * std::sin(phi)});
+      add_vertex({std::sin(theta) * std::cos(phi), std::cos(theta), -std::sin(theta) * std::sin(phi)});
     }
   }
   add_vertex({0, -1, 0});
   const uint32_t south = uint32_t(m.positions.size() - 1);
   // Index of segment s on latitude circle r (1-based circles, s wraps around).
   auto ring = [&](int r, int s) { return uint32_t(1 + (r - 1) * segments + (s % segments)); };
-  auto tri = [&](uint32_t a, uint32_t b, uint32_t c) {
-    m.indices.insert(m.indices.end(), {a, b, c});
-  };
+  auto tri = [&](uint32_t a, uint32_t b, uint32_t c) { m.indices.insert(m.indices.end(), {a, b, c}); };
   // phi grows counter-clockwise seen from +y, so (pole, s, s+1) faces outwards at the top.
   for (int s = 0; s < segments; ++s) tri(0, ring(1, s), ring(1, s + 1));
   for (int r = 1; r + 1 < rings; ++r) {

@@ -40,14 +40,14 @@ namespace cdsm {
 
 // Hard limits of the bounded per-ray / per-texel state (DESIGN.md §2).
 // Changing them changes stack usage of every kernel.
-inline constexpr int kMaxEnclosing = 16;      // objects a ray tracks the interiors of at once (deeper
-                                              // constant media are summed: hd/segments.h EnclosingOverflow;
-                                              // a volume inside 16 volumes is left out, counted and warned)
-inline constexpr int kMaxRayObjects = 32;     // objects bracket-matched per pass (more: further passes)
-inline constexpr int kBvhStackSize = 64;      // BVH traversal stack depth
-inline constexpr int kMaxTransferPoints = 16; // transfer-function control points
-inline constexpr int kMaxLights = 8;          // lights per frame in one camera pass
-inline constexpr int kMaxMapsPerLight = 8;    // DSMs (faces or clusters) per light
+inline constexpr int kMaxEnclosing = 16;                // objects a ray tracks the interiors of at once (deeper
+                                                        // constant media are summed: hd/segments.h EnclosingOverflow;
+                                                        // a volume inside 16 volumes is left out, counted and warned)
+inline constexpr int kMaxRayObjects = 32;               // objects bracket-matched per pass (more: further passes)
+inline constexpr int kBvhStackSize = 64;                // BVH traversal stack depth
+inline constexpr int kMaxTransferPoints = 16;           // transfer-function control points
+inline constexpr int kMaxLights = 8;                    // lights per frame in one camera pass
+inline constexpr int kMaxMapsPerLight = 8;              // DSMs (faces or clusters) per light
 inline constexpr float kSaturatedAlpha = 1.0f - 1e-4f;  // a ray this opaque ends early
 inline constexpr float kCompositeStop = 0.995f;         // camera rays stop at this opacity
 

@@ -38,7 +38,7 @@ class Error : public std::runtime_error {
 
 }  // namespace cdsm
 
-#define CDSM_CHECK(condition, what)                                              \
-  do {                                                                           \
+#define CDSM_CHECK(condition, what)                                               \
+  do {                                                                            \
     if (!(condition)) ::cdsm::check_failed(#condition, __FILE__, __LINE__, what); \
   } while (0)

@@ -230,8 +230,8 @@ void main() {
   glGetNamedBufferSubData(out, 0, sizeof t, t);
   glDeleteBuffers(1, &out);
   glDeleteProgram(prog);
-  std::printf("GLSL transmittance at the lit, translucent-shadow and opaque-shadow ground points: %.4f %.4f %.4f\n", t[0],
-              t[4], t[8]);
+  std::printf("GLSL transmittance at the lit, translucent-shadow and opaque-shadow ground points: %.4f %.4f %.4f\n",
+              t[0], t[4], t[8]);
   check(std::fabs(t[0] - 1.0f) <= 1e-4f, "GLSL: the lit point sees the light");
   check(std::fabs(t[4] - kExpectedT) <= 0.02f, "GLSL: the translucent cube passes 0.49 (+- 0.02)");
   check(t[8] <= 0.02f, "GLSL: the opaque cube passes nothing");
@@ -263,8 +263,7 @@ void check_installed_files() {
     const cdsm::TriangleMesh cup = cdsm::make_newell_mesh(content + "/meshes/newell/teacup", 4);
     check(cup.triangle_count() > 0 && cdsm::is_closed(cup), "the installed teacup patches tessellate closed");
     const cdsm::Scene scene = cdsm::load_scene(content + "/scenes/teapot_omni.json");
-    std::printf("installed teapot_omni.json: %zu objects, %zu lights\n", scene.objects.size(),
-                scene.lights.size());
+    std::printf("installed teapot_omni.json: %zu objects, %zu lights\n", scene.objects.size(), scene.lights.size());
     check(!scene.objects.empty() && !scene.lights.empty(), "an installed scene loads with its installed meshes");
   } catch (const cdsm::Error& e) {
     check(false, std::string("installed content: ") + e.what());
@@ -286,7 +285,6 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     check(false, std::string("exception: ") + e.what());
   }
-  std::printf("%s (%d failure%s)\n", g_failures == 0 ? "PASSED" : "FAILED", g_failures,
-              g_failures == 1 ? "" : "s");
+  std::printf("%s (%d failure%s)\n", g_failures == 0 ? "PASSED" : "FAILED", g_failures, g_failures == 1 ? "" : "s");
   return g_failures == 0 ? 0 : 1;
 }
