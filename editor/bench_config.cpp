@@ -5,6 +5,7 @@
 
 #include "bench.h"
 #include "options.h"
+#include "cdsm/method_params.h"
 
 namespace cdsm::cli::bench {
 namespace {
@@ -45,6 +46,11 @@ int count_param(const std::string& label, size_t prefix, double lo, double hi) {
   return int(parse_number("--methods " + label, label.substr(prefix), lo, hi, true));
 }
 
+// The count N of a method written "nameN", within the method's parameter range (cdsm/tags.h).
+int method_count(const std::string& label, size_t prefix, ShadowMethod m) {
+  return count_param(label, prefix, method_param(m).lo, method_param(m).hi);
+}
+
 // The range of field `key` of the shadow settings (cdsm/fields.h).
 std::pair<double, double> settings_range(const char* key) {
   std::pair<double, double> r;
@@ -67,17 +73,19 @@ std::vector<MethodSpec> parse_methods(const std::string& list) {
       s.grey_maps = true;
     } else if (m == "sm" || m.rfind("sm:", 0) == 0) {
       s.method = ShadowMethod::ShadowMap;
-      s.param = m == "sm" ? 0.5f : float(parse_number("--methods " + m, m.substr(3), 0.0, 1.0, false));
-      if (!(s.param > 0.0f)) throw Error("--methods " + m, "the opacity threshold must be within (0, 1]");
+      const MethodParam& mp = method_param(ShadowMethod::ShadowMap);
+      s.param = m == "sm" ? mp.fallback : float(parse_number("--methods " + m, m.substr(3), mp.lo, mp.hi, false));
+      if (!(s.param > 0.0f))
+        throw Error("--methods " + m, std::string(mp.what) + " must be within (0, " + fmt(mp.hi) + "]");
     } else if (m.rfind("osm", 0) == 0 && m.size() > 3) {
       s.method = ShadowMethod::OpacitySlices;
-      s.param = float(count_param(m, 3, 1, 512));
+      s.param = float(method_count(m, 3, s.method));
     } else if (m.rfind("pssm", 0) == 0 && m.size() > 4) {
       s.method = ShadowMethod::Dsm;  // deep shadow maps in parallel-split cascades
       s.splits = count_param(m, 4, 2, settings_range("parallel_splits").second);  // up to the scene's limit
     } else if (m.rfind("avsm", 0) == 0 && m.size() > 4) {
       s.method = ShadowMethod::FixedNodes;
-      s.param = float(count_param(m, 4, 2, 512));
+      s.param = float(method_count(m, 4, s.method));
     } else {
       throw Error("--methods " + m, "unknown method (dsm, dsmgrey, sm, sm:T, osmN, avsmN, pssmN)");
     }

@@ -9,6 +9,7 @@
 #include "cdsm/config.h"
 #include "cdsm/error.h"
 #include "cdsm/fields.h"
+#include "cdsm/method_params.h"
 #include "cdsm/scene_io.h"
 
 namespace cdsm {
@@ -97,28 +98,16 @@ struct Checker {
     if (sh.parallel_splits != 0 && (sh.parallel_splits < 2 || sh.parallel_splits > kMaxMapsPerLight - 1))
       fail("/shadows/parallel_splits", "must be 0 (off) or within [2, " + std::to_string(kMaxMapsPerLight - 1) +
                                            "], got " + std::to_string(sh.parallel_splits));
+    // The method's parameter (cdsm/tags.h kMethodParams); 0 is its default.
     const float p = sh.method_param;
-    switch (sh.method) {
-      case ShadowMethod::ShadowMap:
-        if (!(p >= 0 && p <= 1))
-          fail("/shadows/method_param",
-               "shadow_map: the opacity threshold must be within (0, 1] (0: default 0.5), got " + format_number(p));
-        break;
-      case ShadowMethod::OpacitySlices:
-        if (!(p == 0 || (p >= 1 && p <= 512 && p == std::floor(p))))
-          fail("/shadows/method_param",
-               "opacity_slices: the slice count must be an integer within [1, 512] (0: default 32), got " +
-                   format_number(p));
-        break;
-      case ShadowMethod::FixedNodes:
-        if (!(p == 0 || (p >= 2 && p <= 512 && p == std::floor(p))))
-          fail(
-              "/shadows/method_param",
-              "fixed_nodes: the node count must be an integer within [2, 512] (0: default 8), got " + format_number(p));
-        break;
-      default:
-        if (!std::isfinite(p)) fail("/shadows/method_param", "has a NaN or infinite value");
-    }
+    const MethodParam& mp =
+        uint32_t(sh.method) < tag_count<ShadowMethod>() ? method_param(sh.method) : kMethodParams[0];
+    if (mp.what && !(p == 0 || (p >= mp.lo && p <= mp.hi && (!mp.integer || p == std::floor(p)))))
+      fail("/shadows/method_param", std::string(tag_name(sh.method)) + ": " + mp.what + " must be " +
+                                        (mp.integer ? "an integer " : "") + "within [" + format_number(mp.lo) + ", " +
+                                        format_number(mp.hi) + "] (0: default " + format_number(mp.fallback) +
+                                        "), got " + format_number(p));
+    if (!mp.what && !std::isfinite(p)) fail("/shadows/method_param", "has a NaN or infinite value");
     fields(sh, "/shadows");
   }
 

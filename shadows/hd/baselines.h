@@ -19,16 +19,17 @@
 // The benchmark reports them as grey-only (docs/bench/).
 #pragma once
 
+#include "cdsm/method_params.h"
 #include "hd/compress.h"
 #include "hd/segments.h"
 #include "hd/view.h"
 
 namespace cdsm {
 
-// Defaults when ShadowSettings::method_param is 0.
-inline constexpr float kDefaultOpacityThreshold = 0.5f;
-inline constexpr int kDefaultOpacitySlices = 32;
-inline constexpr int kDefaultFixedNodes = 8;
+// Defaults when ShadowSettings::method_param is 0 (cdsm/tags.h kMethodParams).
+inline constexpr float kDefaultOpacityThreshold = kMethodParams[uint32_t(ShadowMethod::ShadowMap)].fallback;
+inline constexpr int kDefaultOpacitySlices = int(kMethodParams[uint32_t(ShadowMethod::OpacitySlices)].fallback);
+inline constexpr int kDefaultFixedNodes = int(kMethodParams[uint32_t(ShadowMethod::FixedNodes)].fallback);
 
 // Chord error of the pieces a constant medium is cut into for the baselines
 // (hd/light_pass.h sample_constant_medium: spacing grows with saturation).

@@ -12,6 +12,7 @@
 
 #include "cdsm/error.h"
 #include "cdsm/fields.h"
+#include "cdsm/method_params.h"
 #include "cdsm/procedural.h"
 #include "cdsm/scene_io.h"
 #include "json_reader.h"
@@ -155,6 +156,40 @@ TEST(Fields, EveryFieldOfEveryTableIsWrittenReadAndRangeChecked) {
   base.objects.push_back(box);
   check_table<Volume>(
       base, [](Scene& s) -> Volume& { return s.volumes[0]; }, "/volumes/0");
+}
+
+}  // namespace
+}  // namespace cdsm
+
+namespace cdsm {
+namespace {
+
+// Each baseline's parameter is checked against its row of kMethodParams
+// (cdsm/tags.h): its ends and 0 (the default) accepted, just past them and
+// a fraction of an integer parameter refused, naming the method and range.
+TEST(Fields, MethodParametersAreCheckedAgainstTheirTable) {
+  Scene s = cdsm_test::empty_scene("params");
+  s.lights.push_back(cdsm_test::spot_light({0, 5, 0}, {0, -1, 0}, 30, 25));
+  for (ShadowMethod m : {ShadowMethod::ShadowMap, ShadowMethod::OpacitySlices, ShadowMethod::FixedNodes}) {
+    const MethodParam& mp = method_param(m);
+    SCOPED_TRACE(tag_name(m));
+    s.shadows.method = m;
+    for (float ok : {0.0f, mp.hi, mp.integer ? mp.lo : 0.25f}) {
+      s.shadows.method_param = ok;
+      EXPECT_NO_THROW(validate_scene(s)) << ok;
+    }
+    for (float bad : {mp.hi + 1.0f, mp.integer ? mp.lo + 0.5f : -0.25f}) {
+      s.shadows.method_param = bad;
+      try {
+        validate_scene(s);
+        ADD_FAILURE() << bad << " accepted";
+      } catch (const Error& e) {
+        const std::string w = e.what();
+        EXPECT_NE(w.find(std::string(tag_name(m)) + ": " + mp.what), std::string::npos) << w;
+        EXPECT_NE(w.find("[" + format_number(mp.lo) + ", " + format_number(mp.hi) + "]"), std::string::npos) << w;
+      }
+    }
+  }
 }
 
 }  // namespace
