@@ -596,6 +596,29 @@ TEST(ShadowSystem, BadEditsAreRefusedByNameAndTheStateSurvives) {
   }
 }
 
+// An engine's empty level: update() on a system with nothing registered is
+// valid and builds nothing; removing everything frees every map.
+TEST(ShadowSystem, AnEmptySystemIsAFreeNoOp) {
+  ShadowSystem sys;
+  FrameStats st;
+  EXPECT_NO_THROW(sys.update(&st));
+  EXPECT_EQ(st.maps_rebuilt, 0u);
+  EXPECT_EQ(st.update.full_compiles, 0u);
+  EXPECT_TRUE(internals(sys).frame.maps.empty());
+  add_scene(sys, shipped("default", 64, 48, 32));
+  sys.update(&st);
+  const uint32_t built = st.maps_rebuilt;
+  ASSERT_GT(built, 0u);
+  for (const LightHandle& l : sys.lights()) sys.remove_light(l);
+  for (const ObjectHandle& o : sys.objects()) sys.remove_object(o);
+  sys.update(&st);
+  EXPECT_EQ(st.maps_rebuilt, 0u);
+  EXPECT_EQ(st.update.maps_freed, built);
+  EXPECT_TRUE(internals(sys).frame.maps.empty());
+  sys.update(&st);
+  EXPECT_EQ(st.update.maps_freed, 0u);
+}
+
 // Handles are slots with generations (engine/src/slot_map.h): a removed
 // thing's handle is refused as removed, also after its slot is reused by a
 // new thing; a value never given out is refused as foreign; the things

@@ -24,6 +24,8 @@
 //                              | upload; the maps whose casters change
 //   add / edit / remove volume | that volume's grid (O(its voxels)), the maps
 //                              | containing its object
+//   nothing registered (or     | nothing: an empty system is valid; removing
+//   everything removed)        | everything frees every map
 //
 // Content identity is taken when content is given: every object carries a
 // generation counter bumped by each edit of it; meshes and grids are held
