@@ -229,7 +229,8 @@ void MapBuffers::bind(GLuint program) const {
   }
   if (!missing.empty())
     throw Error(where, "lacks the storage blocks " + missing +
-                           " of cdsm.glsl: include content/shaders/cdsm.glsl and call cdsm_transmittance or "
+                           " of cdsm.glsl: include cdsm.glsl (cdsm::glsl_include(), or share/cdsm/shaders/cdsm.glsl) "
+                           "and call cdsm_transmittance or "
                            "cdsm_surface_transmittance in the program (unused blocks are removed by the compiler)");
   for (int a = 0; a < kMapBlocks; ++a)
     for (int b = a + 1; b < kMapBlocks; ++b)

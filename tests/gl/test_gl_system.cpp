@@ -325,6 +325,37 @@ TEST_F(GlSystem, AnEmptySystemUpdatesAndPublishesNoMaps) {
   EXPECT_EQ(error_of([&] { sys.update(&st); }), "no error") << "an empty level is valid";
   EXPECT_EQ(st.maps_rebuilt, 0u);
   EXPECT_NE(sys.gl_buffers().frame, 0u) << "the frame block exists (no lights, no maps) for shaders to read";
+  // A shader binds and reads the empty frame: no lights, and a light index
+  // outside them answers cdsm.glsl's magenta.
+  const std::string src = "#version 450\nlayout(local_size_x = 1) in;\n" + glsl_include() +
+                          "layout(std430, binding = 0) buffer B { vec4 x[]; };\n"
+                          "void main() { x[0] = vec4(cdsm_transmittance(vec3(0.0), 0), float(cdsm_light_count())); }\n";
+  const char* t = src.c_str();
+  const GLuint sh = glCreateShader(GL_COMPUTE_SHADER);
+  glShaderSource(sh, 1, &t, nullptr);
+  glCompileShader(sh);
+  const GLuint program = glCreateProgram();
+  glAttachShader(program, sh);
+  glLinkProgram(program);
+  glDeleteShader(sh);
+  EXPECT_EQ(error_of([&] { sys.bind_gl(program); }), "no error");
+  GLuint out = 0;
+  glCreateBuffers(1, &out);
+  const float init[4] = {-1, -1, -1, -1};
+  glNamedBufferData(out, sizeof init, init, GL_DYNAMIC_READ);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, out);
+  glUseProgram(program);
+  glDispatchCompute(1, 1, 1);
+  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+  float got[4] = {0, 0, 0, 0};
+  glGetNamedBufferSubData(out, 0, sizeof got, got);
+  glUseProgram(0);
+  EXPECT_EQ(got[3], 0.0f) << "cdsm_light_count()";
+  EXPECT_EQ(got[0], 1.0f);
+  EXPECT_EQ(got[1], 0.0f);
+  EXPECT_EQ(got[2], 1.0f);
+  glDeleteBuffers(1, &out);
+  glDeleteProgram(program);
 }
 
 TEST_F(GlSystem, AnotherOrNoContextCurrentIsAnError) {
@@ -433,6 +464,7 @@ TEST_F(GlSystem, ProgramsWithoutTheBlocksAreRefused) {
   const GLuint plain = program("layout(std430, binding = 0) buffer B { float x[]; };\nvoid main() { x[0] = 1.0; }\n");
   std::string e = error_of([&] { sys.bind_gl(plain); });
   EXPECT_NE(e.find("lacks the storage blocks CdsmFrame, CdsmTexels"), std::string::npos) << e;
+  EXPECT_NE(e.find("share/cdsm/shaders/cdsm.glsl"), std::string::npos) << "names the installed file: " << e;
   EXPECT_NE(error_of([&] { sys.bind_gl(0); }).find("is not a GL program"), std::string::npos);
   EXPECT_NE(error_of([&] { sys.bind_gl(424242); }).find("is not a GL program"), std::string::npos);
   // The good case: a program that calls the lookup binds at its own base.

@@ -4,7 +4,7 @@
 // reader and writer, the range checks, the comparison that decides whether
 // an edit reached the shadow system, the map-key hash and the editor's
 // "what changed" all walk the table (for_each_field); a field added to the
-// struct and its table reaches every one of them (tests/unit/test_fields.cpp).
+// struct and its table reaches every one of them (the library tests that).
 // The default is the struct's own member initializer (S{}.*member).
 #pragma once
 
@@ -135,8 +135,8 @@ struct FieldTable<ShadowSettings> {
             "MiB a frame may use (0: half the physical memory)"));
 };
 
-// Rules a range cannot say stay beside the tables, in the validator
-// (scene_validate.cpp) and reader (scene_json.cpp): a spot's nonzero
+// Rules a range cannot say stay beside the tables, in the scene validator
+// and reader: a spot's nonzero
 // direction, 0 < outer_cone and inner_cone <= outer_cone; 0 < near < far,
 // 0 < fov_y < 179, target != position; the reader's `target` for a light.
 template <>
@@ -174,7 +174,7 @@ struct FieldTable<SurfaceMaterial> {
 // The plain fields of a volume and an object; what a range cannot say (a
 // volume's grid, placement and transfer function; an object's mesh,
 // transform, material and interior) is read, written and checked beside
-// them (scene_json.cpp, scene_write.cpp, scene_validate.cpp).
+// them by the scene reader, writer and validator.
 template <>
 struct FieldTable<Volume> {
   using S = Volume;

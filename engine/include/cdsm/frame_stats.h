@@ -14,7 +14,7 @@
 namespace cdsm {
 
 // Time inside one launch name of a backend's kernels (the cuda backend:
-// CUDA events around every launch; launch names as in docs/gpu.md).
+// CUDA events around every launch; the CPU threads: the wall clock).
 struct KernelTime {
   std::string name;  // "light pass: write", "camera pass", ...
   double ms = 0.0;

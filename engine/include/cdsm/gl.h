@@ -1,4 +1,4 @@
-// OpenGL integration (DESIGN.md §8): contexts cdsm can make for an
+// OpenGL integration: contexts cdsm can make for an
 // application that has none (headless through EGL, or a GLFW window), the
 // description of a mesh that lives in the application's own GL buffers, and
 // the GLSL include. A shadow system created with
@@ -93,7 +93,7 @@ struct GlMapBuffers {
   DsmLayout layout = DsmLayout::Packed;
 };
 
-// The text of content/shaders/cdsm.glsl as this library was built with it
+// The text of cdsm.glsl (installed as share/cdsm/shaders/cdsm.glsl) as this library was built with it
 // (embedded), to paste after the application shader's #version line.
 // Throws cdsm::Error in a build without OpenGL.
 std::string glsl_include();

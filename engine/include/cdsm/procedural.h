@@ -1,4 +1,4 @@
-// Built-in content, so the default scene needs no files (DESIGN.md §6).
+// Built-in content, so the default scene needs no files.
 // Every mesh generator returns a closed, consistently wound (CCW outward)
 // mesh with per-vertex normals, unless stated otherwise.
 #pragma once
@@ -26,7 +26,7 @@ TriangleMesh make_quad(float size_x, float size_z);
 
 // Newell's teapot or teacup, tessellated from a Bezier patch file (format:
 // patch count, 16 one-based control-point indices per patch, point count,
-// "x,y,z" per line; content/meshes/newell/ holds both), with `subdivisions`
+// "x,y,z" per line; share/cdsm/meshes/newell/ holds both), with `subdivisions`
 // segments per patch edge, welded and closed (degenerate pole triangles
 // dropped, open rims capped) so is_closed() holds. The up axis is detected
 // (the teapot file has z up, the teacup y up); the
@@ -48,8 +48,9 @@ struct NoiseVolumeParams {
 // the grid border (so the proxy box bounds it), background 0.
 std::shared_ptr<DenseGrid> make_noise_volume(const NoiseVolumeParams& params);
 
-// The directory of the project's content/ (scenes, meshes, shaders):
-// $CDSM_CONTENT_DIR if set, else the one this build was configured from.
+// The directory of cdsm's content (scenes/, meshes/, shaders/):
+// $CDSM_CONTENT_DIR if set, else the source tree this library was built
+// from while it exists, else the installed share/cdsm.
 std::string content_dir();
 
 }  // namespace cdsm

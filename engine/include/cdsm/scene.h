@@ -36,7 +36,7 @@ struct TriangleMesh {
 // colours existed); a clear tinted glass is opacity 0 with f its tint, and
 // passes f. A surface that passes everything (opacity 0, f white: a volume's
 // proxy) is invisible to the camera, the maps and the reference; a tinted
-// one of opacity 0 is not. glTF (engine/src/loaders/gltf_loader.cpp):
+// one of opacity 0 is not. glTF (the scene reader's gltf meshes):
 // alphaMode BLEND gives the coverage a = baseColorFactor alpha (OPAQUE: 1);
 // KHR_materials_transmission t makes a fraction t of the covered part pass,
 // tinted by the base colour c: opacity = a (1 - t) and
@@ -188,7 +188,7 @@ struct Camera {
 };
 
 struct ShadowSettings {
-  float epsilon = 0.01f;     // compression error bound (DESIGN.md §2.4)
+  float epsilon = 0.01f;     // compression error bound of the visibility functions
   int32_t resolution = 512;  // DSM texels per side
   bool filtering = true;     // bilinear lookup (thesis eq. 4.18-4.19)
   // Casters' own surfaces: each lookup tap stops this far short of the

@@ -1,4 +1,4 @@
-// Scene files: JSON (see content/scenes/*.json and the README for fields).
+// Scene files: JSON (examples in share/cdsm/scenes/*.json; the README lists the fields).
 #pragma once
 
 #include <string>

@@ -1,6 +1,6 @@
 // The persistent shadow system: a long-lived object that holds a compiled
 // scene and its deep shadow maps across frames, so a frame costs only what
-// changed (DESIGN.md §8, STYLE.md 13). Objects, volumes and lights are
+// changed. Objects, volumes and lights are
 // added, edited and removed through handles that stay valid while others
 // come and go; each edit marks exactly what it invalidates, and update()
 // recompiles, re-uploads and rebuilds only that:
@@ -45,7 +45,7 @@
 // calling thread and keeps working on that context: fragment lists are
 // rasterized there, and after each update() every map of the frame lives
 // in GL shader storage buffers that the application's shaders read through
-// content/shaders/cdsm.glsl (bind_gl()). Rules and costs of that mode:
+// cdsm.glsl (share/cdsm/shaders/cdsm.glsl, or glsl_include(); bind_gl()). Rules and costs of that mode:
 //   - update(), render(), read_gl_mesh(), bind_gl() and the destructor need
 //     that context current on the calling thread; another one current (or
 //     none: the context destroyed) is a cdsm::Error naming both, never a
@@ -55,7 +55,7 @@
 //     scissor box and test, polygon mode, colour mask, GL_DEPTH_CLAMP,
 //     GL_CLIP_DISTANCE0, depth test, face culling, blending, rasterizer
 //     discard, multisampling, the generic and indexed 0..7 shader storage
-//     bindings; engine/gl/state_guard.h). bind_gl() changes exactly the
+//     bindings). bind_gl() changes exactly the
 //     seven indexed shader storage bindings the program declares for
 //     cdsm.glsl. GL errors the application left pending are cleared on entry
 //     and reported in FrameStats::warnings.
@@ -261,7 +261,7 @@ class ShadowSystem {
   // node, the map's own segments and march steps). Costs one light ray's
   // fragments and walk. With `object` (its index, handle order) and the
   // unit normal `plane` of the surface p lies on, also what that surface
-  // reads from the texel (its own step left out, DESIGN.md §8).
+  // reads from the texel (its own step left out).
   struct AlphaSample {
     float z;          // radial depth from the light
     Vec3 alpha;       // per channel (grey maps: equal)
@@ -301,7 +301,7 @@ class ShadowSystem {
   std::vector<ObjectHandle> objects() const;
   std::vector<LightHandle> lights() const;
 
-  struct Impl;  // engine/src/shadow_system_impl.h
+  struct Impl;  // the library's own
 
  private:
   friend struct SystemAccess;  // the research harness and the library's tests

@@ -2,6 +2,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <system_error>
 
 #include "cdsm/procedural.h"
 
@@ -130,7 +133,12 @@ std::shared_ptr<DenseGrid> make_noise_volume(const NoiseVolumeParams& p) {
 std::string content_dir() {
   const char* env = std::getenv("CDSM_CONTENT_DIR");
   if (env != nullptr && env[0] != '\0') return env;
-  return CDSM_CONTENT_DIR_DEFAULT;
+  // The tree this library was built from while it is there (the build
+  // tree's programs and tests), else where the package installs content.
+  std::error_code ec;
+  if (std::filesystem::is_directory(std::string(CDSM_CONTENT_DIR_DEFAULT) + "/scenes", ec))
+    return CDSM_CONTENT_DIR_DEFAULT;
+  return CDSM_INSTALLED_CONTENT_DIR;
 }
 
 }  // namespace cdsm

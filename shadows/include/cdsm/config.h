@@ -1,4 +1,4 @@
-// Portability macros shared by every CDSM_HD header (STYLE.md 2).
+// Portability macros shared by every CDSM_HD header.
 // Under nvcc, CDSM_HD marks functions callable on host and device; under a
 // plain C++ compiler every macro here is empty, so these headers build
 // anywhere.
@@ -20,7 +20,7 @@
 // A rarely taken path kept out of line (a buffer's overflow handling): one
 // copy per program instead of one per call site. Under nvcc every caller
 // would otherwise inline it, and ptxas's time grows faster than the size
-// of the kernels it compiles (docs/gpu.md, "Compile time").
+// of the kernels it compiles.
 #if defined(__CUDACC__)
 #define CDSM_NOINLINE __noinline__
 #elif defined(__GNUC__)
@@ -32,13 +32,13 @@
 // Invariant check usable inside CDSM_HD code: assert() on both sides.
 #define CDSM_HD_ASSERT(cond) assert(cond)
 
-// The body of a parallel_for (shadows/exec/): a lambda that captures by
+// The body of a parallel_for (the executors): a lambda that captures by
 // value and runs on CPU threads or in a CUDA launch (nvcc: --extended-lambda).
 #define CDSM_LAMBDA(...) [=] CDSM_HD(__VA_ARGS__)
 
 namespace cdsm {
 
-// Hard limits of the bounded per-ray / per-texel state (DESIGN.md §2).
+// Hard limits of the bounded per-ray / per-texel state.
 // Changing them changes stack usage of every kernel.
 inline constexpr int kMaxEnclosing = 16;                // objects a ray tracks the interiors of at once (deeper
                                                         // constant media are summed: hd/segments.h EnclosingOverflow;

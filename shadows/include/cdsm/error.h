@@ -1,5 +1,5 @@
 // Errors of the public API. Bad input (a scene file, an asset, an option)
-// raises cdsm::Error naming the file and the place in it (STYLE.md 8).
+// raises cdsm::Error naming the file and the place in it.
 #pragma once
 
 #include <cstdio>

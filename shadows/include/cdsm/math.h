@@ -1,5 +1,6 @@
-// Small POD vector/matrix math for CDSM_HD code (no GLM in device code,
-// DESIGN.md §5). Column vectors; Mat4 is row-major: m[row][col].
+// Small POD vector/matrix math for CDSM_HD code (no GLM in device code).
+// Column vectors; Mat4 is row-major: m[row][col] (GL and GLM store
+// column-major: transpose when handing a Mat4 to either).
 #pragma once
 
 #include <cmath>

@@ -1,8 +1,8 @@
 // The tags a scene, the kernels (CPU threads and CUDA) and the GL storage
 // share: each one enum, 32 bits wide so it sits in the std430 and device
-// structs as it is. content/shaders/cdsm.glsl names the same values
-// (CDSM_LIGHT_*, CDSM_LAYOUT_*, CDSM_RECEIVER_*, CDSM_MAPS_*);
-// tests/unit/test_tags.cpp reads that file and checks they agree.
+// structs as it is. cdsm.glsl (share/cdsm/shaders/) names the same values
+// (CDSM_LIGHT_*, CDSM_LAYOUT_*, CDSM_RECEIVER_*, CDSM_MAPS_*); the
+// library's tests check they agree.
 #pragma once
 
 #include <cstdint>

@@ -1,0 +1,27 @@
+# ctest public_headers_name_installed_files: the installed headers (the two
+# include/cdsm folders) name no file the package does not install (the
+# design notes, sources, tests, scripts, the source tree's content/ folder).
+# Run with -DSRC=<root>.
+file(GLOB headers ${SRC}/engine/include/cdsm/*.h ${SRC}/shadows/include/cdsm/*.h)
+set(bad "")
+set(pattern "(DESIGN|STYLE)\\.md|[ (`'\"](engine|shadows|tests|docs|scripts|editor|cuda|content)/|[A-Za-z_]+\\.(cpp|cu|cuh)([^A-Za-z]|$)")
+foreach(h IN LISTS headers)
+  file(STRINGS ${h} lines)
+  set(n 0)
+  foreach(line IN LISTS lines)
+    math(EXPR n "${n} + 1")
+    if(line MATCHES "^#include")
+      continue()
+    endif()
+    if(line MATCHES "${pattern}")
+      file(RELATIVE_PATH rel ${SRC} ${h})
+      list(APPEND bad "${rel}:${n}: ${line}")
+    endif()
+  endforeach()
+endforeach()
+if(bad)
+  list(JOIN bad "\n  " listed)
+  message(FATAL_ERROR "installed headers name files that are not installed:\n  ${listed}")
+endif()
+list(LENGTH headers count)
+message(STATUS "${count} installed headers name only installed files")
