@@ -262,18 +262,16 @@ TEST_F(GlSystem, MeshFromApplicationBuffersEqualsArrays) {
   glCreateBuffers(1, &ib);
   glNamedBufferStorage(vb, GLsizeiptr(vbo.size()), vbo.data(), 0);
   glNamedBufferStorage(ib, GLsizeiptr(ibo.size() * 2), ibo.data(), 0);
-  GlMeshSource src;
-  src.vertex_buffer = vb;
-  src.vertex_offset = 64;
-  src.vertex_stride = stride;
-  src.vertex_count = uint32_t(mesh->positions.size());
-  src.normal_buffer = vb;
-  src.normal_offset = 64 + 12;
-  src.normal_stride = stride;
-  src.index_buffer = ib;
-  src.index_offset = 16;
-  src.index_type = GL_UNSIGNED_SHORT;
-  src.index_count = uint32_t(mesh->indices.size());
+  // The named form, with counts as GL takes them (GLsizei).
+  const GLsizei vertex_count = GLsizei(mesh->positions.size()), index_count = GLsizei(mesh->indices.size());
+  const GlMeshSource src = GlMeshSource::indexed(vb, stride, vertex_count, ib, GL_UNSIGNED_SHORT, index_count)
+                               .positions_at(64)
+                               .indices_at(16)
+                               .normals(vb, 64 + 12, stride);
+  EXPECT_EQ(src.vertex_count, uint32_t(mesh->positions.size()));
+  EXPECT_EQ(src.index_count, uint32_t(mesh->indices.size()));
+  EXPECT_EQ(src.normal_stride, stride);
+  EXPECT_THROW(GlMeshSource::indexed(vb, stride, -3, ib, GL_UNSIGNED_SHORT, index_count), Error);
 
   auto build = [&](bool from_gl, FrameStats& st) {
     ShadowSystem sys(app_options());

@@ -61,6 +61,33 @@ if(LDD)
   endif()
 endif()
 
+# 2b. The README's library code (issue 33): every cpp block, extracted by
+#     scripts/readme_snippets.py, compiles against the installed headers
+#     with this build's compiler and with clang++ (-Werror=narrowing).
+find_program(PYTHON3 python3)
+find_program(CLANGXX NAMES clang++-14 clang++)
+if(NOT PYTHON3)
+  message(FATAL_ERROR "package_consumer: python3 is needed to extract the README's code")
+endif()
+step("extract the README's code" snippets_out "${PYTHON3}" "${SOURCE_DIR}/scripts/readme_snippets.py"
+     "${SOURCE_DIR}/README.md" "${WORK_DIR}/readme")
+string(STRIP "${snippets_out}" snippets_out)
+string(REPLACE "\n" ";" snippets "${snippets_out}")
+set(compilers "${CXX_COMPILER}")
+if(NOT CXX_COMPILER)
+  set(compilers c++)
+endif()
+if(CLANGXX)
+  list(APPEND compilers "${CLANGXX}")
+endif()
+foreach(cxx IN LISTS compilers)
+  foreach(snippet IN LISTS snippets)
+    get_filename_component(name "${snippet}" NAME)
+    step("README ${name} with ${cxx}" ignored "${cxx}" -std=c++17 -Werror=narrowing -fsyntax-only
+         "-I${prefix}/include" "${snippet}")
+  endforeach()
+endforeach()
+
 # 3. Configure the consumer against the prefix alone (no package registry),
 #    with this build's generator and compiler.
 if(EXPECT_GLSL STREQUAL "AUTO")

@@ -13,6 +13,7 @@
 #include <memory>
 #include <string>
 
+#include "cdsm/error.h"
 #include "cdsm/tags.h"
 
 namespace cdsm {
@@ -69,6 +70,48 @@ struct GlMeshSource {
   uint32_t normal_buffer = 0;    // optional shading normals, 3 floats per vertex; 0: none
   uint64_t normal_offset = 0;
   uint32_t normal_stride = 0;  // 0: tightly packed
+
+  // Named construction, counts as GL gives them (GLsizei converts without
+  // narrowing; a negative or too large count is a cdsm::Error):
+  //   auto src = cdsm::GlMeshSource::indexed(vbo, 24, vertex_count, ibo, GL_UNSIGNED_INT, index_count)
+  //                  .positions_at(0)
+  //                  .normals(vbo, 12, 24);  // interleaved: normal after position
+  static GlMeshSource indexed(uint32_t vertex_buffer, int64_t vertex_stride, int64_t vertex_count,
+                              uint32_t index_buffer, uint32_t index_type, int64_t index_count) {
+    GlMeshSource s;
+    s.vertex_buffer = vertex_buffer;
+    s.vertex_stride = count32(vertex_stride, "vertex_stride");
+    s.vertex_count = count32(vertex_count, "vertex_count");
+    s.index_buffer = index_buffer;
+    s.index_type = index_type;
+    s.index_count = count32(index_count, "index_count");
+    return s;
+  }
+  // Triangles as consecutive vertex triples (no index buffer).
+  static GlMeshSource unindexed(uint32_t vertex_buffer, int64_t vertex_stride, int64_t vertex_count) {
+    return indexed(vertex_buffer, vertex_stride, vertex_count, 0, 0x1405, 0);
+  }
+  GlMeshSource& positions_at(uint64_t byte_offset) {
+    vertex_offset = byte_offset;
+    return *this;
+  }
+  GlMeshSource& indices_at(uint64_t byte_offset) {
+    index_offset = byte_offset;
+    return *this;
+  }
+  GlMeshSource& normals(uint32_t buffer, uint64_t byte_offset, int64_t stride) {
+    normal_buffer = buffer;
+    normal_offset = byte_offset;
+    normal_stride = count32(stride, "normal_stride");
+    return *this;
+  }
+
+ private:
+  static uint32_t count32(int64_t v, const char* what) {
+    if (v < 0 || v > int64_t(0xffffffffu))
+      throw Error("GlMeshSource", std::string(what) + " must be within [0, 2^32 - 1], got " + std::to_string(v));
+    return uint32_t(v);
+  }
 };
 
 // The GL buffer names of a frame's maps after ShadowSystem::update(), one

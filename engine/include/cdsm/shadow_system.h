@@ -56,14 +56,14 @@
 //     GL_CLIP_DISTANCE0, depth test, face culling, blending, rasterizer
 //     discard, multisampling, the generic and indexed 0..7 shader storage
 //     bindings). bind_gl() changes exactly the
-//     seven indexed shader storage bindings the program declares for
+//     nine indexed shader storage bindings the program declares for
 //     cdsm.glsl. GL errors the application left pending are cleared on entry
 //     and reported in FrameStats::warnings.
 //   - Per frame: update() uploads only what changed — the triangles of
 //     moved objects, the nodes of maps built this frame (appended to the
 //     buffers), the frame block when lights or map headers changed; a frame
 //     with no change uploads nothing (FrameStats::update.gl_map_upload_bytes).
-//     bind_gl() is cheap (seven binds, a few queries); call it whenever the
+//     bind_gl() is cheap (nine binds, a few queries); call it whenever the
 //     program is used after an update().
 //   - Application buffers are read back once, in read_gl_mesh(), never per
 //     frame (FrameStats::update.gl_readback_bytes of the next update()).
