@@ -143,3 +143,22 @@ message("${run_out}")
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "package_consumer: cdsm_consumer failed (exit ${rc})")
 endif()
+
+# 7. The minimal engine sample (engine/examples/minimal): its own EGL
+#    context, buffers and shader against the installed package; it exits
+#    non-zero unless the ground under the translucent box reads 0.25 and
+#    beside it 1.
+set(minimal_build "${WORK_DIR}/minimal-build")
+set(minimal_args -S "${SOURCE_DIR}/engine/examples/minimal" -B "${minimal_build}" -G "${GENERATOR}"
+    "-DCMAKE_PREFIX_PATH=${prefix}" -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF -DCMAKE_FIND_USE_SYSTEM_PACKAGE_REGISTRY=OFF)
+if(MAKE_PROGRAM)
+  list(APPEND minimal_args "-DCMAKE_MAKE_PROGRAM=${MAKE_PROGRAM}")
+endif()
+if(CXX_COMPILER)
+  list(APPEND minimal_args "-DCMAKE_CXX_COMPILER=${CXX_COMPILER}")
+endif()
+step("configure the minimal sample" minimal_configure ${CMAKE_COMMAND} ${minimal_args})
+step("build the minimal sample" minimal_build_out ${CMAKE_COMMAND} --build "${minimal_build}" ${config_args})
+file(GLOB_RECURSE minimal_exe LIST_DIRECTORIES false "${minimal_build}/cdsm_minimal")
+step("run the minimal sample" minimal_out "${minimal_exe}")
+message("${minimal_out}")
