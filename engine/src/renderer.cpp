@@ -13,6 +13,7 @@
 
 #include "cdsm/error.h"
 #include "cdsm/scene_io.h"
+#include "hashing.h"
 #include "cdsm/shadow_system.h"
 #include "reference/lookup_recorder.h"
 #include "memory_budget.h"
@@ -24,15 +25,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
-
-uint32_t hash32(uint32_t x) {
-  x ^= x >> 16;
-  x *= 0x7feb352dU;
-  x ^= x >> 15;
-  x *= 0x846ca68bU;
-  x ^= x >> 16;
-  return x;
-}
 
 // One compared lookup: its map, resolution and total error, weight, class.
 struct PointError {
@@ -189,7 +181,7 @@ struct Renderer::Impl {
       WalkStats ws;
       std::vector<Fragment> frags;
       for (int cx = 0; cx < gx; ++cx) {
-        uint32_t hsh = hash32(uint32_t(cy * 7919 + cx * 104729 + 17));
+        uint32_t hsh = mix32(uint32_t(cy * 7919 + cx * 104729 + 17));
         int px = std::min(w - 1, int((cx + (hsh & 0xffff) / 65536.0) * w / gx));
         int py = std::min(h - 1, int((cy + (hsh >> 16) / 65536.0) * h / gy));
         Span<Fragment> shared = camera_lists.pixel(px, py);

@@ -7,19 +7,12 @@
 #include <system_error>
 
 #include "cdsm/procedural.h"
+#include "hashing.h"
 
 namespace cdsm {
 namespace {
 
-// 32-bit integer mix (a fixed avalanche hash, identical on every platform).
-uint32_t mix(uint32_t h) {
-  h ^= h >> 16;
-  h *= 0x7feb352du;
-  h ^= h >> 15;
-  h *= 0x846ca68bu;
-  h ^= h >> 16;
-  return h;
-}
+uint32_t mix(uint32_t h) { return mix32(h); }
 
 // Value in [-1, 1] attached to the lattice point (x, y, z) for `seed`.
 float lattice(int32_t x, int32_t y, int32_t z, uint32_t seed) {
