@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "cdsm/cdsm.h"
+#include "common/builders.h"
 #include "frame.h"
 #include "scene_compile.h"
 #include "hd/camera_pass.h"
@@ -90,29 +91,13 @@ inline TriangleMesh box_mesh(Vec3 lo, Vec3 hi) {
   return m;
 }
 
-inline Light spot(Vec3 pos, Vec3 dir, float outer_deg = 30.0f, float inner_deg = 25.0f) {
-  Light l;
-  l.type = LightType::Spot;
-  l.position = pos;
-  l.direction = normalize(dir);
-  l.outer_cone_deg = outer_deg;
-  l.inner_cone_deg = inner_deg;
-  return l;
-}
+using cdsm_test::point_light;
+using cdsm_test::spot_light;
 
-inline Light point(Vec3 pos) {
-  Light l;
-  l.type = LightType::Point;
-  l.position = pos;
-  return l;
-}
-
-// An empty scene with a small camera looking at the origin.
+// An empty scene with a small camera (48x32, from (0, 3, 6)) and 64² maps.
 inline Scene scene_named(const std::string& name) {
-  Scene s;
-  s.source = name;
+  Scene s = cdsm_test::empty_scene(name);
   s.camera.position = {0, 3, 6};
-  s.camera.target = {0, 0, 0};
   s.camera.width = 48;
   s.camera.height = 32;
   s.shadows.resolution = 64;

@@ -13,7 +13,7 @@ Scene layered(ShadowMethod method, float param) {
   add_uniform_volume(s, "fog", {-1.5f, 1, -1.5f}, {1.5f, 2, 1.5f}, 2.0f, box_mesh({-1.5f, 1, -1.5f}, {1.5f, 2, 1.5f}),
                      16);
   s.objects.push_back(surface_object("ground", make_quad(10, 10), Mat4{}, 1.0f, false));
-  s.lights.push_back(spot({0, 6, 0}, {0, -1, 0}, 15, 10));
+  s.lights.push_back(spot_light({0, 6, 0}, {0, -1, 0}, 15, 10));
   s.shadows.resolution = 17;  // odd: the centre texel's ray is the axis
   s.shadows.epsilon = 0.0f;
   s.shadows.method = method;
@@ -101,7 +101,7 @@ TEST(Baselines, EveryMethodRendersFiniteOnHardInputs) {
     Scene s = layered(method, param);
     s.objects.push_back(medium_object("ink", box_mesh({-1, 0.2f, -1}, {1, 0.4f, 1}), Mat4{}, 1e30f));
     s.objects.push_back(surface_object("glass", make_quad(3, 3), at({0, 3.0f, 0}), 0.6f));
-    s.lights.push_back(point({0.2f, 1.5f, 0.1f}));
+    s.lights.push_back(point_light({0.2f, 1.5f, 0.1f}));
     Rig rig(s);
     EXPECT_TRUE(all_physical(rig)) << "method " << int(method) << " param " << param;
     FrameStats st;

@@ -18,7 +18,7 @@ Scene two_quads(bool swap) {
   s.objects.push_back(swap ? b : a);
   s.objects.push_back(swap ? a : b);
   s.objects.push_back(surface_object("ground", make_quad(10, 10), at({0, 0, 0}), 1.0f, false));
-  s.lights.push_back(spot({0, 4, 0}, {0, -1, 0}, 30, 25));
+  s.lights.push_back(spot_light({0, 4, 0}, {0, -1, 0}, 30, 25));
   s.shadows.epsilon = 0.001f;
   return s;
 }
@@ -60,7 +60,7 @@ Scene stacked_media(bool swap, bool identical) {
       "b", identical ? box_mesh({-1, 0.5f, -1}, {1, 1.5f, 1}) : box_mesh({-1, 1.5f, -1}, {1, 2.5f, 1}), Mat4{}, 2.0f);
   s.objects.push_back(swap ? b : a);
   s.objects.push_back(swap ? a : b);
-  s.lights.push_back(spot({0, 4, 0}, {0, -1, 0}, 30, 25));
+  s.lights.push_back(spot_light({0, 4, 0}, {0, -1, 0}, 30, 25));
   s.shadows.epsilon = 0.001f;
   return s;
 }
@@ -170,7 +170,7 @@ TEST(Grazing, LightGrazingAPlaneLeavesItLitAndFinite) {
   Scene s = scene_named("grazing plane");
   s.objects.push_back(surface_object("ground", make_quad(12, 12), Mat4{}, 1.0f));
   Vec3 L{-6, 0.15f, 0};
-  s.lights.push_back(spot(L, Vec3{0, 0, 0} - L, 20, 15));
+  s.lights.push_back(spot_light(L, Vec3{0, 0, 0} - L, 20, 15));
   s.camera.position = {1, 4, 4};
   s.shadows.resolution = 128;
   Renderer r;
@@ -211,7 +211,7 @@ TEST(Grazing, LightRaysInTheFacePlaneOfABoxStayMatched) {
   SceneBuffers sb = compile_scene(s);
   ViewCounts c = count_fragments(sb, axis_view({-5, 0, 0}, {1, 0, 0}, {0, 1, 0}));
   for (size_t i = 0; i < c.front.size(); ++i) ASSERT_EQ(c.front[i], c.back[i]) << "pixel " << i;
-  s.lights.push_back(spot({-5, 0, 0}, {1, 0, 0}, 25, 20));
+  s.lights.push_back(spot_light({-5, 0, 0}, {1, 0, 0}, 25, 20));
   Rig rig(s);
   EXPECT_TRUE(all_physical(rig));
   // Just below the face: through the whole box (two surfaces of opacity 0.2, chord ~2).
@@ -245,7 +245,7 @@ TEST(OpenMeshes, HaveNoInteriorAndDoNotLeaveTheRayInside) {
   s.objects.push_back(cup);
   // A closed absorber below it: still absorbs exactly (the walk is not left "inside").
   s.objects.push_back(medium_object("slab", box_mesh({-2, 0.2f, -2}, {2, 0.6f, 2}), Mat4{}, 1.5f));
-  s.lights.push_back(spot({0, 5, 0}, {0, -1, 0}, 25, 20));
+  s.lights.push_back(spot_light({0, 5, 0}, {0, -1, 0}, 25, 20));
   s.shadows.epsilon = 0.001f;
   Rig rig(s);
   Vec3 L{0, 5, 0};
@@ -264,7 +264,7 @@ TEST(OpenMeshes, HaveNoInteriorAndDoNotLeaveTheRayInside) {
 TEST(OpenMeshes, ATubeSeenSideOnAttenuatesTwice) {
   Scene s = scene_named("tube");
   s.objects.push_back(medium_object("tube", open_box({-0.5f, -1, -0.5f}, {0.5f, 1, 0.5f}, 3), Mat4{}, 4.0f, 0.5f));
-  s.lights.push_back(spot({-5, 0, 0}, {1, 0, 0}, 20, 15));
+  s.lights.push_back(spot_light({-5, 0, 0}, {1, 0, 0}, 20, 15));
   Rig rig(s);
   EXPECT_NEAR(rig.alpha({2, 0.1f, 0.05f}), 0.75f, 1e-5f);
   EXPECT_NEAR(rig.alpha({0, 0.1f, 0.05f}), 0.5f, 1e-5f) << "inside the tube: one wall crossed, no medium";
@@ -288,7 +288,7 @@ TEST(Degenerate, ZeroAreaTrianglesAddNoFragmentsAndNoNaN) {
   dust.positions = {{0, 3, 0}, {0, 3, 0}, {1, 3, 0}, {2, 3, 0}};
   dust.indices = {0, 1, 2, 0, 2, 3, 1, 1, 1};
   s.objects.push_back(surface_object("dust", dust, Mat4{}, 1.0f));
-  s.lights.push_back(spot({0, 5, 0.01f}, {0, -1, 0}, 30, 25));
+  s.lights.push_back(spot_light({0, 5, 0.01f}, {0, -1, 0}, 30, 25));
   ASSERT_TRUE(is_closed(with)) << "zero-area triangles do not open a mesh";
   SceneBuffers sb = compile_scene(s);
   for (const Vec3& nrm : sb.tri_normals) ASSERT_TRUE(is_finite(nrm));
@@ -318,7 +318,7 @@ TEST(Degenerate, CollinearSliverKeepsAClosedMeshClosed) {
   ASSERT_TRUE(is_closed(with)) << "a collinear sliver must not open a closed mesh";
   Scene s = scene_named("sliver");
   s.objects.push_back(medium_object("box", with, Mat4{}, 1.0f));
-  s.lights.push_back(spot({0, 5, 0}, {0, -1, 0}, 30, 25));
+  s.lights.push_back(spot_light({0, 5, 0}, {0, -1, 0}, 30, 25));
   Rig rig(s);
   EXPECT_NEAR(rig.alpha({0, -1.5f, 0}), 1.0f - std::exp(-2.0f), 0.02f);
 }
@@ -334,7 +334,7 @@ TEST(ManyFragments, OverAThousandLayersInALightTexel) {
   for (int i = 0; i < layers; ++i)
     s.objects.push_back(
         surface_object("layer", quad, at({0, 1.0f + 0.0005f * float(i), 0}), i % 100 == 0 ? 0.05f : 0.0f));
-  s.lights.push_back(spot({0, 5, 0}, {0, -1, 0}, 15, 10));
+  s.lights.push_back(spot_light({0, 5, 0}, {0, -1, 0}, 15, 10));
   s.shadows.resolution = 16;
   s.shadows.epsilon = 0.001f;
   Rig rig(s);
@@ -354,7 +354,7 @@ TEST(ManyFragments, OverAThousandTranslucentLayersOverflowTheTexelBufferSafely) 
   TriangleMesh quad = make_quad(3, 3);
   for (int i = 0; i < layers; ++i)
     s.objects.push_back(surface_object("layer", quad, at({0, 1.0f + 0.0005f * float(i), 0}), 0.001f));
-  s.lights.push_back(spot({0, 5, 0}, {0, -1, 0}, 15, 10));
+  s.lights.push_back(spot_light({0, 5, 0}, {0, -1, 0}, 15, 10));
   s.shadows.resolution = 16;
   s.shadows.epsilon = 0.01f;
   Rig rig(s);

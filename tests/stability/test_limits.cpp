@@ -39,7 +39,7 @@ Scene fog_slab(int voxels_y, float sigma) {
   o.volume = 0;
   s.objects.push_back(o);
   s.objects.push_back(surface_object("ground", make_quad(10, 10), Mat4{}, 1.0f, false));
-  s.lights.push_back(spot({0, 5, 0}, {0, -1, 0}, 15, 10));
+  s.lights.push_back(spot_light({0, 5, 0}, {0, -1, 0}, 15, 10));
   s.shadows.resolution = 17;
   s.shadows.epsilon = 0.0f;
   s.camera.width = 24;
@@ -140,7 +140,7 @@ Scene mixed(float eps) {
   add_uniform_volume(s, "fog", {-1.5f, 1, -1.5f}, {1.5f, 1.8f, 1.5f}, 0.8f,
                      box_mesh({-1.5f, 1, -1.5f}, {1.5f, 1.8f, 1.5f}), 16);
   s.objects.push_back(surface_object("ground", make_quad(10, 10), Mat4{}, 1.0f, false));
-  s.lights.push_back(spot({0, 6, 0}, {0, -1, 0}, 15, 10));
+  s.lights.push_back(spot_light({0, 6, 0}, {0, -1, 0}, 15, 10));
   s.shadows.epsilon = eps;
   s.shadows.resolution = 16;
   return s;
@@ -201,7 +201,7 @@ Scene wide_spot() {
   s.objects.push_back(
       surface_object("aside", make_box({0.3f, 0.3f, 0.3f}), at({2 * std::sin(a), 3 - 2 * std::cos(a), 0}), 1.0f));
   s.objects.push_back(surface_object("ground", make_quad(200, 200), Mat4{}, 1.0f, false));
-  s.lights.push_back(spot({0, 3, 0}, {0, -1, 0}, 85, 80));
+  s.lights.push_back(spot_light({0, 3, 0}, {0, -1, 0}, 85, 80));
   s.shadows.resolution = 128;
   s.camera.position = {0, 12, 14};
   s.camera.target = {4, 0, 0};
@@ -257,7 +257,7 @@ Scene parallel_view(Vec3 camera_dir) {
     s.objects.push_back(surface_object("pillar", make_box({0.5f, 4.0f, 0.5f}),
                                        at({-3.0f + 1.2f * i, 2.0f, (i % 2) ? 1.5f : -1.5f}), 1.0f));
   s.objects.push_back(surface_object("ground", make_quad(14, 14), Mat4{}, 1.0f, false));
-  s.lights.push_back(spot({0, 10, 0}, {0, -1, 0}, 35, 30));
+  s.lights.push_back(spot_light({0, 10, 0}, {0, -1, 0}, 35, 30));
   s.camera.position = {0.7f, 9.0f, 0.4f};
   s.camera.target = s.camera.position + camera_dir;
   s.camera.up = {0, 0, -1};
@@ -310,7 +310,7 @@ Scene simple() {
   Scene s = scene_named("nan.json");
   s.objects.push_back(surface_object("ball", make_sphere(0.5f, 12, 6), at({0, 0.5f, 0}), 1.0f));
   add_uniform_volume(s, "puff", {-1, 1, -1}, {1, 2, 1}, 1.0f, box_mesh({-1, 1, -1}, {1, 2, 1}), 4);
-  s.lights.push_back(spot({0, 5, 0}, {0, -1, 0}, 30, 25));
+  s.lights.push_back(spot_light({0, 5, 0}, {0, -1, 0}, 30, 25));
   return s;
 }
 

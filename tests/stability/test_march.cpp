@@ -50,7 +50,7 @@ Scene volume_scene(float voxel, int n, Vec3 at, Vec3 camera, float fov, Vec3 lig
   s.camera.target = at;
   s.camera.fov_y_deg = fov;
   s.camera.near = 1e-3f * length(camera - at);
-  s.lights.push_back(spot(light, at - light, cone, 0.8f * cone));
+  s.lights.push_back(spot_light(light, at - light, cone, 0.8f * cone));
   s.shadows.resolution = res;
   return s;
 }
@@ -177,7 +177,7 @@ TEST(March, ReferenceImageOfAnOversizedProxyEqualsATightOne) {
     }();
     s.objects.back().casts_shadows = false;  // the fog shows only along camera rays: what this tests
     s.objects.push_back(surface_object("ground", make_ground(4, 4, 0.02f), Mat4{}, 1.0f, false));
-    s.lights.push_back(spot({0.3f, 3.0f, 0.2f}, {-0.3f, -3.0f, -0.2f}, 20.0f, 15.0f));
+    s.lights.push_back(spot_light({0.3f, 3.0f, 0.2f}, {-0.3f, -3.0f, -0.2f}, 20.0f, 15.0f));
     s.camera.width = 96;
     s.camera.height = 72;
     return s;
@@ -221,7 +221,7 @@ TEST(March, ProxyFarLargerThanItsGridMarchesOnlyTheGrid) {
     return g;
   }();
   s.objects.push_back(surface_object("ground", make_ground(4, 4, 0.02f), Mat4{}, 1.0f, false));
-  s.lights.push_back(spot({0.3f, 3.0f, 0.2f}, {-0.3f, -3.0f, -0.2f}, 20.0f, 15.0f));
+  s.lights.push_back(spot_light({0.3f, 3.0f, 0.2f}, {-0.3f, -3.0f, -0.2f}, 20.0f, 15.0f));
   s.shadows.resolution = 128;
   FrameStats st;
   within(30.0, "big proxy", [&] {

@@ -55,7 +55,7 @@ TEST(CameraInside, AnOpaqueClosedObjectAroundCameraAndLightIsLitInside) {
   Scene s = scene_named("camera in box");
   s.objects.push_back(surface_object("room", box_mesh({-3, -3, -3}, {3, 3, 3}), Mat4{}, 1.0f));
   s.objects.push_back(surface_object("block", make_box({0.6f, 0.6f, 0.6f}), at({0.5f, -2.7f, -1}), 1.0f));
-  s.lights.push_back(point({0.2f, 1.5f, 0.3f}));
+  s.lights.push_back(point_light({0.2f, 1.5f, 0.3f}));
   s.camera.position = {0, 0, 2};
   s.camera.target = {0, -1, -1};
   s.shadows.resolution = 128;
@@ -94,7 +94,7 @@ TEST(CameraInside, AVolumeEmitsAndAbsorbsFromTheEye) {
     }
   // With a light and a shadow caster inside the fog too, against the reference.
   s.objects.push_back(surface_object("block", make_box({1, 1, 1}), at({0, -1.5f, -2.5f}), 1.0f));
-  s.lights.push_back(point({1.5f, 2, -1}));
+  s.lights.push_back(point_light({1.5f, 2, -1}));
   s.shadows.resolution = 96;
   img = r.render(s, o);
   ASSERT_TRUE(finite_image(img));
@@ -106,7 +106,7 @@ TEST(CameraInside, AVolumeEmitsAndAbsorbsFromTheEye) {
 TEST(LightInside, PointLightInAVolumeSeesExponentialOpacityInEveryFace) {
   Scene s = scene_named("light in volume");
   add_uniform_volume(s, "fog", {-2, -2, -2}, {2, 2, 2}, 0.3f, box_mesh({-2, -2, -2}, {2, 2, 2}), 32);
-  s.lights.push_back(point({0, 0, 0}));
+  s.lights.push_back(point_light({0, 0, 0}));
   s.shadows.epsilon = 0.001f;
   s.shadows.resolution = 32;
   Rig rig(s);
@@ -125,7 +125,7 @@ TEST(LightInside, PointLightInAVolumeSeesExponentialOpacityInEveryFace) {
 TEST(LightInside, PointLightInAConstantMedium) {
   Scene s = scene_named("light in medium");
   s.objects.push_back(medium_object("fog", box_mesh({-2, -2, -2}, {2, 2, 2}), Mat4{}, 0.5f));
-  s.lights.push_back(point({0.1f, -0.2f, 0.05f}));
+  s.lights.push_back(point_light({0.1f, -0.2f, 0.05f}));
   s.shadows.epsilon = 0.001f;
   s.shadows.resolution = 32;
   Rig rig(s);
@@ -147,7 +147,7 @@ TEST(Dense, SaturatingMediaStayMonotoneFiniteAndTerminateEarly) {
     Scene s = scene_named("dense");
     s.objects.push_back(medium_object("wall", box_mesh({-2, 1, -2}, {2, 1.5f, 2}), Mat4{}, sigma));
     add_uniform_volume(s, "ink", {-2, 2, -2}, {2, 2.5f, 2}, sigma, box_mesh({-2, 2, -2}, {2, 2.5f, 2}), 16);
-    s.lights.push_back(spot({0, 5, 0}, {0, -1, 0}, 20, 15));
+    s.lights.push_back(spot_light({0, 5, 0}, {0, -1, 0}, 20, 15));
     Rig rig(s);
     EXPECT_TRUE(all_physical(rig)) << "sigma " << sigma;
     std::vector<DsmNode> n = rig.texel_at(0, {0, 0, 0});
@@ -170,7 +170,7 @@ TEST(ThinSlab, AbsorptionIsExactBelowTheMarchStep) {
   // The grid's voxels are 0.25 wide (march step 0.125); the bounding slab is 0.004 thick.
   add_uniform_volume(s, "sheet", {-2, -1, -2}, {2, 1, 2}, sigma, box_mesh({-2, 0, -2}, {2, thick, 2}), 8);
   s.objects.push_back(medium_object("film", box_mesh({-2, -0.5f, -2}, {2, -0.5f + 1e-4f, 2}), Mat4{}, 1000.0f));
-  s.lights.push_back(spot({0, 5, 0}, {0, -1, 0}, 20, 15));
+  s.lights.push_back(spot_light({0, 5, 0}, {0, -1, 0}, 20, 15));
   s.shadows.epsilon = 0.0f;
   Rig rig(s);
   // Straight below the light: chords exactly `thick` and 1e-4.
@@ -198,7 +198,7 @@ TEST(DepthRange, RadialDepthResolvesMillimetresNextToTenKilometres) {
   s.objects.push_back(surface_object("upper", make_quad(4, 4), at({0, 5, 0}), 0.5f));
   s.objects.push_back(surface_object("lower", make_quad(4, 4), at({0, 5 - 1e-3f, 0}), 0.5f));
   s.objects.push_back(surface_object("far ground", make_quad(3e4f, 3e4f), at({0, -1e4f, 0}), 1.0f));
-  s.lights.push_back(spot({0, 10, 0}, {0, -1, 0}, 30, 25));
+  s.lights.push_back(spot_light({0, 10, 0}, {0, -1, 0}, 30, 25));
   s.camera.position = {3, 7, 3};
   s.camera.target = {0, 5, 0};
   s.camera.near = 1e-3f;

@@ -12,6 +12,7 @@
 
 #include "cdsm/procedural.h"
 #include "cdsm/scene.h"
+#include "common/builders.h"
 #include "frame.h"
 #include "scene_compile.h"
 #include "hd/bvh.h"
@@ -36,34 +37,6 @@ inline Object make_object(const std::string& name, TriangleMesh mesh, Mat4 trans
 }
 
 inline Mat4 translation(Vec3 t) { return make_transform(t, {0, 0, 0}, {1, 1, 1}); }
-
-// A scene with a camera and no objects or lights.
-inline Scene empty_scene(const std::string& name) {
-  Scene s;
-  s.source = name;
-  s.camera.position = {0, 2, 6};
-  s.camera.target = {0, 0, 0};
-  s.camera.width = 64;
-  s.camera.height = 48;
-  return s;
-}
-
-inline Light spot_light(Vec3 pos, Vec3 dir, float outer_deg, float inner_deg) {
-  Light l;
-  l.type = LightType::Spot;
-  l.position = pos;
-  l.direction = normalize(dir);
-  l.outer_cone_deg = outer_deg;
-  l.inner_cone_deg = inner_deg;
-  return l;
-}
-
-inline Light point_light(Vec3 pos) {
-  Light l;
-  l.type = LightType::Point;
-  l.position = pos;
-  return l;
-}
 
 // Every hit depth of the triangles of object `object` along org + t dir
 // (unit dir), over all triangles (no BVH), sorted.

@@ -1,0 +1,39 @@
+// Scene builders the tests share: lights and an empty scene (one copy;
+// unit_util.h and stability_util.h build on these).
+#pragma once
+
+#include <string>
+
+#include "cdsm/scene.h"
+
+namespace cdsm_test {
+
+inline cdsm::Light spot_light(cdsm::Vec3 pos, cdsm::Vec3 dir, float outer_deg = 30.0f, float inner_deg = 25.0f) {
+  cdsm::Light l;
+  l.type = cdsm::LightType::Spot;
+  l.position = pos;
+  l.direction = cdsm::normalize(dir);
+  l.outer_cone_deg = outer_deg;
+  l.inner_cone_deg = inner_deg;
+  return l;
+}
+
+inline cdsm::Light point_light(cdsm::Vec3 pos) {
+  cdsm::Light l;
+  l.type = cdsm::LightType::Point;
+  l.position = pos;
+  return l;
+}
+
+// A scene with a camera (64x48, from (0, 2, 6) at the origin) and no objects or lights.
+inline cdsm::Scene empty_scene(const std::string& name) {
+  cdsm::Scene s;
+  s.source = name;
+  s.camera.position = {0, 2, 6};
+  s.camera.target = {0, 0, 0};
+  s.camera.width = 64;
+  s.camera.height = 48;
+  return s;
+}
+
+}  // namespace cdsm_test
