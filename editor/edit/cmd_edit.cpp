@@ -17,6 +17,7 @@
 
 #include "cdsm/error.h"
 #include "cdsm/gl.h"
+#include "cdsm/gl_window.h"
 #include "commands.h"
 #include "script.h"
 #include "session.h"
@@ -46,7 +47,7 @@ int run_edit(const EditArgs& a) {
   if (!a.script_path.empty()) script = std::make_unique<editor::ScriptRunner>(a.script_path);
 
   std::string why;
-  auto context = GlContext::create_window(a.width, a.height, "cdsm edit - " + a.scene_path, !a.hidden, &why);
+  auto context = GlWindow::create(a.width, a.height, "cdsm edit - " + a.scene_path, !a.hidden, &why);
   if (!context)
     throw Error("cdsm edit", "no window with OpenGL 4.5 (needs a display: X11, or run under xvfb-run): " + why);
   GLFWwindow* window = static_cast<GLFWwindow*>(context->native_window());

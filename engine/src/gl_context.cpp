@@ -1,6 +1,8 @@
-// cdsm::GlContext (cdsm/gl.h) over the engine's GL contexts (engine/gl/context.h).
+// cdsm::GlContext (cdsm/gl.h) and cdsm::GlWindow (cdsm/gl_window.h) over the
+// engine's GL contexts (engine/gl/context.h).
 #include "cdsm/error.h"
 #include "cdsm/gl.h"
+#include "cdsm/gl_window.h"
 
 #if CDSM_HAVE_GL
 #include "gl/context.h"
@@ -25,8 +27,8 @@ std::unique_ptr<GlContext> GlContext::create_headless(std::string* reason) {
   return std::unique_ptr<GlContext>(new GlContext(std::move(impl)));
 }
 
-std::unique_ptr<GlContext> GlContext::create_window(int width, int height, const std::string& title, bool visible,
-                                                    std::string* reason) {
+std::unique_ptr<GlWindow> GlWindow::create(int width, int height, const std::string& title, bool visible,
+                                           std::string* reason) {
   gl::ContextOptions o;
   o.width = width;
   o.height = height;
@@ -36,16 +38,16 @@ std::unique_ptr<GlContext> GlContext::create_window(int width, int height, const
   if (!c) return nullptr;
   auto impl = std::make_unique<Impl>();
   impl->context = std::move(c);
-  return std::unique_ptr<GlContext>(new GlContext(std::move(impl)));
+  return std::unique_ptr<GlWindow>(new GlWindow(std::move(impl)));
 }
 
 void GlContext::make_current() { impl_->context->make_current(); }
 void GlContext::release() { impl_->context->release(); }
 const std::string& GlContext::description() const { return impl_->context->description(); }
 int64_t GlContext::max_storage_block_bytes() const { return impl_->context->limits().max_ssbo_block_size; }
-void* GlContext::native_window() const { return impl_->context->native_window(); }
-void GlContext::swap_buffers() { impl_->context->swap_buffers(); }
-bool GlContext::should_close() const { return impl_->context->should_close(); }
+void* GlWindow::native_window() const { return impl_->context->native_window(); }
+void GlWindow::swap_buffers() { impl_->context->swap_buffers(); }
+bool GlWindow::should_close() const { return impl_->context->should_close(); }
 
 #else
 
@@ -56,7 +58,7 @@ std::unique_ptr<GlContext> GlContext::create_headless(std::string* reason) {
   if (reason) *reason = "this build has no OpenGL (configured with CDSM_GL=OFF)";
   return nullptr;
 }
-std::unique_ptr<GlContext> GlContext::create_window(int, int, const std::string&, bool, std::string* reason) {
+std::unique_ptr<GlWindow> GlWindow::create(int, int, const std::string&, bool, std::string* reason) {
   if (reason) *reason = "this build has no OpenGL (configured with CDSM_GL=OFF)";
   return nullptr;
 }
@@ -67,9 +69,9 @@ const std::string& GlContext::description() const {
   return none;
 }
 int64_t GlContext::max_storage_block_bytes() const { return 0; }
-void* GlContext::native_window() const { return nullptr; }
-void GlContext::swap_buffers() {}
-bool GlContext::should_close() const { return false; }
+void* GlWindow::native_window() const { return nullptr; }
+void GlWindow::swap_buffers() {}
+bool GlWindow::should_close() const { return false; }
 
 #endif
 

@@ -13,6 +13,7 @@
 
 #include "cdsm/cdsm.h"
 #include "cdsm/gl.h"
+#include "cdsm/gl_window.h"
 #include "forward_renderer.h"
 
 namespace {
@@ -113,9 +114,11 @@ int main(int argc, char** argv) {
 
     // The application's context: the renderer and the shadow system share it.
     std::string why;
-    auto context =
-        window ? cdsm::GlContext::create_window(width ? width : 720, height ? height : 480, "cdsm_forward", true, &why)
-               : cdsm::GlContext::create_headless(&why);
+    std::unique_ptr<cdsm::GlWindow> win =
+        window ? cdsm::GlWindow::create(width ? width : 720, height ? height : 480, "cdsm_forward", true, &why)
+               : nullptr;
+    std::unique_ptr<cdsm::GlContext> headless = window ? nullptr : cdsm::GlContext::create_headless(&why);
+    cdsm::GlContext* context = win ? win.get() : headless.get();
     if (!context) throw cdsm::Error("OpenGL", "no 4.5 context: " + why);
     std::fprintf(stderr, "cdsm_forward: %s\n", context->description().c_str());
 
@@ -191,13 +194,13 @@ int main(int argc, char** argv) {
     if (!raw.empty()) write_pfm(img, raw);
     if (!mask_path.empty()) write_pgm(renderer.read_opaque_mask(), img.width, img.height, mask_path);
     if (window) {
-      while (!context->should_close()) {
+      while (!win->should_close()) {
         cdsm::FrameStats st;
         shadows.update(&st);
         if (st.maps_rebuilt > 0 || st.update.gl_map_upload_bytes > 0) ++draw.maps_version;
         renderer.draw(shadows, scene, scene.camera, draw);
         renderer.present(0, 0, scene.camera.width, scene.camera.height);
-        context->swap_buffers();
+        win->swap_buffers();
       }
     }
     return 0;

@@ -1,5 +1,5 @@
-// OpenGL integration: contexts cdsm can make for an
-// application that has none (headless through EGL, or a GLFW window), the
+// OpenGL integration: a headless context cdsm can make for an application
+// that has none (a window for tools: cdsm/gl_window.h), the
 // description of a mesh that lives in the application's own GL buffers, and
 // the GLSL include. A shadow system created with
 // SystemOptions::gl_context = GlContextUse::Application works on the
@@ -26,11 +26,7 @@ class GlContext {
   // surfaceless platform (llvmpipe without a GPU). nullptr + `*reason`
   // (every attempt and why it failed) when none can be made.
   static std::unique_ptr<GlContext> create_headless(std::string* reason = nullptr);
-  // A GLFW window (needs a display: X11, or Xvfb through xvfb-run) with a
-  // 4.5 core context. nullptr + `*reason` when none can be made.
-  static std::unique_ptr<GlContext> create_window(int width, int height, const std::string& title, bool visible = true,
-                                                  std::string* reason = nullptr);
-  ~GlContext();
+  virtual ~GlContext();
   GlContext(const GlContext&) = delete;
   GlContext& operator=(const GlContext&) = delete;
 
@@ -41,14 +37,9 @@ class GlContext {
   // GL_MAX_SHADER_STORAGE_BLOCK_SIZE, bytes.
   int64_t max_storage_block_bytes() const;
 
-  // Windows only (headless: nullptr / no-op / false).
-  void* native_window() const;  // the GLFWwindow*
-  void swap_buffers();
-  bool should_close() const;
-
   struct Impl;
 
- private:
+ protected:
   explicit GlContext(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };
