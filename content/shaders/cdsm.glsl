@@ -42,7 +42,11 @@
 //
 // Bindings: nine shader storage blocks at CDSM_BINDING_BASE .. +8 (default
 // 8; #define it before the include to move them). bind_gl() reads the
-// bindings back from the linked program, so any base works.
+// bindings back from the linked program, so any base below
+// GL_MAX_SHADER_STORAGE_BUFFER_BINDINGS - 8 works. The including stage needs
+// GL_MAX_FRAGMENT_SHADER_STORAGE_BLOCKS (or _COMPUTE_) of at least 9 plus
+// its own blocks; GL 4.5 guarantees 8, and a ShadowSystem on a context with
+// fewer than 9 refuses to start, naming the limit.
 //
 // Layout (std430, the bytes the CDSM_HD code reads, static_asserted there):
 // CdsmFrame holds the lookup settings, the lights and the map headers

@@ -156,6 +156,10 @@ bool Context::finish_setup(const std::string& platform_detail, std::string* reas
   glGetIntegeri_v(GL_MAX_COMPUTE_WORK_GROUP_COUNT, 0, &limits_.max_compute_groups_x);
   glGetIntegeri_v(GL_MAX_COMPUTE_WORK_GROUP_COUNT, 1, &limits_.max_compute_groups_y);
   glGetIntegerv(GL_SUBPIXEL_BITS, &limits_.subpixel_bits);
+  glGetIntegerv(GL_MAX_FRAGMENT_SHADER_STORAGE_BLOCKS, &limits_.max_fragment_ssbo_blocks);
+  glGetIntegerv(GL_MAX_COMPUTE_SHADER_STORAGE_BLOCKS, &limits_.max_compute_ssbo_blocks);
+  glGetIntegerv(GL_MAX_COMBINED_SHADER_STORAGE_BLOCKS, &limits_.max_combined_ssbo_blocks);
+  glGetIntegerv(GL_MAX_SHADER_STORAGE_BUFFER_BINDINGS, &limits_.max_ssbo_bindings);
   if (GLenum e = glGetError(); e != GL_NO_ERROR) {
     if (reason) *reason = platform_detail + ": querying limits failed: " + error_name(e);
     return false;

@@ -58,6 +58,12 @@ struct Limits {
   int32_t max_compute_groups_x = 0;  // GL_MAX_COMPUTE_WORK_GROUP_COUNT[0]
   int32_t max_compute_groups_y = 0;  // GL_MAX_COMPUTE_WORK_GROUP_COUNT[1]
   int32_t subpixel_bits = 0;         // GL_SUBPIXEL_BITS: window positions snap to 2^-bits pixel
+  // Shader storage blocks one stage may use, and binding points (GL 4.5
+  // guarantees 8 of each stage's, 8 combined, 8 bindings; drivers give more).
+  int32_t max_fragment_ssbo_blocks = 0;  // GL_MAX_FRAGMENT_SHADER_STORAGE_BLOCKS
+  int32_t max_compute_ssbo_blocks = 0;   // GL_MAX_COMPUTE_SHADER_STORAGE_BLOCKS
+  int32_t max_combined_ssbo_blocks = 0;  // GL_MAX_COMBINED_SHADER_STORAGE_BLOCKS
+  int32_t max_ssbo_bindings = 0;         // GL_MAX_SHADER_STORAGE_BUFFER_BINDINGS
 };
 
 class Context {

@@ -27,6 +27,23 @@ uint64_t bytes_of(Span<const T> s) {
 
 }  // namespace
 
+std::string storage_block_shortfall(const Limits& l) {
+  struct Limit {
+    int32_t value;
+    const char* name;
+  };
+  const Limit limits[] = {{l.max_fragment_ssbo_blocks, "GL_MAX_FRAGMENT_SHADER_STORAGE_BLOCKS"},
+                          {l.max_compute_ssbo_blocks, "GL_MAX_COMPUTE_SHADER_STORAGE_BLOCKS"},
+                          {l.max_combined_ssbo_blocks, "GL_MAX_COMBINED_SHADER_STORAGE_BLOCKS"},
+                          {l.max_ssbo_bindings, "GL_MAX_SHADER_STORAGE_BUFFER_BINDINGS"}};
+  std::string why;
+  for (const Limit& x : limits)
+    if (x.value < kMapBlocks) why += std::string(why.empty() ? "" : "; ") + x.name + " is " + std::to_string(x.value);
+  if (why.empty()) return why;
+  return "cdsm.glsl needs " + std::to_string(kMapBlocks) +
+         " shader storage blocks in the shader that includes it, and this context allows fewer: " + why;
+}
+
 const char* block_name(MapBlock b) {
   switch (b) {
     case MapBlock::Frame: return "CdsmFrame";
@@ -44,6 +61,8 @@ const char* block_name(MapBlock b) {
 }
 
 MapBuffers::MapBuffers(Context& context, uint64_t max_block_bytes) : context_(context) {
+  if (const std::string why = storage_block_shortfall(context.limits()); !why.empty())
+    throw Error("GL context (" + context.description() + ")", why);
   const uint64_t limit = uint64_t(std::max<int64_t>(context.limits().max_ssbo_block_size, 0));
   max_block_ = max_block_bytes ? std::min(max_block_bytes, limit) : limit;
   for (int b = 0; b < kMapBlocks; ++b) {
@@ -232,6 +251,13 @@ void MapBuffers::bind(GLuint program) const {
                            " of cdsm.glsl: include cdsm.glsl (cdsm::glsl_include(), or share/cdsm/shaders/cdsm.glsl) "
                            "and call cdsm_transmittance or "
                            "cdsm_surface_transmittance in the program (unused blocks are removed by the compiler)");
+  const int32_t points = context_.limits().max_ssbo_bindings;
+  for (int b = 0; b < kMapBlocks; ++b)
+    if (binding[b] < 0 || binding[b] >= points)
+      throw Error(where, std::string("binds ") + block_name(MapBlock(b)) + " to point " + std::to_string(binding[b]) +
+                             ", and this context has points 0.." + std::to_string(points - 1) +
+                             " (GL_MAX_SHADER_STORAGE_BUFFER_BINDINGS): #define CDSM_BINDING_BASE lower before "
+                             "including cdsm.glsl");
   for (int a = 0; a < kMapBlocks; ++a)
     for (int b = a + 1; b < kMapBlocks; ++b)
       if (binding[a] == binding[b])

@@ -33,6 +33,7 @@
 namespace cdsm::gl {
 
 class Context;
+struct Limits;
 
 // The head of the CdsmFrame block (std430): then `map_count` DsmMap.
 struct FrameBlockHeader {
@@ -55,6 +56,12 @@ inline constexpr int kMapBlocks = int(MapBlock::Count);
 static_assert(kMapBlocks == 1 + kStorageArrays, "the frame block, then the storage arrays in their order");
 const char* block_name(MapBlock b);  // "CdsmFrame", ...
 
+// Why a context cannot hold cdsm.glsl's kMapBlocks storage blocks in a
+// fragment or compute shader (its per-stage or combined limit is below
+// them), or "" when it can. GL 4.5 guarantees only 8 per stage; every
+// driver measured reports more (llvmpipe and NVIDIA: docs/gpu.md).
+std::string storage_block_shortfall(const Limits& limits);
+
 struct MapUploadStats {
   uint64_t upload_bytes = 0;     // host -> GL bytes of this sync
   uint64_t device_bytes = 0;     // array bytes the DeviceWriter wrote (no host traffic)
@@ -72,7 +79,8 @@ using DeviceWriter = std::function<void(const GlMapWrite* writes, int count)>;
 class MapBuffers {
  public:
   // `max_block_bytes` 0: the context's GL_MAX_SHADER_STORAGE_BLOCK_SIZE
-  // (tests pass less to reach the limit).
+  // (tests pass less to reach the limit). Throws cdsm::Error when the
+  // context cannot hold the blocks (storage_block_shortfall).
   explicit MapBuffers(Context& context, uint64_t max_block_bytes = 0);
   ~MapBuffers();
   MapBuffers(const MapBuffers&) = delete;
@@ -98,7 +106,8 @@ class MapBuffers {
   // Binds every block to the binding point `program` declares for it.
   // Throws cdsm::Error naming the program and the blocks it lacks (a program
   // that does not use cdsm.glsl's lookup, or whose compiler dropped it) or
-  // two blocks sharing a binding.
+  // two blocks sharing a binding, or a binding point at or past the
+  // context's GL_MAX_SHADER_STORAGE_BUFFER_BINDINGS.
   void bind(GLuint program) const;
   // The layout of the last sync's storage (DsmLayout::Packed before any).
   DsmLayout layout() const { return layout_; }

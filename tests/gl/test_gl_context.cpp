@@ -1,4 +1,5 @@
 // GL context, checked calls and the GPU prefix sum.
+#include <cstdio>
 #include <cstdlib>
 #include <numeric>
 #include <random>
@@ -6,6 +7,7 @@
 
 #include "cdsm/error.h"
 #include "gl/gl_api.h"
+#include "gl/map_buffers.h"
 #include "gl/prefix_sum.h"
 #include "gl_test_util.h"
 
@@ -24,6 +26,31 @@ TEST_F(GlContext, DescribesItselfAndMeetsLimits) {
   EXPECT_GE(c.limits().max_framebuffer_width, 4096);
   EXPECT_GE(c.limits().max_compute_groups_x, 65535);
   EXPECT_TRUE(c.platform() == gl::Platform::EglDevice || c.platform() == gl::Platform::EglSurfaceless);
+}
+
+// cdsm.glsl's nine storage blocks against the context's limits: this one
+// holds them (MapBuffers checks on creation), and a context at GL 4.5's
+// guaranteed minimum of 8 per stage is refused with the limits named.
+TEST_F(GlContext, HoldsTheStorageBlocksOfCdsmGlsl) {
+  const gl::Limits& l = context().limits();
+  EXPECT_EQ(gl::kMapBlocks, 9);
+  EXPECT_GE(l.max_fragment_ssbo_blocks, gl::kMapBlocks);
+  EXPECT_GE(l.max_compute_ssbo_blocks, gl::kMapBlocks);
+  EXPECT_GE(l.max_combined_ssbo_blocks, gl::kMapBlocks);
+  EXPECT_GE(l.max_ssbo_bindings, 8 + gl::kMapBlocks);  // CDSM_BINDING_BASE 8 .. 16
+  EXPECT_EQ(gl::storage_block_shortfall(l), "");
+
+  gl::Limits minimum = l;
+  minimum.max_fragment_ssbo_blocks = 8;
+  minimum.max_combined_ssbo_blocks = 8;
+  const std::string why = gl::storage_block_shortfall(minimum);
+  EXPECT_NE(why.find("needs 9 shader storage blocks"), std::string::npos) << why;
+  EXPECT_NE(why.find("GL_MAX_FRAGMENT_SHADER_STORAGE_BLOCKS is 8"), std::string::npos) << why;
+  EXPECT_NE(why.find("GL_MAX_COMBINED_SHADER_STORAGE_BLOCKS is 8"), std::string::npos) << why;
+  EXPECT_EQ(why.find("COMPUTE"), std::string::npos) << why;
+  std::printf("storage blocks: fragment %d, compute %d, combined %d, bindings %d (%s)\n", l.max_fragment_ssbo_blocks,
+              l.max_compute_ssbo_blocks, l.max_combined_ssbo_blocks, l.max_ssbo_bindings,
+              context().description().c_str());
 }
 
 TEST_F(GlContext, CheckedCallNamesTheCallFileAndLine) {

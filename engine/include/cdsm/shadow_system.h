@@ -65,6 +65,11 @@
 //     with no change uploads nothing (FrameStats::update.gl_map_upload_bytes).
 //     bind_gl() is cheap (nine binds, a few queries); call it whenever the
 //     program is used after an update().
+//   - Limits: the shader that includes cdsm.glsl uses nine storage blocks
+//     (GL 4.5 guarantees only 8 per stage; llvmpipe and NVIDIA allow 16 and
+//     more). A context with fewer is refused when the system is created,
+//     naming the GL limit; bind_gl() refuses a binding point past
+//     GL_MAX_SHADER_STORAGE_BUFFER_BINDINGS (lower CDSM_BINDING_BASE).
 //   - Application buffers are read back once, in read_gl_mesh(), never per
 //     frame (FrameStats::update.gl_readback_bytes of the next update()).
 #pragma once
