@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <map>
 #include <unordered_map>
 
 namespace cdsm {
@@ -445,14 +446,15 @@ void MapCache::clear(ShadowBackend& backend) {
   fragments.clear();
 }
 
-void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, ShadowBackend& backend, MapCache& cache,
-                        ShadowFrame& frame) {
-  const SceneBuffers& sb = *in.scene;
-  SceneView sv = sb.view();
-  frame = ShadowFrame{};
-  frame.backend = &backend;
+namespace {
+
+// Step 1: which maps this frame needs — each light's views (cube faces,
+// parallel splits, clusters with their hysteresis), and the light states
+// the cache keeps for the next frame. Last frame's retired maps go first.
+std::unordered_map<uint64_t, MapCache::LightState> plan_maps(const FrameInputs& in, ShadowBackend& backend,
+                                                             MapCache& cache, ShadowFrame& frame) {
   const ShadowSettings& s = in.settings;
-  frame.setup = setup_lights(in.lights, sb, s.resolution);
+  frame.setup = setup_lights(in.lights, *in.scene, s.resolution);
   frame.clusters.resize(in.lights.size());
   // Last frame's replaced maps (kept for the popping probe) go now.
   for (MapId id : cache.retired) {
@@ -477,17 +479,34 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
   std::unordered_map<uint64_t, MapCache::LightState> lights;
   for (size_t li = 0; li < in.lights.size(); ++li)
     lights[in.light_ids[li]] = {frame.clusters[li], light_signature(in.lights[li], s)};
+  return lights;
+}
 
-  // Plans -> entries: reuse by key, describe the rest.
-  const uint64_t settings = settings_hash(s);
+// The planned maps against the cache: per plan its entry (reused by key, or
+// described for building), and per cache entry whether a plan took it.
+struct CacheMatch {
+  std::vector<MapCache::Entry> next;  // per planned map
+  std::vector<uint8_t> found;         // per planned map: its key was in the cache
+  std::vector<uint8_t> taken;         // per cache entry: a planned map reuses it
+  size_t missing() const { return found.size() - size_t(std::count(found.begin(), found.end(), 1)); }
+};
+
+// Step 2: reuse by key (each cache entry once, the first of equal keys
+// first), and the reason each unmatched map is built — against the map its
+// light had in that place. O(maps + entries).
+CacheMatch match_cache(const FrameInputs& in, const MapCache& cache, ShadowFrame& frame) {
+  const uint64_t settings = settings_hash(in.settings);
   const size_t n = frame.setup.maps.size();
-  std::vector<MapCache::Entry> next(n);
-  std::vector<uint8_t> found(n, 0);
-  std::vector<uint8_t> taken(cache.entries.size(), 0);
+  CacheMatch m;
+  m.next.resize(n);
+  m.found.assign(n, 0);
+  m.taken.assign(cache.entries.size(), 0);
+  std::unordered_map<uint64_t, std::vector<size_t>> by_key;  // cache indices, in cache order
+  for (size_t c = cache.entries.size(); c-- > 0;) by_key[cache.entries[c].key].push_back(c);
   for (size_t k = 0; k < n; ++k) {
     const MapPlan& plan = frame.setup.maps[k];
     const LightData& ld = frame.setup.lights[plan.light];
-    MapCache::Entry& e = next[k];
+    MapCache::Entry& e = m.next[k];
     e.key = map_key(plan, in, settings);
     e.light_id = in.light_ids[plan.light];
     e.slot = uint32_t(k - ld.first_map);
@@ -495,24 +514,39 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
     e.settings_hash = settings;
     e.view = plan.view;
     for (uint32_t o : plan.members) e.member_ids.push_back(in.object_ids[o]);
-    for (size_t c = 0; c < cache.entries.size(); ++c)
-      if (!taken[c] && cache.entries[c].key == e.key) {
-        taken[c] = 1;
-        found[k] = 1;
-        e.id = cache.entries[c].id;
-        e.stats = cache.entries[c].stats;
-        break;
-      }
+    auto it = by_key.find(e.key);
+    if (it == by_key.end() || it->second.empty()) continue;
+    const size_t c = it->second.back();  // the earliest untaken entry
+    it->second.pop_back();
+    m.taken[c] = 1;
+    m.found[k] = 1;
+    e.id = cache.entries[c].id;
+    e.stats = cache.entries[c].stats;
   }
-  // Why each new map is built: against the map its light had in that place.
+  std::map<std::pair<uint64_t, uint32_t>, const MapCache::Entry*> by_place;  // (light, slot) -> its last entry
+  for (const MapCache::Entry& old : cache.entries) by_place[{old.light_id, old.slot}] = &old;
   for (size_t k = 0; k < n; ++k) {
-    if (found[k]) continue;
-    const MapCache::Entry* before = nullptr;
-    for (const MapCache::Entry& old : cache.entries)
-      if (old.light_id == next[k].light_id && old.slot == next[k].slot) before = &old;
-    const RebuildReason why = rebuild_reason(before, next[k]);
-    frame.rebuilds.push_back({frame.setup.maps[k].light, next[k].slot, why});
+    if (m.found[k]) continue;
+    auto it = by_place.find({m.next[k].light_id, m.next[k].slot});
+    const MapCache::Entry* before = it == by_place.end() ? nullptr : it->second;
+    frame.rebuilds.push_back({frame.setup.maps[k].light, m.next[k].slot, rebuild_reason(before, m.next[k])});
   }
+  return m;
+}
+
+// Step 3: releases the maps no plan took (or retires them for the popping
+// probe), builds the missing ones (from kept fragment lists where their key
+// matches), and updates the cache. A failure (a build refused by the memory
+// budget, an allocation) leaves nothing of this frame: the maps it built
+// are freed, and so is the cache (its maps and lists), so the backend's
+// store holds no map nothing refers to and the next frame builds afresh.
+void build_missing(const FrameInputs& in, const FragmentProducer& produce, ShadowBackend& backend, MapCache& cache,
+                   CacheMatch& m, ShadowFrame& frame) {
+  const SceneBuffers& sb = *in.scene;
+  SceneView sv = sb.view();
+  const ShadowSettings& s = in.settings;
+  const size_t n = frame.setup.maps.size();
+  std::vector<MapCache::Entry>& next = m.next;
   // Replaced maps are released before new ones are built (a layout change
   // needs an empty store), or kept one frame for the popping probe.
   const DsmLayoutParams layout = dsm_layout_params(s);
@@ -520,10 +554,6 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
                               layout.fixed_layers != cache.layout.fixed_layers ||
                               layout.chunk_nodes != cache.layout.chunk_nodes;
   frame.previous_kept = in.keep_previous && !layout_changed;
-  // From here on a failure (a build refused by the memory budget, an
-  // allocation) leaves nothing of this frame: the maps it built are freed,
-  // and so is the cache (its maps and lists), so the backend's store holds
-  // no map nothing refers to and the next frame builds afresh.
   std::vector<uint8_t> released(cache.entries.size(), 0);  // freed or retired below
   std::vector<uint8_t> built(n, 0);
   std::vector<MapCache::KeptFragments> kept;  // the next frame's MapCache::fragments
@@ -553,7 +583,7 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
   };
   try {
     for (size_t c = 0; c < cache.entries.size(); ++c) {
-      if (taken[c]) continue;
+      if (m.taken[c]) continue;
       released[c] = 1;
       if (frame.previous_kept) {
         cache.retired.push_back(cache.entries[c].id);
@@ -563,7 +593,7 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
       }
     }
     if (in.maps_built) in.maps_built->store(0);
-    if (in.maps_to_build) in.maps_to_build->store(uint32_t(n - size_t(std::count(found.begin(), found.end(), 1))));
+    if (in.maps_to_build) in.maps_to_build->store(uint32_t(m.missing()));
     for (size_t k = 0; k < n; ++k) {
       MapCache::Entry& e = next[k];
       const MapPlan& plan = frame.setup.maps[k];
@@ -576,7 +606,7 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
         cached->taken = true;
         kept.push_back(*cached);
       }
-      if (found[k]) {
+      if (m.found[k]) {
         frame.map_rebuilt.push_back(0);
         ++frame.reused;
       } else {
@@ -603,7 +633,7 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
         lp.rgb = s.rgb_maps && s.method == ShadowMethod::Dsm &&
                  std::any_of(plan.members.begin(), plan.members.end(),
                              [&](uint32_t o) { return is_coloured(sv, sv.objects[o]); });
-        e.id = backend.build_map(lp, lists, dsm_layout_params(s), e.stats);
+        e.id = backend.build_map(lp, lists, layout, e.stats);
         built[k] = 1;
         reading.pop_back();
         backend.free_lists(lists);
@@ -626,8 +656,19 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
   cache.fragments = std::move(kept);
   for (const MapCache::KeptFragments& c : cache.fragments) frame.fragment_cache_bytes += backend.lists_bytes(c.lists);
   cache.entries = std::move(next);
-  cache.lights = std::move(lights);
   cache.layout = layout;
+}
+
+}  // namespace
+
+void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, ShadowBackend& backend, MapCache& cache,
+                        ShadowFrame& frame) {
+  frame = ShadowFrame{};
+  frame.backend = &backend;
+  std::unordered_map<uint64_t, MapCache::LightState> lights = plan_maps(in, backend, cache, frame);
+  CacheMatch matched = match_cache(in, cache, frame);
+  build_missing(in, produce, backend, cache, matched, frame);
+  cache.lights = std::move(lights);
 }
 
 FrameInputs frame_inputs(const Scene& scene, const SceneBuffers& sb) {
