@@ -25,9 +25,12 @@
 // index outside [0, cdsm_light_count()) returns vec3(1, 0, 1): a magenta
 // tint that shows the mistake instead of hiding it.
 //
-// For shading, the light itself: cdsm_light_count(), cdsm_light_position(i),
-// cdsm_light_radiance(i) (colour x intensity) and cdsm_spot_factor(i, p)
-// (the spot cone's smooth falloff, 1 for point lights) — the Phong model of
+// For shading, the light itself: cdsm_light_count(), cdsm_light_position(i)
+// (spot and point lights), cdsm_light_direction(i) (a spot's axis, a
+// directional light's direction of travel), cdsm_direction_to_light(i, p)
+// (unit, toward the light from p, for every type), cdsm_light_radiance(i)
+// (colour x intensity) and cdsm_spot_factor(i, p) (the spot cone's smooth
+// falloff, 1 for point and directional lights) — the Phong model of
 // shadows/hd/shading.h multiplies radiance, spot factor and transmittance.
 //
 // Shader variants: `#define CDSM_LAYOUT n` before the include (0 packed,
@@ -55,7 +58,7 @@
 // nodes {z, α}, chunk slots {z, α, next}, the same for RGB maps
 // ({z, r, g, b}), then each pool's surface tags (16 bits per node or chunk
 // slot, two to a uint, the lower half first). Depths are radial distances
-// from the light.
+// from the light (orthographic maps: distances from the map's plane).
 
 #ifndef CDSM_GLSL_INCLUDED
 #define CDSM_GLSL_INCLUDED
@@ -64,7 +67,10 @@
 #define CDSM_BINDING_BASE 8
 #endif
 
-// shadows/hd/view.h PinholeView (80 bytes).
+// shadows/hd/view.h PinholeView (96 bytes). Orthographic views (directional
+// lights): `eye` is the centre of the window's plane, the window
+// (tan_half_*, center) is in world units, rays run along `forward` from
+// their point on that plane, depths are distances from it.
 struct CdsmView {
   vec3 eye;
   float near_z;
@@ -77,9 +83,13 @@ struct CdsmView {
   vec2 center;
   int width;
   int height;
+  uint projection;  // CDSM_PROJECTION_PERSPECTIVE / CDSM_PROJECTION_ORTHOGRAPHIC
+  uint view_pad0;
+  uint view_pad1;
+  uint view_pad2;
 };
 
-// shadows/hd/dsm.h DsmMap (96 bytes); texel_offset is a uint64 there.
+// shadows/hd/dsm.h DsmMap (112 bytes); texel_offset is a uint64 there.
 struct CdsmMap {
   CdsmView view;
   uint texel_offset;
@@ -91,7 +101,7 @@ struct CdsmMap {
 // shadows/hd/lights.h LightData (64 bytes).
 struct CdsmLight {
   vec3 position;
-  uint type;  // CDSM_LIGHT_SPOT / CDSM_LIGHT_POINT
+  uint type;  // CDSM_LIGHT_SPOT / CDSM_LIGHT_POINT / CDSM_LIGHT_DIRECTIONAL (position unused, direction of travel)
   vec3 direction;
   float cos_outer;
   vec3 radiance;
@@ -147,6 +157,9 @@ const uint CDSM_NO_OBJECT = 0xffffffffu;
 #define CDSM_LAYOUT_CHUNKED 2
 const uint CDSM_LIGHT_SPOT = 0u;
 const uint CDSM_LIGHT_POINT = 1u;
+const uint CDSM_LIGHT_DIRECTIONAL = 2u;
+const uint CDSM_PROJECTION_PERSPECTIVE = 0u;
+const uint CDSM_PROJECTION_ORTHOGRAPHIC = 1u;
 const uint CDSM_MAPS_COMBINE = 0u;
 const uint CDSM_MAPS_CUBE_FACES = 1u;
 const uint CDSM_MAPS_FIRST_CONTAINING = 2u;
@@ -185,28 +198,41 @@ vec3 cdsm_over(vec3 alpha, vec3 a) { return alpha + a * (vec3(1.0) - alpha); }
 
 struct CdsmProjection {
   float u, v;    // texels
-  float depth;   // radial distance from the eye
+  float depth;   // radial distance from the eye; orthographic: from the window's plane
   float axial;   // along the view axis
 };
 
 CdsmProjection cdsm_project(CdsmView view, vec3 p) {
   vec3 d = p - view.eye;
   float za = cdsm_dot(d, view.forward);
-  float inv = za > 0.0 ? 1.0 / za : 0.0;
+  bool ortho = view.projection == CDSM_PROJECTION_ORTHOGRAPHIC;
+  float inv = ortho ? 1.0 : za > 0.0 ? 1.0 / za : 0.0;
   float sx = cdsm_dot(d, view.right) * inv - view.center.x;
   float sy = cdsm_dot(d, view.up) * inv - view.center.y;
   CdsmProjection r;
   r.u = (sx / view.tan_half_x + 1.0) * 0.5 * float(view.width);
   r.v = (1.0 - sy / view.tan_half_y) * 0.5 * float(view.height);
-  r.depth = cdsm_length(d);
+  r.depth = ortho ? za : cdsm_length(d);
   r.axial = za;
   return r;
 }
 
+vec2 cdsm_window_at(CdsmView view, float u, float v) {
+  return vec2(view.center.x + (2.0 * u / float(view.width) - 1.0) * view.tan_half_x,
+              view.center.y + (1.0 - 2.0 * v / float(view.height)) * view.tan_half_y);
+}
+
 vec3 cdsm_view_direction(CdsmView view, float u, float v) {
-  float sx = view.center.x + (2.0 * u / float(view.width) - 1.0) * view.tan_half_x;
-  float sy = view.center.y + (1.0 - 2.0 * v / float(view.height)) * view.tan_half_y;
-  return view.forward + view.right * sx + view.up * sy;
+  if (view.projection == CDSM_PROJECTION_ORTHOGRAPHIC) return view.forward;
+  vec2 s = cdsm_window_at(view, u, v);
+  return view.forward + view.right * s.x + view.up * s.y;
+}
+
+// Where the ray through image position (u, v) starts (hd/view.h view_origin).
+vec3 cdsm_view_origin(CdsmView view, float u, float v) {
+  if (view.projection != CDSM_PROJECTION_ORTHOGRAPHIC) return view.eye;
+  vec2 s = cdsm_window_at(view, u, v);
+  return view.eye + view.right * s.x + view.up * s.y;
 }
 
 // ---- one texel's visibility function (shadows/hd/dsm.h) ----------------------
@@ -300,7 +326,9 @@ vec3 cdsm_texel_alpha(CdsmMap m, int tx, int ty, float z) {
 
 // ---- receivers (shadows/hd/lights.h) ----------------------------------------
 
-float cdsm_texel_footprint(CdsmMap m, float axial) { return 2.0 * m.view.tan_half_x * axial / float(m.res); }
+float cdsm_texel_footprint(CdsmMap m, float axial) {
+  return 2.0 * m.view.tan_half_x * (m.view.projection == CDSM_PROJECTION_ORTHOGRAPHIC ? 1.0 : axial) / float(m.res);
+}
 
 // The depth at which tap (tx, ty) reads its texel: where its texel-centre ray
 // crosses the receiver's plane (within a reach of the point's depth), or
@@ -310,7 +338,8 @@ float cdsm_tap_depth(CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, int tx, i
   float reach = CDSM_PLANE_REACH_TEXELS * cdsm_texel_footprint(m, pr.axial);
   vec3 d = cdsm_normalize(cdsm_view_direction(m.view, float(tx) + 0.5, float(ty) + 0.5));
   float dn = cdsm_dot(d, plane);
-  float t = dn != 0.0 ? cdsm_dot(p - m.view.eye, plane) / dn : pr.depth + reach;
+  vec3 origin = cdsm_view_origin(m.view, float(tx) + 0.5, float(ty) + 0.5);
+  float t = dn != 0.0 ? cdsm_dot(p - origin, plane) / dn : pr.depth + reach;
   if (!(t > pr.depth - reach)) t = pr.depth - reach;
   if (!(t < pr.depth + reach)) t = pr.depth + reach;
   return t;
@@ -429,10 +458,16 @@ vec3 cdsm_texel_receive(CdsmMap m, uint t, float depth, float window, float copl
 // hd/compress.h tag_object: the object bits of a receiver's tags (0: none).
 uint cdsm_tag_object(uint object) { return object == CDSM_NO_OBJECT ? 0u : object % 16383u + 1u; }
 
+// The unit direction from p toward light L (hd/lights.h to_light).
+vec3 cdsm_to_light(CdsmLight L, vec3 p) {
+  if (L.type == CDSM_LIGHT_DIRECTIONAL) return L.direction * -1.0;
+  return cdsm_normalize(L.position - p);
+}
+
 // The slope-bias baseline's offset (hd/lights.h slope_bias_offset).
 float cdsm_slope_bias_offset(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane) {
   if (!(cdsm_dot(plane, plane) > 0.0)) return 0.0;
-  float ndl = abs(cdsm_dot(plane, cdsm_normalize(L.position - p)));
+  float ndl = abs(cdsm_dot(plane, cdsm_to_light(L, p)));
   float tan_inc = sqrt(max(0.0, 1.0 - ndl * ndl)) / max(ndl, 0.02);
   return CDSM_SLOPE_BIAS_CONSTANT + CDSM_SLOPE_BIAS_TEXELS * cdsm_texel_footprint(m, pr.axial) * tan_inc;
 }
@@ -512,10 +547,17 @@ vec3 cdsm_shadow_alpha(CdsmLight L, vec3 p, vec3 plane, uint object) {
 // ---- the application's calls -------------------------------------------------
 
 int cdsm_light_count() { return int(cdsm_light_total); }
+// A spot or point light's position; a directional light has none (0): use
+// cdsm_light_direction (or cdsm_direction_to_light) for it.
 vec3 cdsm_light_position(int light) { return cdsm_lights[light].position; }
+// The way the light travels: a spot's axis, a directional light's
+// direction (unit; a point light's is unused).
+vec3 cdsm_light_direction(int light) { return cdsm_lights[light].direction; }
+// The unit direction from p toward the light, for every light type.
+vec3 cdsm_direction_to_light(int light, vec3 p) { return cdsm_to_light(cdsm_lights[light], p); }
 vec3 cdsm_light_radiance(int light) { return cdsm_lights[light].radiance; }
 
-// The spot cone's falloff at p (smoothstep between the outer and inner cone), 1 for point lights.
+// The spot cone's falloff at p (smoothstep between the outer and inner cone), 1 for point and directional lights.
 float cdsm_spot_factor(int light, vec3 p) {
   CdsmLight L = cdsm_lights[light];
   if (L.type != CDSM_LIGHT_SPOT) return 1.0;

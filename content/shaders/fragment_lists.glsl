@@ -15,6 +15,9 @@
 // Projection = PinholeView (shadows/hd/view.h): with d = p - eye,
 //   x_clip = (dot(d,right) - center.x * z) / tan_half_x,
 //   y_clip = (dot(d,up)    - center.y * z) / tan_half_y,   w = z = dot(d,forward),
+// and when orthographic (u_ortho, directional lights) the same without the
+// divide: x_clip = (dot(d,right) - center.x) / tan_half_x, w = 1, depth along
+// forward from the pixel's own origin on the eye's plane;
 // so the GL window position equals the image position (u, H - v): image row
 // py is GL row H-1-py (the flip happens in the pixel index, not in the
 // projection, so it never changes rasterization or winding).
@@ -32,6 +35,7 @@ layout(location = 9) uniform int u_pass;       // 0 count, 1 fill
 layout(location = 10) uniform uint u_tri_base; // first triangle of the bound normal range
 layout(location = 11) uniform float u_clip_z;  // user clip plane z >= u_clip_z (< near), drops geometry behind the eye
 layout(location = 12) uniform float u_x_shift; // NDC shift of the geometry: half a snapping step (see below)
+layout(location = 13) uniform int u_ortho;     // 1: orthographic (parallel rays along u_forward), 0: pinhole
 
 #if defined(VERTEX_STAGE)
 
@@ -55,8 +59,9 @@ void main() {
   // vertex can be an exit without its entry. Shifting the geometry by half a
   // snapping step in x keeps every sample off every snapped vertex (samples
   // on edges are resolved consistently by the tie rule).
-  gl_Position = vec4((dot(d, u_right) - u_window.x * z) / u_window.z + u_x_shift * z,
-                     (dot(d, u_up) - u_window.y * z) / u_window.w, 0.0, z);
+  float w = u_ortho != 0 ? 1.0 : z;
+  gl_Position = vec4((dot(d, u_right) - u_window.x * w) / u_window.z + u_x_shift * w,
+                     (dot(d, u_up) - u_window.y * w) / u_window.w, 0.0, w);
   gl_ClipDistance[0] = z - u_clip_z;
   v_rel = d;
   // glDrawArrays/glMultiDrawArrays: gl_VertexID = first + i, so this is the
@@ -101,15 +106,18 @@ void main() {
   // sees the counter-clockwise side, dot(cross(B-A, C-A), dir) < 0.
   vec2 s = u_window.xy + vec2((2.0 * (float(px) + 0.5) / float(u_size.x) - 1.0) * u_window.z,
                               (1.0 - 2.0 * (float(py) + 0.5) / float(u_size.y)) * u_window.w);
-  vec3 dir = u_forward + u_right * s.x + u_up * s.y;
+  bool ortho = u_ortho != 0;
+  vec3 dir = ortho ? u_forward : u_forward + u_right * s.x + u_up * s.y;
+  // Where the pixel's ray starts, relative to the eye (0 through a pinhole).
+  vec3 origin = ortho ? u_right * s.x + u_up * s.y : vec3(0.0);
   float facing = dot(v_normal, dir);
   bool front = facing < 0.0;
   Fragment f;
   // Radial depth along the pixel-centre ray (the CPU's ray), not the
   // sample's (shifted by u_x_shift): the ray meets the triangle's plane,
-  // through the interpolated point v_rel, at dot(n, v_rel) / dot(n, unit dir).
-  float hit = facing != 0.0 ? dot(v_normal, v_rel) / facing * length(dir) : 0.0;
-  f.depth = hit > 0.0 ? hit : length(v_rel);
+  // through the interpolated point v_rel, at dot(n, v_rel - origin) / dot(n, unit dir).
+  float hit = facing != 0.0 ? dot(v_normal, v_rel - origin) / facing * length(dir) : 0.0;
+  f.depth = hit > 0.0 ? hit : (ortho ? axial : length(v_rel));
   f.bits = (v_prim & 0x1fffffffu) | (clipped ? 0x20000000u : 0u) | (front ? 0x80000000u : 0u);
   fragments[offsets[pixel] - u_frag_base + left - 1u] = f;
 }

@@ -279,6 +279,11 @@ void Session::draw_viewport(int width, int height, bool interacting) {
     const Light& l = doc_.scene.lights[li];
     const Vec3 c = int(li) == selected_light ? Vec3{1.0f, 0.6f, 0.1f} : Vec3{1.0f, 0.95f, 0.4f};
     const float s = 0.08f;
+    if (l.type == LightType::Directional) {  // a ray toward the orbit's centre, along the light
+      const Vec3 d = normalize(l.direction);
+      opt.lines.push_back({orbit_.target - d * 2.0f, orbit_.target, c});
+      continue;
+    }
     opt.lines.push_back({l.position - Vec3{s, 0, 0}, l.position + Vec3{s, 0, 0}, c});
     opt.lines.push_back({l.position - Vec3{0, s, 0}, l.position + Vec3{0, s, 0}, c});
     opt.lines.push_back({l.position - Vec3{0, 0, s}, l.position + Vec3{0, 0, s}, c});

@@ -104,6 +104,16 @@ void lights_panel(Session& s) {
     l.position = s.orbit().target + Vec3{0, 2, 0};
     s.apply(add_light(s.document(), l), now_seconds());
   }
+  ImGui::SameLine();
+  if (ImGui::Button("add sun")) {  // 35 degrees above the horizon
+    Light l;
+    l.name = "sun " + std::to_string(s.scene().lights.size());
+    l.type = LightType::Directional;
+    const float e = 35.0f * 3.14159265f / 180.0f;
+    l.direction = normalize(Vec3{-std::cos(e) * 0.6f, -std::sin(e), -std::cos(e) * 0.8f});
+    l.angular_diameter_deg = 0.53f;
+    s.apply(add_light(s.document(), l), now_seconds());
+  }
   for (size_t i = 0; i < s.scene().lights.size(); ++i) {
     const Light& l = s.scene().lights[i];
     const std::string label = (l.name.empty() ? "light " + std::to_string(i) : l.name) + "##light" + std::to_string(i);
@@ -114,12 +124,29 @@ void lights_panel(Session& s) {
   Light next = s.scene().lights[size_t(li)];
   bool changed = false;
   int type = int(next.type);
-  const char* types[] = {"spot", "omni"};
-  if (ImGui::Combo("type", &type, types, 2)) {
+  const char* types[] = {"spot", "omni", "sun"};
+  if (ImGui::Combo("type", &type, types, 3)) {
     next.type = LightType(type);
+    if (next.type == LightType::Directional && !(length(next.direction) > 0.0f)) next.direction = {0, -1, 0};
     changed = true;
   }
-  changed |= drag3("position", next.position, 0.02f);
+  if (next.type == LightType::Directional) {
+    // Aim by the sun's elevation above the horizon and its azimuth (the
+    // light travels toward -elevation).
+    const Vec3 d = length(next.direction) > 0.0f ? normalize(next.direction) : Vec3{0, -1, 0};
+    float elevation = std::asin(std::clamp(-d.y, -1.0f, 1.0f)) * 180.0f / 3.14159265f;
+    float azimuth = std::atan2(-d.x, -d.z) * 180.0f / 3.14159265f;
+    bool aimed = ImGui::SliderFloat("elevation", &elevation, 1.0f, 90.0f, "%.1f deg");
+    aimed |= ImGui::SliderFloat("azimuth", &azimuth, -180.0f, 180.0f, "%.1f deg");
+    if (aimed) {
+      const float e = elevation * 3.14159265f / 180.0f, a = azimuth * 3.14159265f / 180.0f;
+      next.direction = Vec3{-std::cos(e) * std::sin(a), -std::sin(e), -std::cos(e) * std::cos(a)};
+      changed = true;
+    }
+    changed |= ImGui::SliderFloat("angular diameter", &next.angular_diameter_deg, 0.0f, 10.0f, "%.2f deg");
+  } else {
+    changed |= drag3("position", next.position, 0.02f);
+  }
   if (next.type == LightType::Spot) {
     if (drag3("direction", next.direction, 0.01f, -1.0f, 1.0f)) {
       if (length(next.direction) > 1e-4f) next.direction = normalize(next.direction);
@@ -135,7 +162,7 @@ void lights_panel(Session& s) {
     s.apply(remove_light(s.document(), size_t(li)), now_seconds());
     s.selected_light = -1;
   }
-  ImGui::TextDisabled("shift + drag in the viewport moves it");
+  if (next.type != LightType::Directional) ImGui::TextDisabled("shift + drag in the viewport moves it");
 }
 
 // The transfer function over a histogram of the grid's values.

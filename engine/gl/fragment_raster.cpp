@@ -33,6 +33,7 @@ enum Uniform : GLint {
   kTriBase = 10,
   kClipZ = 11,
   kXShift = 12,
+  kOrtho = 13,
 };
 enum Binding : GLuint { kCounts = 0, kOffsets = 1, kFragments = 2, kNormals = 3, kMedia = 4 };
 
@@ -271,6 +272,7 @@ struct FragmentRasterizer::Impl {
     CDSM_GL(glProgramUniform4f(p, kWindow, v.center.x, v.center.y, v.tan_half_x, v.tan_half_y));
     CDSM_GL(glProgramUniform2f(p, kNearFar, v.near, v.far));
     CDSM_GL(glProgramUniform2i(p, kSize, v.width, v.height));
+    CDSM_GL(glProgramUniform1i(p, kOrtho, is_orthographic(v) ? 1 : 0));
     // Drop what lies behind the eye before projection; the exact near test
     // is per fragment, media boundaries are kept closer (view.h
     // media_clip_axial). (Depth clamp disables GL's own near/far clipping.)

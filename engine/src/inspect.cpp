@@ -106,7 +106,8 @@ std::vector<ShadowSystem::MapInfo> ShadowSystem::maps() const {
       const float sx = v.center.x + ((c & 1) ? v.tan_half_x : -v.tan_half_x);
       const float sy = v.center.y + ((c & 2) ? v.tan_half_y : -v.tan_half_y);
       const float d = (c & 4) ? v.far : v.near;
-      m.corners[c] = v.eye + (v.forward + v.right * sx + v.up * sy) * d;
+      m.corners[c] = is_orthographic(v) ? v.eye + v.right * sx + v.up * sy + v.forward * d
+                                        : v.eye + (v.forward + v.right * sx + v.up * sy) * d;
     }
     if (k < f.map_stats.size()) {
       const DsmBuildStats& b = f.map_stats[k];
@@ -220,7 +221,7 @@ ShadowSystem::TexelInspection ShadowSystem::inspect_texel(int light, Vec3 p, int
     const PinholeView one = texel_view(m.view, r.tx, r.ty);
     FragmentBuffers fb;
     cast_fragments(scene, one, mask, fb);
-    std::vector<uint32_t> inside = objects_containing(scene, one.eye, mask);
+    std::vector<uint32_t> inside = objects_containing(scene, pixel_origin(one, 0, 0), mask);
     LightPassParams lp{one, 0.0f, {inside.data(), inside.size()}, ShadowMethod::Dsm, 0.0f};
     lp.rgb = r.rgb;
     WalkStats ws;

@@ -224,14 +224,14 @@ struct Renderer::Impl {
         for_each_tap(m, pr.u, pr.v, shv.filtering, [&](int tx, int ty, float w) {
           const Vec3 d = normalize(view_direction(m.view, float(tx) + 0.5f, float(ty) + 0.5f));
           const float depth = tap_depth(exact_taps, m, pr, l.at, tx, ty);
-          const Vec3 q = m.view.eye + d * depth;
+          const Vec3 q = pixel_origin(m.view, tx, ty) + d * depth;
           // The receiver's own surface by identity, searched as the lookup
           // searches its own step (hd/lights.h receiver_read_at).
           ReferenceRenderer::End end;
           end.surface = dot(l.at.plane, l.at.plane) > 0.0f;
           end.own = l.at.object;
           end.own_window = receiver_read_at(exact_taps, m, pr, l.at, depth).window;
-          const Vec3 te = ref.transmittance_segment(L.position, q, members, end);
+          const Vec3 te = ref.transmittance_segment(ref.light_origin(L, q), q, members, end);
           tap_lo = vmin(tap_lo, te);
           tap_hi = vmax(tap_hi, te);
           a = a + one_minus(te) * w;

@@ -448,16 +448,18 @@ struct Parser {
     n.at("type");                                      // required
     l.type = n.get_tag("type", l.type, "light type");  // (named in its error as such)
     n.read_fields(l, {"target"});
-    n.at("position");
+    const bool directional = l.type == LightType::Directional;
+    // A directional light has no position (one with a target only aims it).
+    if (!directional || n.has("target")) n.at("position");
     // A point light keeps a direction and cones when given (unused; they
     // come back when it is made a spot again, and a saved scene keeps them).
-    if (l.type == LightType::Spot || n.has("target") || n.has("direction")) {
+    if (l.type != LightType::Point || n.has("target") || n.has("direction")) {
       if (n.has("target"))
         l.direction = n.at("target").as_vec3() - l.position;
       else
         l.direction = n.at("direction").as_vec3();
       const float len = length(l.direction);
-      if (l.type == LightType::Spot && len <= 0) n.fail("spot direction is zero");
+      if (l.type != LightType::Point && len <= 0) n.fail(std::string(tag_name(l.type)) + " direction is zero");
       // Unit length already (a saved scene): kept bit for bit.
       if (len > 0 && std::fabs(len - 1.0f) > 1e-6f) l.direction = normalize(l.direction);
     }

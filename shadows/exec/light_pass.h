@@ -245,7 +245,7 @@ struct BaselineWalk {
     const Vec3 d = pixel_ray(w.params.view, tx, ty);
     const float t_end = w.params.view.far / fmaxf(dot(d, w.params.view.forward), 1e-6f);
     build_baseline_texel(w.scene, w.params.method, w.params.method_param, w.params.inside, w.frags.pixel(tx, ty),
-                         w.params.view.eye, d, t_end, buf, st);
+                         pixel_origin(w.params.view, tx, ty), d, t_end, buf, st);
     w.first_done(uint64_t(ty) * uint64_t(w.res) + uint64_t(tx), buf, st);
   }
 };

@@ -160,7 +160,7 @@ CDSM_HD PixelResult shade_pixel(const SceneView& s, Span<const LightData> lights
                                 const CameraPassParams& p, Span<Fragment> frags, int px, int py, Recorder& rec,
                                 WalkStats& st) {
   Vec3 dir = pixel_ray(p.view, px, py);
-  CameraVisitor<Visibility, Recorder> vis{s, lights, visibility, rec, p.view.eye, dir, p.ambient};
+  CameraVisitor<Visibility, Recorder> vis{s, lights, visibility, rec, pixel_origin(p.view, px, py), dir, p.ambient};
   float t_end = p.view.far / fmaxf(dot(dir, p.view.forward), 1e-6f);
   walk_ray(s, frags, p.inside, 0.0f, t_end, vis, st);
   PixelResult r;

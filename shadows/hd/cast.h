@@ -31,7 +31,7 @@ CDSM_HD void cast_pixel(const SceneView& s, const PinholeView& view, ObjectMask 
   // tmin is exclusive in the test: start just below the first kept depth.
   const float t0 = (any_media ? clip_axial : view.near) / c * 0.999f;
   const float t1 = any_media ? 3.0e38f : view.far / c * 1.001f;
-  for_each_hit(s, mask, view.eye, dir, t0, t1, [&](uint32_t tri, const TriHit& hit) {
+  for_each_hit(s, mask, pixel_origin(view, px, py), dir, t0, t1, [&](uint32_t tri, const TriHit& hit) {
     const float ax = hit.t * c;
     if (ax >= view.near && ax <= view.far) {
       emit(make_fragment(hit.t, tri, hit.front));

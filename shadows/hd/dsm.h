@@ -78,7 +78,7 @@ struct DsmMap {
   uint32_t res;
   uint32_t rgb;  // 1: RGB nodes (DsmStorage::rgb_*), 0: scalar nodes
 };
-static_assert(sizeof(DsmMap) == 96, "DsmMap is 96 bytes");
+static_assert(sizeof(DsmMap) == 112, "DsmMap is 112 bytes");
 
 // One node kind's arrays of a storage (views).
 template <int N>

@@ -88,7 +88,7 @@ template <class Visitor, class Sink>
 CDSM_HD inline void walk_texel_into(const SceneView& s, const LightPassParams& p, Span<Fragment> frags, int tx, int ty,
                                     Sink& sink, WalkStats& st) {
   const Vec3 dir = pixel_ray(p.view, tx, ty);
-  Visitor vis(s, p.view.eye, dir, p.epsilon, sink);
+  Visitor vis(s, pixel_origin(p.view, tx, ty), dir, p.epsilon, sink);
   const float t_end = p.view.far / fmaxf(dot(dir, p.view.forward), 1e-6f);
   walk_ray(s, frags, p.inside, 0.0f, t_end, vis, st);
   vis.c.finish(sink);
@@ -112,7 +112,7 @@ CDSM_HD inline void build_texel(const SceneView& s, const LightPassParams& p, Sp
     if (p.method != ShadowMethod::Dsm) {  // the benchmark's baselines, same rays and walker
       Vec3 d = pixel_ray(p.view, tx, ty);
       float t = p.view.far / fmaxf(dot(d, p.view.forward), 1e-6f);
-      build_baseline_texel(s, p.method, p.method_param, p.inside, frags, p.view.eye, d, t, buf, st);
+      build_baseline_texel(s, p.method, p.method_param, p.inside, frags, pixel_origin(p.view, tx, ty), d, t, buf, st);
       return;
     }
   }

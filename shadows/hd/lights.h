@@ -7,9 +7,9 @@
 namespace cdsm {
 
 struct LightData {
-  Vec3 position;
+  Vec3 position;  // spot, point; directional: unused (0)
   LightType type;
-  Vec3 direction;      // spot axis (unit)
+  Vec3 direction;      // spot axis, directional: the way the light travels (unit)
   float cos_outer;     // spot: cosine of the outer half-angle
   Vec3 radiance;       // colour * intensity
   float cos_inner;     // spot: cosine of the inner half-angle
@@ -49,9 +49,23 @@ CDSM_HD CDSM_INLINE float cone_factor(const LightData& L, Vec3 p) {
   return t * t * (3.0f - 2.0f * t);
 }
 
-// World size of one texel of map m at the point (for slope-scaled bias).
+// The unit direction from p toward light L, and how far the light is
+// (directional lights: infinitely far, along -direction).
+struct ToLight {
+  Vec3 l;
+  float distance;
+};
+CDSM_HD CDSM_INLINE ToLight to_light(const LightData& L, Vec3 p) {
+  if (L.type == LightType::Directional) return ToLight{L.direction * -1.0f, 3.0e38f};
+  const Vec3 d = L.position - p;
+  const float dist = length(d);
+  return ToLight{dist > 0.0f ? d * (1.0f / dist) : Vec3{0, 0, 0}, dist};
+}
+
+// World size of one texel of map m at the point (for slope-scaled bias):
+// grows with the axial distance through a pinhole, constant when orthographic.
 CDSM_HD CDSM_INLINE float texel_footprint(const DsmMap& m, float axial) {
-  return 2.0f * m.view.tan_half_x * axial / float(m.res);
+  return 2.0f * m.view.tan_half_x * (is_orthographic(m.view) ? 1.0f : axial) / float(m.res);
 }
 
 CDSM_HD CDSM_INLINE int cube_face_of(Vec3 d) {
@@ -111,7 +125,7 @@ CDSM_HD CDSM_INLINE float plane_depth_at_texel(const PinholeView& v, int tx, int
                                                float reach) {
   const Vec3 d = normalize(view_direction(v, float(tx) + 0.5f, float(ty) + 0.5f));
   const float dn = dot(d, n);
-  float t = dn != 0.0f ? dot(p - v.eye, n) / dn : depth + reach;
+  float t = dn != 0.0f ? dot(p - pixel_origin(v, tx, ty), n) / dn : depth + reach;
   if (!(t > depth - reach)) t = depth - reach;  // also NaN
   if (!(t < depth + reach)) t = depth + reach;
   return t;
@@ -132,7 +146,7 @@ CDSM_HD CDSM_INLINE float tap_depth(const ShadowView& sv, const DsmMap& m, const
 CDSM_HD CDSM_INLINE float slope_bias_offset(const LightData& L, const DsmMap& m, const ViewProjection& pr,
                                             const Receiver& r) {
   if (!(dot(r.plane, r.plane) > 0.0f)) return 0.0f;
-  const float ndl = fabsf(dot(r.plane, normalize(L.position - r.p)));
+  const float ndl = fabsf(dot(r.plane, to_light(L, r.p).l));
   const float tan_inc = sqrtf(fmaxf(0.0f, 1.0f - ndl * ndl)) / fmaxf(ndl, 0.02f);
   return kSlopeBiasConstant + kSlopeBiasTexels * texel_footprint(m, pr.axial) * tan_inc;
 }

@@ -34,10 +34,9 @@ CDSM_HD Vec3 shade_point(const ShadeInput& in, Span<const LightData> lights, Vec
     const LightData& L = lights[i];
     float cone = cone_factor(L, in.p);
     if (cone <= 0.0f) continue;
-    Vec3 to_l = L.position - in.p;
-    float dist = length(to_l);
-    if (dist <= 0.0f) continue;
-    Vec3 l = to_l * (1.0f / dist);
+    const ToLight tl = to_light(L, in.p);
+    if (tl.distance <= 0.0f) continue;
+    const Vec3 l = tl.l;
     const Receiver rc{in.p, in.plane, in.object};
     if (!in.has_normal) {
       const Vec3 vis = visibility(int(i), rc);

@@ -76,6 +76,23 @@ ReferenceRenderer::ReferenceRenderer(const SceneView& scene, std::vector<LightDa
     value_box(scene, scene.volumes[vi], b.lo, b.hi);
     value_boxes_.push_back(b);
   }
+  if (!scene.bvh.empty()) {
+    scene_lo_ = scene.bvh[0].lo;
+    scene_hi_ = scene.bvh[0].hi;
+  }
+}
+
+Vec3 ReferenceRenderer::light_origin(const LightData& L, Vec3 p) const {
+  if (L.type != LightType::Directional) return L.position;
+  // Leave the scene's box along -direction (slab exit), then a margin.
+  const Vec3 u = L.direction * -1.0f;
+  float t_exit = 0.0f;
+  for (int k = 0; k < 3; ++k) {
+    if (u[k] > 0.0f) t_exit = std::max(t_exit, (scene_hi_[k] - p[k]) / u[k]);
+    if (u[k] < 0.0f) t_exit = std::max(t_exit, (scene_lo_[k] - p[k]) / u[k]);
+  }
+  const float margin = 1.0f + 1e-3f * length(scene_hi_ - scene_lo_);
+  return p + u * (t_exit + margin);
 }
 
 void ReferenceRenderer::hits_along(Vec3 org, Vec3 dir, float tmax, ObjectMask mask, std::vector<Hit>& out) const {
@@ -231,11 +248,11 @@ Vec3 ReferenceRenderer::transmittance_segment(Vec3 a, Vec3 b, ObjectMask members
 }
 
 Vec3 ReferenceRenderer::transmittance(int light, Vec3 p) const {
-  return transmittance_segment(lights_[size_t(light)].position, p);
+  return transmittance_segment(light_origin(lights_[size_t(light)], p), p);
 }
 
 Vec3 ReferenceRenderer::transmittance(int light, const Receiver& r) const {
-  const Vec3 a = lights_[size_t(light)].position;
+  const Vec3 a = light_origin(lights_[size_t(light)], r.p);
   return transmittance_segment(a, r.p, ObjectMask{}, end_of(r, length(r.p - a)));
 }
 

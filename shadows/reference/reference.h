@@ -54,6 +54,11 @@ class ReferenceRenderer {
   Vec3 transmittance(int light, const Receiver& r) const;
   Vec3 transmittance(int light, Vec3 p) const;
 
+  // Where light L's shadow ray to p starts: the light's position, or for a
+  // directional light the point up its beam (against `direction`) just
+  // outside the scene's bounds (parallel shadow rays).
+  Vec3 light_origin(const LightData& L, Vec3 p) const;
+
   // Transmittance along an arbitrary segment a -> b (casters only), b a point.
   Vec3 transmittance_segment(Vec3 a, Vec3 b) const;
   // The same through the casters in `members` only (a cluster's objects),
@@ -91,6 +96,7 @@ class ReferenceRenderer {
     Vec3 lo, hi;
   };
   std::vector<ValueBox> value_boxes_;
+  Vec3 scene_lo_{0, 0, 0}, scene_hi_{0, 0, 0};  // the triangles' bounds (empty scene: a point)
 };
 
 }  // namespace cdsm

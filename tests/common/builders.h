@@ -25,6 +25,14 @@ inline cdsm::Light point_light(cdsm::Vec3 pos) {
   return l;
 }
 
+// A directional light (the sun) travelling along `dir`.
+inline cdsm::Light sun_light(cdsm::Vec3 dir) {
+  cdsm::Light l;
+  l.type = cdsm::LightType::Directional;
+  l.direction = cdsm::normalize(dir);
+  return l;
+}
+
 // A scene with a camera (64x48, from (0, 2, 6) at the origin) and no objects or lights.
 inline cdsm::Scene empty_scene(const std::string& name) {
   cdsm::Scene s;

@@ -238,7 +238,8 @@ double edge_distance_px(const PinholeView& view, const Vec3 tri[3], double u, do
   if (poly.empty()) return std::numeric_limits<double>::infinity();
   std::vector<std::pair<double, double>> img;
   for (const D3& p : poly) {
-    double sx = p.x / p.z - view.center.x, sy = p.y / p.z - view.center.y;
+    const double w = is_orthographic(view) ? 1.0 : p.z;  // parallel rays: no divide
+    double sx = p.x / w - view.center.x, sy = p.y / w - view.center.y;
     img.push_back({(sx / view.tan_half_x + 1.0) * 0.5 * view.width, (1.0 - sy / view.tan_half_y) * 0.5 * view.height});
   }
   double best = std::numeric_limits<double>::infinity();

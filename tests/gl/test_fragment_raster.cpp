@@ -102,6 +102,14 @@ TEST_F(FragmentRaster, MatchesCpuForCameraSpotAndOmniViews) {
   ViewRun cut = run_view(r, s, look_at({0.0f, 1.0f, 4.0f}, {0, 0.6f, 0}, {0, 1, 0}, 60.0f, 160, 120, 3.5f, 5.3f));
   expect_agreement(cut, "near/far cut");
 
+  // Orthographic (a directional light's map over the casters, at a generic
+  // elevation): parallel rays, depths from the window's plane.
+  Box3 box;
+  for (size_t o = 0; o < s.sb.objects.size(); ++o) box.grow(s.sb.object_bounds[o]);
+  const PinholeView sun = directional_view(normalize(Vec3{0.43f, -0.71f, -0.37f}), box, 192);
+  ASSERT_TRUE(is_orthographic(sun));
+  expect_agreement(run_view(r, s, sun), "orthographic");
+
   // (A generic position: from (0.2, 2.2, -0.9) the ground's diagonal would
   // pass exactly through a row of pixel centres, a tie the watertight test covers.)
   auto faces = omni_faces({0.23f, 2.17f, -0.86f}, 128, 0.05f, 30.0f);

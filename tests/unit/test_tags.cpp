@@ -72,6 +72,7 @@ TEST(Tags, TheShaderIncludeNamesTheSameValues) {
   ASSERT_FALSE(glsl.empty());
   expect_glsl_constants<DsmLayout>(glsl, "CDSM_LAYOUT_", true);
   expect_glsl_constants<LightType>(glsl, "CDSM_LIGHT_");
+  expect_glsl_constants<Projection>(glsl, "CDSM_PROJECTION_");
   expect_glsl_constants<MapMode>(glsl, "CDSM_MAPS_");
   expect_glsl_constants<ReceiverLookup>(glsl, "CDSM_RECEIVER_");
 }

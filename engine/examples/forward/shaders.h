@@ -102,10 +102,8 @@ void main() {
   for (int i = 0; i < cdsm_light_count(); ++i) {
     float cone = cdsm_spot_factor(i, g_world);
     if (cone <= 0.0) continue;
-    vec3 to_l = cdsm_light_position(i) - g_world;
-    float dist = length(to_l);
-    if (dist <= 0.0) continue;
-    vec3 l = to_l / dist;
+    vec3 l = cdsm_direction_to_light(i, g_world);  // spot, point and directional lights
+    if (dot(l, l) <= 0.0) continue;
     float ndl = dot(n, l);
     if (ndl <= 0.0) continue;
     vec3 vis = u_shadows ? cdsm_surface_transmittance(g_world, g_plane, u_object, i) : vec3(1.0);

@@ -136,7 +136,7 @@ struct FieldTable<ShadowSettings> {
 };
 
 // Rules a range cannot say stay beside the tables, in the scene validator
-// and reader: a spot's nonzero
+// and reader: a spot's and a directional light's nonzero
 // direction, 0 < outer_cone and inner_cone <= outer_cone; 0 < near < far,
 // 0 < fov_y < 179, target != position; the reader's `target` for a light.
 template <>
@@ -146,15 +146,17 @@ struct FieldTable<Light> {
   static constexpr uint32_t kShape = kAffectsPlan | kAffectsClusters | kAffectsMaps;  // where its maps are
   static constexpr auto fields = std::make_tuple(
       field("name", &S::name, 0, 0, kAffectsNothing, "shown in the editor and in messages"),
-      field("type", &S::type, 0, 0, kShape, "spot or point"),
-      field("position", &S::position, -kBig, kBig, kShape, "world position"),
+      field("type", &S::type, 0, 0, kShape, "spot, point or directional"),
+      field("position", &S::position, -kBig, kBig, kShape, "world position (directional: unused)"),
       field("direction", &S::direction, -kBig, kBig, kShape,
-            "spot: the cone's axis (a file may give a target instead)"),
+            "spot: the cone's axis; directional: the way the light travels (a file may give a target instead)"),
       field("outer_cone", &S::outer_cone_deg, 0.0, 89.5, kShape, "spot: half-angle where the light ends, degrees"),
       field("inner_cone", &S::inner_cone_deg, 0.0, 89.5, kAffectsLookup,
             "spot: half-angle of full intensity, degrees (at most outer_cone)"),
       field("color", &S::color, 0.0, 100.0, kAffectsLookup, "linear RGB"),
-      field("intensity", &S::intensity, 0.0, 1e9, kAffectsLookup, "scales the colour"));
+      field("intensity", &S::intensity, 0.0, 1e9, kAffectsLookup, "scales the colour"),
+      field("angular_diameter", &S::angular_diameter_deg, 0.0, 10.0, kAffectsLookup,
+            "directional: apparent size, degrees (the sun: 0.53; 0: hard; soft shadows are not built yet)"));
 };
 
 template <>

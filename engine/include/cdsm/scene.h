@@ -140,15 +140,21 @@ struct Object {
   std::string mesh_source;
 };
 
+// A spot, point or directional light. A directional light (the sun) has no
+// position: it shines along `direction` from infinitely far away, its
+// shadows in orthographic maps over the casters.
 struct Light {
   std::string name;
   LightType type = LightType::Spot;
-  Vec3 position{0, 5, 0};
-  Vec3 direction{0, -1, 0};      // spot: cone axis
+  Vec3 position{0, 5, 0};        // spot, point (directional: unused)
+  Vec3 direction{0, -1, 0};      // spot: cone axis; directional: the way the light travels
   float outer_cone_deg = 30.0f;  // spot: half-angle where light ends
   float inner_cone_deg = 25.0f;  // spot: half-angle of full intensity
   Vec3 color{1, 1, 1};
   float intensity = 1.0f;
+  // Directional: the light's apparent size in degrees (the sun: 0.53); 0 is
+  // a point at infinity. Recorded for soft shadows; today's shadows are hard.
+  float angular_diameter_deg = 0.0f;
 };
 
 // Clip-space depth of a projection matrix: OpenGL's [-1, 1] (glm's default)

@@ -284,17 +284,20 @@ Scene load_gltf_scene(const std::string& path) {
   }
 
   // Lights: positions and directions from their nodes (lights point down
-  // their node's -z), intensities scaled so the brightest is 1.
-  float brightest = 0.0f;
+  // their node's -z), intensities scaled so the brightest is 1 — apart for
+  // directional lights (lux) and spot and point lights (candela), whose
+  // units do not compare.
+  float brightest = 0.0f, brightest_sun = 0.0f;
   for (const PendingLight& pl : lights) {
     const tinygltf::Light& L = m.lights[size_t(pl.index)];
-    if (std::isfinite(L.intensity) && (L.type == "spot" || L.type == "point"))
-      brightest = std::max(brightest, float(L.intensity));
+    if (!std::isfinite(L.intensity)) continue;
+    if (L.type == "spot" || L.type == "point") brightest = std::max(brightest, float(L.intensity));
+    if (L.type == "directional") brightest_sun = std::max(brightest_sun, float(L.intensity));
   }
   for (const PendingLight& pl : lights) {
     const tinygltf::Light& L = m.lights[size_t(pl.index)];
     const std::string label = gltf::node_label(f, pl.node);
-    if (L.type != "spot" && L.type != "point") {
+    if (L.type != "spot" && L.type != "point" && L.type != "directional") {
       un.add(L.type + " lights", label);
       continue;
     }
@@ -304,11 +307,12 @@ Scene load_gltf_scene(const std::string& path) {
     }
     Light l;
     l.name = L.name.empty() ? m.nodes[size_t(pl.node)].name : L.name;
-    l.type = L.type == "spot" ? LightType::Spot : LightType::Point;
+    if (!parse_tag(L.type, l.type)) continue;  // spot, point, directional: the same names
     l.position = pl.g.point({0, 0, 0});
     l.direction = normalize(pl.g.vector({0, 0, -1}));
     if (L.color.size() == 3) l.color = {float(L.color[0]), float(L.color[1]), float(L.color[2])};
-    l.intensity = brightest > 0.0f ? float(L.intensity) / brightest : 0.0f;
+    const float scale = l.type == LightType::Directional ? brightest_sun : brightest;
+    l.intensity = scale > 0.0f ? float(L.intensity) / scale : 0.0f;
     if (L.range > 0.0) un.add("light range (no distance falloff is modelled)", label);
     if (l.type == LightType::Spot) {
       float outer = float(L.spot.outerConeAngle) * 180.0f / kPi, inner = float(L.spot.innerConeAngle) * 180.0f / kPi;
@@ -326,7 +330,7 @@ Scene load_gltf_scene(const std::string& path) {
   }
   if (scene.lights.empty()) {
     scene.lights.push_back(default_light(bounds));
-    warn(path + ": no spot or point light (KHR_lights_punctual); added a default spot light");
+    warn(path + ": no spot, point or directional light (KHR_lights_punctual); added a default spot light");
   }
   un.report(path);
   return scene;

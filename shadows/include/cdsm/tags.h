@@ -1,7 +1,8 @@
 // The tags a scene, the kernels (CPU threads and CUDA) and the GL storage
 // share: each one enum, 32 bits wide so it sits in the std430 and device
 // structs as it is. cdsm.glsl (share/cdsm/shaders/) names the same values
-// (CDSM_LIGHT_*, CDSM_LAYOUT_*, CDSM_RECEIVER_*, CDSM_MAPS_*); the
+// (CDSM_LIGHT_*, CDSM_PROJECTION_*, CDSM_LAYOUT_*, CDSM_RECEIVER_*,
+// CDSM_MAPS_*); the
 // library's tests check they agree.
 #pragma once
 
@@ -14,7 +15,14 @@ namespace cdsm {
 // What fills a closed mesh (Material/Object interior).
 enum class InteriorKind : uint32_t { None = 0, Constant = 1, Volume = 2 };
 
-enum class LightType : uint32_t { Spot = 0, Point = 1 };
+// Directional lights (the sun) shine along one direction from infinitely
+// far away: no position, orthographic maps (Projection::Orthographic).
+enum class LightType : uint32_t { Spot = 0, Point = 1, Directional = 2 };
+
+// How a view maps the world to its image (hd/view.h PinholeView): through
+// its eye (cameras, spot and point lights), or along parallel rays
+// (directional lights).
+enum class Projection : uint32_t { Perspective = 0, Orthographic = 1 };
 
 // How a light's maps combine at a point (hd/lights.h).
 enum class MapMode : uint32_t {
@@ -54,7 +62,11 @@ struct TagNames<InteriorKind> {
 };
 template <>
 struct TagNames<LightType> {
-  static constexpr const char* names[] = {"spot", "point"};
+  static constexpr const char* names[] = {"spot", "point", "directional"};
+};
+template <>
+struct TagNames<Projection> {
+  static constexpr const char* names[] = {"perspective", "orthographic"};
 };
 template <>
 struct TagNames<MapMode> {
