@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <iostream>
 #include <random>
 
@@ -216,4 +217,42 @@ TEST(Directional, SceneFilesNeedADirectionNotAPosition) {
   EXPECT_EQ(back.lights[0].type, LightType::Directional);
   EXPECT_EQ(back.lights[0].direction.y, ok.lights[0].direction.y);
   EXPECT_EQ(back.lights[0].angular_diameter_deg, ok.lights[0].angular_diameter_deg);
+}
+
+// Holding still (issue 29 item 3) on the shipped sun scene: over a camera
+// path of 200 frames that translates 10 m and turns 30 degrees, the sun's map is built
+// once and reused by every later frame — no rebuild, so no receiver's
+// transmittance changes (the popping probe measures nothing) — and its
+// view stays bit for bit the same.
+TEST(Directional, SunCloudsCameraPathRebuildsNoMap) {
+  Scene s = load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/sun_clouds.json");
+  s.camera.width = 64;
+  s.camera.height = 40;
+  s.shadows.resolution = 256;
+  ShadowSystem sys;
+  sync_scene(sys, s);
+  FrameStats st;
+  sys.render(&st);
+  ASSERT_EQ(st.maps_rebuilt, 1u);
+  const std::vector<ShadowSystem::MapInfo> first = sys.maps();
+  ASSERT_EQ(first.size(), 1u);
+  const Vec3 p0 = s.camera.position, t0 = s.camera.target;
+  constexpr int kFrames = 200;
+  uint32_t rebuilt = 0;
+  for (int f = 1; f <= kFrames; ++f) {
+    const float a = float(f) / float(kFrames);
+    Camera c = s.camera;
+    c.position = p0 + Vec3{10.0f * a, 0, 0};  // 10 m sideways
+    const float turn = 30.0f * a * kDeg;      // and 30 degrees about the vertical
+    const Vec3 d = t0 - p0;
+    c.target = c.position +
+               Vec3{d.x * std::cos(turn) - d.z * std::sin(turn), d.y, d.x * std::sin(turn) + d.z * std::cos(turn)};
+    sys.set_camera(c);
+    sys.render(&st);
+    rebuilt += st.maps_rebuilt;
+  }
+  EXPECT_EQ(rebuilt, 0u) << "the sun's map does not depend on the camera";
+  const std::vector<ShadowSystem::MapInfo> last = sys.maps();
+  ASSERT_EQ(last.size(), 1u);
+  for (int c = 0; c < 8; ++c) EXPECT_EQ(std::memcmp(&first[0].corners[c], &last[0].corners[c], sizeof(Vec3)), 0);
 }
