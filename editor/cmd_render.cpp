@@ -59,6 +59,7 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
   j["popping"] = {{"measured", s.popping.measured},
                   {"points", s.popping.points},
                   {"mean_abs_dT", s.popping.mean},
+                  {"p99_abs_dT", s.popping.p99},
                   {"max_abs_dT", s.popping.max}};
   {
     const UpdateStats& u = s.update;

@@ -134,26 +134,6 @@ PinholeView light_view(Vec3 eye, Vec3 forward, Vec3 up_hint, float tan_half, int
   return v;
 }
 
-PinholeView directional_view(Vec3 direction, const Box3& casters, int res) {
-  // The casters' bounding sphere: its disk, seen along the light, holds
-  // every caster whatever the light's roll, and its size does not change
-  // when the light turns.
-  const Vec3 c = casters.center();
-  const float r = std::max(0.5f * length(casters.extent()), 1e-3f);
-  PinholeView v = light_view(Vec3{0, 0, 0}, direction, {0, 1, 0}, r, res, 1, 0.0f, 1.0f);
-  v.projection = Projection::Orthographic;
-  // The window's centre on the texel grid (one texel = 2 tan_half_x / res
-  // world units along right and up), so a map moved with its casters
-  // shifts by whole texels; the eye a margin behind the sphere.
-  const float texel = 2.0f * v.tan_half_x / float(res);
-  const float margin = 0.05f * r + 1e-3f;
-  const float cx = std::round(dot(c, v.right) / texel) * texel, cy = std::round(dot(c, v.up) / texel) * texel;
-  v.eye = v.right * cx + v.up * cy + v.forward * (dot(c, v.forward) - r - margin);
-  v.near = 0.5f * margin;
-  v.far = 2.0f * (r + margin);
-  return v;
-}
-
 std::vector<PinholeView> cube_face_views(Vec3 eye, int res, float near, float far) {
   const Vec3 fwd[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
   const Vec3 up[6] = {{0, 1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}, {0, 1, 0}, {0, 1, 0}};
@@ -176,7 +156,7 @@ LightSetup setup_lights(const std::vector<Light>& lights, const SceneBuffers& sb
       for (uint32_t o : casters) box.grow(sb.object_bounds[o]);
       if (box.empty()) box = sb.bounds;
       if (box.empty()) box.grow(Vec3{0, 0, 0});
-      ls.maps.push_back({directional_view(ld.direction, box, res), uint32_t(li), casters});
+      ls.maps.push_back({cluster::directional_view(ld.direction, box, res), uint32_t(li), casters});
       ld.map_count = 1;
       ld.map_mode = MapMode::Combine;
       ls.lights.push_back(ld);
@@ -281,7 +261,7 @@ void cluster_light(const FrameInputs& in, size_t li, const LightClusters* previo
   lc.clustered = true;
 }
 
-// Replaces a spot light's map by parallel-split maps (near to far) along
+// Replaces a spot or directional light's map by parallel-split maps (near to far) along
 // the camera's view: slice i of the view frustum by the practical split
 // scheme (half logarithmic, half uniform), a light frustum focused on the
 // slice's box within the scene, holding every caster between the light and
@@ -290,7 +270,7 @@ void split_light(const FrameInputs& in, size_t li, LightSetup& ls) {
   const SceneBuffers& sb = *in.scene;
   const cluster::LightShape light = light_shape(in.lights[li]);
   const int m = in.settings.parallel_splits;
-  if (ls.lights[li].map_mode != MapMode::Combine || ls.lights[li].map_count != 1) return;  // spots only
+  if (ls.lights[li].map_mode != MapMode::Combine || ls.lights[li].map_count != 1) return;  // spots, directional
   PinholeView cam = camera_view(in.camera);
   // The view's depth range inside the scene box.
   float far = 0.0f;
@@ -320,7 +300,11 @@ void split_light(const FrameInputs& in, size_t li, LightSetup& ls) {
     cluster::FocusResult f = cluster::focus_cluster(light, {slice}, fp);
     if (f.views.size() != 1) continue;
     MapPlan p{f.views[0], uint32_t(li), base.members};
-    p.view.near = base.view.near;  // every caster between the light and the slice
+    // Every caster between the light and the slice: the whole map's depth
+    // range (orthographic maps: from the whole map's window plane too).
+    if (is_orthographic(p.view))
+      p.view.eye = p.view.eye + p.view.forward * dot(base.view.eye - p.view.eye, p.view.forward);
+    p.view.near = base.view.near;
     p.view.far = base.view.far;
     mine.push_back(std::move(p));
   }
@@ -493,27 +477,19 @@ std::unordered_map<uint64_t, MapCache::LightState> plan_maps(const FrameInputs& 
     ++frame.freed;
   }
   cache.retired.clear();
-  // Directional lights: one orthographic map over every caster (not yet
-  // clustered nor split), the same whatever the camera does.
-  auto directional = [&](size_t li) { return in.lights[li].type == LightType::Directional; };
   if (s.parallel_splits > 1) {
-    for (size_t li = 0; li < in.lights.size(); ++li)
-      if (!directional(li)) split_light(in, li, frame.setup);
+    for (size_t li = 0; li < in.lights.size(); ++li) split_light(in, li, frame.setup);
     frame.clusters.assign(in.lights.size(), LightClusters{});
     for (LightClusters& lc : frame.clusters) lc.fallback_reason = "parallel-split maps (baseline)";
   } else if (s.max_clusters > 1) {
     auto t0 = std::chrono::steady_clock::now();
     for (size_t li = 0; li < in.lights.size(); ++li) {
-      if (directional(li)) continue;
       auto it = cache.lights.find(in.light_ids[li]);
       const bool keep = it != cache.lights.end() && it->second.signature == light_signature(in.lights[li], s);
       cluster_light(in, li, keep ? &it->second.clusters : nullptr, frame.setup, frame.clusters[li]);
     }
     frame.cluster_ms = ms_since(t0);
   }
-  for (size_t li = 0; li < in.lights.size(); ++li)
-    if (directional(li))
-      frame.clusters[li].fallback_reason = "directional light: one orthographic map over the casters";
   warn_subtexel_casters(in, frame);
   std::unordered_map<uint64_t, MapCache::LightState> lights;
   for (size_t li = 0; li < in.lights.size(); ++li)

@@ -39,12 +39,6 @@ PinholeView camera_view(const Camera& cam);
 // `guard` texels per side so bilinear taps at its border stay inside.
 PinholeView light_view(Vec3 eye, Vec3 forward, Vec3 up_hint, float tan_half, int res, int guard, float near, float far);
 
-// A directional light's orthographic view along `direction` over the
-// caster box: a square window round the box's bounding sphere (one-texel
-// guard band), its centre snapped to the texel grid, the eye a margin
-// behind the sphere, [near, far] across it.
-PinholeView directional_view(Vec3 direction, const Box3& casters, int res);
-
 // The six 90-degree faces +X,-X,+Y,-Y,+Z,-Z of an omni light (one-texel guard band).
 std::vector<PinholeView> cube_face_views(Vec3 eye, int res, float near, float far);
 

@@ -329,6 +329,7 @@ struct Renderer::Impl {
       before.receiver = previous.settings.receiver;
       double sum = 0.0, mx = 0.0;
       uint64_t n = 0;
+      std::vector<double> changes;
       for (const Receiver& r : previous.receivers)
         for (uint32_t li = 0; li < now.lights.size(); ++li) {
           if (cone_factor(now.lights[li], r.p) <= 0.0f) continue;
@@ -338,11 +339,19 @@ struct Renderer::Impl {
           double d = double(max_channel(vmax(diff, -diff)));  // the largest channel's change
           sum += d;
           mx = std::max(mx, d);
+          changes.push_back(d);
           ++n;
         }
+      double p99 = 0.0;
+      if (!changes.empty()) {
+        const size_t k = std::min(changes.size() - 1, size_t(0.99 * double(changes.size())));
+        std::nth_element(changes.begin(), changes.begin() + ptrdiff_t(k), changes.end());
+        p99 = changes[k];
+      }
       st.popping.measured = true;
       st.popping.points = n;
       st.popping.mean = n ? sum / double(n) : 0.0;
+      st.popping.p99 = p99;
       st.popping.max = mx;
     }
     previous.setup = now_frame.setup;

@@ -260,6 +260,7 @@ std::string object_location(const std::string& source, size_t index, const std::
 cluster::LightShape light_shape(const Light& light) {
   cluster::LightShape s;
   s.spot = light.type == LightType::Spot;
+  s.directional = light.type == LightType::Directional;
   s.position = light.position;
   s.direction = light.direction;
   s.outer_cone_deg = light.outer_cone_deg;

@@ -92,7 +92,9 @@ FocusParams focus_params(const ClusterSettings& s) {
 // of some direction (those are the only ones whose shadows can reach the
 // view: B holds every segment from the light to a visible point); members
 // outside every B stay in the map but do not widen it. Without seen
-// members, the lit ones decide, then all.
+// members, the lit ones decide, then all. (A directional light's window
+// then moves only when a member enters or leaves B: with the camera's far
+// plane reaching across the scene, B is most of the scene box.)
 void focus_into(Cluster& c, const LightShape& light, const std::vector<Caster>& casters, const std::vector<int>& idx,
                 const ClusterSettings& s, const CasterDistances& D) {
   std::vector<int> order = idx;
@@ -121,6 +123,7 @@ bool same_views(const std::vector<PinholeView>& a, const std::vector<PinholeView
 }  // namespace
 
 std::vector<PinholeView> light_directions(const LightShape& light, const Box3& scene, int resolution, float min_near) {
+  if (light.directional) return {directional_view(light.direction, scene, resolution)};
   float far = 2.0f * min_near;
   for (int i = 0; i < 8; ++i) far = std::max(far, length(scene.corner(i) - light.position));
   far *= 1.01f;
@@ -144,7 +147,8 @@ CasterDistances caster_distances(const LightShape& light, const PinholeView& cam
   for (size_t k = 0; k < views.size(); ++k) {
     Direction dir;
     dir.view = views[k];
-    dir.body = lispsm_body(camera, light.position, scene, &dir.view);
+    dir.body = light.directional ? lispsm_body_directional(camera, light.direction, scene, &dir.view)
+                                 : lispsm_body(camera, light.position, scene, &dir.view);
     dir.body.clip(cone);
     dir.map = build_lispsm(camera, dir.view, dir.body, settings.lispsm);
 

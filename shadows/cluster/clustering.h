@@ -67,8 +67,9 @@ struct CasterDistances {
 };
 
 // The directions of a light: one frustum for a spot of half-angle <= 60°,
-// the six cube faces otherwise (point lights, wide spots). Far planes reach
-// the scene box.
+// the six cube faces otherwise (point lights, wide spots), one orthographic
+// view over the scene box for a directional light. Far planes reach the
+// scene box.
 std::vector<PinholeView> light_directions(const LightShape& light, const Box3& scene, int resolution,
                                           float min_near = 1e-3f);
 

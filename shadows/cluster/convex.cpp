@@ -232,7 +232,8 @@ void frustum_corners(const PinholeView& v, Vec3 out[8]) {
     float sx = v.center.x + ((i & 1) ? v.tan_half_x : -v.tan_half_x);
     float sy = v.center.y + ((i & 2) ? v.tan_half_y : -v.tan_half_y);
     float z = (i & 4) ? v.far : v.near;
-    out[i] = v.eye + (v.forward + v.right * sx + v.up * sy) * z;
+    out[i] = is_orthographic(v) ? v.eye + v.right * sx + v.up * sy + v.forward * z
+                                : v.eye + (v.forward + v.right * sx + v.up * sy) * z;
   }
 }
 
@@ -254,6 +255,17 @@ ConvexBody frustum_body(const PinholeView& v) {
 
 std::vector<Plane> frustum_planes(const PinholeView& v, bool with_depth) {
   const Vec3 F = v.forward, R = v.right, U = v.up;
+  if (is_orthographic(v)) {                                                                    // parallel sides
+    std::vector<Plane> planes = {plane_through(v.eye + R * (v.center.x - v.tan_half_x), R),    // left
+                                 plane_through(v.eye + R * (v.center.x + v.tan_half_x), -R),   // right
+                                 plane_through(v.eye + U * (v.center.y - v.tan_half_y), U),    // bottom
+                                 plane_through(v.eye + U * (v.center.y + v.tan_half_y), -U)};  // top
+    if (with_depth) {
+      planes.push_back(plane_through(v.eye + F * v.near, F));
+      planes.push_back(plane_through(v.eye + F * v.far, -F));
+    }
+    return planes;
+  }
   std::vector<Plane> planes = {plane_through(v.eye, R - F * (v.center.x - v.tan_half_x)),   // left
                                plane_through(v.eye, F * (v.center.x + v.tan_half_x) - R),   // right
                                plane_through(v.eye, U - F * (v.center.y - v.tan_half_y)),   // bottom
@@ -304,6 +316,63 @@ ConvexBody hull_with_point(const ConvexBody& body, Vec3 point) {
     }
   }
   return out;
+}
+
+ConvexBody lispsm_body_directional(const PinholeView& camera, Vec3 direction, const Box3& scene,
+                                   const PinholeView* light_frustum) {
+  // F = the camera frustum inside the box; B = F swept up the beam (the
+  // Minkowski sum of F and the segment [0, s]) inside the box. Its planes:
+  // F's faces turned away from s where they are, those facing s moved by s,
+  // and through each silhouette edge (between one of each) a plane along s.
+  ConvexBody f = frustum_body(camera);
+  f.clip(box_planes(scene));
+  if (f.empty()) return f;
+  const Vec3 s = normalize(direction) * -(2.0f * length(scene.extent()) + 1.0f);
+  const float tol = f.tolerance();
+  Vec3 inside{};
+  const std::vector<Vec3> verts = f.vertices();
+  for (Vec3 p : verts) inside += p;
+  inside = inside / float(std::max<size_t>(verts.size(), 1));
+  std::vector<Vec3> normal(f.polygons.size());
+  std::vector<char> facing(f.polygons.size(), 0), valid(f.polygons.size(), 0);
+  for (size_t i = 0; i < f.polygons.size(); ++i) {
+    const Vec3 n = polygon_normal(f.polygons[i]);
+    const float l = length(n);
+    if (!(l > 0.0f)) continue;
+    normal[i] = n / l;
+    valid[i] = 1;
+    facing[i] = dot(normal[i], s) > 0.0f;
+  }
+  auto same = [tol](Vec3 p, Vec3 q) { return length(p - q) <= tol; };
+  std::vector<Plane> planes = box_planes(scene);
+  for (size_t i = 0; i < f.polygons.size(); ++i) {
+    if (!valid[i]) continue;
+    const Polygon& poly = f.polygons[i];
+    planes.push_back(plane_through(facing[i] ? poly[0] + s : poly[0], -normal[i]));
+    if (!facing[i]) continue;
+    for (size_t e = 0; e < poly.size(); ++e) {
+      const Vec3 a = poly[e], b = poly[(e + 1) % poly.size()];
+      bool silhouette = true;  // the neighbour across a->b faces away (or there is none)
+      for (size_t j = 0; j < f.polygons.size() && silhouette; ++j) {
+        if (j == i || !valid[j]) continue;
+        const Polygon& other = f.polygons[j];
+        for (size_t k = 0; k < other.size(); ++k)
+          if (same(other[k], b) && same(other[(k + 1) % other.size()], a)) {
+            if (facing[j]) silhouette = false;
+            break;
+          }
+      }
+      if (!silhouette) continue;
+      Vec3 m = cross(b - a, s);
+      if (!(length(m) > 0.0f)) continue;
+      if (dot(m, inside - a) < 0.0f) m = m * -1.0f;
+      planes.push_back(plane_through(a, m));
+    }
+  }
+  ConvexBody body = box_body(scene);
+  body.clip(planes);
+  if (light_frustum) body.clip(frustum_planes(*light_frustum));
+  return body;
 }
 
 ConvexBody lispsm_body(const PinholeView& camera, Vec3 light_position, const Box3& scene,

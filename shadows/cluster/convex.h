@@ -68,13 +68,14 @@ ConvexBody box_body(const Box3& box);
 std::vector<Plane> box_planes(const Box3& box);
 
 // The 8 corners of a view's clipping volume: window corners (center offset
-// included) at the axial distances near and far. Index bit 0: +x, bit 1: +y,
+// included) at the axial distances near and far (orthographic views: a box). Index bit 0: +x, bit 1: +y,
 // bit 2: far.
 void frustum_corners(const PinholeView& v, Vec3 out[8]);
 ConvexBody frustum_body(const PinholeView& v);
 
 // The planes of a view's clipping volume: left, right, bottom, top (all
-// through the eye), then near and far when `with_depth`.
+// through the eye; parallel to the view axis when orthographic), then near
+// and far when `with_depth`.
 std::vector<Plane> frustum_planes(const PinholeView& v, bool with_depth = true);
 
 // The convex hull of `body` and one more point: the faces the point sees
@@ -87,5 +88,12 @@ ConvexBody hull_with_point(const ConvexBody& body, Vec3 point);
 // cube face of an omni light; pass nullptr for a point light as a whole).
 ConvexBody lispsm_body(const PinholeView& camera, Vec3 light_position, const Box3& scene,
                        const PinholeView* light_frustum);
+
+// The same for a directional light travelling along `direction`: the camera
+// frustum swept toward the light (its hull with the frustum's corners moved
+// up the beam past the scene box), clipped by the scene box and the light's
+// orthographic view when given.
+ConvexBody lispsm_body_directional(const PinholeView& camera, Vec3 direction, const Box3& scene,
+                                   const PinholeView* light_frustum);
 
 }  // namespace cdsm::cluster

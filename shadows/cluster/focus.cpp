@@ -131,6 +131,14 @@ bool focus_points(Vec3 eye, const std::vector<Vec3>& points, Vec3 up_hint, const
 
 FocusResult focus_cluster(const LightShape& light, const std::vector<Box3>& members, const FocusParams& params) {
   FocusResult res;
+  if (light.directional) {  // parallel light reaches every member: one orthographic window
+    std::vector<Vec3> pts;
+    for (const Box3& b : members)
+      for (int i = 0; i < 8; ++i) pts.push_back(b.corner(i));
+    if (!pts.empty())
+      res.views.push_back(directional_focus(light.direction, pts, params.resolution, params.guard_texels));
+    return res;
+  }
   const Vec3 eye = light.position;
   // The spot's cone (circumscribed pyramid) and square frustum, all through
   // the light; none for a point light or a cone of 90° or more.

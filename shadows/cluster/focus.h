@@ -35,7 +35,8 @@ bool focus_points(Vec3 eye, const std::vector<Vec3>& points, Vec3 up_hint, const
 // Focuses the light on a cluster's member boxes. A spot light's members are
 // first cut by its cone (and its square frustum), so the focused window never
 // exceeds the spot's. A cluster that fails focus_points() is cut per cube
-// face and focused face by face (split = true).
+// face and focused face by face (split = true). A directional light's
+// cluster gets one orthographic window over its members (directional_focus).
 FocusResult focus_cluster(const LightShape& light, const std::vector<Box3>& members, const FocusParams& params);
 
 // Whether two views are identical (bit for bit in every field).

@@ -73,6 +73,64 @@ std::vector<Plane> cone_planes(const LightShape& light, int sides) {
   return planes;
 }
 
+namespace {
+
+// An orthographic view along `direction` (the frame of make_frame with +Y
+// as the up hint), its window centred at (cx, cy) on the right/up axes with
+// half sizes hx, hy, the eye at `depth` along the view axis.
+PinholeView ortho_view(Vec3 direction, float cx, float cy, float hx, float hy, float depth, float far, int res) {
+  PinholeView v;
+  v.projection = Projection::Orthographic;
+  v.forward = normalize(direction);
+  make_frame(v.forward, vec3(0, 1, 0), v.right, v.up);
+  v.eye = v.right * cx + v.up * cy + v.forward * depth;
+  v.tan_half_x = hx;
+  v.tan_half_y = hy;
+  v.width = v.height = res;
+  v.far = far;
+  return v;
+}
+
+}  // namespace
+
+PinholeView directional_view(Vec3 direction, const Box3& box, int res) {
+  const Vec3 c = box.center();
+  const float r = std::max(0.5f * length(box.extent()), 1e-3f);
+  const float half = widen_for_guard(r, res, 1.0f);
+  const float texel = 2.0f * half / float(res);
+  const float margin = 0.05f * r + 1e-3f;
+  Vec3 f = normalize(direction), right, up;
+  make_frame(f, vec3(0, 1, 0), right, up);
+  const float cx = std::round(dot(c, right) / texel) * texel, cy = std::round(dot(c, up) / texel) * texel;
+  PinholeView v = ortho_view(f, cx, cy, half, half, dot(c, f) - r - margin, 2.0f * (r + margin), res);
+  v.near = 0.5f * margin;
+  return v;
+}
+
+PinholeView directional_focus(Vec3 direction, const std::vector<Vec3>& points, int res, float guard) {
+  Vec3 f = normalize(direction), right, up;
+  make_frame(f, vec3(0, 1, 0), right, up);
+  float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+  for (Vec3 p : points) {
+    const float c[3] = {dot(p, right), dot(p, up), dot(p, f)};
+    for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], c[k]), hi[k] = std::max(hi[k], c[k]);
+  }
+  if (points.empty()) lo[0] = lo[1] = lo[2] = hi[0] = hi[1] = hi[2] = 0.0f;
+  // Half sizes on a 2^(1/4) ladder, with the guard band and half a texel
+  // more for the snapped centre.
+  auto half_of = [&](int k) {
+    const float h = widen_for_guard(std::max(0.5f * (hi[k] - lo[k]), 1e-4f), res, guard + 0.5f);
+    return std::exp2(std::ceil(4.0f * std::log2(h)) * 0.25f);
+  };
+  const float hx = half_of(0), hy = half_of(1);
+  const float tx = 2.0f * hx / float(res), ty = 2.0f * hy / float(res);
+  const float cx = std::round(0.5f * (lo[0] + hi[0]) / tx) * tx, cy = std::round(0.5f * (lo[1] + hi[1]) / ty) * ty;
+  const float margin = 0.01f * (hi[2] - lo[2]) + 1e-3f;
+  PinholeView v = ortho_view(f, cx, cy, hx, hy, lo[2] - margin, hi[2] - lo[2] + 2.0f * margin, res);
+  v.near = 0.5f * margin;
+  return v;
+}
+
 bool spot_fits_one_frustum(const LightShape& light) {
   return light.spot && light.outer_cone_deg <= kMaxSpotFrustumHalfAngleDeg;
 }

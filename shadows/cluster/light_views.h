@@ -14,9 +14,10 @@ namespace cdsm::cluster {
 // A light as clustering and focusing see it (the engine makes it from its
 // scene model's light).
 struct LightShape {
-  bool spot = true;  // false: a point (omni) light
+  bool spot = true;          // false: a point (omni) or directional light
+  bool directional = false;  // true: parallel light along `direction` (the sun), no position
   Vec3 position{0, 0, 0};
-  Vec3 direction{0, -1, 0};      // spot: the cone's axis (unit length)
+  Vec3 direction{0, -1, 0};      // spot: the cone's axis; directional: the way the light travels (unit)
   float outer_cone_deg = 30.0f;  // spot: half-angle where the light ends
 };
 
@@ -44,6 +45,21 @@ std::array<PinholeView, 6> cube_face_views(Vec3 position, float near, float far,
 // (half-angle outer_cone_deg < 90°), `sides` faces. Empty for a cone of 90°
 // or more (not convex) and for a point light.
 std::vector<Plane> cone_planes(const LightShape& light, int sides = 32);
+
+// A directional light's orthographic view along `direction` over `box`: a
+// square window round the box's bounding sphere (its size independent of the
+// light's roll and of the box's orientation), one texel of guard band, the
+// centre snapped to the texel grid, the eye a margin behind the sphere and
+// [near, far] across it.
+PinholeView directional_view(Vec3 direction, const Box3& box, int res);
+
+// A directional light's orthographic view focused on `points`: the smallest
+// window holding their projections plus `guard` texels, each half size
+// rounded up to a power of 2^(1/4) and the centre snapped to that texel
+// grid (the same points always give the same view, bit for bit, and a
+// small change of them leaves the view as it is more often than not), the
+// eye a margin in front of the nearest point, [near, far] over the points.
+PinholeView directional_focus(Vec3 direction, const std::vector<Vec3>& points, int res, float guard);
 
 // Whether the light's cone (spot) is narrow enough for one frustum.
 bool spot_fits_one_frustum(const LightShape& light);

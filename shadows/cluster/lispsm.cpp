@@ -12,6 +12,12 @@ namespace {
 bool image_coords(const PinholeView& light, Vec3 p, Vec2& s) {
   Vec3 d = p - light.eye;
   float za = dot(d, light.forward);
+  if (is_orthographic(light)) {  // parallel rays: no divide
+    if (!(za > 0.0f)) return false;
+    s.x = (dot(d, light.right) - light.center.x) / light.tan_half_x;
+    s.y = (dot(d, light.up) - light.center.y) / light.tan_half_y;
+    return true;
+  }
   if (!(za > 1e-7f * length(d)) || !(za > 0.0f)) return false;
   s.x = (dot(d, light.right) / za - light.center.x) / light.tan_half_x;
   s.y = (dot(d, light.up) / za - light.center.y) / light.tan_half_y;
@@ -84,7 +90,7 @@ LispsmMap build_lispsm(const PinholeView& camera, const PinholeView& light, cons
 
   // gamma: the view direction against the light ray through B (thesis §2.4.2).
   const Vec3 v = camera.forward;
-  const Vec3 l = normalize(centroid - light.eye);
+  const Vec3 l = is_orthographic(light) ? light.forward : normalize(centroid - light.eye);
   m.sin_gamma = length(cross(v, l));
 
   // The view direction projected onto the light's image plane: the image of
@@ -93,6 +99,7 @@ LispsmMap build_lispsm(const PinholeView& camera, const PinholeView& light, cons
   float za0 = dot(d0, light.forward);
   float sx0 = dot(d0, light.right) / za0, sy0 = dot(d0, light.up) / za0;
   float vf = dot(v, light.forward);
+  if (is_orthographic(light)) sx0 = sy0 = 0.0f;  // the image of v is its part across the light
   Vec2 v2{(dot(v, light.right) - sx0 * vf) / light.tan_half_x, (dot(v, light.up) - sy0 * vf) / light.tan_half_y};
   float v2len = std::sqrt(v2.x * v2.x + v2.y * v2.y);
 

@@ -7,6 +7,7 @@
 #include "cdsm/error.h"
 #include "cdsm/procedural.h"
 #include "hd/fragment.h"
+#include "cluster/light_views.h"
 #include "frame.h"
 #include "hd/segments.h"
 #include "gl_test_util.h"
@@ -106,7 +107,7 @@ TEST_F(FragmentRaster, MatchesCpuForCameraSpotAndOmniViews) {
   // elevation): parallel rays, depths from the window's plane.
   Box3 box;
   for (size_t o = 0; o < s.sb.objects.size(); ++o) box.grow(s.sb.object_bounds[o]);
-  const PinholeView sun = directional_view(normalize(Vec3{0.43f, -0.71f, -0.37f}), box, 192);
+  const PinholeView sun = cluster::directional_view(normalize(Vec3{0.43f, -0.71f, -0.37f}), box, 192);
   ASSERT_TRUE(is_orthographic(sun));
   expect_agreement(run_view(r, s, sun), "orthographic");
 

@@ -124,6 +124,7 @@ struct PoppingStats {
   bool measured = false;
   uint64_t points = 0;
   double mean = 0.0;
+  double p99 = 0.0;
   double max = 0.0;
 };
 
