@@ -339,6 +339,21 @@ TEST_F(GlLookup, StainedGlass) {
   expect_agreement(scene, 70000, 25000, 10000, "stained glass");
 }
 
+// The sun: orthographic maps (one over every caster; four clusters; and the
+// slope-bias baseline, whose light direction is the directional one) read
+// by cdsm.glsl as the C++ reads them.
+TEST_F(GlLookup, SunGlassAndClusteredSunClouds) {
+  Scene glass = load_scene(scene_path("sun_glass.json"));
+  glass.shadows.resolution = 512;
+  expect_agreement(glass, 70000, 25000, 10000, "sun glass");
+  glass.shadows.receiver = ReceiverLookup::SlopeBias;
+  expect_agreement(glass, 30000, 10000, 5000, "sun glass, slope bias");
+  Scene clouds = load_scene(scene_path("sun_clouds.json"));
+  ASSERT_EQ(clouds.shadows.max_clusters, 4);
+  clouds.shadows.resolution = 256;
+  expect_agreement(clouds, 70000, 25000, 10000, "sun clouds, 4 clusters");
+}
+
 TEST_F(GlLookup, OmniCubeFacesAndSlopeBias) {
   Scene scene = load_scene(scene_path("teapot_omni.json"));
   scene.shadows.receiver = ReceiverLookup::SlopeBias;
