@@ -95,40 +95,55 @@ double masked_psnr(const cdsm::Image& a, const cdsm::Image& b, const std::vector
   return rmse > 0.0 ? 20.0 * std::log10(1.0 / rmse) : 1e9;
 }
 
-TEST(ForwardExample, MatchesTheLibrarysCameraPassOnOpaqueSurfaces) {
+// The example's image of `scene_file` against the library's camera pass:
+// the opaque-only pixels (its mask) and the whole image within 35 dB.
+void expect_forward_matches_library(const std::string& scene_file, const std::string& out) {
   const std::string size = " --width " + std::to_string(kWidth) + " --height " + std::to_string(kHeight);
-  const ExampleRun run = run_example("'" + kScene + "' -o '" + kOut + ".png' --raw '" + kOut + ".pfm' --mask '" + kOut +
-                                     ".mask.pgm'" + size);
+  const ExampleRun run = run_example("'" + scene_file + "' -o '" + out + ".png' --raw '" + out + ".pfm' --mask '" +
+                                     out + ".mask.pgm'" + size);
   if (run.status != 0 && run.output.find("no 4.5 context") != std::string::npos && !gl_required())
     GTEST_SKIP() << run.output;
   ASSERT_EQ(run.status, 0) << run.output;
   std::printf("%s", run.output.c_str());
-  const cdsm::Image example = read_pfm(kOut + ".pfm");
+  const cdsm::Image example = read_pfm(out + ".pfm");
   int mw = 0, mh = 0;
-  const std::vector<unsigned char> mask = read_pgm(kOut + ".mask.pgm", mw, mh);
+  const std::vector<unsigned char> mask = read_pgm(out + ".mask.pgm", mw, mh);
   ASSERT_EQ(example.width, kWidth);
   ASSERT_EQ(mw, kWidth);
   ASSERT_EQ(mh, kHeight);
 
-  cdsm::Scene scene = cdsm::load_scene(kScene);
+  cdsm::Scene scene = cdsm::load_scene(scene_file);
   scene.camera.width = kWidth;
   scene.camera.height = kHeight;
   cdsm::Renderer renderer;
   cdsm::RenderOptions opt;
   const cdsm::Image library = renderer.render(scene, opt);
-  cdsm::write_png(library, kOut + ".library.png");
+  cdsm::write_png(library, out + ".library.png");
 
   size_t opaque = 0;
   for (unsigned char m : mask) opaque += m != 0;
   const double share = double(opaque) / double(mask.size());
   const double psnr = masked_psnr(example, library, mask);
-  std::printf("[ forward  ] opaque-only pixels %.1f%%, PSNR on them %.2f dB, whole image %.2f dB\n", 100.0 * share,
-              psnr, cdsm::compare_images(example, library).psnr);
+  std::printf("[ forward  ] %s: opaque-only pixels %.1f%%, PSNR on them %.2f dB, whole image %.2f dB\n",
+              scene_file.c_str(), 100.0 * share, psnr, cdsm::compare_images(example, library).psnr);
   EXPECT_GT(share, 0.5) << "the mask must cover most of the ground and the opaque meshes";
   EXPECT_GE(psnr, 35.0);
   // The whole image too: translucent meshes (their constant media absorbed
   // between front and back faces) and the ray-marched smoke.
   EXPECT_GE(cdsm::compare_images(example, library).psnr, 35.0);
+}
+
+TEST(ForwardExample, MatchesTheLibrarysCameraPassOnOpaqueSurfaces) {
+  expect_forward_matches_library(kScene, kOut);
+  if (HasFatalFailure() || IsSkipped()) return;
+  const std::string size = " --width " + std::to_string(kWidth) + " --height " + std::to_string(kHeight);
+  cdsm::Scene scene = cdsm::load_scene(kScene);
+  scene.camera.width = kWidth;
+  scene.camera.height = kHeight;
+  cdsm::Renderer renderer;
+  const cdsm::Image library = renderer.render(scene, cdsm::RenderOptions{});
+  int mw = 0, mh = 0;
+  const std::vector<unsigned char> mask = read_pgm(kOut + ".mask.pgm", mw, mh);
 
   // Without shadows the same pixels differ: the shadows are in the mask.
   const ExampleRun flat = run_example("'" + kScene + "' -o '" + kOut + ".noshadow.png' --raw '" + kOut +
@@ -137,6 +152,12 @@ TEST(ForwardExample, MatchesTheLibrarysCameraPassOnOpaqueSurfaces) {
   const double flat_psnr = masked_psnr(read_pfm(kOut + ".noshadow.pfm"), library, mask);
   std::printf("[ forward  ] without shadows: PSNR on the same pixels %.2f dB\n", flat_psnr);
   EXPECT_LT(flat_psnr, 30.0);
+}
+
+// Under the sun: the example's shading (cdsm_direction_to_light) and the
+// orthographic lookups of cdsm.glsl against the library.
+TEST(ForwardExample, MatchesTheLibraryUnderTheSun) {
+  expect_forward_matches_library(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/sun_glass.json", kOut + ".sun");
 }
 
 // The volumes' light grids (DrawOptions::volume_shadows = LightGrid, what

@@ -475,7 +475,12 @@ FrameTimes ForwardRenderer::draw(cdsm::ShadowSystem& system, const cdsm::Scene& 
     set_vec3(p, "u_eye", cam.position);
     set_vec3(p, "u_ambient", scene.shadows.ambient_light);
   }
-  auto visible = [&](const cdsm::Object& o) { return o.mesh && meshes_.count(o.mesh.get()) && !passes_all(o.surface); };
+  // A surface that passes all light is not drawn, unless it bounds a
+  // constant medium (drawn with opacity 0: the medium's absorption only).
+  auto visible = [&](const cdsm::Object& o) {
+    const bool medium = o.interior == cdsm::InteriorKind::Constant && cdsm::max_channel(o.sigma) > 0.0f;
+    return o.mesh && meshes_.count(o.mesh.get()) && (!passes_all(o.surface) || medium);
+  };
   auto drawn_volume = [&](const cdsm::Object& o) -> const Grid* {
     if (o.interior != cdsm::InteriorKind::Volume || o.volume < 0 || size_t(o.volume) >= scene.volumes.size())
       return nullptr;
