@@ -368,6 +368,46 @@ TEST(Gltf, UnsupportedFeaturesAreListedOnce) {
   EXPECT_FLOAT_EQ(sun.intensity, 1.0f) << "the brightest directional light is 1";
 }
 
+// A KHR_lights_punctual directional light (the sun) renders: the fixture's
+// glass cube over a ground, lit by a directional light alone, against the
+// reference's parallel shadow rays.
+TEST(Gltf, DirectionalLightRendersLikeTheReference) {
+  std::string dir = scratch_dir();
+  tinygltf::Model m = fixture_model();
+  m.lights[1].type = "directional";
+  m.nodes[4].rotation = {-std::sin(M_PI / 6), 0, 0, std::cos(M_PI / 6)};  // -60 deg about x: -z tilts down
+  m.scenes[0].nodes = {2, 4};                                             // the glass cube and the sun
+  std::string path = write_model(m, dir + "/sun.glb", true);
+  Scene s = load_scene(path);
+  ASSERT_EQ(s.lights.size(), 1u);
+  ASSERT_EQ(s.lights[0].type, LightType::Directional);
+  EXPECT_NEAR(s.lights[0].direction.y, -std::sin(float(M_PI) / 3), 1e-5f);
+  s.objects.push_back(Object{});
+  s.objects.back().name = "ground";
+  s.objects.back().mesh = std::make_shared<TriangleMesh>(make_ground(20, 20, 0.1f));
+  s.objects.back().transform = make_transform({0, -1.0f, 0}, {0, 0, 0}, {1, 1, 1});
+  s.camera.position = {-1.0f, 2.5f, 5.0f};
+  s.camera.target = {-3.0f, -1.0f, -1.0f};
+  s.objects.back().casts_shadows = false;  // the sun's map over the cube alone
+  s.camera.near = 0.05f;                   // (the loader's default camera frames the cube alone)
+  s.camera.far = 100.0f;
+  s.camera.width = 64;
+  s.camera.height = 48;
+  s.shadows.resolution = 256;
+  Renderer r;
+  RenderOptions opt;
+  opt.fragments = FragmentSource::Cpu;
+  opt.compare_reference = true;
+  opt.error_samples = 4000;
+  FrameStats st;
+  r.render(s, opt, &st);
+  std::printf("[ gltf sun ] %llu lookups, %.2f dB against the reference, T mean %.4f\n",
+              (unsigned long long)st.transmittance.points, st.image.psnr, st.transmittance.mean);
+  EXPECT_GT(st.transmittance.points, 1000u) << "the sun lights the ground";
+  EXPECT_GE(st.image.psnr, 40.0);
+  EXPECT_LE(st.transmittance.mean, 0.02);
+}
+
 // ---- broken files ------------------------------------------------------------
 
 std::string box_dir(const std::string& dir) {
