@@ -109,7 +109,7 @@ struct CdsmLight {
   uint first_map;
   uint map_count;
   uint map_mode;  // CDSM_MAPS_COMBINE (clusters), _CUBE_FACES (six), _FIRST_CONTAINING (parallel splits)
-  uint pad;
+  float size;     // spot, point: the sphere's radius; directional: tan of half the angular diameter (0: a point)
 };
 
 struct CdsmChunk {

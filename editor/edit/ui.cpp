@@ -146,6 +146,7 @@ void lights_panel(Session& s) {
     changed |= ImGui::SliderFloat("angular diameter", &next.angular_diameter_deg, 0.0f, 10.0f, "%.2f deg");
   } else {
     changed |= drag3("position", next.position, 0.02f);
+    changed |= ImGui::SliderFloat("radius", &next.radius, 0.0f, 2.0f, "%.3f");  // the reference's area light
   }
   if (next.type == LightType::Spot) {
     if (drag3("direction", next.direction, 0.01f, -1.0f, 1.0f)) {

@@ -87,6 +87,7 @@ LightData light_data(const Light& l) {
   ld.cos_inner = l.type == LightType::Spot ? std::cos(std::min(l.inner_cone_deg, l.outer_cone_deg) * k) : -1.0f;
   if (ld.cos_inner <= ld.cos_outer) ld.cos_inner = ld.cos_outer + 1e-6f;
   ld.radiance = l.color * l.intensity;
+  ld.size = l.type == LightType::Directional ? std::tan(0.5f * l.angular_diameter_deg * k) : l.radius;
   return ld;
 }
 

@@ -16,7 +16,7 @@ struct LightData {
   uint32_t first_map;  // maps[first_map .. first_map + map_count)
   uint32_t map_count;
   MapMode map_mode;
-  uint32_t pad;
+  float size;  // spot, point: the sphere's radius; directional: tan of half the angular diameter (0: a point)
 };
 static_assert(sizeof(LightData) == 64, "LightData is 64 bytes");
 

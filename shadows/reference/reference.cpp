@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "hd/bvh.h"
 #include "hd/volume.h"
@@ -248,12 +249,71 @@ Vec3 ReferenceRenderer::transmittance_segment(Vec3 a, Vec3 b, ObjectMask members
 }
 
 Vec3 ReferenceRenderer::transmittance(int light, Vec3 p) const {
-  return transmittance_segment(light_origin(lights_[size_t(light)], p), p);
+  const LightData& L = lights_[size_t(light)];
+  const int n = area_sample_count(L);
+  Vec3 sum{0, 0, 0};
+  for (int k = 0; k < n; ++k) sum += transmittance_segment(area_origin(L, p, k, n), p);
+  return sum * (1.0f / float(n));
+}
+
+int ReferenceRenderer::area_sample_count(const LightData& L) const {
+  if (!(L.size > 0.0f)) return 1;
+  const int side = std::max(1, int(std::sqrt(double(std::max(opt_.area_samples, 1)))));
+  return side * side;
+}
+
+Vec3 ReferenceRenderer::area_origin(const LightData& L, Vec3 p, int k, int n) const {
+  const Vec3 center = light_origin(L, p);
+  if (!(L.size > 0.0f) || n <= 1) return center;
+  // Stratum (i, j) with a jitter hashed from p and k: the same rays for the
+  // same point (a deterministic image), decorrelated between points.
+  const int side = int(std::lround(std::sqrt(double(n))));
+  uint32_t h = 2166136261u;
+  for (float c : {p.x, p.y, p.z}) {
+    uint32_t b;
+    std::memcpy(&b, &c, 4);
+    h = (h ^ b) * 16777619u;
+  }
+  auto next = [&h]() {
+    h ^= h >> 15;
+    h *= 0x2c1b3c6du;
+    h ^= h >> 12;
+    h *= 0x297a2d39u;
+    h ^= h >> 15;
+    return float(h >> 8) * (1.0f / 16777216.0f);
+  };
+  h ^= uint32_t(k) * 0x9e3779b9u;
+  const float u = (float(k % side) + next()) / float(side) * 2.0f - 1.0f;
+  const float v = (float(k / side) + next()) / float(side) * 2.0f - 1.0f;
+  // Concentric map of the square [-1, 1]^2 onto the unit disk (equal area).
+  float r = 0.0f, phi = 0.0f;
+  if (u != 0.0f || v != 0.0f) {
+    if (std::fabs(u) > std::fabs(v)) {
+      r = u;
+      phi = 0.78539816f * (v / u);
+    } else {
+      r = v;
+      phi = 1.57079633f - 0.78539816f * (u / v);
+    }
+  }
+  const Vec3 axis = normalize(center - p);  // toward the light
+  Vec3 e1 = normalize(cross(axis, std::fabs(axis.y) < 0.9f ? Vec3{0, 1, 0} : Vec3{1, 0, 0}));
+  Vec3 e2 = cross(axis, e1);
+  const Vec3 offset = e1 * (r * std::cos(phi)) + e2 * (r * std::sin(phi));
+  if (L.type == LightType::Directional)  // a direction within the cone: tan(angle) = size at unit distance
+    return p + (axis + offset * L.size) * length(center - p);
+  return center + offset * L.size;  // the sphere's disk facing p
 }
 
 Vec3 ReferenceRenderer::transmittance(int light, const Receiver& r) const {
-  const Vec3 a = light_origin(lights_[size_t(light)], r.p);
-  return transmittance_segment(a, r.p, ObjectMask{}, end_of(r, length(r.p - a)));
+  const LightData& L = lights_[size_t(light)];
+  const int n = area_sample_count(L);
+  Vec3 sum{0, 0, 0};
+  for (int k = 0; k < n; ++k) {
+    const Vec3 a = area_origin(L, r.p, k, n);
+    sum += transmittance_segment(a, r.p, ObjectMask{}, end_of(r, length(r.p - a)));
+  }
+  return sum * (1.0f / float(n));
 }
 
 void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float>& rgb) const {

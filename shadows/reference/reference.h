@@ -18,6 +18,10 @@ namespace cdsm {
 
 struct ReferenceOptions {
   float step_voxels = 0.25f;  // march step in voxels (<= 1/4: converged to 1e-4)
+  // Shadow rays per lookup to a light with a size (LightData::size > 0):
+  // stratified over the sphere light's disk facing the point, or over the
+  // directional light's cone; rounded down to a square number of strata.
+  int area_samples = 256;
   // render(): the fraction of rows started is stored in `progress`; when
   // `cancel` becomes true the remaining rows are skipped (the caller checks
   // `cancel` afterwards).
@@ -50,7 +54,8 @@ class ReferenceRenderer {
 
   // Transmittance per colour channel from light `light` to receiver r
   // through shadow casters (grey_of() of it: exact for grey casters, the
-  // channel mean otherwise); or to a point (no surface).
+  // channel mean otherwise); or to a point (no surface). A light with a
+  // size: the mean over area_samples shadow rays to points of its area.
   Vec3 transmittance(int light, const Receiver& r) const;
   Vec3 transmittance(int light, Vec3 p) const;
 
@@ -58,6 +63,14 @@ class ReferenceRenderer {
   // directional light the point up its beam (against `direction`) just
   // outside the scene's bounds (parallel shadow rays).
   Vec3 light_origin(const LightData& L, Vec3 p) const;
+
+  // Where shadow ray k of n (n a square number) to p starts on light L's
+  // area: stratum k of a sqrt(n) x sqrt(n) grid, jittered by a hash of p
+  // and k, mapped onto the disk (concentric map) of the sphere light facing
+  // p, or onto the directional light's cone. A light without a size: its
+  // one origin.
+  Vec3 area_origin(const LightData& L, Vec3 p, int k, int n) const;
+  int area_sample_count(const LightData& L) const;
 
   // Transmittance along an arbitrary segment a -> b (casters only), b a point.
   Vec3 transmittance_segment(Vec3 a, Vec3 b) const;

@@ -155,8 +155,10 @@ struct FieldTable<Light> {
             "spot: half-angle of full intensity, degrees (at most outer_cone)"),
       field("color", &S::color, 0.0, 100.0, kAffectsLookup, "linear RGB"),
       field("intensity", &S::intensity, 0.0, 1e9, kAffectsLookup, "scales the colour"),
+      field("radius", &S::radius, 0.0, 1e6, kAffectsLookup,
+            "spot, point: the sphere light's radius, world units (0: a point; the reference samples its area)"),
       field("angular_diameter", &S::angular_diameter_deg, 0.0, 10.0, kAffectsLookup,
-            "directional: apparent size, degrees (the sun: 0.53; 0: hard; soft shadows are not built yet)"));
+            "directional: apparent size, degrees (the sun: 0.53; 0: a point; the reference samples its cone)"));
 };
 
 template <>

@@ -152,8 +152,12 @@ struct Light {
   float inner_cone_deg = 25.0f;  // spot: half-angle of full intensity
   Vec3 color{1, 1, 1};
   float intensity = 1.0f;
-  // Directional: the light's apparent size in degrees (the sun: 0.53); 0 is
-  // a point at infinity. Recorded for soft shadows; today's shadows are hard.
+  // The light's size, for soft shadows: a spot or point light is a sphere of
+  // `radius` (0: a point), a directional light a disk of apparent size
+  // `angular_diameter_deg` (the sun: 0.53; 0: a point at infinity). The
+  // reference renderer samples that area; the maps' lookups are still hard
+  // (soft lookups: issue 30).
+  float radius = 0.0f;
   float angular_diameter_deg = 0.0f;
 };
 
