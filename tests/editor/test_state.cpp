@@ -151,6 +151,21 @@ std::vector<std::pair<std::string, std::function<Edit(const Document&)>>> every_
          l.position = {-2, 3, 1};
          return add_light(d, l);
        }},
+      {"add sun",  // the Lights panel's "add sun": a directional light with the sun's size
+       [](const Document& d) {
+         Light l;
+         l.name = "sun";
+         l.type = LightType::Directional;
+         l.direction = normalize(Vec3{-0.5f, -0.57f, -0.63f});
+         l.angular_diameter_deg = 0.53f;
+         return add_light(d, l);
+       }},
+      {"aim sun",  // its elevation and azimuth sliders: a new direction
+       [](const Document& d) {
+         Light l = d.scene.lights.back();
+         l.direction = normalize(Vec3{0.3f, -0.9f, 0.1f});
+         return set_light(d, d.scene.lights.size() - 1, l);
+       }},
       {"remove light", [](const Document& d) { return remove_light(d, 0); }},
       {"transform",
        [](const Document& d) {
