@@ -30,7 +30,22 @@ struct Sweep {
   std::vector<MethodSpec> methods;
   std::vector<std::string> layouts;
   std::vector<std::string> backends;
+  std::vector<Penumbra> penumbrae;  // empty: the scene's
+  // Light sizes: each value a variant of the scene with its own reference
+  // (the area-sampled one) and its own Pareto fronts: every spot and point
+  // light's radius (world units), every directional light's angular
+  // diameter (degrees). Empty: the scene's own.
+  std::vector<float> radius, angular_diameter;
 };
+
+// One light-size variant of a scene: its name suffix ("" for the scene as
+// it is, else "@r0.15" or "@sun0.53") and what it sets (negative: unset).
+struct SizeVariant {
+  std::string suffix;
+  float radius = -1.0f, angular_diameter = -1.0f;
+};
+std::vector<SizeVariant> size_variants(const Sweep& sweep);
+void apply(const SizeVariant& v, Scene& scene);
 
 // "--sweep NAME=V1,V2,..." into `sweep`; unknown names, bad values and
 // values this build cannot run yet throw cdsm::Error naming the option.
@@ -52,6 +67,7 @@ struct Config {
   int clusters = 1;
   std::string layout;
   std::string backend;
+  Penumbra penumbra = Penumbra::Estimated;
   std::string label() const;  // e.g. "dsm eps=0.01 res=512", "osm32 res=512"
 };
 

@@ -145,6 +145,19 @@ void parse_sweep(const std::string& spec, Sweep& sweep) {
                     "clusters=" + v + " is not available yet (at most " + std::to_string(kMaxClustersAvailable) + ")");
       sweep.clusters.push_back(m);
     }
+  } else if (name == "radius" || name == "angular_diameter") {
+    with_field<Light>(name.c_str(), [&](const auto& f) {
+      std::vector<float>& axis = name == "radius" ? sweep.radius : sweep.angular_diameter;
+      axis.clear();
+      for (const std::string& v : split(values, opt)) axis.push_back(float(parse_number(opt, v, f.lo, f.hi, false)));
+    });
+  } else if (name == "penumbra") {
+    sweep.penumbrae.clear();
+    for (const std::string& v : split(values, opt)) {
+      Penumbra p;
+      if (!parse_tag(v, p)) throw Error(opt + "=" + v, "unknown penumbra (" + tag_choices<Penumbra>() + ")");
+      sweep.penumbrae.push_back(p);
+    }
   } else if (name == "layout" || name == "layouts") {
     sweep.layouts = parse_layouts(values);
   } else if (name == "backend" || name == "backends") {
@@ -152,7 +165,9 @@ void parse_sweep(const std::string& spec, Sweep& sweep) {
   } else if (name == "method" || name == "methods") {
     sweep.methods = parse_methods(values);
   } else {
-    throw Error(opt, "unknown sweep axis (eps, res, clusters; also layouts, backends, methods)");
+    throw Error(opt,
+                "unknown sweep axis (eps, res, clusters, radius, angular_diameter, penumbra; also layouts, backends, "
+                "methods)");
   }
 }
 
@@ -174,6 +189,10 @@ std::string sweep_help() {
          range("clusters", true) +
          "\n"
          "                        (default: the scene's)\n"
+         "  radius=0,0.05,0.15    every spot and point light's radius, world units (a variant of the\n"
+         "                        scene with its own area-sampled reference per value)\n"
+         "  angular_diameter=0.53 every directional light's apparent size, degrees (variants as radius)\n"
+         "  penumbra=estimated,fixed_kernel,hard  how lights with a size soften (default: the scene's)\n"
          "  layouts=, backends=, methods=  as --layouts, --backends, --methods";
 }
 
@@ -194,7 +213,30 @@ std::string Config::label() const {
   if (clusters > 1) s += " m=" + std::to_string(clusters);
   if (layout != "packed") s += " " + layout;
   if (backend != "cpu") s += " " + backend;
+  if (penumbra != Penumbra::Estimated) s += std::string(" ") + tag_name(penumbra);
   return s;
+}
+
+std::vector<SizeVariant> size_variants(const Sweep& sw) {
+  std::vector<SizeVariant> out;
+  const std::vector<float> none{-1.0f};
+  for (float r : sw.radius.empty() ? none : sw.radius)
+    for (float a : sw.angular_diameter.empty() ? none : sw.angular_diameter) {
+      SizeVariant v;
+      v.radius = r;
+      v.angular_diameter = a;
+      if (r >= 0.0f) v.suffix += "@r" + fmt(r);
+      if (a >= 0.0f) v.suffix += "@sun" + fmt(a);
+      out.push_back(v);
+    }
+  return out;
+}
+
+void apply(const SizeVariant& v, Scene& scene) {
+  for (Light& l : scene.lights) {
+    if (v.radius >= 0.0f && l.type != LightType::Directional) l.radius = v.radius;
+    if (v.angular_diameter >= 0.0f && l.type == LightType::Directional) l.angular_diameter_deg = v.angular_diameter;
+  }
 }
 
 std::vector<Config> expand(const Sweep& sw, const Scene& scene) {
@@ -204,24 +246,27 @@ std::vector<Config> expand(const Sweep& sw, const Scene& scene) {
   std::vector<MethodSpec> methods = sw.methods.empty() ? default_methods() : sw.methods;
   std::vector<std::string> layouts = sw.layouts.empty() ? std::vector<std::string>{"packed"} : sw.layouts;
   std::vector<std::string> backends = sw.backends.empty() ? std::vector<std::string>{"cpu"} : sw.backends;
+  std::vector<Penumbra> penumbrae = sw.penumbrae.empty() ? std::vector<Penumbra>{scene.shadows.penumbra} : sw.penumbrae;
   std::vector<Config> out;
-  for (const std::string& backend : backends)
-    for (const std::string& layout : layouts)
-      for (int m : clusters)
-        for (int r : res)
-          for (const MethodSpec& method : methods) {
-            bool dsm = method.method == ShadowMethod::Dsm && method.splits == 0;
-            for (size_t e = 0; e < (dsm ? eps.size() : 1); ++e) {
-              Config c;
-              c.method = method;
-              c.eps = dsm ? eps[e] : scene.shadows.epsilon;
-              c.res = r;
-              c.clusters = m;
-              c.layout = layout;
-              c.backend = backend;
-              out.push_back(c);
+  for (Penumbra pen : penumbrae)
+    for (const std::string& backend : backends)
+      for (const std::string& layout : layouts)
+        for (int m : clusters)
+          for (int r : res)
+            for (const MethodSpec& method : methods) {
+              bool dsm = method.method == ShadowMethod::Dsm && method.splits == 0;
+              for (size_t e = 0; e < (dsm ? eps.size() : 1); ++e) {
+                Config c;
+                c.method = method;
+                c.eps = dsm ? eps[e] : scene.shadows.epsilon;
+                c.res = r;
+                c.clusters = m;
+                c.layout = layout;
+                c.backend = backend;
+                c.penumbra = pen;
+                out.push_back(c);
+              }
             }
-          }
   return out;
 }
 
@@ -234,6 +279,7 @@ void apply(const Config& c, Scene& scene, RenderOptions& opt) {
   s.max_clusters = c.method.splits > 0 ? 1 : c.clusters;
   s.parallel_splits = c.method.splits;
   s.rgb_maps = !c.method.grey_maps;
+  s.penumbra = c.penumbra;
   parse_tag(c.layout, s.layout);
   for (const BackendChoice& b : kBackends)
     if (c.backend == b.name) opt.backend = b.backend;

@@ -81,6 +81,7 @@ void write_csv(const std::vector<Result>& results, const std::string& path) {
                                          "clusters",
                                          "layout",
                                          "backend",
+                                         "penumbra",
                                          "fragment_source",
                                          "runs",
                                          "fragments_ms_median",
@@ -191,6 +192,7 @@ void write_csv(const std::vector<Result>& results, const std::string& path) {
       v["clusters"] = std::to_string(c.clusters);
       v["layout"] = c.layout;
       v["backend"] = c.backend;
+      v["penumbra"] = tag_name(c.penumbra);
       v["fragment_source"] = r.stats.fragment_source;
       v["runs"] = std::to_string(r.runs);
       v["fragments_ms_median"] = num(r.fragments_ms.median);
@@ -299,15 +301,16 @@ void write_markdown(const std::vector<Result>& results, const RunInfo& info, con
         return num(s.median, "%.1f") + " [" + num(s.min, "%.1f") + "–" + num(s.max, "%.1f") + "]";
       };
       std::string p = std::string(r.pareto_time ? "t" : "") + (r.pareto_memory ? "m" : "");
-      f << "| " << c.method.label << " | " << (dsm ? num(c.eps, "%g") : "") << " | " << c.res << " | " << c.clusters
-        << " | " << c.layout << " | " << (other_backend ? c.backend + " | " : "") << ms(r.build_ms) << " | "
-        << ms(r.camera_ms) << " | " << num(r.memory_bytes() / 1024.0, "%.0f") << " | "
-        << num(r.stats.memory.avg_nodes_per_texel, "%.2f") << " / " << r.stats.memory.max_nodes_per_texel << " | "
-        << num(r.transmittance.mean, "%.4f") << " | " << num(r.transmittance.p99, "%.3f") << " | "
-        << num(r.transmittance.max, "%.3f") << " | " << num(r.transmittance.rmse, "%.4f") << " | "
-        << num(r.transmittance.map.p99, "%.4f") << " | " << num(r.transmittance.resolution.p99, "%.4f") << " | "
-        << num(r.transmittance.interior.total.p99, "%.4f") << " / " << num(r.transmittance.interior.total.max, "%.3f")
-        << " | " << num(100.0 * r.transmittance.edge.share, "%.1f") << " | " << num(r.image.psnr, "%.2f") << " | " << p
+      f << "| " << c.method.label << (c.penumbra != Penumbra::Estimated ? std::string(" ") + tag_name(c.penumbra) : "")
+        << " | " << (dsm ? num(c.eps, "%g") : "") << " | " << c.res << " | " << c.clusters << " | " << c.layout << " | "
+        << (other_backend ? c.backend + " | " : "") << ms(r.build_ms) << " | " << ms(r.camera_ms) << " | "
+        << num(r.memory_bytes() / 1024.0, "%.0f") << " | " << num(r.stats.memory.avg_nodes_per_texel, "%.2f") << " / "
+        << r.stats.memory.max_nodes_per_texel << " | " << num(r.transmittance.mean, "%.4f") << " | "
+        << num(r.transmittance.p99, "%.3f") << " | " << num(r.transmittance.max, "%.3f") << " | "
+        << num(r.transmittance.rmse, "%.4f") << " | " << num(r.transmittance.map.p99, "%.4f") << " | "
+        << num(r.transmittance.resolution.p99, "%.4f") << " | " << num(r.transmittance.interior.total.p99, "%.4f")
+        << " / " << num(r.transmittance.interior.total.max, "%.3f") << " | "
+        << num(100.0 * r.transmittance.edge.share, "%.1f") << " | " << num(r.image.psnr, "%.2f") << " | " << p
         << " |\n";
     }
     f << "\n";

@@ -200,34 +200,36 @@ int run_bench(const BenchArgs& a) {
   std::vector<Result> results;
   std::map<std::string, int> used_names;
   auto t_all = std::chrono::steady_clock::now();
-  for (const std::string& path : a.scenes) {
-    Scene scene = load_scene(path);
-    a.frame.apply(scene);
-    info.width = scene.camera.width;
-    info.height = scene.camera.height;
-    std::string name = unique_name(path, used_names);
-    std::vector<Config> configs = expand(a.sweep, scene);
+  for (const std::string& path : a.scenes)
+    for (const SizeVariant& variant : size_variants(a.sweep)) {
+      Scene scene = load_scene(path);
+      a.frame.apply(scene);
+      apply(variant, scene);
+      info.width = scene.camera.width;
+      info.height = scene.camera.height;
+      std::string name = unique_name(path, used_names) + variant.suffix;
+      std::vector<Config> configs = expand(a.sweep, scene);
 
-    Reference ref = reference_for(scene, opt, cache_dir, a.refresh);
+      Reference ref = reference_for(scene, opt, cache_dir, a.refresh);
 
-    Result rr;
-    rr.scene = path;
-    rr.scene_name = name;
-    rr.is_reference = true;
-    rr.reference_ms = ref.ms;
-    rr.reference_cached = ref.cached;
-    results.push_back(rr);
+      Result rr;
+      rr.scene = path;
+      rr.scene_name = name;
+      rr.is_reference = true;
+      rr.reference_ms = ref.ms;
+      rr.reference_cached = ref.cached;
+      results.push_back(rr);
 
-    for (Result& r : measure(scene, opt, configs, ref, a.warmup, a.repeat, name)) {
-      r.scene = path;
-      results.push_back(std::move(r));
+      for (Result& r : measure(scene, opt, configs, ref, a.warmup, a.repeat, name)) {
+        r.scene = path;
+        results.push_back(std::move(r));
+      }
+      mark_pareto(results);
+      std::vector<Result> mine;
+      for (const Result& r : results)
+        if (r.scene_name == name) mine.push_back(r);
+      write_csv(mine, (fs::path(out_dir) / (name + ".csv")).string());
     }
-    mark_pareto(results);
-    std::vector<Result> mine;
-    for (const Result& r : results)
-      if (r.scene_name == name) mine.push_back(r);
-    write_csv(mine, (fs::path(out_dir) / (name + ".csv")).string());
-  }
   mark_pareto(results);
   std::string csv = (fs::path(out_dir) / "results.csv").string();
   std::string md = (fs::path(out_dir) / "results.md").string();

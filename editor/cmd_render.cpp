@@ -329,6 +329,8 @@ Command add_render(CLI::App& cdsm) {
   scene.add(*app, "--fixed-layers", &Scene::shadows, "fixed_layers");
   scene.add(*app, "--receiver", &Scene::shadows, "receiver",
             "plane: per-tap receiver planes; slope_bias: the previous\nconstant + slope-scaled bias (a baseline)");
+  scene.add(*app, "--penumbra", &Scene::shadows, "penumbra",
+            "lights with a size: estimated (blockers from the maps), fixed_kernel (a PCF\nbaseline) or hard");
   app->add_flag("--compare-reference", a->frame.render.compare_reference,
                 "also render the exact reference of the same view; report the transmittance error at\n"
                 "sampled shaded points (mean, p99, max, RMSE) and the image RMSE/PSNR; write OUT.error.png\n"

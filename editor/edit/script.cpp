@@ -141,6 +141,10 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
         const std::string r = word("plane or slope_bias");
         if (!parse_tag(r, next.receiver))
           throw Error(where, "unknown receiver '" + r + "' (" + tag_choices<ReceiverLookup>() + ")");
+      } else if (field == "penumbra") {
+        const std::string r = word("estimated, fixed_kernel or hard");
+        if (!parse_tag(r, next.penumbra))
+          throw Error(where, "unknown penumbra '" + r + "' (" + tag_choices<Penumbra>() + ")");
       } else {
         throw Error(where, "unknown setting '" + field + "'");
       }

@@ -82,6 +82,15 @@ void shadows_panel(Session& s) {
     next.receiver = ReceiverLookup(receiver);
     changed = true;
   }
+  int penumbra = int(next.penumbra);
+  if (ImGui::Combo("penumbra", &penumbra, TagNames<Penumbra>::names, int(tag_count<Penumbra>()))) {
+    next.penumbra = Penumbra(penumbra);
+    changed = true;
+  }
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "lights with a radius (or the sun's angular diameter): blockers estimated from the maps,\n"
+        "a fixed-kernel PCF (baseline), or hard shadows");
   changed |= ImGui::SliderFloat("bias constant", &next.bias_constant, 0.0f, 0.01f, "%.5f");
   changed |= ImGui::SliderFloat("bias slope", &next.bias_slope, 0.0f, 2.0f, "%.3f");
   changed |= color_edit("ambient light", next.ambient_light);

@@ -45,9 +45,11 @@ struct FrameBlockHeader {
   float bias_slope;     // + texel footprints
   uint32_t light_count;
   uint32_t map_count;
+  Penumbra penumbra;  // lights with a size
+  uint32_t pad[3];
   LightData lights[kMaxLights];  // lights[i] owns maps [first_map, first_map + map_count)
 };
-static_assert(sizeof(FrameBlockHeader) == 32 + 64 * kMaxLights, "CdsmFrame header layout (cdsm.glsl)");
+static_assert(sizeof(FrameBlockHeader) == 48 + 64 * kMaxLights, "CdsmFrame header layout (cdsm.glsl)");
 static_assert(sizeof(FrameBlockHeader) % 16 == 0, "DsmMap (16-byte aligned in std430) follows the header");
 
 // The blocks of cdsm.glsl, in binding order from CDSM_BINDING_BASE.

@@ -195,11 +195,16 @@ ShadowView ShadowFrame::view(const ShadowSettings& s, bool with_storage) const {
   v.lights = {setup.lights.data(), setup.lights.size()};
   v.maps = {headers.data(), headers.size()};
   v.storage = backend && with_storage ? backend->storage() : DsmStorage{};
+  set_lookup(v, s);
+  return v;
+}
+
+void set_lookup(ShadowView& v, const ShadowSettings& s) {
   v.filtering = s.filtering;
+  v.penumbra = s.penumbra;
   v.bias_constant = s.bias_constant;
   v.bias_slope = s.bias_slope;
   v.receiver = s.receiver;
-  return v;
 }
 
 namespace {

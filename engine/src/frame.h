@@ -157,6 +157,10 @@ struct ShadowFrame {
   void refresh_headers();
 };
 
+// The lookup settings of `s` (filtering, penumbra, the receivers' offsets)
+// in v: every ShadowView takes them from here.
+void set_lookup(ShadowView& v, const ShadowSettings& s);
+
 // Builds every light's maps with the scene's shadow casters; with
 // settings.max_clusters > 1, one focused map per cluster (thesis Alg. 4.2).
 // Maps whose key is in `cache` are reused; the others are built by

@@ -239,6 +239,17 @@ struct Renderer::Impl {
         return a;
       });
       const Vec3 t_f = one_minus(alpha_f), t_exact = ref.transmittance(l.light, l.at);
+      // A light with a size, looked up soft: the maps' own error is the
+      // hard lookup's against its exact taps (what the maps store); the
+      // rest — penumbra estimate, filter and texel grid together — is not
+      // separated: resolution = total = |T_soft - T_area reference|.
+      const bool soft = L.size > 0.0f && shv.penumbra != Penumbra::Hard;
+      Vec3 t_map = l.transmittance;
+      if (soft) {
+        ShadowView hard = shv;
+        hard.penumbra = Penumbra::Hard;
+        t_map = one_minus(shadow_alpha(hard, L, l.at));
+      }
       // Edge: the taps' exact transmittances, and the point's own, differ by
       // more than 0.05 in some channel (the point's own: a feature finer
       // than a texel, which all taps miss or all taps see).
@@ -246,7 +257,8 @@ struct Renderer::Impl {
       tap_hi = vmax(tap_hi, t_exact);
       const bool edge = max_channel(tap_hi - tap_lo) > 0.05f;
       for (int k = 0; k < 3; ++k)
-        errors[i].channel[k] = {std::fabs(l.transmittance[k] - t_f[k]), std::fabs(t_f[k] - t_exact[k]),
+        errors[i].channel[k] = {std::fabs(t_map[k] - t_f[k]),
+                                std::fabs((soft ? l.transmittance[k] : t_f[k]) - t_exact[k]),
                                 std::fabs(l.transmittance[k] - t_exact[k]), l.weight, edge};
     });
     // CDSM_PROBE_DUMP=FILE: every compared lookup, one line each (README).
@@ -323,10 +335,7 @@ struct Renderer::Impl {
       ShadowView before = now;
       before.lights = {previous.setup.lights.data(), previous.setup.lights.size()};
       before.maps = {previous.headers.data(), previous.headers.size()};
-      before.filtering = previous.settings.filtering;
-      before.bias_constant = previous.settings.bias_constant;
-      before.bias_slope = previous.settings.bias_slope;
-      before.receiver = previous.settings.receiver;
+      set_lookup(before, previous.settings);
       double sum = 0.0, mx = 0.0;
       uint64_t n = 0;
       std::vector<double> changes;

@@ -153,12 +153,6 @@ struct Checker {
       // What a range cannot say.
       if (l.type == LightType::Directional && !(length(l.direction) > 0.0f))
         fail(at + "/direction", "directional direction is zero");
-      const bool sized = l.type == LightType::Directional ? l.angular_diameter_deg > 0.0f : l.radius > 0.0f;
-      if (warnings && sized)
-        warnings->push_back(s.source + ": " + at +
-                            (l.type == LightType::Directional ? "/angular_diameter" : "/radius") +
-                            ": the reference renderer samples the light's area, but the shadow maps' lookups are "
-                            "still hard (soft lookups are not built yet)");
       if (l.type == LightType::Spot) {
         if (!(length(l.direction) > 0.0f)) fail(at + "/direction", "spot direction is zero");
         number(at + "/outer_cone", l.outer_cone_deg, 0.0, 89.5, true);

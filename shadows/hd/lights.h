@@ -26,6 +26,7 @@ struct ShadowView {
   Span<const DsmMap> maps;
   DsmStorage storage;
   bool filtering;
+  Penumbra penumbra;    // lights with a size (LightData::size > 0); the others are hard whatever it says
   float bias_constant;  // a surface's own step is searched this far around its plane: world units
   float bias_slope;     // + this many texel footprints at the point (+ kRelativeDepthOffset of the depth)
   ReceiverLookup receiver;
@@ -226,12 +227,216 @@ CDSM_HD inline Vec3 map_alpha_in_colour(const ShadowView& sv, const LightData& L
   return m.rgb ? map_alpha<3>(sv, L, m, pr, r) : to_rgb(map_alpha<1>(sv, L, m, pr, r));
 }
 
+// ---- lights with a size: penumbrae from the maps -------------------------------
+//
+// A sphere light of radius r (or the sun's cone, tan of its half-angle r)
+// seen from a receiver at depth z: the shadow rays to its area cross depth
+// z_b inside a disk around the receiver's own light ray of radius
+//   rho(z_b) = r (z - z_b) / (z z_b)   window units (tangents) of a pinhole map,
+//   rho(z_b) = r (z - z_b)             world units of an orthographic one
+// (similar triangles). A blocker at z_b whose texel lies farther than
+// rho(z_b) from the receiver's ray casts nothing on it. The lookup
+//   1. searches the map around the receiver (a disk of radius rho at the
+//      map's near plane, at most kPenumbraSearchTexels texels): the texel
+//      under it and rings of 8 texels at 1, 2, 4, ... texels out to the
+//      disk's edge (blockers near the receiver cast only within a texel or
+//      two, far ones wide: the rings' spacing follows); each texel
+//      gives the opacity in front of the receiver and its opacity-weighted
+//      mean depth (a visibility function says more than a first depth: a
+//      medium's blockers lie where its opacity rises), and counts only when
+//      it lies within its own rho (plus a texel) of the receiver — so the
+//      blockers touching a receiver, which cast on it through a disk of
+//      radius ~0, are the only ones read at a contact (contact hardening);
+//   2. takes the opacity-weighted mean depth z_b of what counted and filters
+//      today's lookup (bilinear taps, each at the receiver's plane) over the
+//      disk of radius rho(z_b): the grid points of a k x k grid inside the
+//      disk, k = ceil(2 x the radius in texels) (taps about a texel apart),
+//      at most kPenumbraMaxSide. Averaging a step over a disk is exactly the
+//      visible fraction of a uniform disk light behind a straight edge.
+// Nothing in front of the receiver, or a radius under half a texel: the
+// hard lookup. Penumbra::FixedKernel skips step 1 and filters with the
+// radius of a blocker halfway to the light (rho(z/2)): a fixed-kernel PCF
+// of the same taps, the baseline. Cost: up to 8 kPenumbraSearchRings + 1 node
+// walks plus up to kPenumbraMaxSide^2 bilinear taps per map, against one
+// bilinear tap for a hard lookup.
+inline constexpr int kPenumbraSearchRings = 7;         // blocker search: rings at 1, 2, 4, ... texels (<= 64)
+inline constexpr int kPenumbraMaxSide = 12;            // filter grid: at most 112 taps inside the disk
+inline constexpr float kPenumbraSearchTexels = 32.0f;  // blocker search radius cap
+inline constexpr float kPenumbraMinAlpha = 1.0e-3f;    // less opacity in front: no blocker
+// Unit direction d of 16, every 22.5 degrees (cos, sin): ring k's 8 use
+// the even ones, or the odd ones when k is odd.
+CDSM_HD CDSM_INLINE Vec2 penumbra_direction(int d) {
+  switch (d) {
+    case 0: return {1.00000000f, 0.00000000f};
+    case 1: return {0.92387953f, 0.38268343f};
+    case 2: return {0.70710678f, 0.70710678f};
+    case 3: return {0.38268343f, 0.92387953f};
+    case 4: return {0.00000000f, 1.00000000f};
+    case 5: return {-0.38268343f, 0.92387953f};
+    case 6: return {-0.70710678f, 0.70710678f};
+    case 7: return {-0.92387953f, 0.38268343f};
+    case 8: return {-1.00000000f, 0.00000000f};
+    case 9: return {-0.92387953f, -0.38268343f};
+    case 10: return {-0.70710678f, -0.70710678f};
+    case 11: return {-0.38268343f, -0.92387953f};
+    case 12: return {-0.00000000f, -1.00000000f};
+    case 13: return {0.38268343f, -0.92387953f};
+    case 14: return {0.70710678f, -0.70710678f};
+    default: return {0.92387953f, -0.38268343f};
+  }
+}
+
+// rho(z_b) above, for light L through map m at receiver depth z.
+CDSM_HD CDSM_INLINE float penumbra_radius(const LightData& L, const DsmMap& m, float z, float zb) {
+  const float d = fmaxf(z - zb, 0.0f);
+  return is_orthographic(m.view) ? L.size * d : L.size * d / (z * fmaxf(zb, 1e-6f));
+}
+
+// Grid point (i, j) of a side x side grid over [-1, 1]^2; false outside the unit disk.
+CDSM_HD CDSM_INLINE bool disk_grid_point(int i, int j, int side, float& x, float& y) {
+  x = (2.0f * float(i) + 1.0f) / float(side) - 1.0f;
+  y = (2.0f * float(j) + 1.0f) / float(side) - 1.0f;
+  return x * x + y * y <= 1.0f;
+}
+
+// What texel (tx, ty) holds in front of depth z_lim: its opacity there (grey_of
+// per channel) and the opacity-weighted mean depth of it (steps at their
+// depth, a linear stretch at its middle).
+struct TexelBlockers {
+  float alpha = 0.0f;
+  float depth = 0.0f;
+};
+struct BlockerScan {
+  float z_lim;
+  float prev_z = 0.0f, prev_a = 0.0f, moment = 0.0f;
+  bool have_prev = false;
+  CDSM_HD bool visit(float z, float a) {
+    if (z >= z_lim) {  // a stretch crossing z_lim counts up to it
+      if (have_prev && z > prev_z) {
+        const float at = prev_a + (a - prev_a) * ((z_lim - prev_z) / (z - prev_z));
+        moment += (at - prev_a) * 0.5f * (prev_z + z_lim);
+        prev_a = at;
+      }
+      return false;
+    }
+    moment += (a - prev_a) * (have_prev ? 0.5f * (prev_z + z) : z);  // the first node: a step at its depth
+    prev_z = z;
+    prev_a = a;
+    have_prev = true;
+    return true;
+  }
+  CDSM_HD TexelBlockers result() const {
+    return prev_a > 0.0f ? TexelBlockers{prev_a, moment / prev_a} : TexelBlockers{};
+  }
+};
+template <int N>
+CDSM_HD inline TexelBlockers texel_blockers(const DsmStorage& st, const DsmMap& m, int tx, int ty, float z_lim) {
+  const NodeArrays<N> a = st.arrays<N>();
+  const uint64_t t = texel_index(m, tx, ty);
+  BlockerScan scan{z_lim};
+  if (st.layout == DsmLayout::Chunked) {
+    const TexelRange h = a.texels[t];
+    uint32_t slot = h.offset;
+    for (uint32_t i = 0; i < h.count; ++i) {
+      const ChunkNodeN<N> c = a.chunks[slot];
+      if (!scan.visit(c.z, grey_of(to_rgb(c.alpha)))) break;
+      slot = c.next;
+    }
+    return scan.result();
+  }
+  const Span<const DsmNodeN<N>> n = texel_nodes<N>(st, m, tx, ty);
+  for (uint64_t i = 0; i < n.size(); ++i)
+    if (!scan.visit(n[i].z, grey_of(to_rgb(n[i].alpha)))) break;
+  return scan.result();
+}
+
+// The depth in front of which a tap's texel holds blockers of receiver r:
+// its read depth less the own step's search window (surfaces), or the
+// point's depth (volume samples; the slope-bias baseline's offset depth).
+CDSM_HD CDSM_INLINE float blocker_limit(const ShadowView& sv, const LightData& L, const DsmMap& m,
+                                        const ViewProjection& pr, const Receiver& r, int tx, int ty) {
+  const bool surface = dot(r.plane, r.plane) > 0.0f;
+  if (sv.receiver == ReceiverLookup::SlopeBias) return pr.depth - slope_bias_offset(L, m, pr, r);
+  if (!surface) return pr.depth;
+  const float depth = tap_depth(sv, m, pr, r, tx, ty);
+  return depth - receiver_read_at(sv, m, pr, r, depth).window;
+}
+
+// The filter radius (window units) of light L's penumbra at receiver r in
+// map m (0: a hard lookup), step 1 above.
+CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightData& L, const DsmMap& m,
+                                            const ViewProjection& pr, const Receiver& r) {
+  const float z = pr.depth;
+  if (sv.penumbra == Penumbra::FixedKernel) return penumbra_radius(L, m, z, 0.5f * z);
+  const float texel = 2.0f * fmaxf(m.view.tan_half_x, m.view.tan_half_y) / float(m.res);  // window units
+  const float search = fminf(penumbra_radius(L, m, z, fmaxf(m.view.near, 1e-6f)), kPenumbraSearchTexels * texel);
+  const float to_u = float(m.res) / (2.0f * m.view.tan_half_x), to_v = float(m.res) / (2.0f * m.view.tan_half_y);
+  const int res = int(m.res);
+  float weight = 0.0f, moment = 0.0f;
+  // The texel under the receiver, then rings of 8 at 1, 2, 4, ... texels
+  // out to the search radius (every other ring turned by 22.5 degrees).
+  float ring = 0.0f;
+  for (int k = 0; k < 2 + 8 * kPenumbraSearchRings; ++k) {
+    if (k > 0 && (k - 1) % 8 == 0) {  // the next ring
+      if (ring >= search) break;
+      ring = fminf(k == 1 ? texel : 2.0f * ring, search);
+    }
+    const int d = k == 0 ? 0 : ((k - 1) % 8) * 2 + (((k - 1) / 8) & 1);
+    const Vec2 dir = penumbra_direction(d);
+    const float x = k == 0 ? 0.0f : ring * dir.x;
+    const float y = k == 0 ? 0.0f : ring * dir.y;
+    const int tx = int(floorf(pr.u + x * to_u)), ty = int(floorf(pr.v + y * to_v));
+    if (tx < 0 || ty < 0 || tx >= res || ty >= res) continue;
+    const TexelBlockers b = m.rgb ? texel_blockers<3>(sv.storage, m, tx, ty, blocker_limit(sv, L, m, pr, r, tx, ty))
+                                  : texel_blockers<1>(sv.storage, m, tx, ty, blocker_limit(sv, L, m, pr, r, tx, ty));
+    if (!(b.alpha > kPenumbraMinAlpha)) continue;
+    // Its texel centre's distance from the receiver's ray, window units.
+    const float dx = (float(tx) + 0.5f - pr.u) / to_u, dy = (float(ty) + 0.5f - pr.v) / to_v;
+    if (sqrtf(dx * dx + dy * dy) > 2.0f * penumbra_radius(L, m, z, b.depth) + texel) continue;
+    weight += b.alpha;
+    moment += b.alpha * b.depth;
+  }
+  return weight > kPenumbraMinAlpha ? penumbra_radius(L, m, z, moment / weight) : 0.0f;
+}
+
+// One map's opacity at receiver r from light L with a size: today's lookup
+// filtered over the penumbra's disk (step 2 above).
+CDSM_HD inline Vec3 soft_map_alpha_in_colour(const ShadowView& sv, const LightData& L, const DsmMap& m,
+                                             const ViewProjection& pr, const Receiver& r) {
+  const float radius = penumbra_filter_radius(sv, L, m, pr, r);
+  const float to_u = float(m.res) / (2.0f * m.view.tan_half_x), to_v = float(m.res) / (2.0f * m.view.tan_half_y);
+  const float texels = radius * fmaxf(to_u, to_v);
+  if (!(texels >= 0.5f)) return map_alpha_in_colour(sv, L, m, pr, r);
+  const int side = int(fminf(ceilf(2.0f * texels), float(kPenumbraMaxSide)));
+  Vec3 sum{0, 0, 0};
+  int taps = 0;
+  for (int j = 0; j < side; ++j)
+    for (int i = 0; i < side; ++i) {
+      float x, y;
+      if (!disk_grid_point(i, j, side, x, y)) continue;
+      ViewProjection at = pr;
+      at.u = pr.u + x * radius * to_u;
+      at.v = pr.v + y * radius * to_v;
+      sum += map_alpha_in_colour(sv, L, m, at, r);
+      ++taps;
+    }
+  return sum * (1.0f / float(taps));
+}
+
+// One map's opacity at r: soft for a light with a size (unless the
+// settings say hard), else today's lookup.
+CDSM_HD CDSM_INLINE Vec3 light_map_alpha(const ShadowView& sv, const LightData& L, const DsmMap& m,
+                                         const ViewProjection& pr, const Receiver& r) {
+  if (L.size > 0.0f && sv.penumbra != Penumbra::Hard) return soft_map_alpha_in_colour(sv, L, m, pr, r);
+  return map_alpha_in_colour(sv, L, m, pr, r);
+}
+
 // Opacity per channel between light L and receiver r from the light's DSMs
 // (grey_of() of it: exactly the one value where every channel agrees, grey
 // casters, else the channel mean).
 CDSM_HD inline Vec3 shadow_alpha(const ShadowView& sv, const LightData& L, const Receiver& r) {
   return combine_maps(sv, L, r.p, [&](uint32_t, const DsmMap& m, const ViewProjection& pr) {
-    return map_alpha_in_colour(sv, L, m, pr, r);
+    return light_map_alpha(sv, L, m, pr, r);
   });
 }
 

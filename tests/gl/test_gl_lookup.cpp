@@ -354,6 +354,28 @@ TEST_F(GlLookup, SunGlassAndClusteredSunClouds) {
   expect_agreement(clouds, 70000, 25000, 10000, "sun clouds, 4 clusters");
 }
 
+// Lights with a size: the soft lookup (blockers searched in the map, the
+// filter over the penumbra's disk) and the fixed-kernel baseline, a spot
+// light (every layout: the blocker walk reads each) and the sun's cone.
+TEST_F(GlLookup, SoftSpotAndSun) {
+  Scene scene = load_scene(scene_path("default.json"));
+  scene.lights[0].radius = 0.15f;
+  scene.shadows.resolution = 256;
+  for (DsmLayout layout : {DsmLayout::Packed, DsmLayout::Fixed, DsmLayout::Chunked}) {
+    scene.shadows.layout = layout;
+    const char* names[] = {"default, spot radius 0.15, packed", "default, spot radius 0.15, fixed",
+                           "default, spot radius 0.15, chunked"};
+    expect_agreement(scene, 20000, 8000, 4000, names[int(layout)], layout == DsmLayout::Chunked);
+  }
+  scene.shadows.layout = DsmLayout::Packed;
+  scene.shadows.penumbra = Penumbra::FixedKernel;
+  expect_agreement(scene, 20000, 8000, 4000, "default, spot radius 0.15, fixed kernel");
+  Scene sun = load_scene(scene_path("sun_glass.json"));
+  sun.lights[0].angular_diameter_deg = 3.0f;
+  sun.shadows.resolution = 512;
+  expect_agreement(sun, 20000, 8000, 4000, "sun glass, angular diameter 3");
+}
+
 TEST_F(GlLookup, OmniCubeFacesAndSlopeBias) {
   Scene scene = load_scene(scene_path("teapot_omni.json"));
   scene.shadows.receiver = ReceiverLookup::SlopeBias;

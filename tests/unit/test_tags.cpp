@@ -75,6 +75,7 @@ TEST(Tags, TheShaderIncludeNamesTheSameValues) {
   expect_glsl_constants<Projection>(glsl, "CDSM_PROJECTION_");
   expect_glsl_constants<MapMode>(glsl, "CDSM_MAPS_");
   expect_glsl_constants<ReceiverLookup>(glsl, "CDSM_RECEIVER_");
+  expect_glsl_constants<Penumbra>(glsl, "CDSM_PENUMBRA_");
 }
 
 }  // namespace

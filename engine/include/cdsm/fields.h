@@ -116,6 +116,8 @@ struct FieldTable<ShadowSettings> {
       field("resolution", &S::resolution, 4, 8192, kAffectsMaps | kAffectsClusters, "DSM texels per side"),
       field("filtering", &S::filtering, 0, 1, kAffectsLookup, "bilinear lookup"),
       field("receiver", &S::receiver, 0, 0, kAffectsLookup, "how surfaces look themselves up"),
+      field("penumbra", &S::penumbra, 0, 0, kAffectsLookup,
+            "lights with a size: estimated (blockers from the maps), fixed_kernel (PCF baseline) or hard"),
       field("bias_constant", &S::bias_constant, 0.0, 10.0, kAffectsLookup,
             "a caster's own surface: taps stop this far short of its plane (world units)"),
       field("bias_slope", &S::bias_slope, 0.0, 100.0, kAffectsLookup, "... plus this many texel footprints"),

@@ -155,8 +155,8 @@ struct Light {
   // The light's size, for soft shadows: a spot or point light is a sphere of
   // `radius` (0: a point), a directional light a disk of apparent size
   // `angular_diameter_deg` (the sun: 0.53; 0: a point at infinity). The
-  // reference renderer samples that area; the maps' lookups are still hard
-  // (soft lookups: issue 30).
+  // reference renderer samples that area; the maps' lookups estimate the
+  // penumbra from the maps' blockers (ShadowSettings::penumbra).
   float radius = 0.0f;
   float angular_diameter_deg = 0.0f;
 };
@@ -208,6 +208,9 @@ struct ShadowSettings {
   float bias_constant = 0.0002f;
   float bias_slope = 0.05f;
   ReceiverLookup receiver = ReceiverLookup::Plane;
+  // Lights with a size: penumbrae estimated from the maps' blockers (the
+  // default), a fixed-kernel PCF (baseline), or hard shadows.
+  Penumbra penumbra = Penumbra::Estimated;
   int32_t max_clusters = 1;  // m
   // Baseline arrangement: > 1 replaces a spot light's map (and any clusters)
   // by that many parallel-split maps along the camera's view (Zhang et al.

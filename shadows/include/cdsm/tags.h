@@ -2,7 +2,7 @@
 // share: each one enum, 32 bits wide so it sits in the std430 and device
 // structs as it is. cdsm.glsl (share/cdsm/shaders/) names the same values
 // (CDSM_LIGHT_*, CDSM_PROJECTION_*, CDSM_LAYOUT_*, CDSM_RECEIVER_*,
-// CDSM_MAPS_*); the
+// CDSM_PENUMBRA_*, CDSM_MAPS_*); the
 // library's tests check they agree.
 #pragma once
 
@@ -39,6 +39,15 @@ enum class ReceiverLookup : uint32_t {
   Plane = 0,      // each tap at the receiver's plane along its own ray; casters offset slightly
   SlopeBias = 1,  // the previous design, kept as the baseline: every tap at the point's depth minus
                   // 0.5 mm + 1.5 texel footprints x tan(incidence) (tan <= 50), for every surface
+};
+
+// How a light with a size (a sphere's radius, the sun's angular diameter)
+// softens its shadows (hd/lights.h "lights with a size"). Lights without a
+// size take the hard lookup whatever this says.
+enum class Penumbra : uint32_t {
+  Estimated = 0,    // blockers found in the map, penumbra width by similar triangles (contact hardening)
+  FixedKernel = 1,  // baseline: the same taps over a fixed kernel (a blocker halfway to the light)
+  Hard = 2,         // the light's size ignored: today's point-light lookup
 };
 
 // What each texel stores. Deep shadow maps are the product; the others are
@@ -79,6 +88,10 @@ struct TagNames<DsmLayout> {
 template <>
 struct TagNames<ReceiverLookup> {
   static constexpr const char* names[] = {"plane", "slope_bias"};
+};
+template <>
+struct TagNames<Penumbra> {
+  static constexpr const char* names[] = {"estimated", "fixed_kernel", "hard"};
 };
 template <>
 struct TagNames<ShadowMethod> {
