@@ -629,6 +629,21 @@ float cdsm_penumbra_filter_radius(CdsmLight L, CdsmMap m, CdsmProjection pr, vec
   return weight > CDSM_PENUMBRA_MIN_ALPHA ? cdsm_penumbra_radius(L, m, z, moment / weight) : 0.0;
 }
 
+// Whether a filter tap at `at` may shadow the receiver (hd/lights.h
+// blocks_receiver): its texel's blockers within their own reach of it (plus
+// a texel), or none.
+bool cdsm_blocks_receiver(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, CdsmProjection at) {
+  int tx = int(floor(at.u)), ty = int(floor(at.v)), res = int(m.res);
+  if (tx < 0 || ty < 0 || tx >= res || ty >= res) return true;
+  float to_u = float(m.res) / (2.0 * m.view.tan_half_x), to_v = float(m.res) / (2.0 * m.view.tan_half_y);
+  float texel = 2.0 * max(m.view.tan_half_x, m.view.tan_half_y) / float(m.res);
+  vec2 b = cdsm_texel_blockers(m, m.texel_offset + uint(ty) * m.res + uint(tx),
+                               cdsm_blocker_limit(L, m, pr, p, plane, tx, ty));
+  if (!(b.x > CDSM_PENUMBRA_MIN_ALPHA)) return true;
+  float dx = (at.u - pr.u) / to_u, dy = (at.v - pr.v) / to_v;
+  return sqrt(dx * dx + dy * dy) <= cdsm_penumbra_radius(L, m, pr.depth, b.y) + texel;
+}
+
 // One map's α for a light with a size: the hard lookup filtered over the
 // penumbra's disk (hd/lights.h soft_map_alpha_in_colour); else the hard one.
 vec3 cdsm_light_map_alpha(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, uint object) {
@@ -647,8 +662,9 @@ vec3 cdsm_light_map_alpha(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec
       CdsmProjection at = pr;
       at.u = pr.u + x * radius * to_u;
       at.v = pr.v + y * radius * to_v;
-      sum = sum + cdsm_map_alpha(L, m, at, p, plane, object);
       ++taps;
+      if (cdsm_penumbra == CDSM_PENUMBRA_ESTIMATED && !cdsm_blocks_receiver(L, m, pr, p, plane, at)) continue;
+      sum = sum + cdsm_map_alpha(L, m, at, p, plane, object);
     }
   return sum * (1.0 / float(taps));
 }

@@ -251,14 +251,19 @@ CDSM_HD inline Vec3 map_alpha_in_colour(const ShadowView& sv, const LightData& L
 //      today's lookup (bilinear taps, each at the receiver's plane) over the
 //      disk of radius rho(z_b): the grid points of a k x k grid inside the
 //      disk, k = ceil(2 x the radius in texels) (taps about a texel apart),
-//      at most kPenumbraMaxSide. Averaging a step over a disk is exactly the
-//      visible fraction of a uniform disk light behind a straight edge.
+//      at most kPenumbraMaxSide; a tap whose texel's blockers lie beyond
+//      their own reach of the receiver counts as lit (blocks_receiver: the
+//      body of a cup beside a receiver on the ground, in the disk but too
+//      near the ground to shadow it). Averaging a step over a disk is
+//      exactly the visible fraction of a uniform disk light behind a
+//      straight edge.
 // Nothing in front of the receiver, or a radius under half a texel: the
 // hard lookup. Penumbra::FixedKernel skips step 1 and filters with the
 // radius of a blocker halfway to the light (rho(z/2)): a fixed-kernel PCF
 // of the same taps, the baseline. Cost: up to 8 kPenumbraSearchRings + 1 node
-// walks plus up to kPenumbraMaxSide^2 bilinear taps per map, against one
-// bilinear tap for a hard lookup.
+// walks plus up to kPenumbraMaxSide^2 bilinear taps per map (each with one
+// more node walk, blocks_receiver), against one bilinear tap for a hard
+// lookup.
 inline constexpr int kPenumbraSearchRings = 7;         // blocker search: rings at 1, 2, 4, ... texels (<= 64)
 inline constexpr int kPenumbraMaxSide = 12;            // filter grid: at most 112 taps inside the disk
 inline constexpr float kPenumbraSearchTexels = 32.0f;  // blocker search radius cap
@@ -399,6 +404,24 @@ CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightDat
   return weight > kPenumbraMinAlpha ? penumbra_radius(L, m, z, moment / weight) : 0.0f;
 }
 
+// Whether a filter tap at `at` may shadow receiver r (at pr): its texel's
+// blockers lie within their own reach of the receiver (plus a texel), or it
+// holds none. A blocker next to the receiver in the map but near its depth
+// (the body of a cup standing on the ground beside the receiver) casts only
+// within a texel or two of itself: the tap counts as lit.
+CDSM_HD inline bool blocks_receiver(const ShadowView& sv, const LightData& L, const DsmMap& m, const ViewProjection& pr,
+                                    const Receiver& r, const ViewProjection& at) {
+  const int tx = int(floorf(at.u)), ty = int(floorf(at.v)), res = int(m.res);
+  if (tx < 0 || ty < 0 || tx >= res || ty >= res) return true;
+  const float to_u = float(m.res) / (2.0f * m.view.tan_half_x), to_v = float(m.res) / (2.0f * m.view.tan_half_y);
+  const float texel = 2.0f * fmaxf(m.view.tan_half_x, m.view.tan_half_y) / float(m.res);
+  const TexelBlockers b = m.rgb ? texel_blockers<3>(sv.storage, m, tx, ty, blocker_limit(sv, L, m, pr, r, tx, ty))
+                                : texel_blockers<1>(sv.storage, m, tx, ty, blocker_limit(sv, L, m, pr, r, tx, ty));
+  if (!(b.alpha > kPenumbraMinAlpha)) return true;
+  const float dx = (at.u - pr.u) / to_u, dy = (at.v - pr.v) / to_v;
+  return sqrtf(dx * dx + dy * dy) <= penumbra_radius(L, m, pr.depth, b.depth) + texel;
+}
+
 // One map's opacity at receiver r from light L with a size: today's lookup
 // filtered over the penumbra's disk (step 2 above).
 CDSM_HD inline Vec3 soft_map_alpha_in_colour(const ShadowView& sv, const LightData& L, const DsmMap& m,
@@ -417,8 +440,9 @@ CDSM_HD inline Vec3 soft_map_alpha_in_colour(const ShadowView& sv, const LightDa
       ViewProjection at = pr;
       at.u = pr.u + x * radius * to_u;
       at.v = pr.v + y * radius * to_v;
-      sum += map_alpha_in_colour(sv, L, m, at, r);
       ++taps;
+      if (sv.penumbra == Penumbra::Estimated && !blocks_receiver(sv, L, m, pr, r, at)) continue;
+      sum += map_alpha_in_colour(sv, L, m, at, r);
     }
   return sum * (1.0f / float(taps));
 }
