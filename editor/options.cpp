@@ -56,6 +56,16 @@ void add_frame_options(CLI::App& app, FrameOptions& o) {
                     "device (with the cuda backend); auto (the default): gl when an OpenGL 4.5 context can be made");
   o.overrides.add(app, "--width", &Scene::camera, "width");
   o.overrides.add(app, "--height", &Scene::camera, "height");
+  with_field<Light>("radius", [&](const auto& f) {
+    app.add_option("--light-radius", o.light_radius,
+                   "every spot and point light a sphere of this radius (world units; 0: a point): soft shadows")
+        ->check(within(f.lo, f.hi, false));
+  });
+  with_field<Light>("angular_diameter", [&](const auto& f) {
+    app.add_option("--sun-diameter", o.sun_diameter,
+                   "every directional light this angular diameter (degrees; the sun 0.53, 0: a point)")
+        ->check(within(f.lo, f.hi, false));
+  });
   app.add_option("--error-samples", o.render.error_samples, "shaded points for the transmittance error")
       ->check(within(1, 1e7, true))
       ->capture_default_str();

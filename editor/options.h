@@ -172,6 +172,9 @@ struct FrameOptions {
   SceneOverrides overrides;
   RenderOptions render;
   int64_t max_memory_mib = 0;
+  // Every spot and point light's radius, every directional light's angular
+  // diameter (degrees); negative: the scene's.
+  float light_radius = -1.0f, sun_diameter = -1.0f;
 
   // Before a scene is read: the reader's generated grids count too.
   void limit_memory() const {
@@ -181,6 +184,10 @@ struct FrameOptions {
   void apply(Scene& scene) const {
     overrides.apply(scene);
     if (max_memory_mib > 0) scene.shadows.max_memory_mib = 0;
+    for (Light& l : scene.lights) {
+      if (light_radius >= 0.0f && l.type != LightType::Directional) l.radius = light_radius;
+      if (sun_diameter >= 0.0f && l.type == LightType::Directional) l.angular_diameter_deg = sun_diameter;
+    }
   }
 };
 void add_frame_options(CLI::App& app, FrameOptions& o);

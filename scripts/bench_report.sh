@@ -91,6 +91,14 @@ run splits content/scenes/sparse.json "${SPLITS[@]}"
 # The sun: one orthographic map, four clustered ones, cascades (issue 29).
 SUN=(--methods dsm,pssm4 --sweep eps=0.01 --sweep res=512,1024 --sweep clusters=1,4 "${COMMON[@]}" --no-plot)
 run sun content/scenes/sun_clouds.json "${SUN[@]}"
+# Soft shadows (issue 30): light sizes against the area-sampled reference
+# (256 shadow rays per lookup), the estimated penumbra beside a fixed-kernel
+# PCF of the same taps and the hard lookup. Each light size is its own
+# scene variant with its own reference.
+SOFT=(--methods dsm --sweep eps=0.01 --sweep penumbra=estimated,fixed_kernel,hard "${COMMON[@]}" --no-plot)
+run soft content/scenes/default.json "${SOFT[@]}" --sweep radius=0.05,0.15,0.3
+run soft_sun content/scenes/sun_glass.json "${SOFT[@]}" --sweep angular_diameter=0.53,2
+run soft_smoke content/scenes/smoke_gltf.json "${SOFT[@]}" --sweep radius=0.15
 run table4 "$CT" "$CT_CAST" "${TABLE4[@]}"
 # Coloured shadows: RGB maps against every map scalar on the stained-glass scene.
 run colour content/scenes/stained_glass.json --methods dsm,dsmgrey --sweep eps=0.01 --sweep res=512 "${COMMON[@]}" --no-plot
@@ -110,6 +118,9 @@ cp "$WORK/layouts/results.csv" "$OUT/layouts.csv"
 cp "$WORK/clusters/results.csv" "$OUT/clusters.csv"
 cp "$WORK/splits/results.csv" "$OUT/splits.csv"
 cp "$WORK/sun/results.csv" "$OUT/sun.csv"
+cp "$WORK/soft/results.csv" "$OUT/soft.csv"
+cp "$WORK/soft_sun/results.csv" "$OUT/soft_sun.csv"
+cp "$WORK/soft_smoke/results.csv" "$OUT/soft_smoke.csv"
 # The tables name the temporary output directory: name the report's instead.
 for f in "$OUT"/*.md; do sed -i "s|--out $WORK/[a-z0-9]*|--out docs/bench|g" "$f"; done
 sed_tables() { sed -e 1d -e "s|--out $WORK/[a-z0-9]*|--out <tmp>|g" "$1"; }
@@ -232,6 +243,29 @@ windows focused on each cluster's members), and four parallel splits along
 the view plus the whole map (pssm4; ignores m). Raw rows: \`sun.csv\`.
 
 $(sed_tables "$WORK/sun/results.md")
+
+## Soft shadows: estimated penumbrae against a fixed-kernel PCF and hard lookups
+
+Lights with a size against the area-sampled reference (256 stratified
+shadow rays per lookup over the sphere light's disk or the sun's cone): the
+default scene's key spot light as a sphere of radius 0.05, 0.15 and 0.3
+(\`default@r…\`), \`sun_glass.json\` with the sun's angular diameter 0.53°
+and 2° (\`sun_glass@sun…\`), and the smoke column of \`smoke_gltf.json\`
+(a volume) under a spot light of radius 0.15. Per size: the estimated
+penumbra (blockers from the map, \`dsm\`), a fixed-kernel PCF of the same
+taps (\`fixed_kernel\`: the kernel of a blocker halfway to the light) and the
+hard lookup (\`hard\`). For lights with a size *map* is the maps' own error
+(the hard lookup's taps against exact rays through them) and *res* the rest
+of the total (penumbra estimate, filter and texels together). Raw rows:
+\`soft.csv\`, \`soft_sun.csv\`, \`soft_smoke.csv\`.
+
+$(sed_tables "$WORK/soft/results.md")
+
+$(sed_tables "$WORK/soft_sun/results.md")
+
+$(sed_tables "$WORK/soft_smoke/results.md")
+
+SOFT_TEXT_PLACEHOLDER
 
 ## The paper's Table 4: nodes per texel against ε
 

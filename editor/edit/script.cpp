@@ -162,6 +162,10 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
         l.direction = normalize(Vec3{float(number("x")), float(number("y")), float(number("z"))});
       else if (field == "intensity")
         l.intensity = float(number("intensity"));
+      else if (field == "radius")
+        l.radius = float(number("radius"));
+      else if (field == "angular_diameter")
+        l.angular_diameter_deg = float(number("angular diameter"));
       else
         throw Error(where, "unknown light field '" + field + "'");
       s.apply(set_light(s.document(), li, l), now);

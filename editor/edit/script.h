@@ -3,8 +3,8 @@
 // echoed with what it did; `wait` prints the time from the last change to
 // the refined frame). Commands:
 //
-//   set epsilon|resolution|clusters|d0|layout|filtering|receiver VALUE
-//   light INDEX position|direction X Y Z | light INDEX intensity V
+//   set epsilon|resolution|clusters|d0|layout|filtering|receiver|penumbra VALUE
+//   light INDEX position|direction X Y Z | light INDEX intensity|radius|angular_diameter V
 //   orbit DYAW DPITCH        camera orbit, degrees
 //   zoom STEPS | frame
 //   select OBJECT            name or index

@@ -155,7 +155,8 @@ void lights_panel(Session& s) {
     changed |= ImGui::SliderFloat("angular diameter", &next.angular_diameter_deg, 0.0f, 10.0f, "%.2f deg");
   } else {
     changed |= drag3("position", next.position, 0.02f);
-    changed |= ImGui::SliderFloat("radius", &next.radius, 0.0f, 2.0f, "%.3f");  // the reference's area light
+    changed |= ImGui::SliderFloat("radius", &next.radius, 0.0f, 2.0f, "%.3f");  // a sphere light: soft shadows
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("the light's size: penumbrae estimated from the maps (0: a point)");
   }
   if (next.type == LightType::Spot) {
     if (drag3("direction", next.direction, 0.01f, -1.0f, 1.0f)) {

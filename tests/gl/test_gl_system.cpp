@@ -19,6 +19,7 @@
 #include "backend/exec_backend.h"
 #include "exec/host_exec.h"
 #include "gl/gl_api.h"
+#include "gl/map_buffers.h"
 #include "gl_test_util.h"
 #include "shadow_system_impl.h"
 
@@ -190,7 +191,7 @@ TEST_F(GlSystem, UploadsOnlyWhatChanged) {
   const uint64_t arrays0 = (s0.texels.size() + s0.rgb_texels.size()) * 8 + s0.nodes.size() * 8 +
                            s0.rgb_nodes.size() * 16 + s0.chunks.size() * 12 + s0.rgb_chunks.size() * 20 +
                            (s0.tags.size() + s0.rgb_tags.size()) * 2;
-  const uint64_t frame_block = 32 + 64 * kMaxLights + sizeof(DsmMap) * I.frame.headers.size();
+  const uint64_t frame_block = sizeof(gl::FrameBlockHeader) + sizeof(DsmMap) * I.frame.headers.size();
   EXPECT_TRUE(first.update.gl_map_full_upload);
   EXPECT_EQ(first.update.gl_map_upload_bytes, arrays0 + frame_block);
   EXPECT_GE(first.update.gl_map_bytes, arrays0 + frame_block);
@@ -214,7 +215,7 @@ TEST_F(GlSystem, UploadsOnlyWhatChanged) {
   ASSERT_EQ(moved.maps_rebuilt, 1u);
   ASSERT_FALSE(moved.update.gl_map_full_upload);
   const DsmStorage s1 = I.backend->storage();
-  const uint64_t frame1 = 32 + 64 * kMaxLights + sizeof(DsmMap) * I.frame.headers.size();
+  const uint64_t frame1 = sizeof(gl::FrameBlockHeader) + sizeof(DsmMap) * I.frame.headers.size();
   EXPECT_EQ(moved.update.gl_map_upload_bytes, array_bytes(s1) - arrays0 + frame1);
   // The omni light (six maps) moves: the holes its old maps leave exceed a
   // quarter of the store, which compacts: every array is uploaded once.

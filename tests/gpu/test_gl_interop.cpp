@@ -13,6 +13,7 @@
 #include "cdsm/scene_io.h"
 #include "cdsm/shadow_system.h"
 #include "gl/gl_api.h"
+#include "gl/map_buffers.h"
 #include "gl_interop.h"
 #include "gl_test_util.h"
 #include "gpu_test.h"
@@ -96,7 +97,7 @@ TEST_F(GlInterop, CudaBackendWritesTheMapBuffersInPlace) {
       EXPECT_GT(st.update.gl_map_device_bytes, 0u);
     else
       EXPECT_EQ(st.update.gl_map_device_bytes, 0u);
-    const uint64_t frame_block = 32 + 64 * kMaxLights + 96 * I.frame.headers.size();
+    const uint64_t frame_block = sizeof(gl::FrameBlockHeader) + sizeof(DsmMap) * I.frame.headers.size();
     EXPECT_TRUE(st.update.gl_map_upload_bytes == 0 || st.update.gl_map_upload_bytes == frame_block)
         << "only the frame block from the host: " << st.update.gl_map_upload_bytes;
     return st;
