@@ -156,6 +156,10 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
       if (li >= s.scene().lights.size()) throw Error(where, "no light " + std::to_string(li));
       Light l = s.scene().lights[li];
       const std::string field = word("a light field");
+      if (field == "select") {  // its fields in the Lights panel
+        s.selected_light = int(li);
+        continue;
+      }
       if (field == "position")
         l.position = {float(number("x")), float(number("y")), float(number("z"))};
       else if (field == "direction")

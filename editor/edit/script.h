@@ -4,7 +4,7 @@
 // the refined frame). Commands:
 //
 //   set epsilon|resolution|clusters|d0|layout|filtering|receiver|penumbra VALUE
-//   light INDEX position|direction X Y Z | light INDEX intensity|radius|angular_diameter V
+//   light INDEX position|direction X Y Z | light INDEX intensity|radius|angular_diameter V | light INDEX select
 //   orbit DYAW DPITCH        camera orbit, degrees
 //   zoom STEPS | frame
 //   select OBJECT            name or index
