@@ -13,12 +13,15 @@
 #include <thread>
 
 #include "bench.h"
+#include "cdsm/fields.h"
 
 namespace cdsm::cli::bench {
 namespace {
 
 // Bump when the reference renderer's output changes, so old caches miss.
-constexpr const char* kReferenceCacheSalt = "cdsm-reference-v1";
+constexpr const char* kReferenceCacheSalt = "cdsm-reference-v2";  // v2: lights and materials by their field tables
+// Every field that changes what is drawn (names and budgets do not).
+constexpr uint32_t kEveryEffect = kAffectsLookup | kAffectsPlan | kAffectsClusters | kAffectsMaps;
 
 // FNV-1a, 64 bit.
 struct Hasher {
@@ -41,6 +44,10 @@ struct Hasher {
   void s(const std::string& v) {
     i(int64_t(v.size()));
     bytes(v.data(), v.size());
+  }
+  template <class T>
+  void pod(const T& v) {
+    bytes(&v, sizeof v);
   }
   template <class T>
   void vec(const std::vector<T>& v) {
@@ -202,14 +209,7 @@ std::string reference_key(const Scene& s, float step_voxels) {
     }
     h.m4(o.transform);
     h.i(o.casts_shadows);
-    const SurfaceMaterial& m = o.surface;
-    h.v3(m.color);
-    h.f(m.opacity);
-    h.v3(m.transmission_color);
-    h.f(m.ambient);
-    h.f(m.diffuse);
-    h.f(m.specular);
-    h.f(m.shininess);
+    hash_fields(h, o.surface, kEveryEffect);  // every field of the material's table
     h.i(int64_t(o.interior));
     h.v3(o.sigma);
     h.i(o.volume);
@@ -229,15 +229,7 @@ std::string reference_key(const Scene& s, float step_voxels) {
     h.f(v.gradient_scale);
   }
   h.i(int64_t(s.lights.size()));
-  for (const Light& l : s.lights) {
-    h.i(int64_t(l.type));
-    h.v3(l.position);
-    h.v3(l.direction);
-    h.f(l.outer_cone_deg);
-    h.f(l.inner_cone_deg);
-    h.v3(l.color);
-    h.f(l.intensity);
-  }
+  for (const Light& l : s.lights) hash_fields(h, l, kEveryEffect);  // its size too: an area light's reference
   const Camera& c = s.camera;
   h.v3(c.position);
   h.v3(c.target);

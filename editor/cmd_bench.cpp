@@ -139,9 +139,10 @@ std::vector<Result> measure(const Scene& base, const RenderOptions& base_opt, co
   return out;
 }
 
-std::string unique_name(const std::string& path, std::map<std::string, int>& used) {
+std::string unique_name(const std::string& path, const std::string& suffix, std::map<std::string, int>& used) {
   std::string stem = fs::path(path).stem().string();
   if (stem.empty()) stem = "scene";
+  stem += suffix;
   int n = ++used[stem];
   return n == 1 ? stem : stem + "-" + std::to_string(n);
 }
@@ -207,7 +208,7 @@ int run_bench(const BenchArgs& a) {
       apply(variant, scene);
       info.width = scene.camera.width;
       info.height = scene.camera.height;
-      std::string name = unique_name(path, used_names) + variant.suffix;
+      std::string name = unique_name(path, variant.suffix, used_names);
       std::vector<Config> configs = expand(a.sweep, scene);
 
       Reference ref = reference_for(scene, opt, cache_dir, a.refresh);

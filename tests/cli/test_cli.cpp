@@ -173,3 +173,27 @@ TEST(Cli, BadCommandLinesAreOneLineNamingTheOption) {
     EXPECT_TRUE(r.out.empty()) << c.args << ": " << r.out;
   }
 }
+
+// The bench's reference cache knows a light's size: each radius of
+// --sweep radius is its own scene variant, rendered once (an area light's
+// reference is not a point light's) and read from the cache the next time.
+TEST(Cli, BenchReferenceCacheKnowsTheLightSize) {
+  const std::string cache = output_dir() + "/refcache_sizes";
+  std::system(("rm -rf '" + cache + "'").c_str());
+  const std::string args = "bench '" + kScene +
+                           "' --methods dsm --sweep res=64 --sweep radius=0,0.2 --width 32 --height 24 "
+                           "--fragments cpu --repeat 1 --warmup 0 --error-samples 200 --no-plot --cache '" +
+                           cache + "' --out '" + output_dir() + "/bench_sizes'";
+  auto count = [](const std::string& s, const std::string& what) {
+    size_t n = 0;
+    for (size_t at = s.find(what); at != std::string::npos; at = s.find(what, at + 1)) ++n;
+    return n;
+  };
+  const CliRun first = run_cdsm(args);
+  ASSERT_EQ(first.code, 0) << first.err;
+  EXPECT_EQ(count(first.err, ": rendering"), 2u) << first.err;
+  EXPECT_NE(first.out.find("default@r0.2"), std::string::npos) << first.out;
+  const CliRun again = run_cdsm(args);
+  ASSERT_EQ(again.code, 0) << again.err;
+  EXPECT_EQ(count(again.err, ": cached"), 2u) << again.err;
+}

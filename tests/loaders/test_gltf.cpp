@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -371,6 +372,40 @@ TEST(Gltf, UnsupportedFeaturesAreListedOnce) {
 // A KHR_lights_punctual directional light (the sun) renders: the fixture's
 // glass cube over a ground, lit by a directional light alone, against the
 // reference's parallel shadow rays.
+// KHR_lights_punctual has no light size: 0 unless the light's extras give
+// one ("radius" for spot and point lights, "angular_diameter" for the
+// sun); a bad one is an error naming the node and the key.
+TEST(Gltf, LightSizeFromExtras) {
+  std::string dir = scratch_dir();
+  tinygltf::Model m = fixture_model();
+  ASSERT_NE(m.lights[1].type, "directional");
+  // The largest size among the loaded lights (light 1 is the one given one).
+  const auto largest = [](const Scene& s, bool sun) {
+    float most = 0.0f;
+    for (const Light& l : s.lights) most = std::max(most, sun ? l.angular_diameter_deg : l.radius);
+    return most;
+  };
+  EXPECT_EQ(largest(load_scene(write_model(m, dir + "/plain.glb", true)), false), 0.0f);
+  tinygltf::Value::Object extras;
+  extras["radius"] = tinygltf::Value(0.12);
+  m.lights[1].extras = tinygltf::Value(extras);
+  EXPECT_FLOAT_EQ(largest(load_scene(write_model(m, dir + "/sized.glb", true)), false), 0.12f);
+  m.lights[1].type = "directional";
+  extras.clear();
+  extras["angular_diameter"] = tinygltf::Value(0.53);
+  m.lights[1].extras = tinygltf::Value(extras);
+  EXPECT_FLOAT_EQ(largest(load_scene(write_model(m, dir + "/sun_sized.glb", true)), true), 0.53f);
+  extras["angular_diameter"] = tinygltf::Value(-1.0);
+  m.lights[1].extras = tinygltf::Value(extras);
+  const std::string bad = write_model(m, dir + "/bad.glb", true);
+  try {
+    load_scene(bad);
+    ADD_FAILURE() << "a negative angular diameter must be an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("extras.angular_diameter"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Gltf, DirectionalLightRendersLikeTheReference) {
   std::string dir = scratch_dir();
   tinygltf::Model m = fixture_model();

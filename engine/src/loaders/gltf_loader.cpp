@@ -323,6 +323,19 @@ Scene load_gltf_scene(const std::string& path) {
       l.outer_cone_deg = outer;
       l.inner_cone_deg = std::min(std::max(inner, 0.0f), outer);
     }
+    // KHR_lights_punctual lights are points: a size only from the light's
+    // extras ("radius" in world units for spot and point lights,
+    // "angular_diameter" in degrees for directional ones).
+    const char* size_key = l.type == LightType::Directional ? "angular_diameter" : "radius";
+    if (L.extras.IsObject() && L.extras.Has(size_key)) {
+      const tinygltf::Value& v = L.extras.Get(size_key);
+      const double size = v.IsNumber() ? v.GetNumberAsDouble() : -1.0;
+      const double most = l.type == LightType::Directional ? 10.0 : 1e6;
+      if (!(size >= 0.0 && size <= most))
+        throw Error(path, "light of node " + label + ": extras." + size_key + " must be a number within [0, " +
+                              (l.type == LightType::Directional ? "10] degrees" : "1e6] world units"));
+      (l.type == LightType::Directional ? l.angular_diameter_deg : l.radius) = float(size);
+    }
     if (!is_finite(l.position) || !is_finite(l.direction) || !is_finite(l.color) || !std::isfinite(l.intensity) ||
         l.intensity < 0.0f || !(l.outer_cone_deg > 0.0f))
       throw Error(path, "light of node " + label + " has NaN, negative or zero parameters");
