@@ -46,7 +46,8 @@ struct Maps {
   static Scene load() { return load_scene(std::string(CDSM_CONTENT_DIR_BENCH) + "/scenes/default.json"); }
 };
 
-// arg 0: 0 hard (radius 0), 1 estimated (radius 0.15), 2 fixed kernel (radius 0.15); arg 1: 0 surfaces, 1 samples.
+// arg 0: 0 hard (radius 0), 1 estimated (radius 0.15), 2 fixed kernel (radius 0.15), 3 the estimate's
+// blocker search alone (penumbra_filter_radius); arg 1: 0 surfaces, 1 samples.
 void BM_Lookup(benchmark::State& state) {
   static Maps hard(0.0f), sized(0.15f);
   const int mode = int(state.range(0));
@@ -56,18 +57,19 @@ void BM_Lookup(benchmark::State& state) {
   const std::vector<Receiver>& pts = state.range(1) == 0 ? m.surfaces : m.samples;
   const DsmVisibility vis{sv};
   double sink = 0.0;
+  const LightData& L = sv.lights[0];
+  const DsmMap& map = sv.maps[L.first_map];
   for (auto _ : state)
-    for (const Receiver& r : pts) sink += double(vis(0, r).x);
+    for (const Receiver& r : pts)
+      sink += mode == 3 ? double(penumbra_filter_radius(sv, L, map, project(map.view, r.p), r)) : double(vis(0, r).x);
   benchmark::DoNotOptimize(sink);
   state.counters["per_lookup"] = benchmark::Counter(double(state.iterations()) * double(pts.size()),
                                                     benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
-  state.SetLabel(std::string(mode == 0   ? "hard"
-                             : mode == 1 ? "estimated r=0.15"
-                                         : "fixed kernel r=0.15") +
-                 (state.range(1) == 0 ? ", surfaces" : ", volume samples"));
+  const char* names[] = {"hard", "estimated r=0.15", "fixed kernel r=0.15", "blocker search alone r=0.15"};
+  state.SetLabel(std::string(names[mode]) + (state.range(1) == 0 ? ", surfaces" : ", volume samples"));
 }
 
 }  // namespace
 
-BENCHMARK(BM_Lookup)->ArgsProduct({{0, 1, 2}, {0, 1}})->Unit(benchmark::kMillisecond)->MinTime(0.5);
+BENCHMARK(BM_Lookup)->ArgsProduct({{0, 1, 2, 3}, {0, 1}})->Unit(benchmark::kMillisecond)->MinTime(0.5);
 BENCHMARK_MAIN();
