@@ -244,7 +244,8 @@ CDSM_HD inline Vec3 map_alpha_in_colour(const ShadowView& sv, const LightData& L
 //      gives the opacity in front of the receiver and its opacity-weighted
 //      mean depth (a visibility function says more than a first depth: a
 //      medium's blockers lie where its opacity rises), and counts only when
-//      it lies within its own rho (plus a texel) of the receiver — so the
+//      it lies within twice its own rho (plus a texel) of the receiver (twice:
+//      the rings sample a blocker region sparsely, at 1, 2, 4, ...) — so the
 //      blockers touching a receiver, which cast on it through a disk of
 //      radius ~0, are the only ones read at a contact (contact hardening);
 //   2. takes the opacity-weighted mean depth z_b of what counted and filters
