@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "cdsm/cdsm.h"
+#include "cdsm/method_params.h"
 
 namespace cdsm::cli::bench {
 
@@ -17,9 +18,10 @@ namespace cdsm::cli::bench {
 struct MethodSpec {
   std::string label;  // as on the command line: dsm, sm, osm32, avsm8
   ShadowMethod method = ShadowMethod::Dsm;
-  float param = 0.0f;      // ShadowSettings::method_param
-  int splits = 0;          // pssmN: N parallel-split deep shadow maps (ShadowSettings::parallel_splits)
-  bool grey_maps = false;  // dsmgrey: every map scalar (ShadowSettings::rgb_maps off): RGB maps' cost
+  float param = 0.0f;            // ShadowSettings::method_param
+  float layer_thickness = 0.0f;  // domN:T: ShadowSettings::layer_thickness
+  int splits = 0;                // pssmN: N parallel-split deep shadow maps (ShadowSettings::parallel_splits)
+  bool grey_maps = false;        // dsmgrey: every map scalar (ShadowSettings::rgb_maps off): RGB maps' cost
 };
 
 // The sweep axes; every combination is one configuration (baselines ignore eps).
@@ -120,7 +122,11 @@ struct Result {
   bool pareto_time = false;    // no other configuration is both faster and more accurate
   bool pareto_memory = false;  // ... both smaller and more accurate
   double time_ms() const { return build_ms.median + camera_ms.median; }
+  // The maps' memory: their nodes, or for the methods that keep a fixed set
+  // of numbers per texel (cdsm/method_params.h stored_components), those.
   double memory_bytes() const {
+    const int components = stored_components(config.method.method, config.method.param);
+    if (components > 0) return double(stats.memory.texels) * components * kBytesPerComponent;
     return double(stats.memory.index_bytes + stats.memory.node_bytes + stats.memory.slack_bytes +
                   stats.memory.tag_bytes);
   }

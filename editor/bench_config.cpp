@@ -61,6 +61,8 @@ std::pair<double, double> settings_range(const char* key) {
 
 }  // namespace
 
+const char* const kMethodsList = "dsm, dsmgrey, sm, sm:T, osmN, avsmN, pssmN, domN, domN:T, fomN, mom4, mom8";
+
 std::vector<MethodSpec> parse_methods(const std::string& list) {
   std::vector<MethodSpec> out;
   for (const std::string& m : split(list, "--methods")) {
@@ -86,8 +88,24 @@ std::vector<MethodSpec> parse_methods(const std::string& list) {
     } else if (m.rfind("avsm", 0) == 0 && m.size() > 4) {
       s.method = ShadowMethod::FixedNodes;
       s.param = float(method_count(m, 4, s.method));
+    } else if (m.rfind("dom", 0) == 0 && m.size() > 3) {
+      s.method = ShadowMethod::DeepOpacity;
+      const size_t colon = m.find(':');
+      s.param = float(method_count(m.substr(0, colon), 3, s.method));
+      if (colon != std::string::npos)
+        with_field<ShadowSettings>("layer_thickness", [&](const auto& f) {
+          s.layer_thickness = float(parse_number("--methods " + m, m.substr(colon + 1), f.lo, f.hi, false));
+        });
+    } else if (m.rfind("fom", 0) == 0 && m.size() > 3) {
+      s.method = ShadowMethod::FourierOpacity;
+      s.param = float(method_count(m, 3, s.method));
+    } else if (m.rfind("mom", 0) == 0 && m.size() > 3) {
+      s.method = ShadowMethod::Moments;
+      s.param = float(method_count(m, 3, s.method));
+      if (s.param != 4.0f && s.param != 8.0f)
+        throw Error("--methods " + m, "moments: 4 or 8 power moments (mom4, mom8)");
     } else {
-      throw Error("--methods " + m, "unknown method (dsm, dsmgrey, sm, sm:T, osmN, avsmN, pssmN)");
+      throw Error("--methods " + m, std::string("unknown method (") + kMethodsList + ")");
     }
     out.push_back(s);
   }
@@ -274,6 +292,7 @@ void apply(const Config& c, Scene& scene, RenderOptions& opt) {
   ShadowSettings& s = scene.shadows;
   s.method = c.method.method;
   s.method_param = c.method.param;
+  s.layer_thickness = c.method.layer_thickness;
   s.epsilon = c.eps;
   s.resolution = c.res;
   s.max_clusters = c.method.splits > 0 ? 1 : c.clusters;

@@ -1,6 +1,7 @@
 #include "frame.h"
 
 #include "cdsm/fields.h"
+#include "cdsm/method_params.h"
 #include "cluster/focus.h"
 #include "backend/backend.h"
 #include "scene_compile.h"
@@ -363,6 +364,29 @@ uint64_t fragment_key(const MapPlan& plan, const FrameInputs& in) {
   return h.h;
 }
 
+// The depth extent of a map's casters along its rays (radial from a point
+// light, axial for parallel rays): from the nearest point of their boxes to
+// the farthest corner. The deep opacity maps' default layers span it.
+float caster_depth_extent(const MapPlan& plan, const SceneBuffers& sb) {
+  const PinholeView& v = plan.view;
+  float lo = 1e30f, hi = 0.0f;
+  for (uint32_t o : plan.members) {
+    const Box3& b = sb.object_bounds[o];
+    if (b.empty()) continue;
+    if (is_orthographic(v)) {
+      for (int c = 0; c < 8; ++c) {
+        const float t = dot(b.corner(c) - v.eye, v.forward);
+        lo = std::min(lo, t);
+        hi = std::max(hi, t);
+      }
+    } else {
+      lo = std::min(lo, length(vmax(vmax(b.lo - v.eye, v.eye - b.hi), Vec3{0, 0, 0})));
+      for (int c = 0; c < 8; ++c) hi = std::max(hi, length(b.corner(c) - v.eye));
+    }
+  }
+  return hi > std::max(lo, 0.0f) ? hi - std::max(lo, 0.0f) : 0.0f;
+}
+
 // A map whose casters all project to less than a texel across holds
 // (almost) no shadow, and nothing else would say so (issue 25 c: a 10 km
 // scene with 1 m casters, one map). Per map, from the casters' boxes: the
@@ -649,6 +673,10 @@ void build_missing(const FrameInputs& in, const FragmentProducer& produce, Shado
         t0 = std::chrono::steady_clock::now();
         std::vector<uint32_t> inside = objects_containing(sv, plan.view.eye, mask);
         LightPassParams lp{plan.view, s.epsilon, {inside.data(), inside.size()}, s.method, s.method_param};
+        if (s.method == ShadowMethod::DeepOpacity)
+          lp.layer_thickness = s.layer_thickness > 0.0f
+                                   ? s.layer_thickness
+                                   : caster_depth_extent(plan, sb) / method_param_or_default(s.method, s.method_param);
         // RGB nodes only where a member is coloured (deep shadow maps; the
         // baselines are grey).
         lp.rgb = s.rgb_maps && s.method == ShadowMethod::Dsm &&

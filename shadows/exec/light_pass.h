@@ -141,9 +141,7 @@ struct LightPassScratch {
 // Nodes a baseline texel can hold at once (hd/baselines.h): a first walk
 // into this many never needs a second.
 inline int baseline_capacity(ShadowMethod method, float param) {
-  int bound = 2;
-  if (method == ShadowMethod::OpacitySlices) bound = (param >= 1.0f ? int(param) : kDefaultOpacitySlices) + 1;
-  if (method == ShadowMethod::FixedNodes) bound = (param >= 2.0f ? int(param) : kDefaultFixedNodes) + 1;
+  const int bound = baseline_node_bound(method, param);
   int cap = bound + 2 < 4 ? 4 : bound + 2;
   while (node_limit(cap) < bound + 1) ++cap;
   return cap;
@@ -244,8 +242,8 @@ struct BaselineWalk {
     WalkStats st;
     const Vec3 d = pixel_ray(w.params.view, tx, ty);
     const float t_end = w.params.view.far / fmaxf(dot(d, w.params.view.forward), 1e-6f);
-    build_baseline_texel(w.scene, w.params.method, w.params.method_param, w.params.inside, w.frags.pixel(tx, ty),
-                         pixel_origin(w.params.view, tx, ty), d, t_end, buf, st);
+    build_baseline_texel(w.scene, w.params.method, w.params.method_param, w.params.layer_thickness, w.params.inside,
+                         w.frags.pixel(tx, ty), pixel_origin(w.params.view, tx, ty), d, t_end, buf, st);
     w.first_done(uint64_t(ty) * uint64_t(w.res) + uint64_t(tx), buf, st);
   }
 };

@@ -16,6 +16,7 @@ struct LightPassParams {
   Span<const uint32_t> inside;              // caster objects containing the light
   ShadowMethod method = ShadowMethod::Dsm;  // DSM, or a baseline (hd/baselines.h)
   float method_param = 0.0f;                // the baseline's parameter (0: its default)
+  float layer_thickness = 0.0f;             // deep opacity maps: along the ray (0: each texel's caster extent / N)
   bool rgb = false;                         // RGB nodes (a coloured caster among the map's members; DSM only)
 };
 
@@ -112,7 +113,8 @@ CDSM_HD inline void build_texel(const SceneView& s, const LightPassParams& p, Sp
     if (p.method != ShadowMethod::Dsm) {  // the benchmark's baselines, same rays and walker
       Vec3 d = pixel_ray(p.view, tx, ty);
       float t = p.view.far / fmaxf(dot(d, p.view.forward), 1e-6f);
-      build_baseline_texel(s, p.method, p.method_param, p.inside, frags, pixel_origin(p.view, tx, ty), d, t, buf, st);
+      build_baseline_texel(s, p.method, p.method_param, p.layer_thickness, p.inside, frags,
+                           pixel_origin(p.view, tx, ty), d, t, buf, st);
       return;
     }
   }

@@ -2,6 +2,11 @@
 // inputs: physical node lists, the right answers where each method is exact.
 #include "stability_util.h"
 
+#include <algorithm>
+
+#include "cdsm/method_params.h"
+#include "hd/series.h"
+
 namespace stab {
 namespace {
 
@@ -89,6 +94,180 @@ TEST(Baselines, FixedNodesKeepAtMostNAndTheExactEnds) {
     EXPECT_NEAR(lookup_alpha(sn, z), lookup_alpha(se, z), 1e-5f) << "depth " << z;
 }
 
+// ---- deep opacity maps, Fourier opacity maps, moments (issue 31) --------
+// Analytic cases down the centre texel's ray (the spot's axis, from y = 6
+// downwards: depth z = 6 - y): a constant-sigma slab (Beer-Lambert), two
+// stacked translucent quads, one quad (a step in depth).
+enum class Case { Slab, Quads, Step };
+
+Scene analytic(Case c, ShadowMethod method, float param, float thickness = 0.0f) {
+  Scene s = scene_named("analytic");
+  if (c == Case::Slab)
+    s.objects.push_back(medium_object("slab", box_mesh({-1.5f, 1, -1.5f}, {1.5f, 2, 1.5f}), {}, 2.0f));
+  if (c == Case::Quads) {
+    s.objects.push_back(surface_object("upper", make_quad(3, 3), at({0, 3.2f, 0}), 0.3f));
+    s.objects.push_back(surface_object("lower", make_quad(3, 3), at({0, 3.0f, 0}), 0.3f));
+  }
+  if (c == Case::Step) s.objects.push_back(surface_object("pane", make_quad(3, 3), at({0, 3.0f, 0}), 0.6f));
+  s.objects.push_back(surface_object("ground", make_quad(10, 10), Mat4{}, 1.0f, false));
+  s.lights.push_back(spot_light({0, 6, 0}, {0, -1, 0}, 15, 10));
+  s.shadows.resolution = 17;
+  s.shadows.method = method;
+  s.shadows.method_param = param;
+  s.shadows.layer_thickness = thickness;
+  return s;
+}
+
+// The exact opacity at depth z (right-continuous at the surfaces).
+float exact_alpha(Case c, float z) {
+  if (c == Case::Slab) return 1.0f - std::exp(-2.0f * std::clamp(z - 4.0f, 0.0f, 1.0f));
+  if (c == Case::Quads) return z < 2.8f ? 0.0f : z < 3.0f ? 0.3f : 0.51f;
+  return z < 3.0f ? 0.0f : 0.6f;
+}
+
+float at_depth(const std::vector<DsmNode>& n, float z) {
+  return lookup_alpha(Span<const DsmNode>{n.data(), n.size()}, z);
+}
+
+TEST(Baselines, DeepOpacityIsExactBehindALayerItsThicknessHolds) {
+  // The slab (1 m) inside the first layer (1.5 m): exact from the layer's
+  // end on, linear inside it, 0 at the first caster depth.
+  Rig rig(analytic(Case::Slab, ShadowMethod::DeepOpacity, 4, 1.5f));
+  EXPECT_TRUE(all_physical(rig));
+  std::vector<DsmNode> n = centre(rig);
+  ASSERT_EQ(n.size(), 5u);
+  EXPECT_NEAR(n[0].z, 4.0f, 1e-4f);
+  EXPECT_EQ(n[0].alpha, 0.0f);
+  for (int k = 1; k <= 4; ++k) EXPECT_NEAR(n[size_t(k)].z - n[size_t(k - 1)].z, 1.5f, 1e-4f);
+  for (float z = 5.5f; z < 5.99f; z += 0.05f) EXPECT_NEAR(at_depth(n, z), exact_alpha(Case::Slab, z), 2e-3f) << z;
+  EXPECT_NEAR(at_depth(n, 4.75f), 0.5f * exact_alpha(Case::Slab, 5.0f), 2e-3f);  // inside: the layer's line
+  // A step: 0 at the pane, its opacity a layer behind, exact from there.
+  Rig step(analytic(Case::Step, ShadowMethod::DeepOpacity, 4, 0.5f));
+  std::vector<DsmNode> m = centre(step);
+  EXPECT_NEAR(at_depth(m, 3.0f), 0.0f, 1e-6f);
+  EXPECT_NEAR(at_depth(m, 3.25f), 0.3f, 2e-3f);
+  EXPECT_NEAR(at_depth(m, 3.5f), 0.6f, 1e-5f);
+  EXPECT_NEAR(at_depth(m, 5.9f), 0.6f, 1e-5f);
+  // What lies beyond the last layer is lost: one 0.1 m layer holds the
+  // upper quad only.
+  Rig thin(analytic(Case::Quads, ShadowMethod::DeepOpacity, 1, 0.1f));
+  std::vector<DsmNode> q = centre(thin);
+  EXPECT_NEAR(at_depth(q, 5.9f), 0.3f, 1e-5f);
+}
+
+TEST(Baselines, DeepOpacityLayersSpanTheCastersDepthExtentByDefault) {
+  // layered(): panes at y 3.2 (nearest caster point 2.8 from the light) and
+  // a fog box down to y = 1 whose farthest corner is |(1.5, -5, 1.5)| away.
+  const int N = 8;
+  Rig rig(layered(ShadowMethod::DeepOpacity, float(N)));
+  EXPECT_TRUE(all_physical(rig));
+  std::vector<DsmNode> n = centre(rig);
+  ASSERT_EQ(n.size(), size_t(N + 1));
+  const float extent = std::sqrt(1.5f * 1.5f * 2.0f + 25.0f) - 2.8f;
+  EXPECT_NEAR(n[0].z, 2.8f, 1e-4f);
+  EXPECT_NEAR(n[1].z - n[0].z, extent / N, 1e-3f);
+  // Each boundary holds the exact opacity there.
+  const Vec3 L = rig.scene.lights[0].position, dir = pixel_ray(rig.frame.setup.maps[0].view, 8, 8);
+  for (size_t k = 1; k < n.size(); ++k)
+    EXPECT_NEAR(n[k].alpha, 1.0f - rig.reference_T(L + dir * (n[k].z + 1e-4f)), 3e-3f) << "layer " << k;
+}
+
+// The worst |alpha - exact| down the axis, leaving out depths within `gap`
+// of a surface or a slab face (the methods' transition zones).
+float worst_away_from_surfaces(const std::vector<DsmNode>& n, Case c, float gap) {
+  const std::vector<float> faces = c == Case::Slab    ? std::vector<float>{4.0f, 5.0f}
+                                   : c == Case::Quads ? std::vector<float>{2.8f, 3.0f}
+                                                      : std::vector<float>{3.0f};
+  float worst = 0.0f;
+  for (float z = 0.5f; z < 5.95f; z += 0.005f) {
+    bool near_face = false;
+    for (float f : faces) near_face = near_face || std::fabs(z - f) < gap;
+    if (!near_face) worst = std::max(worst, std::fabs(at_depth(n, z) - exact_alpha(c, z)));
+  }
+  return worst;
+}
+
+TEST(Baselines, FourierOpacityKeepsTheTotalAndItsRingingIsBounded) {
+  for (Case c : {Case::Slab, Case::Quads, Case::Step})
+    for (int coefficients : {4, 8, 16}) {
+      Rig rig(analytic(c, ShadowMethod::FourierOpacity, float(coefficients)));
+      EXPECT_TRUE(all_physical(rig));  // clamped into [0, 1], nondecreasing
+      std::vector<DsmNode> n = centre(rig);
+      ASSERT_FALSE(n.empty());
+      // Behind every caster: the total, exactly (float coefficients, the
+      // tabulation's 1e-3).
+      EXPECT_NEAR(at_depth(n, 5.95f), exact_alpha(c, 5.95f), 2e-3f) << int(c) << " N " << coefficients;
+      // Ringing: the truncated series' optical depth overshoots by a Gibbs
+      // share (< 0.1) of each jump; the clamp keeps it physical. Away from
+      // the jumps (a quarter of the range over the harmonics) the opacity
+      // misses by less than that share of the total absorbance.
+      const float total = -std::log(1.0f - exact_alpha(c, 5.95f));
+      const float range = c == Case::Slab ? 1.1f : c == Case::Quads ? 0.22f : 0.0f;
+      const int harmonics = (coefficients - 1) / 2;
+      const float gap = c == Case::Step ? 0.01f : 0.25f * range / float(harmonics) + 0.01f;
+      const float worst = worst_away_from_surfaces(n, c, gap);
+      if (c == Case::Slab)  // a smooth ramp: only the slab's faces ring
+        EXPECT_LT(worst, 0.1f * total + 0.02f) << "N " << coefficients;
+      else
+        EXPECT_LT(worst, c == Case::Step ? 2e-3f : 0.1f * total + 2e-3f) << int(c) << " N " << coefficients;
+    }
+}
+
+TEST(Baselines, MomentsBracketTheTrueOpacityAndKeepTheTotal) {
+  for (Case c : {Case::Slab, Case::Quads, Case::Step})
+    for (int moments : {4, 8}) {
+      Rig rig(analytic(c, ShadowMethod::Moments, float(moments)));
+      EXPECT_TRUE(all_physical(rig));
+      std::vector<DsmNode> n = centre(rig);
+      ASSERT_FALSE(n.empty());
+      EXPECT_NEAR(at_depth(n, 5.95f), exact_alpha(c, 5.95f), 2e-3f) << int(c) << " n " << moments;
+      EXPECT_EQ(at_depth(n, 2.0f), 0.0f);  // in front of every caster
+    }
+  // The stacked quads: the two surfaces span the range, u = -1 and +1.
+  // Between them the map holds MBOIT's reconstruction — the lower bound
+  // plus a quarter of the weight at u — which lies between the bound's two
+  // sides; the true opacity (0.3) lies between them too, up to the bias.
+  for (int moments : {4, 8}) {
+    Rig rig(analytic(Case::Quads, ShadowMethod::Moments, float(moments)));
+    std::vector<DsmNode> n = centre(rig);
+    PowerMoments m(moments);
+    const double A = -std::log(0.7);
+    m.add_surface(-1.0, A);
+    m.add_surface(1.0, A);
+    m.store();
+    const double beta = moment_bias(moments).beta;
+    for (float z = 2.82f; z < 2.99f; z += 0.01f) {
+      double lower, at;
+      m.bound(2.0 * (z - 2.8) / 0.2 - 1.0, moment_bias(moments), lower, at);
+      const float lo = float(1.0 - std::exp(-m.b[0] * lower)), hi = float(1.0 - std::exp(-m.b[0] * (lower + at)));
+      EXPECT_GE(at_depth(n, z), lo - 2e-3f) << z;
+      EXPECT_LE(at_depth(n, z), hi + 2e-3f) << z;
+      EXPECT_NEAR(at_depth(n, z), float(1.0 - std::exp(-m.b[0] * (lower + kMomentOverestimation * at))), 2e-3f);
+      EXPECT_GE(0.3f, lo - float(beta * m.b[0]));
+      EXPECT_LE(0.3f, hi + float(beta * m.b[0]));
+    }
+  }
+}
+
+TEST(Baselines, SeriesMethodsStoreAFixedCountPerTexel) {
+  EXPECT_EQ(stored_components(ShadowMethod::DeepOpacity, 8), 9);      // layers + the first depth
+  EXPECT_EQ(stored_components(ShadowMethod::FourierOpacity, 8), 10);  // coefficients + the range
+  EXPECT_EQ(stored_components(ShadowMethod::Moments, 4), 7);          // b_0, the moments + the range
+  EXPECT_EQ(stored_components(ShadowMethod::Moments, 0), 7);          // the default: 4 moments
+  EXPECT_EQ(stored_components(ShadowMethod::DeepOpacity, 0), 9);
+  for (ShadowMethod m :
+       {ShadowMethod::Dsm, ShadowMethod::ShadowMap, ShadowMethod::OpacitySlices, ShadowMethod::FixedNodes})
+    EXPECT_EQ(stored_components(m, 8), 0);  // node lists: their nodes are their memory
+  // The scene validator takes 4 or 8 moments only.
+  Scene s = analytic(Case::Step, ShadowMethod::Moments, 6);
+  try {
+    validate_scene(s);
+    ADD_FAILURE() << "6 moments accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("4 or 8"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Baselines, EveryMethodRendersFiniteOnHardInputs) {
   Renderer r;
   RenderOptions o = cpu_options();
@@ -96,7 +275,13 @@ TEST(Baselines, EveryMethodRendersFiniteOnHardInputs) {
                                {ShadowMethod::OpacitySlices, 0.0f},
                                {ShadowMethod::OpacitySlices, 1.0f},
                                {ShadowMethod::FixedNodes, 0.0f},
-                               {ShadowMethod::FixedNodes, 2.0f}}) {
+                               {ShadowMethod::FixedNodes, 2.0f},
+                               {ShadowMethod::DeepOpacity, 0.0f},
+                               {ShadowMethod::DeepOpacity, 1.0f},
+                               {ShadowMethod::FourierOpacity, 3.0f},
+                               {ShadowMethod::FourierOpacity, 32.0f},
+                               {ShadowMethod::Moments, 4.0f},
+                               {ShadowMethod::Moments, 8.0f}}) {
     // A light inside the fog, a saturating absorber, coincident panes.
     Scene s = layered(method, param);
     s.objects.push_back(medium_object("ink", box_mesh({-1, 0.2f, -1}, {1, 0.4f, 1}), Mat4{}, 1e30f));

@@ -131,6 +131,8 @@ struct FieldTable<ShadowSettings> {
       field("method", &S::method, 0, 0, kAffectsMaps, "what a texel stores: dsm, or a baseline"),
       field("method_param", &S::method_param, -kBig, kBig, kAffectsMaps,
             "the baseline's parameter (0: its default; ranges per method)"),
+      field("layer_thickness", &S::layer_thickness, 0.0, 1e6, kAffectsMaps,
+            "deep opacity maps: layer thickness along the ray (0: the casters' depth extent / N)"),
       field("ambient", &S::ambient_light, 0.0, 100.0, kAffectsLookup, "ambient light, linear RGB"),
       field("rgb_maps", &S::rgb_maps, 0, 1, kAffectsMaps, "RGB nodes where a caster is coloured"),
       field("max_memory", &S::max_memory_mib, 0, double(int64_t(1) << 30), kAffectsNothing,

@@ -221,8 +221,9 @@ struct ShadowSettings {
   int32_t fixed_layers = 32;  // fixed layout: L, node slots per texel (thesis §4.2.1)
   int32_t chunk_nodes = 64;   // chunked layout: node slots per chunk (thesis §4.2.2)
   ShadowMethod method = ShadowMethod::Dsm;
-  float method_param = 0.0f;    // ShadowMap: opacity threshold; slices / nodes count
-  Vec3 ambient_light{1, 1, 1};  // i_a
+  float method_param = 0.0f;     // ShadowMap: opacity threshold; slices / nodes / layers / coefficients / moments count
+  float layer_thickness = 0.0f;  // deep opacity maps: world units along the ray (0: the casters' depth extent / N)
+  Vec3 ambient_light{1, 1, 1};   // i_a
   // Maps whose casters include a coloured one (a tinted surface, a medium or
   // volume whose extinction differs between channels) store RGB nodes;
   // false keeps every map scalar, coloured casters entering by their channel

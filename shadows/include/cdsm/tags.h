@@ -54,10 +54,13 @@ enum class Penumbra : uint32_t {
 // the baselines the benchmark compares against, built from the same light
 // rays and read by the same lookup (hd/baselines.h).
 enum class ShadowMethod : uint32_t {
-  Dsm = 0,            // epsilon-bounded visibility functions (Lokovic-Veach wedge)
-  ShadowMap = 1,      // conventional: opaque at the first surface with opacity >= method_param
-  OpacitySlices = 2,  // opacity shadow maps: method_param uniform slices along the ray
-  FixedNodes = 3,     // AVSM-style: at most method_param nodes, greedy area-preserving removal
+  Dsm = 0,             // epsilon-bounded visibility functions (Lokovic-Veach wedge)
+  ShadowMap = 1,       // conventional: opaque at the first surface with opacity >= method_param
+  OpacitySlices = 2,   // opacity shadow maps: method_param uniform slices along the ray
+  FixedNodes = 3,      // AVSM-style: at most method_param nodes, greedy area-preserving removal
+  DeepOpacity = 4,     // deep opacity maps: method_param layers from each texel's first caster depth
+  FourierOpacity = 5,  // Fourier opacity maps: method_param real coefficients of the absorption along depth
+  Moments = 6,         // moment-based transmittance: method_param (4 or 8) power moments of the absorbance
 };
 
 // ---- names ------------------------------------------------------------------
@@ -95,7 +98,8 @@ struct TagNames<Penumbra> {
 };
 template <>
 struct TagNames<ShadowMethod> {
-  static constexpr const char* names[] = {"dsm", "shadow_map", "opacity_slices", "fixed_nodes"};
+  static constexpr const char* names[] = {"dsm",          "shadow_map",      "opacity_slices", "fixed_nodes",
+                                          "deep_opacity", "fourier_opacity", "moments"};
 };
 
 template <class E>
