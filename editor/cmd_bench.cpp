@@ -64,7 +64,7 @@ const char* kMethodsHelp =
     "  fomN    Fourier opacity maps: N real coefficients (a0, a1, b1, ...)\n"
     "          of the absorption over each texel's depth range (fom8)\n"
     "  momN    moment-based transmittance: b0 and N = 4 or 8 power moments\n"
-    "          of the absorbance, the biased bound of MBOIT (mom4, mom8)\n"
+    "          of the absorbance, their biased lower bound (mom4, mom8)\n"
     "          dom, fom and mom are grey; their memory is what an engine\n"
     "          stores, N + 1, N + 2 and N + 3 floats per texel\n"
     "  pssmN   parallel-split (cascaded) deep shadow maps: N maps along the\n"

@@ -120,9 +120,15 @@ CDSM_HD inline MomentBias moment_bias(int n) {
   }
   return b;
 }
-// The reconstruction MBOIT uses: the lower bound plus this share of u's own
-// weight (0: the lower bound, light leaks; 1: the upper one).
-inline constexpr double kMomentOverestimation = 0.25;
+// Which point between the bound's two sides the shadow takes: the lower
+// bound of the absorbance in front (0), plus this share of u's own weight.
+// Shadows take the bound, as moment shadow mapping does: the transmittance
+// is never below the truth by more than the bias allows (light may leak,
+// a caster never shadows itself). MBOIT's transparency takes 0.25; on the
+// default scene's opaque casters that share of their own front surface
+// darkens them (transmittance RMSE 0.087 with 0, 0.162 with 0.25, mom4 at
+// 256², measured).
+inline constexpr double kMomentOverestimation = 0.0;
 
 // The real roots of sum_i p[i] x^i (degree `deg` <= kMaxMoments / 2, all
 // real: a kernel polynomial of a positive definite Hankel matrix) into

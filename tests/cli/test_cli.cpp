@@ -6,10 +6,14 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "cdsm/fields.h"
 
@@ -172,6 +176,47 @@ TEST(Cli, BadCommandLinesAreOneLineNamingTheOption) {
     EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "one line: " << r.err;
     EXPECT_TRUE(r.out.empty()) << c.args << ": " << r.out;
   }
+}
+
+// The issue-31 baselines run in the bench, and their memory is what an
+// engine stores: texels x numbers per texel x 4 bytes (deep opacity maps
+// N + 1, Fourier N + 2, moments N + 3), not their tabulated nodes.
+TEST(Cli, BenchRunsTheSeriesBaselinesAndCountsTheirStoredNumbers) {
+  const std::string out = output_dir() + "/bench_series";
+  const CliRun r = run_cdsm("bench '" + kScene +
+                            "' --methods dom8,fom8,mom4 --sweep res=64 --width 32 --height 24 --fragments cpu "
+                            "--repeat 1 --warmup 0 --error-samples 200 --no-plot --out '" +
+                            out + "'");
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream csv(out + "/results.csv");
+  ASSERT_TRUE(csv) << out;
+  std::string line;
+  std::getline(csv, line);
+  auto split = [](const std::string& l) {
+    std::vector<std::string> f;
+    std::stringstream ss(l);
+    for (std::string c; std::getline(ss, c, ',');) f.push_back(c);
+    return f;
+  };
+  const std::vector<std::string> head = split(line);
+  auto column = [&](const char* name) { return size_t(std::find(head.begin(), head.end(), name) - head.begin()); };
+  const size_t label = column("label"), texels = column("texels"), memory = column("memory_bytes"),
+               rmse = column("t_rmse");
+  ASSERT_LT(memory, head.size());
+  ASSERT_LT(rmse, head.size());
+  std::map<std::string, int> components = {{"dom8", 9}, {"fom8", 10}, {"mom4", 7}};
+  int rows = 0;
+  while (std::getline(csv, line)) {
+    const std::vector<std::string> f = split(line);
+    if (f.size() != head.size()) continue;
+    const std::string method = f[label].substr(0, f[label].find(' '));  // "dom8 res=64"
+    if (!components.count(method)) continue;
+    ++rows;
+    EXPECT_GT(std::stod(f[texels]), 0.0) << line;
+    EXPECT_DOUBLE_EQ(std::stod(f[memory]), std::stod(f[texels]) * components[method] * 4.0) << line;
+    EXPECT_TRUE(std::isfinite(std::stod(f[rmse]))) << line;
+  }
+  EXPECT_EQ(rows, 3);
 }
 
 // The bench's reference cache knows a light's size: each radius of
