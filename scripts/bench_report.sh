@@ -58,17 +58,22 @@ EOF
 if grep -q '"file": "[^$/]' "$CT_CAST"; then cp "$CT_CAST" "$(dirname "$CT")/.bench_walls_cast.json"; CT_CAST=$(dirname "$CT")/.bench_walls_cast.json; trap 'rm -rf "$WORK" "$CT_CAST"' EXIT; fi
 
 SIZE=(--width 240 --height 160)
+# Every method: the DSM, the conventional map, opacity slices, AVSM-style
+# nodes, deep opacity maps, Fourier opacity maps, moments.
+ALL_METHODS=dsm,sm,osm16,osm32,osm64,avsm4,avsm8,avsm16,dom4,dom8,dom16,fom4,fom8,fom16,mom4,mom8
 COMMON=(--fragments cpu --repeat "$REPEAT" "${SIZE[@]}")
 if [ "$QUICK" = 1 ]; then
+  ALL_METHODS=dsm,sm,osm16,avsm4,dom4,fom4,mom4
   DEFAULT_SWEEP=(--sweep eps=0.01,0.1 --sweep res=256 --methods dsm,sm,osm16,avsm4)
   CT_SWEEP=(--sweep eps=0.01 --sweep res=256 --methods dsm,sm)
   COMMON=(--fragments cpu --repeat 1 --warmup 0 "${SIZE[@]}")
 else
-  DEFAULT_SWEEP=(--sweep eps=0,0.001,0.005,0.01,0.05,0.1,0.2 --sweep res=256,512,1024
-                 --methods dsm,sm,osm16,osm32,osm64,avsm4,avsm8,avsm16)
-  CT_SWEEP=(--sweep eps=0,0.001,0.01,0.05,0.1,0.2 --sweep res=256,512
-            --methods dsm,sm,osm16,osm32,osm64,avsm4,avsm8,avsm16)
+  DEFAULT_SWEEP=(--sweep eps=0,0.001,0.005,0.01,0.05,0.1,0.2 --sweep res=256,512,1024 --methods "$ALL_METHODS")
+  CT_SWEEP=(--sweep eps=0,0.001,0.01,0.05,0.1,0.2 --sweep res=256,512 --methods "$ALL_METHODS")
 fi
+# Every method on the scenes of the comparison (issue 31): the DSM at three
+# epsilons, every baseline at N = 4, 8, 16 where it allows.
+SERIES=(--sweep eps=0.001,0.01,0.1 --methods "$ALL_METHODS" "${COMMON[@]}")
 LAYOUTS=(--methods dsm --sweep eps=0.01 --sweep res=512 --layouts packed,fixed,chunked "${COMMON[@]}" --no-plot)
 CLUSTERS=(--methods dsm --sweep eps=0.01 --sweep res=256 --sweep clusters=1,2,4,8 "${COMMON[@]}" --no-plot)
 TABLE4=(--methods dsm --sweep eps=0.01,0.05,0.1,0.2 --sweep res=256 --sweep clusters=4 --repeat 1 --warmup 0
@@ -102,6 +107,15 @@ run soft_sun content/scenes/sun_glass.json "${SOFT[@]}" --sweep angular_diameter
 # column) costs about 38 minutes at 240 x 160 on 2 cores.
 run soft_smoke content/scenes/smoke_gltf.json "${SOFT[@]}" --sweep radius=0.15 --width 96 --height 64
 run table4 "$CT" "$CT_CAST" "${TABLE4[@]}"
+# Every method on the stained glass (grey baselines: see the text), the sun's
+# clouds (four clustered orthographic maps) and a smoke-only column.
+GLASS_RES=(--sweep res=256,512)
+SUN_RES=(--sweep res=512 --sweep clusters=4)
+SMOKE_RES=(--sweep res=256,512)
+if [ "$QUICK" = 1 ]; then GLASS_RES=(--sweep res=128); SUN_RES=(--sweep res=128 --sweep clusters=4); SMOKE_RES=(--sweep res=128); fi
+run glass content/scenes/stained_glass.json "${SERIES[@]}" "${GLASS_RES[@]}"
+run sunm content/scenes/sun_clouds.json "${SERIES[@]}" "${SUN_RES[@]}"
+run smoke content/scenes/smoke_column.json "${SERIES[@]}" "${SMOKE_RES[@]}"
 # Coloured shadows: RGB maps against every map scalar on the stained-glass scene.
 run colour content/scenes/stained_glass.json --methods dsm,dsmgrey --sweep eps=0.01 --sweep res=512 "${COMMON[@]}" --no-plot
 
@@ -123,6 +137,11 @@ cp "$WORK/sun/results.csv" "$OUT/sun.csv"
 cp "$WORK/soft/results.csv" "$OUT/soft.csv"
 cp "$WORK/soft_sun/results.csv" "$OUT/soft_sun.csv"
 cp "$WORK/soft_smoke/results.csv" "$OUT/soft_smoke.csv"
+for pair in glass:stained_glass sunm:sun_clouds smoke:smoke_column; do
+  run_name=${pair%%:*}; scene_name=${pair#*:}
+  cp "$WORK/$run_name/$scene_name.csv" "$WORK/$run_name/$scene_name.png" "$OUT/"
+  cp "$WORK/$run_name/results.md" "$OUT/$scene_name.md"
+done
 # The tables name the temporary output directory: name the report's instead.
 for f in "$OUT"/*.md; do sed -i "s|--out $WORK/[a-z0-9]*|--out docs/bench|g" "$f"; done
 sed_tables() { sed -e 1d -e "s|--out $WORK/[a-z0-9]*|--out <tmp>|g" "$1"; }
@@ -180,9 +199,24 @@ shadow map (opaque where the opacity reaches 0.5: a surface's own alpha test, or
 the media's accumulated opacity); **osmN** opacity shadow maps (Kim & Neumann
 2001) with N uniform slices over each ray's extent through the casters; **avsmN**
 AVSM-style maps (Salvi et al. 2010) with at most N nodes, greedy smallest-area
-node removal; **reference** the reference renderer's own time (exact, no maps).
-All maps are built from the same light rays by the same walker and read by the
-same lookup (shadows/hd/baselines.h).
+node removal; **domN** deep opacity maps (Yuksel & Keyser 2008), N layers from
+each texel's first caster depth, each the map's casters' depth extent / N
+thick; **fomN** Fourier opacity maps (Jansen & Bavoil 2010), N real
+coefficients a0, a1, b1, a2, … of the absorption over each texel's depth range;
+**momN** moment-based transmittance, b0 and N power moments of the
+absorbance with the 32-bit bias MBOIT publishes, the shadow taking the lower
+bound (moment shadow mapping's convention: light may leak, a caster never
+shadows itself); **reference** the reference renderer's own time (exact, no
+maps). All maps are built from the same light rays by the same walker and read
+by the same lookup (shadows/hd/baselines.h): dom, fom and mom keep a fixed set
+of numbers per texel, and their reconstruction is tabulated into nodes at build
+time (within 0.001), so their *build* time includes that tabulation and their
+*camera* time is a node lookup, not their own reconstruction (see "Every
+method" below for what a lookup would cost). Their **memory** is what an
+engine would store: texels × (N + 1, N + 2, N + 3) 32-bit floats (the layers
+and the first depth; the coefficients or moments and the texel's depth range),
+every texel of the map whether a caster covers it or not. The dom, fom, mom,
+osm, avsm and sm maps are grey (a coloured caster enters by its channel mean).
 
 Per scene: \`NAME.csv\` (every figure), \`NAME.md\` (the table), \`NAME.png\` (time
 and memory against transmittance RMSE, the Pareto fronts marked).
@@ -212,6 +246,71 @@ $(sed 1d "$OUT/$CT_NAME.md")
 
 EOF
   fi
+  cat <<EOF
+## Every method: deep opacity maps, Fourier opacity maps, moments
+
+The default and CT tables above hold every method; here the same sweep of
+methods (the DSM at ε = 0.001, 0.01, 0.1; every baseline at N = 4, 8, 16 where
+it allows: moments at 4 and 8) on the stained-glass scene (res 256, 512),
+\`sun_clouds.json\` (four clustered orthographic maps of 512²) and
+\`smoke_column.json\` (smoke only: a noise column over the ground under a
+spot light, as in the seed thesis' comparisons; res 256, 512).
+
+**Equal memory.** Per resolution of the DSM at ε = 0.01, its memory M, and for
+each other method the configuration of the sweep whose memory is nearest M
+(any N, any resolution of the sweep: the dense methods store every texel, so
+at equal memory they trade resolution for N), with its memory against M
+(\`scripts/plot_bench.py --equal-memory\`):
+
+### Default scene
+
+$("$PY" scripts/plot_bench.py --equal-memory "$OUT/default.csv" --scene default)
+
+### CT "virtual X-ray"
+
+$("$PY" scripts/plot_bench.py --equal-memory "$OUT/$CT_NAME.csv" --scene "$CT_NAME")
+
+### Stained glass
+
+![stained_glass](stained_glass.png)
+
+$("$PY" scripts/plot_bench.py --equal-memory "$OUT/stained_glass.csv" --scene stained_glass)
+
+Pareto front (time against transmittance RMSE), from the run:
+
+$(fronts "$WORK/glass.log")
+
+$(sed 1d "$OUT/stained_glass.md")
+
+### The sun's clouds
+
+![sun_clouds](sun_clouds.png)
+
+$("$PY" scripts/plot_bench.py --equal-memory "$OUT/sun_clouds.csv" --scene sun_clouds)
+
+Pareto front (time against transmittance RMSE), from the run:
+
+$(fronts "$WORK/sunm.log")
+
+$(sed 1d "$OUT/sun_clouds.md")
+
+### Smoke only
+
+![smoke_column](smoke_column.png)
+
+$("$PY" scripts/plot_bench.py --equal-memory "$OUT/smoke_column.csv" --scene smoke_column)
+
+Pareto front (time against transmittance RMSE), from the run:
+
+$(fronts "$WORK/smoke.log")
+
+$(sed 1d "$OUT/smoke_column.md")
+
+### What the data say
+
+$(cat "$ROOT/scripts/bench_comparison.md")
+
+EOF
   cat <<EOF
 ## Layouts (thesis §4.2): packed, fixed ("3D texture"), chunked
 

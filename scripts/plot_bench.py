@@ -8,6 +8,12 @@
       line; and time against the map error p99 (|T - T_filtered_exact|: the
       part of the error epsilon controls, without resolution error).
 
+  plot_bench.py --equal-memory RESULTS.csv [--scene NAME] [--eps E]
+      prints the Markdown table "equal memory": per resolution of the DSM at
+      epsilon E (default 0.01), its memory M, and per other method family the
+      configuration of the sweep whose memory is nearest M (any N, any
+      resolution), with its memory against M and its errors.
+
   plot_bench.py --epsilon-table RESULTS.csv [--scene NAME] [--res R] [--clusters M]
       prints the Markdown table of nodes per texel against epsilon beside the
       paper's Table 4 (Bornik et al. 2012; thesis Table 5.10).
@@ -28,12 +34,17 @@ FAMILY_STYLE = {  # method family -> (colour, label)
     "sm": ("tab:red", "shadow map"),
     "osm": ("tab:orange", "opacity shadow map (N slices)"),
     "avsm": ("tab:green", "AVSM-style (N nodes)"),
+    "dom": ("tab:purple", "deep opacity map (N layers)"),
+    "fom": ("tab:brown", "Fourier opacity map (N coefficients)"),
+    "mom": ("tab:pink", "moments (N power moments)"),
+    "pssm": ("tab:cyan", "parallel-split DSMs"),
 }
+FAMILIES = ("dsm", "sm", "osm", "avsm", "dom", "fom", "mom", "pssm")
 RES_MARKERS = ["o", "s", "^", "D", "v", "P", "X"]
 
 
 def family(method):
-    for f in ("avsm", "osm", "dsm", "sm"):
+    for f in ("avsm", "osm", "pssm", "dsm", "sm", "dom", "fom", "mom"):
         if method.startswith(f):
             return f
     return method
@@ -115,7 +126,7 @@ def plot_scene(plt, name, rows, out_dir):
                 text += " m%s" % r["clusters"]
             ax.annotate(text, (x, y), textcoords="offset points", xytext=(4, 3), fontsize=6, color=colour)
         handles = [Line2D([], [], ls="", marker="o", color=FAMILY_STYLE.get(f, ("tab:gray", f))[0],
-                          label=FAMILY_STYLE.get(f, ("tab:gray", f))[1]) for f in ("dsm", "sm", "osm", "avsm") if f in seen]
+                          label=FAMILY_STYLE.get(f, ("tab:gray", f))[1]) for f in FAMILIES if f in seen]
         pts = []
         for r in rows:
             if pkey is not None and r[pkey] == "1":
@@ -184,17 +195,48 @@ def epsilon_table(csv_path, scene, res, clusters):
             int(round(math.sqrt(fnum(r["texels"]) / max(1.0, fnum(r["maps"]))))), fnum(r["t_rmse"])))
 
 
+def equal_memory(csv_path, scene, eps):
+    rows = [r for r in read_rows(csv_path) if r["method"] != "reference"]
+    if scene:
+        rows = [r for r in rows if r["scene_name"] == scene]
+    dsm = sorted([r for r in rows if r["method"] == "dsm" and abs(fnum(r["epsilon"]) - eps) < 1e-9],
+                 key=lambda r: int(r["resolution"]))
+    if not dsm:
+        sys.exit("plot_bench.py: no dsm rows at epsilon %g (scene %r)" % (eps, scene))
+    others = [r for r in rows if family(r["method"]) not in ("dsm", "pssm")]
+    print("| DSM ε=%g | its memory | method | nearest in memory | memory / DSM's | T RMSE | T p99 | PSNR | time ms |"
+          % eps)
+    print("|---|---|---|---|---|---|---|---|---|")
+    for d in dsm:
+        M = fnum(d["memory_bytes"])
+        print("| res %s | %.0f KiB | **dsm** | ε=%g res=%s | 1.00 | **%.4f** | %.4f | %.1f | %.1f |" % (
+            d["resolution"], M / 1024.0, eps, d["resolution"], fnum(d["t_rmse"]), fnum(d["t_p99"]),
+            fnum(d["image_psnr_db"]), fnum(d["time_ms"])))
+        for fam in FAMILIES:
+            cands = [r for r in others if family(r["method"]) == fam and fnum(r["memory_bytes"]) > 0]
+            if not cands:
+                continue
+            best = min(cands, key=lambda r: (abs(math.log(fnum(r["memory_bytes"]) / M)), fnum(r["t_rmse"])))
+            print("| | | %s | %s | %.2f | %.4f | %.4f | %.1f | %.1f |" % (
+                fam, best["label"], fnum(best["memory_bytes"]) / M, fnum(best["t_rmse"]), fnum(best["t_p99"]),
+                fnum(best["image_psnr_db"]), fnum(best["time_ms"])))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("csv")
     ap.add_argument("out_dir", nargs="?")
     ap.add_argument("--epsilon-table", action="store_true")
+    ap.add_argument("--equal-memory", action="store_true")
+    ap.add_argument("--eps", type=float, default=0.01)
     ap.add_argument("--scene")
     ap.add_argument("--res", type=int)
     ap.add_argument("--clusters", type=int)
     a = ap.parse_args()
     if a.epsilon_table:
         epsilon_table(a.csv, a.scene, a.res, a.clusters)
+    elif a.equal_memory:
+        equal_memory(a.csv, a.scene, a.eps)
     else:
         if not a.out_dir:
             ap.error("OUT_DIR is required for plots")
