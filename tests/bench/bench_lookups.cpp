@@ -6,6 +6,12 @@
 // same taps. Surfaces: ground points under the light, looked up at their
 // plane; volume samples: points in the smoke's box at their own depth. One
 // thread; counter per_lookup (seconds, with an SI prefix).
+//
+// BM_SeriesReconstruction: what the Fourier opacity maps' and the moments'
+// own lookup would cost in an engine that keeps their numbers per texel
+// (the maps here tabulate it into nodes, hd/baselines.h): one texel's
+// reconstruction at one depth (hd/series.h), six layers of random depth
+// and absorbance, 4096 depths. A bilinear lookup reconstructs four texels.
 #include <benchmark/benchmark.h>
 
 #include <string>
@@ -14,6 +20,7 @@
 #include "cdsm/scene_io.h"
 #include "frame.h"
 #include "hd/camera_pass.h"
+#include "hd/series.h"
 #include "scene_compile.h"
 
 using namespace cdsm;
@@ -69,7 +76,45 @@ void BM_Lookup(benchmark::State& state) {
   state.SetLabel(std::string(names[mode]) + (state.range(1) == 0 ? ", surfaces" : ", volume samples"));
 }
 
+// arg: 0 fom4, 1 fom8, 2 fom16, 3 mom4, 4 mom8.
+void BM_SeriesReconstruction(benchmark::State& state) {
+  const int mode = int(state.range(0));
+  const int n = mode == 0 ? 4 : mode == 1 ? 8 : mode == 2 ? 16 : mode == 3 ? 4 : 8;
+  const bool fourier = mode < 3;
+  FourierSeries f(fourier ? n : 3);
+  PowerMoments m(fourier ? 4 : n);
+  uint32_t seed = 12345u;
+  auto next = [&] { return double((seed = seed * 1664525u + 1013904223u) >> 8) / double(1u << 24); };
+  for (int i = 0; i < 6; ++i) {
+    const double u = next(), A = 0.05 + next();
+    f.add_surface(u, A);
+    m.add_surface(2.0 * u - 1.0, A);
+  }
+  f.store();
+  m.store();
+  const MomentBias bias = moment_bias(m.n);
+  double sink = 0.0;
+  const int depths = 4096;
+  for (auto _ : state)
+    for (int i = 0; i < depths; ++i) {
+      const double u = (i + 0.5) / depths;
+      if (fourier) {
+        sink += f.optical_depth(u);
+      } else {
+        double lower, at;
+        m.bound(2.0 * u - 1.0, bias, lower, at);
+        sink += lower + at;
+      }
+    }
+  benchmark::DoNotOptimize(sink);
+  state.counters["per_lookup"] = benchmark::Counter(double(state.iterations()) * depths,
+                                                    benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  const char* names[] = {"fom4", "fom8", "fom16", "mom4", "mom8"};
+  state.SetLabel(std::string(names[mode]) + ": one texel, one depth");
+}
+
 }  // namespace
 
+BENCHMARK(BM_SeriesReconstruction)->DenseRange(0, 4)->Unit(benchmark::kMillisecond)->MinTime(0.5);
 BENCHMARK(BM_Lookup)->ArgsProduct({{0, 1, 2, 3}, {0, 1}})->Unit(benchmark::kMillisecond)->MinTime(0.5);
 BENCHMARK_MAIN();
