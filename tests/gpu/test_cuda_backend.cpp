@@ -65,7 +65,8 @@ TEST(CudaBackend, ClusteredMapsAndBaselines) {
   Scene s = parity::load("default", 256, 320, 240);
   s.shadows.max_clusters = 4;
   expect_parity(s, "default, 4 clusters");
-  for (ShadowMethod m : {ShadowMethod::ShadowMap, ShadowMethod::OpacitySlices, ShadowMethod::FixedNodes}) {
+  for (ShadowMethod m : {ShadowMethod::ShadowMap, ShadowMethod::OpacitySlices, ShadowMethod::FixedNodes,
+                         ShadowMethod::DeepOpacity, ShadowMethod::FourierOpacity, ShadowMethod::Moments}) {
     Scene b = parity::load("volumes", 128, 160, 120);
     b.shadows.method = m;
     expect_parity(b, "method " + std::to_string(int(m)));

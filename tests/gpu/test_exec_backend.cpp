@@ -267,9 +267,10 @@ TEST(ExecBackend, DeepTexelsKeepEveryNode) {
 
 // The benchmark's baselines: the same rays into their own builders.
 TEST(ExecBackend, BaselinesEqualASerialWalk) {
-  const ShadowMethod methods[] = {ShadowMethod::ShadowMap, ShadowMethod::OpacitySlices, ShadowMethod::FixedNodes};
+  const ShadowMethod methods[] = {ShadowMethod::ShadowMap,   ShadowMethod::OpacitySlices,  ShadowMethod::FixedNodes,
+                                  ShadowMethod::DeepOpacity, ShadowMethod::FourierOpacity, ShadowMethod::Moments};
   for (ShadowMethod m : methods)
-    for (float param : {0.0f, 5.0f}) {
+    for (float param : {0.0f, m == ShadowMethod::Moments ? 8.0f : 5.0f}) {
       OneView v(parity::load("volumes", 48, 32, 24), 0.002f);
       v.params.method = m;
       v.params.method_param = m == ShadowMethod::ShadowMap ? param * 0.1f : param;
