@@ -102,8 +102,7 @@ std::vector<MethodSpec> parse_methods(const std::string& list) {
     } else if (m.rfind("mom", 0) == 0 && m.size() > 3) {
       s.method = ShadowMethod::Moments;
       s.param = float(method_count(m, 3, s.method));
-      if (s.param != 4.0f && s.param != 8.0f)
-        throw Error("--methods " + m, "moments: 4 or 8 power moments (mom4, mom8)");
+      if (!moment_count_allowed(s.param)) throw Error("--methods " + m, "moments: 4 or 8 power moments (mom4, mom8)");
     } else {
       throw Error("--methods " + m, std::string("unknown method (") + kMethodsList + ")");
     }

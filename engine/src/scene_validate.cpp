@@ -108,7 +108,7 @@ struct Checker {
                                         format_number(mp.hi) + "] (0: default " + format_number(mp.fallback) +
                                         "), got " + format_number(p));
     if (!mp.what && !std::isfinite(p)) fail("/shadows/method_param", "has a NaN or infinite value");
-    if (sh.method == ShadowMethod::Moments && p != 0 && p != 4 && p != 8)
+    if (sh.method == ShadowMethod::Moments && !moment_count_allowed(p))
       fail("/shadows/method_param",
            "moments: the power moment count must be 4 or 8 (the published biases), got " + format_number(p));
     fields(sh, "/shadows");

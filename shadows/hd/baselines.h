@@ -27,7 +27,7 @@
 //                  biased bound of hd/series.h.
 // The last two keep a few numbers per texel, not a function: the lookup
 // path is the same for every method, so their reconstruction is tabulated
-// into nodes at build time (kSeriesSamples even depths over the range, made
+// into nodes at build time (series_samples(N) even depths over the range, made
 // nondecreasing and compressed within kTabulationError) — the map reads
 // what the method's own lookup would compute there, within that error and
 // the interpolation between samples. Their memory is what an engine would

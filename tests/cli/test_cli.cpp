@@ -164,6 +164,8 @@ TEST(Cli, BadCommandLinesAreOneLineNamingTheOption) {
     {"bench '" + kScene + "' --sweep res=2 --out '" + output_dir() + "/bench'",
      "cdsm: error: --sweep res: must be within ["},
     {"bench '" + kScene + "' --methods osm0 --out '" + output_dir() + "/bench'", "cdsm: error: --methods osm0: "},
+    {"bench '" + kScene + "' --methods mom6 --out '" + output_dir() + "/bench'",
+     "cdsm: error: --methods mom6: moments: 4 or 8"},
     {"bench '" + kScene + "' --repeat 0", "cdsm: error: --repeat: must be within [1, 1000], got 0"},
 #if CDSM_HAVE_EDITOR
     {"edit '" + kScene + "' --width 10", "cdsm: error: --width: must be within [640, 8192], got 10"},

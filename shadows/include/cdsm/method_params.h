@@ -28,6 +28,11 @@ inline constexpr MethodParam kMethodParams[] = {
 };
 constexpr const MethodParam& method_param(ShadowMethod m) { return kMethodParams[uint32_t(m)]; }
 
+// A rule the range cannot say: moments come in the counts whose bias is
+// published (hd/series.h moment_bias). The scene validator and the bench's
+// method list both ask here.
+constexpr bool moment_count_allowed(float param) { return param == 0.0f || param == 4.0f || param == 8.0f; }
+
 // The parameter in use: `param`, or the method's default for 0.
 constexpr float method_param_or_default(ShadowMethod m, float param) {
   return param != 0.0f ? param : method_param(m).fallback;
