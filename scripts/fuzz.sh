@@ -2,9 +2,11 @@
 # Runs the libFuzzer targets of tests/fuzz (clang, ASan+UBSan, LSan on).
 #   bash scripts/fuzz.sh TARGET SECONDS [extra libFuzzer args]
 #   bash scripts/fuzz.sh all SECONDS [extra libFuzzer args]   # every target
-# Configures and builds build-fuzz/ when needed, then runs each target (as
-# many at a time as there are cores) on a
-# copy of tests/fuzz/corpus/TARGET/ in build-fuzz/fuzz-work/TARGET/ (the
+# Configures build-san/ when needed (scripts/configure-san.sh: the same
+# clang ASan+UBSan build the test command's sanitizer tests use), builds the
+# fuzz targets, then runs each target (as many at a time as there are
+# cores) on a
+# copy of tests/fuzz/corpus/TARGET/ in build-san/fuzz-work/TARGET/ (the
 # checked-in corpus is never modified; new inputs and any crash, leak,
 # timeout or OOM reproducer land there). Prints the final stats; exits
 # non-zero on any finding.
@@ -20,16 +22,13 @@ shift 2
 
 bash scripts/install-deps.sh
 jobs=$(nproc 2>/dev/null || echo 2)
-build=build-fuzz
-if [[ ! -f $build/build.ninja ]]; then
-  echo "== configuring $build/ (clang-14, libFuzzer, ASan+UBSan)"
-  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" \
-    -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 -DCDSM_FUZZ=ON -DCDSM_SANITIZE=ON \
-    -DCDSM_GL=OFF -DCDSM_CUDA=OFF -DCDSM_EDITOR=OFF -DCDSM_TESTS=OFF >/dev/null
-fi
-cmake --build "$build" -j "$jobs"
-
+build=build-san
+bash scripts/configure-san.sh
 read -r -a all_targets <"$build/fuzz_targets.txt"
+build_args=()
+for t in "${all_targets[@]}"; do build_args+=(--target "$t"); done
+cmake --build "$build" -j "$jobs" "${build_args[@]}"
+
 if [[ $target == all ]]; then
   targets=("${all_targets[@]}")
 elif [[ " ${all_targets[*]} " == *" $target "* ]]; then

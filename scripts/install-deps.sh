@@ -1,18 +1,27 @@
 #!/usr/bin/env bash
-# Installs every build, test and tool dependency from Debian 12's packages.
+# Installs the dependencies from Debian 12's packages.
+#   scripts/install-deps.sh           # everything: build, tests, sanitizers, fuzzers, plots
+#   scripts/install-deps.sh program   # only what the cdsm program and the library need
 # Idempotent: re-running it only checks that everything is present.
 set -euo pipefail
 
-packages=(
+program=(
   build-essential cmake ninja-build pkg-config git ca-certificates
-  clang-14 libclang-rt-14-dev clang-format-14
   libglfw3-dev libglm-dev
-  libegl-dev libgl-dev libgl1-mesa-dri libegl-mesa0 mesa-utils-bin
+  libegl-dev libgl-dev libgl1-mesa-dri libegl-mesa0
   libimgui-dev libstb-dev libtinygltf-dev nlohmann-json3-dev libcli11-dev
   libopenvdb-dev libnanovdb-dev libboost-iostreams-dev libtbb-dev libblosc-dev
+)
+tests=(
+  clang-14 libclang-rt-14-dev clang-format-14 mesa-utils-bin
   libgtest-dev libgmock-dev libbenchmark-dev
   xvfb xauth python3-matplotlib
 )
+case ${1:-all} in
+  program) packages=("${program[@]}") ;;
+  all) packages=("${program[@]}" "${tests[@]}") ;;
+  *) echo "usage: $0 [program|all]" >&2; exit 2 ;;
+esac
 
 missing=()
 for p in "${packages[@]}"; do

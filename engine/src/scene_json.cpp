@@ -29,7 +29,7 @@ struct Parser {
   std::vector<VolumeProxy> proxy_of;  // per volume: its default boundary mesh
 
   // A file reference (string node): relative to the scene file, "$SHARED/..."
-  // or found in the shared data directory (cdsm/loaders.h).
+  // or found in the data directory (cdsm/loaders.h).
   std::string resolve(const JsonNode& n) const {
     return resolve_asset(n.as_string(), base_dir, n.file() + ": " + n.path());
   }

@@ -18,7 +18,7 @@
 
 namespace cdsm_test {
 
-inline std::string data_path(const std::string& rel) { return std::string(CDSM_SHARED_DATA_DIR_TEST) + "/" + rel; }
+inline std::string data_path(const std::string& rel) { return std::string(CDSM_DATA_DIR_TEST) + "/" + rel; }
 
 // A fresh directory under the test output directory, per test.
 inline std::string scratch_dir() {

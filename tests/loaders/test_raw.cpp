@@ -158,7 +158,7 @@ TEST(RawVolume, SceneFileFields) {
       [&] {
         parse_scene(raw_scene(R"({"type": "raw", "file": "nothere.raw", "dims": [5, 4, 3]})"), dir + "/s.json", dir);
       },
-      {"/volumes/0/grid/file", "'nothere.raw' not found", dir + "/nothere.raw", "shared"});
+      {"/volumes/0/grid/file", "'nothere.raw' not found", dir + "/nothere.raw", "data directory"});
   expect_error(
       [&] {
         parse_scene(raw_scene(R"({"type": "raw", "file": "be.raw", "dims": [5, 4, 3], "format": "uint16",

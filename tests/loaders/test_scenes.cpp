@@ -93,7 +93,8 @@ TEST(AssetPaths, RelativeSharedAndMissing) {
   write_bytes(dir + "/Box0.bin", read_bytes(data_path("mesh/khronos_Box/Box0.bin")));
   // Relative to the scene file.
   EXPECT_EQ(parse_scene(with_file("box.gltf"), dir + "/s.json", dir).objects[0].mesh->triangle_count(), 12u);
-  // $SHARED/... and a relative path found in the shared data directory.
+  // $SHARED/... and a relative path found in the data directory (the
+  // repository's content/data, from the build tree).
   EXPECT_EQ(
       parse_scene(with_file("$SHARED/mesh/vsa_geosphere.gltf"), dir + "/s.json", dir).objects[0].mesh->triangle_count(),
       1280u);
@@ -102,17 +103,19 @@ TEST(AssetPaths, RelativeSharedAndMissing) {
   // Missing: which file, and every place looked in.
   expect_error([&] { parse_scene(with_file("nowhere.gltf"), dir + "/s.json", dir); },
                {dir + "/s.json: /objects/0/mesh/file", "'nowhere.gltf' not found", dir + "/nowhere.gltf",
-                shared_data_dir() + "/nowhere.gltf"});
+                data_dir() + "/nowhere.gltf"});
+  EXPECT_EQ(data_dir(), std::string(CDSM_CONTENT_DIR_TEST) + "/data");
   expect_error([&] { parse_scene(with_file("$SHARED/mesh/nope.glb"), dir + "/s.json", dir); },
-               {"'$SHARED/mesh/nope.glb' not found", shared_data_dir() + "/mesh/nope.glb"});
-  // $CDSM_DATA_DIR moves the shared data directory.
+               {"'$SHARED/mesh/nope.glb' not found", data_dir() + "/mesh/nope.glb",
+                "the data directory " + data_dir() + " is the content directory's data/; $CDSM_DATA_DIR overrides it"});
+  // $CDSM_DATA_DIR moves the data directory, and the message says so.
   ::setenv("CDSM_DATA_DIR", dir.c_str(), 1);
-  EXPECT_EQ(shared_data_dir(), dir);
+  EXPECT_EQ(data_dir(), dir);
   EXPECT_EQ(
       parse_scene(with_file("$SHARED/box.gltf"), dir + "/x.json", "/nonexistent").objects[0].mesh->triangle_count(),
       12u);
   expect_error([&] { parse_scene(with_file("$SHARED/mesh/vsa_geosphere.gltf"), dir + "/s.json", dir); },
-               {dir + "/mesh/vsa_geosphere.gltf"});
+               {dir + "/mesh/vsa_geosphere.gltf", "the data directory " + dir + " is $CDSM_DATA_DIR"});
   ::unsetenv("CDSM_DATA_DIR");
 }
 

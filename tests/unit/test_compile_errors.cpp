@@ -12,6 +12,7 @@
 
 #include "cdsm/error.h"
 #include "unit_util.h"
+#include "common/sanitized.h"
 
 using namespace cdsm;
 using namespace cdsm_test;
@@ -85,7 +86,7 @@ TEST(CompileErrors, SingularTransform) {
 // An allocation that fails while compiling says what and how large (in a
 // child process, a death test, whose address space is limited).
 TEST(CompileErrorsDeathTest, AllocationFailureIsNamed) {
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#if CDSM_TEST_SANITIZED
   GTEST_SKIP() << "address-space limits and sanitizer shadow memory do not mix";
 #else
   GTEST_FLAG_SET(death_test_style, "threadsafe");

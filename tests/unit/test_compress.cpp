@@ -13,6 +13,7 @@
 #include "hd/dsm.h"
 #include "common/minimax_fit.h"
 #include "unit_util.h"
+#include "common/sanitized.h"
 
 using namespace cdsm;
 using cdsm_test::minimax_fit_error;
@@ -190,7 +191,7 @@ const float kEps[] = {0.0f, 0.001f, 0.01f, 0.1f};
 // >= 10^5 random sequences of every kind, four tolerances each.
 TEST(Compression, ErrorBoundMonotoneAndNodeCounts) {
   // 10^5 sequences; the ASan+UBSan build (about 20x slower) checks a tenth.
-#if defined(__SANITIZE_ADDRESS__)
+#if CDSM_TEST_SANITIZED
   constexpr int kSequences = 10000;
 #else
   constexpr int kSequences = 100000;
@@ -296,7 +297,7 @@ std::vector<DsmNode> channel_of(const std::vector<DsmNodeRgb>& nodes, int k) {
 // channel, every channel is physical, and one channel's tolerance never
 // costs more nodes than all three compressed apart would need together.
 TEST(CompressionRgb, PerChannelBoundOnRandomSequences) {
-#if defined(__SANITIZE_ADDRESS__)
+#if CDSM_TEST_SANITIZED
   constexpr int kSequences = 10000;
 #else
   constexpr int kSequences = 100000;

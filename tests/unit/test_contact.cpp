@@ -12,6 +12,7 @@
 
 #include "scene/fragments.h"
 #include "reference/reference.h"
+#include "common/sanitized.h"
 #include "unit_util.h"
 
 using namespace cdsm;
@@ -182,11 +183,14 @@ TEST(Contact, SlabPillarAndGlassOfTheIssue) {
 // A thin glass plate (opacity 0.5, both faces) a gap above a casting slab,
 // at 128^2, 512^2 and 2048^2 and incidences 0, 45 and 80 degrees: the
 // slab's transmittance under the plate within eps + 0.005 of the reference
-// at every point, and the lit slab unshadowed.
+// at every point, and the lit slab unshadowed. Under a sanitizer (10-20x
+// slower) 128^2 and 512^2 only: the 2048^2 maps are 11 of the 12 s.
 TEST(Contact, GapsFromATenthOfAMillimetreAtEveryResolutionAndIncidence) {
   int failures = 0;
+  std::vector<int> resolutions{128, 512};
+  if (!CDSM_TEST_SANITIZED) resolutions.push_back(2048);
   for (float gap_mm : {0.1f, 0.5f, 1.0f, 5.0f})
-    for (int res : {128, 512, 2048})
+    for (int res : resolutions)
       for (float deg : {0.0f, 45.0f, 80.0f}) {
         Scene s = empty_scene("plate over slab");
         s.objects.push_back(make_object("slab", make_ground(8, 8, 0.3f)));

@@ -16,6 +16,7 @@
 #include <cstring>
 
 #include "hd/explog.h"
+#include "common/sanitized.h"
 
 using namespace cdsm;
 
@@ -42,14 +43,7 @@ int64_t ulp_index(float f) {
 
 uint32_t stride_from_environment() {
   if (const char* s = std::getenv("CDSM_EXPLOG_STRIDE")) return uint32_t(std::max(1, std::atoi(s)));
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-  return 512;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-  return 512;
-#endif
-#endif
-  return 64;
+  return CDSM_TEST_SANITIZED ? 512 : 64;
 }
 
 const uint32_t kStride = stride_from_environment();

@@ -126,8 +126,6 @@ TEST_P(ShippedScene, LoadsSavesAndReloadsEqual) {
     a = load_scene(path);
   } catch (const Error& e) {
     const std::string msg = e.what();
-    if (text.find("$SHARED") != std::string::npos && msg.find("not found") != std::string::npos)
-      GTEST_SKIP() << "needs the shared data (" << shared_data_dir() << "): " << msg;
     if (text.find("\"vdb\"") != std::string::npos && !vdb_supported())
       GTEST_SKIP() << "needs the OpenVDB loader (built with CDSM_VDB=OFF): " << msg;
     FAIL() << msg;
@@ -248,9 +246,7 @@ TEST(SceneWrite, WholeGltfSceneRoundTrips) {
 }
 
 TEST(SceneWrite, SharedGltfSceneRoundTrips) {
-  const std::string path = shared_data_dir() + "/mesh/vsa_primitives_scene.gltf";
-  struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) GTEST_SKIP() << "needs the shared data: " << path << " is missing";
+  const std::string path = data_dir() + "/mesh/vsa_primitives_scene.gltf";
   round_trip(load_scene(path), scratch_dir());
 }
 

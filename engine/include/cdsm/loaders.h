@@ -29,14 +29,16 @@ void warn(const std::string& text);
 
 // ---- files a scene refers to -----------------------------------------------
 
-// The shared data directory (public test data): $CDSM_DATA_DIR if set, else
-// ../shared/data beside the project this build was configured from.
-std::string shared_data_dir();
+// The data directory (the public meshes and volumes the shipped scenes
+// read; MANIFEST.tsv there names each file's source and licence):
+// $CDSM_DATA_DIR if set, else content_dir() + "/data" (the installed
+// share/cdsm/data, or the source tree's while the library runs from it).
+std::string data_dir();
 
 // Resolves a file reference of a scene file:
-//  - "$SHARED/rest" -> shared_data_dir()/rest,
+//  - "$SHARED/rest" -> data_dir()/rest,
 //  - an absolute path -> itself,
-//  - a relative path -> base_dir/path, else shared_data_dir()/path.
+//  - a relative path -> base_dir/path, else data_dir()/path.
 // A file found nowhere throws Error(where, "file 'ref' not found; looked
 // in: <every path tried>"); a directory where the file should be says so.
 std::string resolve_asset(const std::string& ref, const std::string& base_dir, const std::string& where);

@@ -7,6 +7,7 @@
 
 #include "cdsm/error.h"
 #include "cdsm/loaders.h"
+#include "cdsm/procedural.h"  // content_dir()
 
 namespace cdsm {
 namespace {
@@ -44,10 +45,10 @@ void warn(const std::string& text) {
     std::fprintf(stderr, "cdsm: warning: %s\n", text.c_str());
 }
 
-std::string shared_data_dir() {
+std::string data_dir() {
   const char* env = std::getenv("CDSM_DATA_DIR");
   if (env != nullptr && env[0] != '\0') return env;
-  return CDSM_SHARED_DATA_DIR_DEFAULT;
+  return join(content_dir(), "data");
 }
 
 std::string resolve_asset(const std::string& ref, const std::string& base_dir, const std::string& where) {
@@ -55,12 +56,12 @@ std::string resolve_asset(const std::string& ref, const std::string& base_dir, c
   std::vector<std::string> tried;
   const std::string prefix = "$SHARED/";
   if (ref.compare(0, prefix.size(), prefix) == 0) {
-    tried.push_back(join(shared_data_dir(), ref.substr(prefix.size())));
+    tried.push_back(join(data_dir(), ref.substr(prefix.size())));
   } else if (ref[0] == '/') {
     tried.push_back(ref);
   } else {
     tried.push_back(join(base_dir, ref));
-    tried.push_back(join(shared_data_dir(), ref));
+    tried.push_back(join(data_dir(), ref));
   }
   for (const std::string& p : tried)
     if (is_regular_file(p)) return p;
@@ -68,8 +69,11 @@ std::string resolve_asset(const std::string& ref, const std::string& base_dir, c
     if (is_directory(p)) throw Error(where, "'" + p + "' is a directory, not a file");
   std::string list;
   for (const std::string& p : tried) list += (list.empty() ? "" : ", ") + p;
-  throw Error(where, "file '" + ref + "' not found; looked in: " + list +
-                         " (the shared data directory is $CDSM_DATA_DIR or " + CDSM_SHARED_DATA_DIR_DEFAULT + ")");
+  const char* env = std::getenv("CDSM_DATA_DIR");
+  const bool from_env = env != nullptr && env[0] != '\0';
+  throw Error(where, "file '" + ref + "' not found; looked in: " + list + " (the data directory " + data_dir() +
+                         (from_env ? " is $CDSM_DATA_DIR)"
+                                   : " is the content directory's data/; $CDSM_DATA_DIR overrides it)"));
 }
 
 void require_file(const std::string& path, const std::string& what) {
