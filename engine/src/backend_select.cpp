@@ -33,7 +33,9 @@ DeviceProbe probe_cuda() {
   p.device = d.device;
   p.description = d.description;
 #else
-  p.description = "no CUDA device: this build has no cuda backend (nvcc was not found when it was configured)";
+  p.description =
+      "no CUDA device: this build has no cuda backend (configured without it: CDSM_CUDA off, or no nvcc; "
+      "scripts/demo.sh builds it only where an NVIDIA driver is loaded)";
 #endif
   return p;
 }

@@ -7,6 +7,7 @@
 // Usage: cdsm_consumer [OUTPUT_DIR]   (writes consumer.png there)
 #include <cdsm/cdsm.h>
 #include <cdsm/gl.h>
+#include <cdsm/loaders.h>
 
 #define GL_GLEXT_PROTOTYPES 1
 #include <GL/glcorearb.h>
@@ -265,6 +266,13 @@ void check_installed_files() {
     const cdsm::Scene scene = cdsm::load_scene(content + "/scenes/teapot_omni.json");
     std::printf("installed teapot_omni.json: %zu objects, %zu lights\n", scene.objects.size(), scene.lights.size());
     check(!scene.objects.empty() && !scene.lights.empty(), "an installed scene loads with its installed meshes");
+    // Scenes that name the public data ($SHARED/...) read share/cdsm/data.
+    check(cdsm::data_dir() == content + "/data", "data_dir() is the installed data (" + cdsm::data_dir() + ")");
+    for (const char* name : {"ct_xray", "smoke_gltf", "primitives"}) {
+      if (std::string(name) == "smoke_gltf" && !cdsm::vdb_supported()) continue;  // a .vdb: CDSM_VDB=OFF
+      const cdsm::Scene s = cdsm::load_scene(content + "/scenes/" + name + ".json");
+      check(!s.objects.empty(), std::string("installed ") + name + ".json loads its installed data");
+    }
   } catch (const cdsm::Error& e) {
     check(false, std::string("installed content: ") + e.what());
   }
