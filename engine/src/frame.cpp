@@ -720,27 +720,4 @@ void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, 
   cache.lights = std::move(lights);
 }
 
-FrameInputs frame_inputs(const Scene& scene, const SceneBuffers& sb) {
-  FrameInputs in;
-  in.scene = &sb;
-  in.lights = scene.lights;
-  for (size_t i = 0; i < scene.lights.size(); ++i) in.light_ids.push_back(i + 1);
-  for (size_t i = 0; i < sb.objects.size(); ++i) {
-    in.object_ids.push_back(i + 1);
-    in.object_generations.push_back(1);
-  }
-  in.camera = scene.camera;
-  in.settings = scene.shadows;
-  return in;
-}
-
-ShadowCache::ShadowCache() : backend(make_cpu_backend()) {}
-ShadowCache::~ShadowCache() = default;
-
-void build_shadow_frame(const Scene& scene, const SceneBuffers& sb, const FragmentProducer& produce, ShadowCache& cache,
-                        ShadowFrame& frame) {
-  cache.backend->update_scene(sb, SceneChange::all());
-  build_shadow_frame(frame_inputs(scene, sb), produce, *cache.backend, cache.maps, frame);
-}
-
 }  // namespace cdsm

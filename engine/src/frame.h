@@ -168,23 +168,4 @@ void set_lookup(ShadowView& v, const ShadowSettings& s);
 void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, ShadowBackend& backend, MapCache& cache,
                         ShadowFrame& frame);
 
-// The frame inputs of a whole scene compiled at once (compile_scene):
-// objects and lights identified by their index + 1, generation 1.
-FrameInputs frame_inputs(const Scene& scene, const SceneBuffers& sb);
-
-// A cpu backend with its map cache, for one-off frames (tests, tools) that
-// do not keep a ShadowSystem.
-struct ShadowCache {
-  std::unique_ptr<ShadowBackend> backend;
-  MapCache maps;
-  ShadowCache();
-  ~ShadowCache();
-  ShadowCache(const ShadowCache&) = delete;
-  ShadowCache& operator=(const ShadowCache&) = delete;
-};
-
-// build_shadow_frame() of a whole scene on `cache`'s cpu backend.
-void build_shadow_frame(const Scene& scene, const SceneBuffers& sb, const FragmentProducer& produce, ShadowCache& cache,
-                        ShadowFrame& frame);
-
 }  // namespace cdsm

@@ -13,12 +13,12 @@
 
 #include "cdsm/error.h"
 #include "cdsm/scene_io.h"
-#include "hashing.h"
 #include "cdsm/shadow_system.h"
+#include "frame_snapshot.h"
+#include "hashing.h"
 #include "reference/lookup_recorder.h"
-#include "memory_budget.h"
 #include "reference/reference.h"
-#include "shadow_system_impl.h"
+#include "scene_sync.h"
 
 namespace cdsm {
 namespace {
@@ -137,9 +137,10 @@ struct Renderer::Impl {
     std::vector<Receiver> receivers;
   } previous;
 
-  // The system for `scene` with these options (a new fragment source
-  // starts a new system).
-  ShadowSystem::Impl& sync(const Scene& scene, const RenderOptions& opt) {
+  // The system for `scene` with these options (a new fragment source or
+  // backend starts a new system), synced to it by edits. Validation and
+  // the memory check are the system's, once per update().
+  void sync(const Scene& scene, const RenderOptions& opt) {
     const Backend want = opt.backend == Backend::Reference ? Backend::Cpu : opt.backend;
     if (opt.fragments != fragments || want != backend) {
       SystemOptions so{opt.fragments, scene.source};
@@ -149,22 +150,16 @@ struct Renderer::Impl {
       backend = want;
       previous = Previous{};
     }
-    // Checked before any edit reaches the system (its update() checks the
-    // same and reports the warnings).
-    std::vector<std::string> warnings;
-    validate_scene(scene, &warnings);
-    check_memory(scene, estimate_frame_memory(scene, opt));
     sync_scene(*system, scene);
-    ShadowSystem::Impl& I = internals(*system);
-    I.keep_previous = opt.measure_popping;
-    return I;
+    SystemHooks::keep_replaced_maps(*system, opt.measure_popping);
   }
 
-  TransmittanceError probe_error(const RenderOptions& opt, ShadowSystem::Impl& f) {
-    SceneView sv = f.sb.view();
+  TransmittanceError probe_error(const RenderOptions& opt, const FrameSnapshot& f) {
+    SceneView sv = f.scene_view();
     ShadowView shv = f.shadow_view();
     DsmVisibility vis{shv};
-    const int w = f.cam.view.width, h = f.cam.view.height;
+    const CameraPassParams& cam = f.camera();
+    const int w = cam.view.width, h = cam.view.height;
     // Stratified pixels: one jittered pixel per cell of a grid with about
     // error_samples / 2 cells (rays yield several lookups each), shaded by
     // the camera pass with its own visibility functor, each lookup recorded
@@ -186,7 +181,7 @@ struct Renderer::Impl {
         int py = std::min(h - 1, int((cy + (hsh >> 16) / 65536.0) * h / gy));
         Span<Fragment> shared = camera_lists.pixel(px, py);
         frags.assign(shared.begin(), shared.end());
-        record_pixel_lookups(sv, shv.lights, vis, f.cam, Span<Fragment>{frags.data(), frags.size()}, px, py,
+        record_pixel_lookups(sv, shv.lights, vis, cam, Span<Fragment>{frags.data(), frags.size()}, px, py,
                              per_row[size_t(cy)], ws);
       }
     });
@@ -198,12 +193,13 @@ struct Renderer::Impl {
       for (int i = 0; i < opt.error_samples; ++i) kept.push_back(lookups[size_t(i * stride)]);
       lookups.swap(kept);
     }
-    ReferenceRenderer ref(sv, f.frame.setup.lights, ReferenceOptions{opt.reference_step_voxels});
+    const LightSetup& setup = f.frame().setup;
+    ReferenceRenderer ref(sv, setup.lights, ReferenceOptions{opt.reference_step_voxels});
     // Each map's members, for the filtered exact reference of its taps.
-    std::vector<std::vector<uint32_t>> member_words(f.frame.setup.maps.size());
+    std::vector<std::vector<uint32_t>> member_words(setup.maps.size());
     for (size_t k = 0; k < member_words.size(); ++k) {
       member_words[k].assign((sv.objects.size() + 31) / 32, 0u);
-      for (uint32_t o : f.frame.setup.maps[k].members) member_words[k][o >> 5] |= 1u << (o & 31u);
+      for (uint32_t o : setup.maps[k].members) member_words[k][o >> 5] |= 1u << (o & 31u);
     }
     // T_f's taps read at the receiver's plane along their rays (volume
     // samples: at their depth) whatever the lookup does, so the resolution
@@ -290,8 +286,8 @@ struct Renderer::Impl {
   // Surface points of the camera view on a coarse grid (receivers for the
   // popping probe: the first surface receiver each pixel's camera pass asks
   // a light about, with its plane and identity).
-  std::vector<Receiver> sample_receivers(ShadowSystem::Impl& f) {
-    SceneView sv = f.sb.view();
+  std::vector<Receiver> sample_receivers(const FrameSnapshot& f) {
+    SceneView sv = f.scene_view();
     struct FirstSurface {
       Receiver* r;
       bool* found;
@@ -305,7 +301,8 @@ struct Renderer::Impl {
     };
     const ShadowView shv = f.shadow_view();
     std::vector<Receiver> out;
-    const int w = f.cam.view.width, h = f.cam.view.height;
+    const CameraPassParams& cam = f.camera();
+    const int w = cam.view.width, h = cam.view.height;
     const int g = 48;
     FragmentLists lists = f.camera_fragments();
     for (int gy = 0; gy < g; ++gy)
@@ -316,7 +313,7 @@ struct Renderer::Impl {
         FirstSurface vis{&r, &found};
         NoRecorder rec;
         WalkStats ws;
-        shade_pixel(sv, shv.lights, vis, f.cam, lists.pixel(px, py), px, py, rec, ws);
+        shade_pixel(sv, shv.lights, vis, cam, lists.pixel(px, py), px, py, rec, ws);
         if (found) out.push_back(r);
       }
     return out;
@@ -325,13 +322,13 @@ struct Renderer::Impl {
   // |T_new - T_old| at the previous frame's receivers, when maps changed.
   // The previous frame's replaced maps are alive until the next update
   // (keep_previous), so both lookups read the backend's store.
-  void measure_popping(ShadowSystem::Impl& f, FrameStats& st) {
-    const ShadowFrame& now_frame = f.frame;
+  void measure_popping(const FrameSnapshot& f, FrameStats& st) {
+    const ShadowFrame& now_frame = f.frame();
     if (previous.valid && now_frame.rebuilt > 0 && now_frame.previous_kept &&
         previous.setup.lights.size() == now_frame.setup.lights.size()) {
       ShadowView now = f.shadow_view();
       previous.headers.clear();
-      for (MapId id : previous.maps) previous.headers.push_back(f.backend->map_header(id));
+      for (MapId id : previous.maps) previous.headers.push_back(f.backend().map_header(id));
       ShadowView before = now;
       before.lights = {previous.setup.lights.data(), previous.setup.lights.size()};
       before.maps = {previous.headers.data(), previous.headers.size()};
@@ -365,7 +362,7 @@ struct Renderer::Impl {
     }
     previous.setup = now_frame.setup;
     previous.maps = now_frame.maps;
-    previous.settings = f.scene.shadows;
+    previous.settings = f.scene().shadows;
     previous.receivers = sample_receivers(f);
     previous.valid = true;
   }
@@ -380,8 +377,9 @@ Image Renderer::render(const Scene& scene, const RenderOptions& opt, FrameStats*
   if (opt.backend == Backend::Reference) return render_reference(scene, opt, stats);
   FrameStats local;
   FrameStats& st = stats ? *stats : local;
-  ShadowSystem::Impl& f = impl_->sync(scene, opt);
+  impl_->sync(scene, opt);
   Image img = impl_->system->render(&st);
+  const FrameSnapshot f(*impl_->system);
   if (opt.measure_popping) {
     impl_->measure_popping(f, st);
   } else {
@@ -416,9 +414,9 @@ TransmittanceError Renderer::transmittance_error(const Scene& scene, const Rende
   FrameStats st;
   RenderOptions o = opt;
   o.backend = Backend::Cpu;
-  ShadowSystem::Impl& f = impl_->sync(scene, o);
+  impl_->sync(scene, o);
   impl_->system->render(&st);
-  return impl_->probe_error(o, f);
+  return impl_->probe_error(o, FrameSnapshot(*impl_->system));
 }
 
 }  // namespace cdsm

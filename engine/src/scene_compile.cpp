@@ -425,37 +425,9 @@ void append_object(SceneBuffers& sb, CompiledObject& co, const std::string& sour
   sb.bounds.grow(co.bounds);
 }
 
-SceneBuffers compile_scene(const Scene& scene) {
-  SceneBuffers sb;
-  // Volumes first: objects refer to them.
-  for (size_t vi = 0; vi < scene.volumes.size(); ++vi) {
-    const Volume& v = scene.volumes[vi];
-    std::string where = scene.source + ": volume " + std::to_string(vi) + (v.name.empty() ? "" : " '" + v.name + "'");
-    append_volume(sb, compile_volume(v, where));
-  }
-  std::vector<bool> volume_placed(scene.volumes.size(), false);
-  CompiledObject co;
-  for (size_t oi = 0; oi < scene.objects.size(); ++oi) {
-    const Object& o = scene.objects[oi];
-    const std::string where = object_location(scene.source, oi, o.name);
-    compile_object(o, o.mesh ? is_closed(*o.mesh) : false, where, co);
-    if (o.interior == InteriorKind::Volume) {
-      if (o.volume < 0 || size_t(o.volume) >= scene.volumes.size())
-        throw Error(where, "refers to volume " + std::to_string(o.volume) + ", which does not exist");
-      if (volume_placed[size_t(o.volume)])
-        throw Error(where, "volume " + std::to_string(o.volume) + " is used by two objects");
-      volume_placed[size_t(o.volume)] = true;
-      co.data.volume = o.volume;
-      VolumeData& vd = sb.volumes[size_t(o.volume)];
-      place_volume(vd, scene.volumes[size_t(o.volume)], o.transform, where);
-    }
-    append_object(sb, co, scene.source);
-  }
-  for (size_t vi = 0; vi < scene.volumes.size(); ++vi)
-    if (!volume_placed[vi]) throw Error(scene.source + ": volume " + std::to_string(vi), "is not used by any object");
-  allocating(scene.source, "building the BVH over " + std::to_string(sb.tri_object.size()) + " triangles",
+void build_scene_bvh(SceneBuffers& sb, const std::string& source) {
+  allocating(source, "building the BVH over " + std::to_string(sb.tri_object.size()) + " triangles",
              sb.tri_object.size() * (sizeof(BvhNode) + sizeof(uint32_t)), [&] { build_bvh(sb); });
-  return sb;
 }
 
 }  // namespace cdsm

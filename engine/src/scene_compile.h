@@ -58,11 +58,9 @@ uint32_t append_volume(SceneBuffers& sb, const CompiledVolume& cv);
 // and index set here). Throws when the scene would exceed kMaxPrimitives.
 void append_object(SceneBuffers& sb, CompiledObject& co, const std::string& source);
 
-// Flattens a whole scene at once: volumes, objects, BVH. Throws cdsm::Error
-// on invalid content (NaN in a vertex or transform, a bad volume reference,
-// too many triangles). The shadow system compiles incrementally instead;
-// tests and one-off tools use this.
-SceneBuffers compile_scene(const Scene& scene);
+// The BVH over every triangle of `sb` (build_bvh); running out of memory is
+// an Error naming `source` and the size.
+void build_scene_bvh(SceneBuffers& sb, const std::string& source);
 
 // The light as clustering sees it.
 cluster::LightShape light_shape(const Light& light);

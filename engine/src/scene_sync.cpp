@@ -1,5 +1,5 @@
-// sync_scene (shadow_system_impl.h): brings a ShadowSystem to the content of
-// a whole Scene value by edits, comparing by identity (the Renderer uses it).
+// sync_scene (scene_sync.h): brings a ShadowSystem to the content of a whole
+// Scene value by edits, comparing by identity (the Renderer uses it).
 #include "cdsm/fields.h"
 #include "cdsm/shadow_system.h"
 
@@ -15,6 +15,7 @@
 #include "memory_budget.h"
 #include "reference/reference.h"
 #include "scene_compile.h"
+#include "scene_sync.h"
 #include "shadow_system_impl.h"
 
 namespace cdsm {
@@ -54,7 +55,7 @@ int32_t volume_of(const Object& o) { return o.interior == InteriorKind::Volume ?
 }  // namespace
 
 void sync_scene(ShadowSystem& system, const Scene& scene) {
-  ShadowSystem::Impl& I = internals(system);
+  ShadowSystem::Impl& I = *system.impl_;
   I.scene.source = scene.source;
   if (!same_camera(I.scene.camera, scene.camera)) system.set_camera(scene.camera);
   if (!same_fields(I.scene.shadows, scene.shadows)) system.set_settings(scene.shadows);

@@ -62,7 +62,7 @@ ShadowSystem::Impl::~Impl() {
   if (gl) try_make_current(*gl);
 }
 
-FragmentLists ShadowSystem::Impl::camera_fragments() {
+FragmentLists ShadowSystem::Impl::camera_fragments() const {
   CDSM_CHECK(has_camera_lists, scene.source + ": no camera fragment lists (render() first)");
   if (!camera_frags_read) {
     backend->read_lists(camera_lists, camera_frags);
@@ -120,6 +120,12 @@ const Scene& ShadowSystem::scene() const { return impl_->scene; }
 std::vector<ObjectHandle> ShadowSystem::objects() const {
   std::vector<ObjectHandle> out;
   for (const auto& r : impl_->objects) out.push_back({r.id});
+  return out;
+}
+
+std::vector<VolumeHandle> ShadowSystem::volumes() const {
+  std::vector<VolumeHandle> out;
+  for (const auto& r : impl_->volumes) out.push_back({r.id});
   return out;
 }
 

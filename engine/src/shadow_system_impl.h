@@ -1,5 +1,5 @@
 // The state behind cdsm::ShadowSystem (engine/include/cdsm/shadow_system.h),
-// shared with the renderer (error probe, popping probe) and tests.
+// the system's own: others read it through FrameSnapshot (frame_snapshot.h).
 #pragma once
 
 #include <atomic>
@@ -77,9 +77,9 @@ struct ShadowSystem::Impl {
   // by its camera pass); read to the host only when a probe asks.
   ListsId camera_lists = 0;
   bool has_camera_lists = false;
-  FragmentBuffers camera_frags;  // camera_fragments()'s copy
-  bool camera_frags_read = false;
-  FragmentLists camera_fragments();
+  mutable FragmentBuffers camera_frags;  // camera_fragments()'s copy
+  mutable bool camera_frags_read = false;
+  FragmentLists camera_fragments() const;
 
   explicit Impl(const SystemOptions& o);
   ~Impl();
@@ -104,18 +104,5 @@ struct ShadowSystem::Impl {
   // The lookup over the last update's maps with the current settings.
   ShadowView shadow_view() const { return frame.view(scene.shadows); }
 };
-
-// Brings `system` to the content of `scene` by edits (by index: objects,
-// volumes and lights of the same place are compared by identity — mesh and
-// grid pointers, transforms, materials — never by their bytes). Volumes
-// added, removed or re-assigned between objects re-add every object.
-void sync_scene(ShadowSystem& system, const Scene& scene);
-
-// The system's state for the research harness (renderer.cpp: the error and
-// popping probes) and this library's tests; engines never need it.
-struct SystemAccess {
-  static ShadowSystem::Impl& of(ShadowSystem& system) { return *system.impl_; }
-};
-inline ShadowSystem::Impl& internals(ShadowSystem& system) { return SystemAccess::of(system); }
 
 }  // namespace cdsm

@@ -123,7 +123,7 @@ void ShadowSystem::Impl::compile_structure(FrameStats& st) {
     }
     for (size_t vi = 0; vi < volumes.size(); ++vi)
       if (used[vi] < 0) throw Error(scene.source + ": volume " + std::to_string(vi), "is not used by any object");
-    build_bvh(nb);
+    build_scene_bvh(nb, scene.source);
   } catch (...) {
     sb.voxels = std::move(nb.voxels);
     sb.macro_max = std::move(nb.macro_max);

@@ -268,6 +268,11 @@ Image ShadowSystem::render_reference(float step_voxels, RenderProgress* progress
   Impl& I = *impl_;
   FrameStats st;
   validate_scene(I.scene, &st.warnings);
+  // The frame's estimate with the reference's own buffers (its image and
+  // per-pixel state): this render's memory check.
+  RenderOptions with_reference;
+  with_reference.compare_reference = true;
+  check_memory(I.scene, estimate_frame_memory(I.scene, with_reference));
   I.compile(st);
   SceneView sv = I.sb.view();
   LightSetup ls = setup_lights(I.scene.lights, I.sb, 4);

@@ -284,6 +284,7 @@ CDSM_HD inline void tabulate_absorbance(NodeBuffer& buf, float lo, float hi, dou
                                         double total, const Absorbance& absorbance) {
   const float a_total = clampf(float(1.0 - exp(-total)), 0.0f, 1.0f);
   Wedge<NodeBuffer> w(kTabulationError);
+  w.cap = a_total;  // no line above the total: the last node lands on it
   float run = 0.0f;
   for (int i = 0; i <= samples; ++i) {
     const double f = double(i) / double(samples);

@@ -140,6 +140,9 @@ struct Wedge {
   static constexpr int N = Sink::Node::kChannels;
   using Alpha = Channels<N>;
   float eps = 0.0f;
+  // The largest alpha a line may reach: 1, or a total the caller knows
+  // (tabulate_absorbance: a reconstruction never above its exact total).
+  float cap = 1.0f;
   bool has_origin = false;
   float z0 = 0.0f;
   Alpha a0{};                    // origin: the last emitted node
@@ -167,7 +170,7 @@ struct Wedge {
       const float a0k = channel(a0, k);
       set_channel(
           e, k,
-          fminf(clampf(channel(al, k), a0k + lo[k] * dz, a0k + hi[k] * dz), 1.0f));  // the bounds can round past 1
+          fminf(clampf(channel(al, k), a0k + lo[k] * dz, a0k + hi[k] * dz), cap));  // the bounds can round past it
     }
     return e;
   }
@@ -178,7 +181,7 @@ struct Wedge {
     for (int k = 0; k < N; ++k) {
       const float ak = channel(a, k), a0k = channel(a0, k);
       lo[k] = fmaxf(0.0f, (ak - eps - a0k) / dz);
-      hi[k] = fminf((ak + eps - a0k) / dz, (1.0f - a0k) / dz);
+      hi[k] = fminf((ak + eps - a0k) / dz, (cap - a0k) / dz);
       if (hi[k] < lo[k]) hi[k] = lo[k];  // only by rounding
     }
     zl = z;
@@ -199,7 +202,7 @@ struct Wedge {
       for (int k = 0; k < N; ++k) {
         const float ak = channel(a, k), a0k = channel(a0, k);
         nlo[k] = fmaxf(lo[k], (ak - eps - a0k) / dz);
-        nhi[k] = fminf(hi[k], fminf((ak + eps - a0k) / dz, (1.0f - a0k) / dz));
+        nhi[k] = fminf(hi[k], fminf((ak + eps - a0k) / dz, (cap - a0k) / dz));
         fits = fits && nlo[k] <= nhi[k];
       }
       if (fits) {

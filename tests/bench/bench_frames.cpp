@@ -19,6 +19,7 @@
 #include "cdsm/scene_io.h"
 #include "cdsm/shadow_system.h"
 #include "scene_compile.h"
+#include "common/system_frame.h"
 
 using namespace cdsm;
 
@@ -180,10 +181,10 @@ void BM_BvhAfterMove(benchmark::State& state) {
   size_t oi = 0;
   for (size_t i = 0; i < s.objects.size(); ++i)
     if (s.objects[i].name == "teapot3") oi = i;
-  SceneBuffers sb = compile_scene(s);
+  SceneBuffers sb = cdsm_test::compiled_scene(s);
   const double built = bvh_cost(sb);
   s.objects[oi].transform.m[0][3] += 0.01f * float(state.range(1));
-  const SceneBuffers moved = compile_scene(s);
+  const SceneBuffers moved = cdsm_test::compiled_scene(s);
   const ObjectData& od = sb.objects[oi];
   std::copy(moved.tri_vertices.begin() + ptrdiff_t(od.first_tri) * 3,
             moved.tri_vertices.begin() + ptrdiff_t(od.first_tri + od.tri_count) * 3,

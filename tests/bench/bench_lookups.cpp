@@ -22,19 +22,18 @@
 #include "hd/camera_pass.h"
 #include "hd/series.h"
 #include "scene_compile.h"
+#include "common/system_frame.h"
 
 using namespace cdsm;
 
 namespace {
 
-struct Maps {
+struct Maps : cdsm_test::SystemFrame {
   Scene scene;
-  SceneBuffers sb;
-  ShadowCache cache;
-  ShadowFrame frame;
   std::vector<Receiver> surfaces, samples;
-  explicit Maps(float radius) : scene(load()), sb((scene.lights[0].radius = radius, compile_scene(scene))) {
-    build_shadow_frame(scene, sb, cpu_fragment_producer(sb.view()), cache, frame);
+  explicit Maps(float radius) : scene(load()) {
+    scene.lights[0].radius = radius;
+    build(scene);
     for (int j = 0; j < 64; ++j)
       for (int i = 0; i < 64; ++i)
         surfaces.push_back(

@@ -11,6 +11,7 @@
 #include "frame.h"
 #include "reference/lookup_recorder.h"
 #include "reference/reference.h"
+#include "common/system_frame.h"
 
 namespace cdsm {
 namespace {
@@ -27,12 +28,10 @@ struct Probe {
 };
 
 Probe probe(const Scene& scene) {
-  SceneBuffers sb = compile_scene(scene);
-  SceneView sv = sb.view();
-  ShadowCache cache;
-  ShadowFrame frame;
-  build_shadow_frame(scene, sb, cpu_fragment_producer(sv), cache, frame);
-  ShadowView shv = frame.view(scene.shadows);
+  const cdsm_test::SystemFrame f(scene);
+  SceneView sv = f.scene_view();
+  const ShadowFrame& frame = f.frame;
+  ShadowView shv = f.view(scene);
   CameraPassParams cam;
   cam.view = camera_view(scene.camera);
   std::vector<uint32_t> inside = objects_containing(sv, cam.view.eye, ObjectMask{});

@@ -11,6 +11,7 @@
 #include "hd/lights.h"
 #include "reference/reference.h"
 #include "frame.h"
+#include "common/system_frame.h"
 
 namespace cdsm {
 namespace {
@@ -166,11 +167,9 @@ TEST(OmniLight, RingOfCastersShadowsAllSidesWithoutSeams) {
   omni.position = {0.0f, 0.6f, 0.0f};
   s.lights.push_back(omni);
 
-  SceneBuffers sb = compile_scene(s);
-  SceneView sv = sb.view();
-  ShadowCache cache;
-  ShadowFrame frame;
-  build_shadow_frame(s, sb, cpu_fragment_producer(sv), cache, frame);
+  const cdsm_test::SystemFrame f(s);
+  SceneView sv = f.scene_view();
+  const ShadowFrame& frame = f.frame;
   ASSERT_EQ(frame.setup.lights[0].map_count, 6u);
   ShadowView shv = frame.view(s.shadows);
   ReferenceRenderer ref(sv, frame.setup.lights);

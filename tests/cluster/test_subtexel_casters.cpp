@@ -16,6 +16,7 @@
 #include "cdsm/procedural.h"
 #include "cdsm/scene_io.h"
 #include "frame.h"
+#include "common/system_frame.h"
 
 namespace cdsm {
 namespace {
@@ -57,16 +58,9 @@ Scene ten_km(int clusters) {
   return s;
 }
 
-struct Built {
-  SceneBuffers sb;
-  ShadowCache cache;
-  ShadowFrame frame;
-};
-
-void build(const Scene& scene, Built& b) {
-  b.sb = compile_scene(scene);
-  build_shadow_frame(scene, b.sb, cpu_fragment_producer(b.sb.view()), b.cache, b.frame);
-}
+// A frame built by a ShadowSystem (common/system_frame.h).
+using Built = cdsm_test::SystemFrame;
+void build(const Scene& scene, Built& b) { b.build(scene); }
 
 size_t subtexel_warnings(const ShadowFrame& f) {
   size_t n = 0;
@@ -94,8 +88,9 @@ TEST(SubtexelCasters, TenKmSceneWithMetreCastersInOneMapWarns) {
   EXPECT_GT(texel, 15.0);
   EXPECT_NEAR(std::stod(m[1]), texel, 0.01 * texel) << w;
   // Once per frame, and again for a frame that rebuilds nothing.
-  ShadowFrame again;
-  build_shadow_frame(s, b.sb, cpu_fragment_producer(b.sb.view()), b.cache, again);
+  b.system->set_camera(s.camera);
+  b.system->update();
+  const ShadowFrame& again = b.snapshot().frame();
   EXPECT_EQ(again.reused, 1u);
   EXPECT_EQ(again.warnings, b.frame.warnings);
 }

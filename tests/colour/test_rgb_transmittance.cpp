@@ -13,7 +13,8 @@
 #include "cdsm/scene_io.h"
 #include "cdsm/shadow_system.h"
 #include "reference/reference.h"
-#include "shadow_system_impl.h"
+#include "frame_snapshot.h"
+#include "scene_sync.h"
 #include "unit/unit_util.h"
 
 using namespace cdsm;
@@ -203,7 +204,7 @@ TEST(RgbMaps, OnlyWhereAMapHoldsColour) {
   sync_scene(sys, s);
   FrameStats st;
   sys.update(&st);
-  const ShadowFrame& f = internals(sys).frame;
+  const ShadowFrame& f = FrameSnapshot(sys).frame();
   uint32_t rgb = 0;
   for (size_t k = 0; k < f.headers.size(); ++k) {
     bool coloured = false;
@@ -220,7 +221,7 @@ TEST(RgbMaps, OnlyWhereAMapHoldsColour) {
   sync_scene(sys, s);
   sys.update(&st);
   EXPECT_EQ(st.memory.rgb_maps, 0u);
-  for (const DsmMap& m : internals(sys).frame.headers) EXPECT_EQ(m.rgb, 0u);
+  for (const DsmMap& m : FrameSnapshot(sys).frame().headers) EXPECT_EQ(m.rgb, 0u);
 }
 
 Scene stained_glass(int width, int height, DsmLayout layout = DsmLayout::Packed) {
@@ -290,7 +291,7 @@ TEST(DefaultScene, TintedShadowsMatchReferencePerChannel) {
   ShadowSystem sys(so);
   sync_scene(sys, s);
   sys.update();
-  const ShadowView sv = internals(sys).shadow_view();
+  const ShadowView sv = FrameSnapshot(sys).shadow_view();
   const LightData& L = sv.lights[0];
   size_t pane = 0;
   for (size_t i = 0; i < s.objects.size(); ++i)

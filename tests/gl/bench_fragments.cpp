@@ -14,6 +14,7 @@
 
 #include "cdsm/scene_io.h"
 #include "gl_test_util.h"
+#include "common/system_frame.h"
 
 namespace {
 
@@ -35,7 +36,7 @@ TestScene& scene(int which) {
       cdsm::Scene sc = cdsm::load_scene(g_scene_file);
       g_scene_camera = sc.camera;
       s = std::make_unique<TestScene>();
-      s->sb = cdsm::compile_scene(sc);
+      s->sb = cdsm_test::compiled_scene(sc);
     }
   }
   return *s;

@@ -8,6 +8,7 @@
 #include "cdsm/scene_io.h"
 #include "frame.h"
 #include "gl_test_util.h"
+#include "common/system_frame.h"
 
 namespace cdsm {
 namespace {
@@ -44,7 +45,7 @@ void expect_match(const test::TestScene& ts, gl::FragmentRasterizer& r, const Pi
 TEST_F(GlDefaultScene, ListsMatchTheRayCasterInCameraSpotAndOmniViews) {
   Scene s = default_scene();
   test::TestScene ts;
-  ts.sb = compile_scene(s);
+  ts.sb = cdsm_test::compiled_scene(s);
   gl::FragmentRasterizer r(context());
   ts.upload(r);
   expect_match(ts, r, camera_view(s.camera), "camera");

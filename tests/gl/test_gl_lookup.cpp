@@ -23,7 +23,8 @@
 #include "gl/gl_api.h"
 #include "gl_test_util.h"
 #include "reference/reference.h"
-#include "shadow_system_impl.h"
+#include "frame_snapshot.h"
+#include "scene_sync.h"
 
 namespace cdsm::test {
 namespace {
@@ -166,11 +167,11 @@ class GlLookup : public GlTest {
     ShadowSystem sys(o);
     sync_scene(sys, scene);
     sys.update();
-    ShadowSystem::Impl& I = internals(sys);
-    std::vector<LookupPoint> pts = sample_points(I.sb, surface, volume, free, 7);
+    const FrameSnapshot snap(sys);
+    std::vector<LookupPoint> pts = sample_points(snap.compiled(), surface, volume, free, 7);
     ASSERT_GE(pts.size(), size_t(surface + free));
     pts.insert(pts.end(), extra.begin(), extra.end());
-    const ShadowView sv = I.shadow_view();
+    const ShadowView sv = snap.shadow_view();
     uint32_t rgb_maps = 0;
     for (const DsmMap& m : sv.maps) rgb_maps += m.rgb;
     EXPECT_EQ(sys.gl_buffers().layout, scene.shadows.layout) << what;
@@ -310,10 +311,10 @@ TEST_F(GlLookup, SurfacesInContactWithGlFragments) {
   ShadowSystem sys(o);
   sync_scene(sys, scene);
   sys.update();
-  ShadowSystem::Impl& I = internals(sys);
-  const ShadowView sv = I.shadow_view();
+  const FrameSnapshot snap(sys);
+  const ShadowView sv = snap.shadow_view();
   DsmVisibility vis{sv};
-  ReferenceRenderer ref(I.sb.view(), I.frame.setup.lights);
+  ReferenceRenderer ref(snap.scene_view(), snap.frame().setup.lights);
   double worst = 0.0, lit = 0.0;
   int n = 0;
   for (Vec3 c : {Vec3{5, 0, 5}, Vec3{11, 0, 11}})

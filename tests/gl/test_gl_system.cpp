@@ -21,7 +21,8 @@
 #include "gl/gl_api.h"
 #include "gl/map_buffers.h"
 #include "gl_test_util.h"
-#include "shadow_system_impl.h"
+#include "frame_snapshot.h"
+#include "scene_sync.h"
 
 namespace cdsm::test {
 namespace {
@@ -186,12 +187,12 @@ TEST_F(GlSystem, UploadsOnlyWhatChanged) {
   sync_scene(sys, scene);
   FrameStats first, again, moved;
   sys.update(&first);
-  ShadowSystem::Impl& I = internals(sys);
-  const DsmStorage s0 = I.backend->storage();
+  const FrameSnapshot snap(sys);
+  const DsmStorage s0 = snap.backend().storage();
   const uint64_t arrays0 = (s0.texels.size() + s0.rgb_texels.size()) * 8 + s0.nodes.size() * 8 +
                            s0.rgb_nodes.size() * 16 + s0.chunks.size() * 12 + s0.rgb_chunks.size() * 20 +
                            (s0.tags.size() + s0.rgb_tags.size()) * 2;
-  const uint64_t frame_block = sizeof(gl::FrameBlockHeader) + sizeof(DsmMap) * I.frame.headers.size();
+  const uint64_t frame_block = sizeof(gl::FrameBlockHeader) + sizeof(DsmMap) * snap.frame().headers.size();
   EXPECT_TRUE(first.update.gl_map_full_upload);
   EXPECT_EQ(first.update.gl_map_upload_bytes, arrays0 + frame_block);
   EXPECT_GE(first.update.gl_map_bytes, arrays0 + frame_block);
@@ -214,8 +215,8 @@ TEST_F(GlSystem, UploadsOnlyWhatChanged) {
   sys.update(&moved);
   ASSERT_EQ(moved.maps_rebuilt, 1u);
   ASSERT_FALSE(moved.update.gl_map_full_upload);
-  const DsmStorage s1 = I.backend->storage();
-  const uint64_t frame1 = sizeof(gl::FrameBlockHeader) + sizeof(DsmMap) * I.frame.headers.size();
+  const DsmStorage s1 = snap.backend().storage();
+  const uint64_t frame1 = sizeof(gl::FrameBlockHeader) + sizeof(DsmMap) * snap.frame().headers.size();
   EXPECT_EQ(moved.update.gl_map_upload_bytes, array_bytes(s1) - arrays0 + frame1);
   // The omni light (six maps) moves: the holes its old maps leave exceed a
   // quarter of the store, which compacts: every array is uploaded once.
@@ -226,7 +227,7 @@ TEST_F(GlSystem, UploadsOnlyWhatChanged) {
   sys.update(&omni);
   ASSERT_EQ(omni.maps_rebuilt, 6u);
   EXPECT_TRUE(omni.update.gl_map_full_upload);
-  const DsmStorage s2 = I.backend->storage();
+  const DsmStorage s2 = snap.backend().storage();
   EXPECT_EQ(omni.update.gl_map_upload_bytes, array_bytes(s2) + frame1);
   std::printf(
       "[ uploads  ] first %llu B (full), unchanged %llu B, spot added %llu B (appended), omni moved %llu B (compacted, "
@@ -293,10 +294,10 @@ TEST_F(GlSystem, MeshFromApplicationBuffersEqualsArrays) {
     sys.set_settings(s);
     sys.update(&st);
     // Texel by texel (the pool's order follows the tiles' reservations).
-    ShadowSystem::Impl& I = internals(sys);
-    const DsmStorage d = I.backend->storage();
+    const FrameSnapshot snap(sys);
+    const DsmStorage d = snap.backend().storage();
     std::vector<DsmNode> nodes;
-    for (const DsmMap& m : I.frame.headers)
+    for (const DsmMap& m : snap.frame().headers)
       for (int ty = 0; ty < int(m.res); ++ty)
         for (int tx = 0; tx < int(m.res); ++tx) {
           DsmNode buf[256];
@@ -485,11 +486,11 @@ TEST_F(GlSystem, MapsBeyondTheStorageBlockLimitAreRefused) {
   scene.shadows.resolution = 256;
   ShadowSystem sys(app_options(FragmentSource::Cpu));
   sync_scene(sys, scene);
-  set_gl_map_block_limit(*internals(sys).gl, 64 * 1024);  // 256^2 texel headers need 512 KiB
+  SystemHooks::limit_gl_map_block(sys, 64 * 1024);  // 256^2 texel headers need 512 KiB
   const std::string e = error_of([&] { sys.update(); });
   EXPECT_NE(e.find("CdsmTexels"), std::string::npos) << e;
   EXPECT_NE(e.find("GL_MAX_SHADER_STORAGE_BLOCK_SIZE"), std::string::npos) << e;
-  set_gl_map_block_limit(*internals(sys).gl, 0);
+  SystemHooks::limit_gl_map_block(sys, 0);
   sys.set_camera(scene.camera);
   sys.update();  // the driver's real limit (128 MiB on llvmpipe) holds them
 }
@@ -605,11 +606,12 @@ class InPlaceBackend final : public ShadowBackend {
 // `sys`'s backend wrapped in an InPlaceBackend (its fragment producer
 // follows); the wrapper, owned by the system.
 InPlaceBackend* use_in_place_backend(ShadowSystem& sys) {
-  ShadowSystem::Impl& I = internals(sys);
-  auto in_place = std::make_unique<InPlaceBackend>(std::move(I.backend));
-  InPlaceBackend* ip = in_place.get();
-  I.backend = std::move(in_place);
-  I.fragments.use_backend(I.backend.get());
+  InPlaceBackend* ip = nullptr;
+  SystemHooks::wrap_backend(sys, [&](std::unique_ptr<ShadowBackend> inner) {
+    auto in_place = std::make_unique<InPlaceBackend>(std::move(inner));
+    ip = in_place.get();
+    return std::unique_ptr<ShadowBackend>(std::move(in_place));
+  });
   return ip;
 }
 
@@ -623,7 +625,7 @@ TEST_F(GlSystem, GlListsHandedOverTileByTileEqualListsReadBack) {
   Scene scene = load_scene(scene_path("teapot_omni.json"));
   scene.shadows.resolution = 96;
   ShadowSystem host(app_options(FragmentSource::Gl));
-  internals(host).fragments.limit_pool(4096, 64 * 1024);
+  SystemHooks::limit_fragment_pool(host, 4096, 64 * 1024);
   sync_scene(host, scene);
   FrameStats hs;
   const Image want = host.render(&hs);
@@ -631,7 +633,7 @@ TEST_F(GlSystem, GlListsHandedOverTileByTileEqualListsReadBack) {
 
   ShadowSystem dev(app_options(FragmentSource::Gl));
   InPlaceBackend* ip = use_in_place_backend(dev);
-  internals(dev).fragments.limit_pool(4096, 64 * 1024);
+  SystemHooks::limit_fragment_pool(dev, 4096, 64 * 1024);
   sync_scene(dev, scene);
   FrameStats st;
   const Image got = dev.render(&st);
@@ -657,11 +659,11 @@ struct PublishStep {
 // omni light moved (compaction: a new epoch, every array once).
 std::vector<PublishStep> publish_steps(ShadowSystem& sys, Scene scene) {
   std::vector<PublishStep> steps;
-  ShadowSystem::Impl& I = internals(sys);
+  const FrameSnapshot snap(sys);
   const auto step = [&] {
     FrameStats st;
     sys.update(&st);
-    steps.push_back({st.update, st.maps_rebuilt, gl_maps_differ(sys.gl_buffers(), I.backend->storage())});
+    steps.push_back({st.update, st.maps_rebuilt, gl_maps_differ(sys.gl_buffers(), snap.backend().storage())});
   };
   sync_scene(sys, scene);
   step();
@@ -687,13 +689,12 @@ TEST_F(GlSystem, HostBackendsUploadTheirMapsFromTheHost) {
   for (int exec = 0; exec < 2; ++exec) {
     SCOPED_TRACE(exec ? "exec backend on CPU threads" : "cpu backend");
     ShadowSystem sys(app_options(FragmentSource::Cpu));
-    ShadowSystem::Impl& I = internals(sys);
-    if (exec) {
-      I.backend = std::make_unique<exec::ExecBackend<exec::HostExec>>("exec-host");
-      I.fragments.use_backend(I.backend.get());
-    }
-    EXPECT_FALSE(I.backend->can_write_gl_maps());
-    EXPECT_THROW(I.backend->write_gl_maps(nullptr, 0), std::logic_error);
+    if (exec)
+      SystemHooks::wrap_backend(sys, [](std::unique_ptr<ShadowBackend>) {
+        return std::unique_ptr<ShadowBackend>(std::make_unique<exec::ExecBackend<exec::HostExec>>("exec-host"));
+      });
+    EXPECT_FALSE(SystemHooks::backend(sys).can_write_gl_maps());
+    EXPECT_THROW(SystemHooks::backend(sys).write_gl_maps(nullptr, 0), std::logic_error);
     const std::vector<PublishStep> steps = publish_steps(sys, scene);
     for (size_t i = 0; i < steps.size(); ++i) {
       SCOPED_TRACE("step " + std::to_string(i));
@@ -753,7 +754,7 @@ TEST_F(GlSystem, EveryMapBufferIsReleasedToTheBackendBeforeGlDeletesIt) {
   scene.shadows.resolution = 96;
   ShadowSystem sys(app_options(FragmentSource::Cpu));
   InPlaceBackend* ip = use_in_place_backend(sys);
-  ShadowSystem::Impl& I = internals(sys);
+  const FrameSnapshot snap(sys);
   const auto registered_are_live = [&] {
     const GlMapBuffers b = sys.gl_buffers();
     const uint32_t live[] = {b.texels, b.nodes, b.chunks, b.rgb_texels, b.rgb_nodes, b.rgb_chunks, b.tags, b.rgb_tags};
@@ -779,11 +780,11 @@ TEST_F(GlSystem, EveryMapBufferIsReleasedToTheBackendBeforeGlDeletesIt) {
   }
   EXPECT_GT(ip->releases, first) << "the updates replaced buffers";
   EXPECT_FALSE(ip->registered.empty());
-  set_gl_map_block_limit(*I.gl, 0);  // drops every buffer
+  SystemHooks::limit_gl_map_block(sys, 0);  // drops every buffer
   EXPECT_TRUE(ip->registered.empty()) << ip->registered.size() << " buffers deleted while registered";
   sys.update();
   registered_are_live();
-  EXPECT_EQ(gl_maps_differ(sys.gl_buffers(), I.backend->storage()), "");
+  EXPECT_EQ(gl_maps_differ(sys.gl_buffers(), snap.backend().storage()), "");
   for (const std::string& v : ip->violations) ADD_FAILURE() << v;
 }
 
@@ -794,7 +795,7 @@ TEST_F(GlSystem, AFailedInPlaceWriteIsRepairedByTheNextUpdate) {
   scene.shadows.resolution = 96;
   ShadowSystem sys(app_options(FragmentSource::Cpu));
   InPlaceBackend* ip = use_in_place_backend(sys);
-  ShadowSystem::Impl& I = internals(sys);
+  const FrameSnapshot snap(sys);
   sync_scene(sys, scene);
   sys.update();
   Light l = scene.lights[0];
@@ -806,7 +807,7 @@ TEST_F(GlSystem, AFailedInPlaceWriteIsRepairedByTheNextUpdate) {
   sys.set_camera(scene.camera);
   sys.update(&st);
   EXPECT_TRUE(st.update.gl_map_full_upload);
-  EXPECT_EQ(gl_maps_differ(sys.gl_buffers(), I.backend->storage()), "");
+  EXPECT_EQ(gl_maps_differ(sys.gl_buffers(), snap.backend().storage()), "");
 }
 
 }  // namespace

@@ -25,8 +25,8 @@
 #include "backend/backend.h"
 #include "cuda_backend.h"
 #include "device.h"
+#include "common/system_frame.h"
 #include "frame.h"
-#include "scene_compile.h"
 
 using namespace cdsm;
 using Clock = std::chrono::steady_clock;
@@ -70,30 +70,31 @@ nlohmann::json frame_times(const Scene& s, Backend backend, FragmentSource frags
 }
 
 // The frame's maps on the cuda backend with a first walk into buffers of
-// k nodes, with CUDA event times per launch.
-nlohmann::json light_pass_walk(const Scene& s, const SceneBuffers& sb, int k) {
-  std::unique_ptr<exec::ExecShadowBackend> gpu = cuda::make_cuda_backend();
-  gpu->light_pass().walk_nodes = k;
-  gpu->update_scene(sb, SceneChange::all());
-  MapCache cache;
-  ShadowFrame frame;
-  build_shadow_frame(frame_inputs(s, sb), cpu_fragment_producer(sb.view()), *gpu, cache, frame);
-  gpu->take_stage_times();  // the first build includes allocations: measure a second one
-  MapCache cache2;
-  ShadowFrame frame2;
+// k nodes, with CUDA event times per launch (a ShadowSystem on that backend).
+nlohmann::json light_pass_walk(const Scene& s, int k) {
+  ShadowSystem sys(cdsm_test::cpu_system_options());
+  SystemHooks::wrap_backend(sys, [k](std::unique_ptr<ShadowBackend>) {
+    std::unique_ptr<exec::ExecShadowBackend> gpu = cuda::make_cuda_backend();
+    gpu->light_pass().walk_nodes = k;
+    return std::unique_ptr<ShadowBackend>(std::move(gpu));
+  });
+  sync_scene(sys, s);
+  sys.update();  // the first build includes allocations: measure a second one
+  sys.reset_maps();
+  FrameStats st;
   const auto t0 = Clock::now();
-  build_shadow_frame(frame_inputs(s, sb), cpu_fragment_producer(sb.view()), *gpu, cache2, frame2);
+  sys.update(&st);
   const double wall = ms_since(t0);
   nlohmann::json j;
   double kernels = 0.0;
   uint64_t recompressed = 0, rewalked = 0;
-  for (const exec::StageTime& t : gpu->take_stage_times()) {
+  for (const KernelTime& t : st.times.kernels) {
     if (t.name.rfind("light pass", 0) == 0) {
       j["launches"][t.name] = t.ms;
       kernels += t.ms;
     }
   }
-  for (const DsmBuildStats& m : frame2.map_stats) {
+  for (const DsmBuildStats& m : FrameSnapshot(sys).frame().map_stats) {
     recompressed += m.overflow_texels;
     rewalked += m.rewalked_texels;
   }
@@ -200,10 +201,10 @@ int main(int argc, char** argv) {
     const double cam_ratio =
         r["cpu"]["camera_pass_ms"].get<double>() / std::max(1e-6, r["cuda"]["camera_pass_ms"].get<double>());
     r["cpu_over_cuda"] = {{"dsm_build", build_ratio}, {"camera_pass", cam_ratio}};
-    SceneBuffers sb = compile_scene(s);
+    SceneBuffers sb = cdsm_test::compiled_scene(s);
     r["fragments"] = fragment_producers(s, sb, repeat);
-    r["light_pass"]["k32"] = light_pass_walk(s, sb, 32);
-    r["light_pass"]["k64"] = light_pass_walk(s, sb, 64);
+    r["light_pass"]["k32"] = light_pass_walk(s, 32);
+    r["light_pass"]["k64"] = light_pass_walk(s, 64);
     char line[512];
     std::snprintf(line, sizeof line, "| %s | %.2fx | %.2fx | %.2f | %.2f | %s %.2f / %.2f |\n", res.c_str(),
                   build_ratio, cam_ratio, r["fragments"]["cuda_kernels_ms"].get<double>(),

@@ -16,8 +16,8 @@
 #include "backend/backend.h"
 #include "cdsm/scene.h"
 #include "cdsm/scene_io.h"
+#include "common/system_frame.h"
 #include "frame.h"
-#include "scene_compile.h"
 
 namespace cdsm::parity {
 
@@ -35,32 +35,25 @@ inline Scene load(const std::string& name, int res, int w, int h) {
   return s;
 }
 
-// One frame of `scene` on `backend`: every map built (CPU-cast fragment
-// lists), then the camera pass.
+// One frame of `scene` on `backend`, built by a ShadowSystem that owns it
+// (CPU-cast fragment lists): every map, then the camera pass. `frame` is a
+// copy of the snapshot's (its maps live in the system's backend).
 struct Frame {
-  MapCache cache;
+  std::unique_ptr<ShadowSystem> system;
   ShadowFrame frame;
   std::vector<float> rgb;
-  WalkStats walk;
-  std::vector<DsmBuildStats> stats;
+  FrameStats frame_stats;            // render()'s: stage and kernel times, walk counters
+  std::vector<DsmBuildStats> stats;  // per map
+  ShadowBackend& backend() { return SystemHooks::backend(*system); }
 };
 
-inline void run(const Scene& scene, const SceneBuffers& sb, ShadowBackend& backend, Frame& f) {
-  backend.update_scene(sb, SceneChange::all());
-  const SceneView sv = sb.view();
-  build_shadow_frame(frame_inputs(scene, sb), cpu_fragment_producer(sv), backend, f.cache, f.frame);
+inline void run(const Scene& scene, std::unique_ptr<ShadowBackend> backend, Frame& f) {
+  f.system = std::make_unique<ShadowSystem>(cdsm_test::cpu_system_options());
+  SystemHooks::wrap_backend(*f.system, [&](std::unique_ptr<ShadowBackend>) { return std::move(backend); });
+  sync_scene(*f.system, scene);
+  f.rgb = f.system->render(&f.frame_stats).rgb;
+  f.frame = FrameSnapshot(*f.system).frame();
   f.stats = f.frame.map_stats;
-  CameraPassParams cam;
-  cam.view = camera_view(scene.camera);
-  std::vector<uint32_t> inside = objects_containing(sv, cam.view.eye, ObjectMask{});
-  cam.inside = {inside.data(), inside.size()};
-  cam.ambient = scene.shadows.ambient_light;
-  cam.background = scene.background;
-  FragmentBuffers fb;
-  cast_fragments(sv, cam.view, ObjectMask{}, fb);
-  const ListsId lists = backend.adopt_lists(std::move(fb));
-  backend.camera_pass(f.frame.view(scene.shadows), cam, lists, f.rgb, f.walk);
-  backend.free_lists(lists);
 }
 
 // Node lists of texel (tx, ty) of a map from host-readable storage (any layout, either kind).

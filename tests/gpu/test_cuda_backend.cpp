@@ -13,6 +13,7 @@
 #include "cuda_backend.h"
 #include "gpu_test.h"
 #include "parity.h"
+#include "common/system_frame.h"
 
 using namespace cdsm;
 
@@ -21,15 +22,12 @@ namespace {
 const char* kScenes[] = {"default", "volumes", "depth"};
 
 void expect_parity(const Scene& s, const std::string& what) {
-  SceneBuffers sb = compile_scene(s);
-  std::unique_ptr<ShadowBackend> cpu = make_cpu_backend();
-  std::unique_ptr<exec::ExecShadowBackend> gpu = cuda::make_cuda_backend();
   parity::Frame a, b;
-  parity::run(s, sb, *cpu, a);
-  parity::run(s, sb, *gpu, b);
+  parity::run(s, make_cpu_backend(), a);
+  parity::run(s, cuda::make_cuda_backend(), b);
   ASSERT_EQ(a.frame.maps.size(), b.frame.maps.size()) << what;
   ASSERT_FALSE(a.frame.maps.empty()) << what << ": no map built, nothing to compare";
-  const DsmStorage sa = cpu->storage(), sg = gpu->storage();
+  const DsmStorage sa = a.backend().storage(), sg = b.backend().storage();
   const double bound = 2.0 * double(s.shadows.epsilon) + 1e-5;
   uint64_t nodes = 0;
   for (size_t k = 0; k < a.frame.maps.size(); ++k) {
@@ -77,7 +75,7 @@ TEST(CudaBackend, ClusteredMapsAndBaselines) {
 TEST(CudaBackend, SpilledTexelsMatchTheBoundedBuffer) {
   CDSM_REQUIRE_DEVICE();
   Scene s = parity::load("depth", 128, 64, 48);
-  SceneBuffers sb = compile_scene(s);
+  SceneBuffers sb = cdsm_test::compiled_scene(s);
   const SceneView sv = sb.view();
   LightSetup ls = setup_lights(s.lights, sb, s.shadows.resolution);
   std::vector<uint32_t> casters =
@@ -110,7 +108,7 @@ TEST(CudaBackend, FragmentsEqualTheCpuRayCaster) {
   CDSM_REQUIRE_DEVICE();
   for (const char* name : kScenes) {
     Scene s = parity::load(name, 64, 320, 240);
-    SceneBuffers sb = compile_scene(s);
+    SceneBuffers sb = cdsm_test::compiled_scene(s);
     std::unique_ptr<exec::ExecShadowBackend> gpu = cuda::make_cuda_backend();
     gpu->update_scene(sb, SceneChange::all());
     const PinholeView cam = camera_view(s.camera);
@@ -170,12 +168,10 @@ TEST(CudaBackend, KernelTimesInFrameStats) {
 TEST(CudaBackend, StageTimesFromEvents) {
   CDSM_REQUIRE_DEVICE();
   Scene s = parity::load("default", 128, 160, 120);
-  SceneBuffers sb = compile_scene(s);
-  std::unique_ptr<exec::ExecShadowBackend> gpu = cuda::make_cuda_backend();
   parity::Frame f;
-  parity::run(s, sb, *gpu, f);
+  parity::run(s, cuda::make_cuda_backend(), f);
   double total = 0.0;
-  for (const exec::StageTime& t : gpu->take_stage_times()) {
+  for (const KernelTime& t : f.frame_stats.times.kernels) {  // the system took the backend's event times
     EXPECT_GE(t.ms, 0.0) << t.name;
     total += t.ms;
   }

@@ -1,11 +1,19 @@
 // The one backend (shadows/backend/exec_backend.h) on CPU threads — the
 // cpu backend, and the cuda backend's code minus the CUDA glue — against a
-// small serial reference written here: each texel's light ray walked by a
-// plain loop into a vector of nodes, each pixel shaded by a plain loop. The
-// light pass's batches, first and second walks, tile reservations, layouts,
-// tags, the store's compaction, the camera pass and the ray-cast fragment
-// producer are checked texel by texel and pixel by pixel on the GPU suite's
-// three scenes. The GPU runs the same code (tests/gpu/test_cuda_backend.cpp).
+// small serial reference written here: each texel walked by a plain loop
+// into a vector of nodes, each pixel shaded by a plain loop.
+//
+// What this checks is the backend's orchestration, not the per-texel and
+// per-pixel arithmetic: the serial loops call the same CDSM_HD functions
+// the backend launches (build_texel, shade_pixel, cast_pixel), so a wrong
+// walk or lookup would be wrong on both sides. Checked here, texel by
+// texel and pixel by pixel on the GPU suite's three scenes: the light
+// pass's batches, first and second walks, tile reservations, layouts and
+// tags, the store's compaction, the camera pass's launch over the pixels,
+// the ray-cast fragment producer's. The arithmetic itself is checked
+// against analytic answers and the independent reference renderer
+// (tests/unit: test_dsm_analytic, test_compress, test_reference, ...).
+// The GPU runs the same code (tests/gpu/test_cuda_backend.cpp).
 #include <type_traits>
 #include <gtest/gtest.h>
 
@@ -17,7 +25,9 @@
 #include "exec/host_exec.h"
 #include "exec/scan.h"
 #include "parity.h"
-#include "shadow_system_impl.h"
+#include "frame_snapshot.h"
+#include "scene_sync.h"
+#include "common/system_frame.h"
 
 using namespace cdsm;
 using HostBackend = exec::ExecBackend<exec::HostExec>;
@@ -35,7 +45,7 @@ struct OneView {
   std::vector<uint32_t> casters, inside;
   FragmentBuffers frags;
   LightPassParams params{};
-  explicit OneView(Scene s, float eps) : scene(std::move(s)), sb(compile_scene(scene)) {
+  explicit OneView(Scene s, float eps) : scene(std::move(s)), sb(cdsm_test::compiled_scene(scene)) {
     const SceneView sv = sb.view();
     LightSetup ls = setup_lights(scene.lights, sb, scene.shadows.resolution);
     casters = sb.mask_where([&](uint32_t o) { return (sb.objects[o].flags & kObjCastsShadows) != 0u; });
@@ -406,10 +416,9 @@ TEST(ExecBackend, CompactionFollowsHolesNotArrayCapacity) {
 TEST(ExecBackend, ImageEqualsASerialCameraPass) {
   for (const char* name : kScenes) {
     Scene s = parity::load(name, 48, 40, 30);
-    SceneBuffers sb = compile_scene(s);
-    HostBackend ex("cpu");
     parity::Frame f;
-    parity::run(s, sb, ex, f);
+    parity::run(s, std::make_unique<HostBackend>("cpu"), f);
+    const SceneBuffers& sb = FrameSnapshot(*f.system).compiled();
     const ShadowView sv = f.frame.view(s.shadows);
     CameraPassParams cam;
     cam.view = camera_view(s.camera);
@@ -439,7 +448,7 @@ TEST(ExecBackend, ImageEqualsASerialCameraPass) {
 TEST(ExecBackend, FragmentsEqualASerialRayCast) {
   for (const char* name : kScenes) {
     Scene s = parity::load(name, 64, 96, 64);
-    SceneBuffers sb = compile_scene(s);
+    SceneBuffers sb = cdsm_test::compiled_scene(s);
     HostBackend ex("cpu");
     ex.update_scene(sb, SceneChange::all());
     const PinholeView cam = camera_view(s.camera);
@@ -475,7 +484,7 @@ TEST(ExecBackend, FragmentsEqualASerialRayCast) {
 // view are refused by name.
 TEST(ExecBackend, FragmentListsAreHeldWhereTheyAreUsed) {
   Scene s = parity::load("default", 48, 40, 30);
-  SceneBuffers sb = compile_scene(s);
+  SceneBuffers sb = cdsm_test::compiled_scene(s);
   HostBackend ex("cpu");
   ex.update_scene(sb, SceneChange::all());
   ex.take_transfers();
@@ -581,17 +590,15 @@ const char* const kLightPassLaunches[] = {"light pass: walk", "light pass: reser
 
 TEST(ExecBackend, StageTimesNameEveryLaunch) {
   Scene s = parity::load("default", 32, 32, 24);
-  SceneBuffers sb = compile_scene(s);
-  HostBackend ex("cpu");
   parity::Frame f;
-  parity::run(s, sb, ex, f);
-  const std::vector<exec::StageTime> t = ex.take_stage_times();
+  parity::run(s, std::make_unique<HostBackend>("cpu"), f);
+  // The system took the backend's stage times into its FrameStats.
   std::vector<std::string> names;
-  for (const exec::StageTime& st : t) names.push_back(st.name);
+  for (const KernelTime& k : f.frame_stats.times.kernels) names.push_back(k.name);
   for (const char* want : kLightPassLaunches)
     EXPECT_NE(std::find(names.begin(), names.end(), want), names.end()) << want;
   EXPECT_NE(std::find(names.begin(), names.end(), "camera pass"), names.end());
-  EXPECT_TRUE(ex.take_stage_times().empty()) << "taken: the next call starts empty";
+  EXPECT_TRUE(f.backend().take_stage_times().empty()) << "taken: the next call starts empty";
 }
 
 // A frame's stages timed inside the backend's kernels (StageTimes::kernel_*:

@@ -17,7 +17,8 @@
 #include "gl_interop.h"
 #include "gl_test_util.h"
 #include "gpu_test.h"
-#include "shadow_system_impl.h"
+#include "frame_snapshot.h"
+#include "scene_sync.h"
 
 using namespace cdsm;
 
@@ -81,9 +82,9 @@ TEST_F(GlInterop, RegisterOnceMapWriteRead) {
 TEST_F(GlInterop, CudaBackendWritesTheMapBuffersInPlace) {
   CDSM_REQUIRE_GL_ON_DEVICE();
   ShadowSystem sys(cuda_on_app_context());
-  ShadowSystem::Impl& I = internals(sys);
-  ASSERT_STREQ(I.backend->name(), "cuda");
-  ASSERT_TRUE(I.backend->can_write_gl_maps());
+  const FrameSnapshot snap(sys);
+  ASSERT_STREQ(snap.backend().name(), "cuda");
+  ASSERT_TRUE(snap.backend().can_write_gl_maps());
 
   Scene scene = load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/teapot_omni.json");
   scene.shadows.resolution = 128;
@@ -92,12 +93,12 @@ TEST_F(GlInterop, CudaBackendWritesTheMapBuffersInPlace) {
     SCOPED_TRACE(what);
     FrameStats st;
     sys.update(&st);
-    EXPECT_EQ(test::gl_maps_differ(sys.gl_buffers(), I.backend->storage()), "");
+    EXPECT_EQ(test::gl_maps_differ(sys.gl_buffers(), snap.backend().storage()), "");
     if (expect_device_bytes)
       EXPECT_GT(st.update.gl_map_device_bytes, 0u);
     else
       EXPECT_EQ(st.update.gl_map_device_bytes, 0u);
-    const uint64_t frame_block = sizeof(gl::FrameBlockHeader) + sizeof(DsmMap) * I.frame.headers.size();
+    const uint64_t frame_block = sizeof(gl::FrameBlockHeader) + sizeof(DsmMap) * snap.frame().headers.size();
     EXPECT_TRUE(st.update.gl_map_upload_bytes == 0 || st.update.gl_map_upload_bytes == frame_block)
         << "only the frame block from the host: " << st.update.gl_map_upload_bytes;
     return st;
@@ -129,7 +130,7 @@ TEST_F(GlInterop, CudaCameraPassWritesAPixelBuffer) {
   scene.shadows.resolution = 128;
   sync_scene(sys, scene);
   const Image img = sys.render();
-  ShadowSystem::Impl& I = internals(sys);
+  const FrameSnapshot snap(sys);
   const uint64_t bytes = img.rgb.size() * sizeof(float);
   ASSERT_GT(bytes, 0u);
   GLuint pbo = 0;
@@ -137,7 +138,8 @@ TEST_F(GlInterop, CudaCameraPassWritesAPixelBuffer) {
   glNamedBufferData(pbo, GLsizeiptr(bytes), nullptr, GL_STREAM_DRAW);
   for (int pass = 0; pass < 2; ++pass) {
     WalkStats ws;
-    I.backend->camera_pass_to_gl(I.shadow_view(), I.cam, I.camera_lists, pbo, bytes, 1, ws);
+    SystemHooks::backend(sys).camera_pass_to_gl(snap.shadow_view(), snap.camera(), snap.camera_lists(), pbo, bytes, 1,
+                                                ws);
     std::vector<float> back(img.rgb.size());
     glGetNamedBufferSubData(pbo, 0, GLsizeiptr(bytes), back.data());
     EXPECT_EQ(std::memcmp(back.data(), img.rgb.data(), bytes), 0) << "pass " << pass;

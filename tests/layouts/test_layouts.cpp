@@ -17,6 +17,7 @@
 #include "cdsm/renderer.h"
 #include "common/host_maps.h"
 #include "scene_compile.h"
+#include "common/system_frame.h"
 
 using namespace cdsm;
 using cdsm_test::build_host_map;
@@ -113,7 +114,7 @@ PinholeView spot_view(const Light& l, int res) {
 
 struct Fixture {
   Scene scene = make_scene();
-  SceneBuffers sb = compile_scene(scene);
+  SceneBuffers sb = cdsm_test::compiled_scene(scene);
   SceneView sv = sb.view();
   PinholeView view = spot_view(scene.lights[0], kRes);
   std::vector<uint32_t> casters;

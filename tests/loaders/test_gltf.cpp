@@ -14,6 +14,7 @@
 #include "cdsm/renderer.h"
 #include "scene_compile.h"
 #include "loader_test_util.h"
+#include "common/system_frame.h"
 
 namespace cdsm_test {
 namespace {
@@ -271,7 +272,7 @@ TEST(Gltf, GlbSceneWithLightsCameraAndMaterials) {
   EXPECT_EQ(s.camera.width, 720);
   EXPECT_EQ(s.camera.height, 480);
   // It compiles (closed glass keeps its interior) and renders.
-  SceneBuffers sb = compile_scene(s);
+  SceneBuffers sb = compiled_scene(s);
   EXPECT_EQ(sb.objects[1].interior, InteriorKind::Constant);
   for (uint32_t o = 0; o < 2; ++o) {
     double v = 0.0;
@@ -608,7 +609,7 @@ TEST(Gltf, BadNormalsAreRecomputedWithAWarning) {
     EXPECT_NEAR(o.mesh->normals[0].x, -1.0f / std::sqrt(3.0f), 1e-6f) << "good normals are kept";
   }
   // It compiles and renders.
-  SceneBuffers sb = compile_scene(s);
+  SceneBuffers sb = compiled_scene(s);
   for (const Vec3& nv3 : sb.tri_normals) EXPECT_TRUE(is_finite(nv3));
 }
 

@@ -8,6 +8,7 @@
 #include "scene_compile.h"
 #include "hd/volume.h"
 #include "loader_test_util.h"
+#include "common/system_frame.h"
 
 namespace cdsm_test {
 namespace {
@@ -181,7 +182,7 @@ TEST(RawVolume, GradientOfARampForPhongShading) {
   Scene s =
       parse_scene(raw_scene(R"({"type": "raw", "file": "ramp.raw", "dims": [6, 6, 6]})", R"(, "voxel_size": 0.5)"),
                   dir + "/s.json", dir);
-  SceneBuffers sb = compile_scene(s);
+  SceneBuffers sb = compiled_scene(s);
   SceneView v = sb.view();
   Vec3 g = density_gradient(v, v.volumes[0], s.volumes[0].index_to_object.point({2.5f, 2.5f, 2.5f}));
   EXPECT_NEAR(g.x, 40.0f / 255.0f / 0.5f, 1e-4f);  // per world unit

@@ -28,6 +28,7 @@
 #include "loader_test_util.h"
 #include "reference/reference.h"
 #include "vdb_fixtures.h"
+#include "common/system_frame.h"
 
 namespace cdsm_test {
 namespace {
@@ -94,16 +95,13 @@ double index_box_chord(const Mat4& index_to_world, Vec3 lo, Vec3 hi, Vec3 org, V
 // Transmittance from the light to p through the DSM path: light pass ->
 // compressed nodes -> bilinear lookup (what the camera pass does).
 float dsm_transmittance(const Scene& scene, Vec3 p) {
-  SceneBuffers sb = compile_scene(scene);
-  ShadowCache cache;
-  ShadowFrame frame;
-  build_shadow_frame(scene, sb, cpu_fragment_producer(sb.view()), cache, frame);
-  ShadowView sv = frame.view(scene.shadows);
-  return 1.0f - grey_of(shadow_alpha(sv, frame.setup.lights[0], p));
+  const SystemFrame f(scene);
+  ShadowView sv = f.view(scene);
+  return 1.0f - grey_of(shadow_alpha(sv, f.frame.setup.lights[0], p));
 }
 
 float reference_transmittance(const Scene& scene, Vec3 a, Vec3 b) {
-  SceneBuffers sb = compile_scene(scene);
+  SceneBuffers sb = compiled_scene(scene);
   ReferenceRenderer ref(sb.view(), {});
   return grey_of(ref.transmittance_segment(a, b));
 }
@@ -129,7 +127,7 @@ TEST(Vdb, SharedGridsMatchTheManifest) {
       EXPECT_EQ(v.grid->active_max[a] - v.grid->active_min[a] + 1, c.dims[a]) << c.file << " axis " << a;
     EXPECT_EQ(v.grid->background, c.background) << c.file;
     // The NanoVDB bytes agree.
-    SceneBuffers sb = compile_scene(volume_scene(v, 1.0f, VolumeProxy::Box));
+    SceneBuffers sb = compiled_scene(volume_scene(v, 1.0f, VolumeProxy::Box));
     const auto* g = reinterpret_cast<const nanovdb::FloatGrid*>(sb.view().nano_pool.data());
     EXPECT_EQ(g->activeVoxelCount(), c.active) << c.file;
     EXPECT_EQ(g->tree().background(), c.background) << c.file;
@@ -259,7 +257,7 @@ TEST(VdbFixture, ValueTypes) {
     VdbVolume v = load_vdb(dir + "/t.vdb");
     EXPECT_EQ(v.grid->active_voxels, 512u);
     EXPECT_FLOAT_EQ(v.grid->max_value, 0.75f);
-    SceneBuffers sb = compile_scene(volume_scene(v, 1.0f, VolumeProxy::Box));
+    SceneBuffers sb = compiled_scene(volume_scene(v, 1.0f, VolumeProxy::Box));
     EXPECT_FLOAT_EQ(density_at_index(sb.view(), sb.volumes[0], {3.5f, 3.5f, 3.5f}), 0.75f);
   }
 }
@@ -277,7 +275,7 @@ TEST(VdbFixture, ActiveTilesAndANonZeroBackground) {
   EXPECT_EQ(v.grid->active_voxels, 32768u);
   const float sigma = 0.1f;
   Scene s = volume_scene(v, sigma, VolumeProxy::Box, {0.05f, 0.03f, 5}, {0.05f, 0.03f, 0});
-  SceneBuffers sb = compile_scene(s);
+  SceneBuffers sb = compiled_scene(s);
   SceneView sv = sb.view();
   EXPECT_FLOAT_EQ(density_at_index(sv, sv.volumes[0], {0.3f, 0.2f, 0.1f}), 0.5f);
   EXPECT_FLOAT_EQ(density_at_index(sv, sv.volumes[0], {100.0f, 0.2f, 0.1f}), 0.25f);
@@ -430,7 +428,7 @@ TEST(VdbSkipping, LeafMaximaSkipOnlyEmptySpace) {
   VdbVolume v = load_vdb(data_path("vdb/openvdb_smoke1_density.vdb"));
   // Threshold 0.3: much of the plume's fringe maps to zero extinction.
   Scene s = volume_scene(v, 0.05f, VolumeProxy::Box, {0, 0, 5}, {0, 0, 0}, 0.3f);
-  SceneBuffers sb = compile_scene(s);
+  SceneBuffers sb = compiled_scene(s);
   SceneView sv = sb.view();
   const VolumeData& vd = sv.volumes[0];
   uint32_t empty = 0;
@@ -460,7 +458,7 @@ struct MarchCount {
 // Marches the DSM path's sampler (march_segment) over the proxy's inside
 // intervals of a grid of rays from `eye` across the volume.
 MarchCount count_marching(const Scene& scene, Vec3 eye, int n) {
-  SceneBuffers sb = compile_scene(scene);
+  SceneBuffers sb = compiled_scene(scene);
   SceneView sv = sb.view();
   MarchCount mc;
   const Box3 box = sb.object_bounds[0];
@@ -508,7 +506,7 @@ TEST(VdbProxy, LeafHullIsClosedTighterAndMarchesFewerSamples) {
   const Box3 wb = world_bounds(box, Mat4{});
   std::mt19937 rng(9);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  SceneBuffers b1 = compile_scene(sbox), b2 = compile_scene(shull);
+  SceneBuffers b1 = compiled_scene(sbox), b2 = compiled_scene(shull);
   ReferenceRenderer r1(b1.view(), {}), r2(b2.view(), {});
   for (int k = 0; k < 20; ++k) {
     Vec3 a = wb.lo + (wb.hi - wb.lo) * Vec3{u(rng), u(rng), -0.3f};

@@ -12,14 +12,16 @@
 
 #include "cdsm/cdsm.h"
 #include "common/builders.h"
+#include "common/system_frame.h"
 #include "frame.h"
-#include "scene_compile.h"
 #include "hd/camera_pass.h"
 #include "reference/reference.h"
 
 namespace stab {
 
 using namespace cdsm;
+using cdsm_test::compiled_scene;
+using cdsm_test::SystemFrame;
 
 inline std::shared_ptr<const TriangleMesh> share(TriangleMesh m) {
   return std::make_shared<const TriangleMesh>(std::move(m));
@@ -111,17 +113,12 @@ inline RenderOptions cpu_options() {
   return o;
 }
 
-// A scene compiled and its shadow maps built on the CPU (exact fragments).
-struct Rig {
+// A scene's frame built by a ShadowSystem on the CPU (exact fragments;
+// common/system_frame.h).
+struct Rig : SystemFrame {
   Scene scene;
-  SceneBuffers sb;
-  ShadowCache cache;
-  ShadowFrame frame;
 
-  explicit Rig(Scene s) : scene(std::move(s)) {
-    sb = compile_scene(scene);
-    build_shadow_frame(scene, sb, cpu_fragment_producer(sb.view()), cache, frame);
-  }
+  explicit Rig(Scene s) : SystemFrame(s), scene(std::move(s)) {}
   Rig(const Rig&) = delete;
   ShadowView view() const { return frame.view(scene.shadows); }
   // Opacity between light `li` and p from the maps (no bias).

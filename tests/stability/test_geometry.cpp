@@ -113,7 +113,7 @@ PinholeView axis_view(Vec3 eye, Vec3 forward, Vec3 up) {
 TEST(SharedEdges, RaysThroughGridEdgesAndVerticesHitExactlyOnce) {
   Scene s = scene_named("grid");
   s.objects.push_back(surface_object("grid", grid_mesh(16, 0.25f), Mat4{}, 1.0f));
-  SceneBuffers sb = compile_scene(s);
+  SceneBuffers sb = compiled_scene(s);
   ViewCounts c = count_fragments(sb, axis_view({0, 0, 4}, {0, 0, -1}, {0, 1, 0}));
   for (int y = 0; y < c.height; ++y)
     for (int x = 0; x < c.width; ++x) ASSERT_EQ(c.total(x, y), 1) << "pixel " << x << "," << y;
@@ -126,7 +126,7 @@ TEST(SharedEdges, RaysThroughGridEdgesAndVerticesHitExactlyOnce) {
 TEST(SharedEdges, ClosedMeshesThroughDiagonalsAndPolesEnterOnceExitOnce) {
   Scene s = scene_named("closed");
   s.objects.push_back(surface_object("box", make_box({2, 2, 2}), Mat4{}, 1.0f));
-  SceneBuffers sb = compile_scene(s);
+  SceneBuffers sb = compiled_scene(s);
   // The centre ray crosses the front and back faces exactly on their diagonals.
   ViewCounts c = count_fragments(sb, axis_view({0, 0, 4}, {0, 0, -1}, {0, 1, 0}));
   EXPECT_EQ(c.front[20 * 41 + 20], 1);
@@ -135,7 +135,7 @@ TEST(SharedEdges, ClosedMeshesThroughDiagonalsAndPolesEnterOnceExitOnce) {
 
   Scene t = scene_named("sphere");
   t.objects.push_back(surface_object("sphere", make_sphere(1.0f, 24, 12), Mat4{}, 1.0f));
-  SceneBuffers tb = compile_scene(t);
+  SceneBuffers tb = compiled_scene(t);
   // Down the axis: the centre ray goes through both poles (24 triangles each).
   c = count_fragments(tb, axis_view({0, 4, 0}, {0, -1, 0}, {0, 0, -1}));
   EXPECT_EQ(c.front[20 * 41 + 20], 1);
@@ -151,7 +151,7 @@ TEST(SharedEdges, ConvexMeshesAreWatertightUnderRandomRotations) {
     Vec3 r{angle(rng), angle(rng), angle(rng)};
     s.objects.push_back(surface_object("box", make_box({1.5f, 1, 0.7f}), at({0, 0, 0}, {1, 1, 1}, r), 1.0f));
     s.objects.push_back(surface_object("sphere", make_sphere(0.6f, 16, 8), at({0.9f, 0.2f, 0}, {1, 1, 1}, r), 1.0f));
-    SceneBuffers sb = compile_scene(s);
+    SceneBuffers sb = compiled_scene(s);
     PinholeView v = light_view({0.3f, 0.2f, 5}, {0, 0, -1}, {0, 1, 0}, 0.4f, 64, 0, 0.01f, 100.0f);
     for (uint32_t o = 0; o < 2; ++o) {
       ViewCounts c = count_fragments(sb, v, o);
@@ -208,7 +208,7 @@ TEST(Grazing, LightRaysInTheFacePlaneOfABoxStayMatched) {
   // box's top face: edge-on triangles, rays through its edges.
   Scene s = scene_named("edge-on");
   s.objects.push_back(medium_object("box", box_mesh({-1, -1, -1}, {1, 0, 1}), Mat4{}, 2.0f, 0.2f));
-  SceneBuffers sb = compile_scene(s);
+  SceneBuffers sb = compiled_scene(s);
   ViewCounts c = count_fragments(sb, axis_view({-5, 0, 0}, {1, 0, 0}, {0, 1, 0}));
   for (size_t i = 0; i < c.front.size(); ++i) ASSERT_EQ(c.front[i], c.back[i]) << "pixel " << i;
   s.lights.push_back(spot_light({-5, 0, 0}, {1, 0, 0}, 25, 20));
@@ -290,11 +290,11 @@ TEST(Degenerate, ZeroAreaTrianglesAddNoFragmentsAndNoNaN) {
   s.objects.push_back(surface_object("dust", dust, Mat4{}, 1.0f));
   s.lights.push_back(spot_light({0, 5, 0.01f}, {0, -1, 0}, 30, 25));
   ASSERT_TRUE(is_closed(with)) << "zero-area triangles do not open a mesh";
-  SceneBuffers sb = compile_scene(s);
+  SceneBuffers sb = compiled_scene(s);
   for (const Vec3& nrm : sb.tri_normals) ASSERT_TRUE(is_finite(nrm));
   Scene plain = scene_named("plain");
   plain.objects.push_back(medium_object("box", box, Mat4{}, 1.0f, 0.3f));
-  SceneBuffers pb = compile_scene(plain);
+  SceneBuffers pb = compiled_scene(plain);
   PinholeView v = axis_view({0, 4, 0}, {0, -1, 0}, {0, 0, -1});
   ViewCounts a = count_fragments(sb, v), b = count_fragments(pb, v);
   EXPECT_EQ(a.front, b.front);

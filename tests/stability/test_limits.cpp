@@ -51,7 +51,7 @@ TEST(Overflow, RecompressesRecordsTheErrorAndKeepsItWithinTheBound) {
   const int capacity = 16;
   const float sigma = 1.0f;
   Scene s = fog_slab(64, sigma);  // 128 samples per ray, 16 slots
-  SceneBuffers sb = compile_scene(s);
+  SceneBuffers sb = compiled_scene(s);
   LightSetup ls = setup_lights(s.lights, sb, s.shadows.resolution);
   const PinholeView& view = ls.maps[0].view;
   FragmentBuffers fb;

@@ -94,7 +94,7 @@ TEST(March, UnmarchableVolumeIsAnError) {
   Scene s = volume_scene(0.01f, 32, {1.0e5f, 0, 0}, {1.0e5f, 0.3f, 2.0f}, 45.0f, {1.0e5f, 0, 10.0f}, 30.0f, 64);
   within(20.0, "unmarchable", [&] {
     try {
-      compile_scene(s);
+      compiled_scene(s);
       ADD_FAILURE() << "no error for a volume that cannot be marched";
     } catch (const Error& e) {
       std::string m = e.what();

@@ -14,7 +14,8 @@
 #include "cdsm/renderer.h"
 #include "cdsm/scene_io.h"
 #include "cdsm/shadow_system.h"
-#include "shadow_system_impl.h"
+#include "frame_snapshot.h"
+#include "scene_sync.h"
 
 using namespace cdsm;
 

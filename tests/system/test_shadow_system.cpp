@@ -16,7 +16,8 @@
 #include "cdsm/shadow_system.h"
 #include "backend/exec_backend.h"
 #include "exec/host_exec.h"
-#include "shadow_system_impl.h"
+#include "frame_snapshot.h"
+#include "scene_sync.h"
 
 using namespace cdsm;
 
@@ -51,7 +52,7 @@ size_t index_of(const Scene& s, const std::string& name) {
 
 // The maps of light `li` whose members include object `oi` (by index).
 std::set<uint32_t> maps_with(ShadowSystem& sys, uint32_t li, uint32_t oi) {
-  const ShadowFrame& f = internals(sys).frame;
+  const ShadowFrame& f = FrameSnapshot(sys).frame();
   std::set<uint32_t> out;
   const LightData& ld = f.setup.lights[li];
   for (uint32_t k = 0; k < ld.map_count; ++k) {
@@ -139,7 +140,7 @@ TEST(ShadowSystem, MovedObjectRebuildsOnlyItsMapsAndUploadsOnlyItsTriangles) {
     EXPECT_NE(r.reason, RebuildReason::Settings);
     EXPECT_NE(r.reason, RebuildReason::Light);
   }
-  EXPECT_EQ(st.maps_rebuilt + st.maps_reused, uint32_t(internals(sys).frame.maps.size()));
+  EXPECT_EQ(st.maps_rebuilt + st.maps_reused, uint32_t(FrameSnapshot(sys).frame().maps.size()));
   if (st.fragment_source == "gl") {
     const uint64_t tris = s.objects[oi].mesh->triangle_count();
     EXPECT_EQ(st.update.gl_upload_bytes, tris * 48) << "its triangles' vertices and facing normals only";
@@ -226,7 +227,7 @@ TEST(ShadowSystem, KeptFragmentListsServeEpsilonEditsAndNeverOutliveAContentEdit
   EXPECT_EQ(st.update.fragment_lists_reused, 0u);
   EXPECT_GT(st.update.fragment_cache_bytes, 0u);
   // The backend holds a kept copy per map and the camera's lists, nothing else.
-  const ShadowBackend& backend = *internals(sys).backend;
+  const ShadowBackend& backend = FrameSnapshot(sys).backend();
   EXPECT_EQ(backend.map_store().lists, maps + 1);
   EXPECT_EQ(backend.map_store().list_bytes - st.update.fragment_cache_bytes,
             (uint64_t(s.camera.width) * uint64_t(s.camera.height) + 1) * sizeof(uint32_t) +
@@ -284,7 +285,7 @@ TEST(ShadowSystem, AFailedBuildLeavesNothingBehind) {
   ShadowSystem sys(o);
   add_scene(sys, s);
   sys.render();
-  auto* host = dynamic_cast<exec::ExecBackend<exec::HostExec>*>(internals(sys).backend.get());
+  auto* host = dynamic_cast<exec::ExecBackend<exec::HostExec>*>(&SystemHooks::backend(sys));
   ASSERT_NE(host, nullptr);
   const float eps[2] = {0.02f, 0.04f};
   Image want[2];
@@ -328,7 +329,7 @@ TEST(ShadowSystem, MovedLightRebuildsOnlyItsMaps) {
   add_scene(sys, s);
   FrameStats st;
   sys.render(&st);
-  const uint32_t light1_maps = internals(sys).frame.setup.lights[1].map_count;
+  const uint32_t light1_maps = FrameSnapshot(sys).frame().setup.lights[1].map_count;
   Light l = s.lights[1];
   l.position = l.position + Vec3{0.1f, 0.0f, 0.0f};
   sys.set_light(sys.lights()[1], l);
@@ -428,7 +429,7 @@ TEST(ShadowSystem, VolumeEditCompilesThatVolumeOnlyAndMatchesAFreshBuild) {
   const int32_t vi = s.objects[smoke].volume;
   ASSERT_EQ(vi, 0) << "the edited volume lies before the other one";
   for (TransferPoint& p : s.volumes[size_t(vi)].transfer) p.extinction *= 3.0f;
-  sys.set_volume({internals(sys).objects[smoke].volume}, s.volumes[size_t(vi)]);
+  sys.set_volume(sys.volumes()[size_t(vi)], s.volumes[size_t(vi)]);
   Image a = sys.render(&st);
   EXPECT_EQ(st.update.volumes_compiled, 1u);
   EXPECT_EQ(st.update.full_compiles + st.update.objects_compiled, 0u);
@@ -448,11 +449,10 @@ TEST(ShadowSystem, RemovedVolumeFreesItsVoxelsAndKeepsTheOthersRight) {
   sys.render(&st);
   const uint64_t with = st.update.scene_bytes;
   const size_t smoke = index_of(s, "smoke");
-  const ShadowSystem::Impl& I = internals(sys);
-  const uint64_t vol = I.objects[smoke].volume;
-  ASSERT_NE(vol, 0u);
+  const VolumeHandle vol = sys.volumes()[size_t(s.objects[smoke].volume)];
+  ASSERT_TRUE(vol);
   sys.remove_object(sys.objects()[smoke]);
-  sys.remove_volume({vol});
+  sys.remove_volume(vol);
   Image a = sys.render(&st);
   EXPECT_LT(st.update.scene_bytes, with) << "the removed volume's voxels are freed";
   Scene without = s;
@@ -516,7 +516,11 @@ TEST(ShadowSystem, AddingAndRemovingAThousandTimesLeavesMemoryWhereItStarted) {
   EXPECT_LE(st.update.map_store_bytes, start.map_store_bytes + start.map_store_bytes / 3)
       << "holes of freed maps stay below a quarter of the store (compaction)";
   EXPECT_EQ(st.update.gl_scene_bytes, start.gl_scene_bytes);
-  EXPECT_FALSE(internals(sys).closed_meshes.count(ball.mesh.get())) << "the removed mesh is released";
+  // The system holds nothing of the removed mesh: with the test's own
+  // reference dropped, it is gone.
+  const std::weak_ptr<const TriangleMesh> mesh = ball.mesh;
+  ball.mesh.reset();
+  EXPECT_TRUE(mesh.expired()) << "the removed mesh is released";
 }
 
 TEST(ShadowSystem, PoppingIsMeasuredOnlyWhenAskedAndKeepsReplacedMapsOneFrame) {
@@ -564,8 +568,8 @@ TEST(ShadowSystem, BadEditsAreRefusedByNameAndTheStateSurvives) {
   }
   // Handles of removed or foreign things, a volume still in use.
   EXPECT_THROW(sys.set_surface(ObjectHandle{987654}, s.objects[ball].surface), Error);
-  const uint64_t smoke_volume = internals(sys).objects[index_of(s, "smoke")].volume;
-  EXPECT_THROW(sys.remove_volume({smoke_volume}), Error);
+  const VolumeHandle smoke_volume = sys.volumes()[size_t(s.objects[index_of(s, "smoke")].volume)];
+  EXPECT_THROW(sys.remove_volume(smoke_volume), Error);
   // Content that fails to compile: update() throws naming it, the previous
   // compiled state stays, and removing the object heals the system.
   auto broken = std::make_shared<TriangleMesh>(*s.objects[ball].mesh);
@@ -604,7 +608,7 @@ TEST(ShadowSystem, AnEmptySystemIsAFreeNoOp) {
   EXPECT_NO_THROW(sys.update(&st));
   EXPECT_EQ(st.maps_rebuilt, 0u);
   EXPECT_EQ(st.update.full_compiles, 0u);
-  EXPECT_TRUE(internals(sys).frame.maps.empty());
+  EXPECT_TRUE(FrameSnapshot(sys).frame().maps.empty());
   add_scene(sys, shipped("default", 64, 48, 32));
   sys.update(&st);
   const uint32_t built = st.maps_rebuilt;
@@ -614,7 +618,7 @@ TEST(ShadowSystem, AnEmptySystemIsAFreeNoOp) {
   sys.update(&st);
   EXPECT_EQ(st.maps_rebuilt, 0u);
   EXPECT_EQ(st.update.maps_freed, built);
-  EXPECT_TRUE(internals(sys).frame.maps.empty());
+  EXPECT_TRUE(FrameSnapshot(sys).frame().maps.empty());
   sys.update(&st);
   EXPECT_EQ(st.update.maps_freed, 0u);
 }
@@ -711,7 +715,7 @@ TEST(ShadowSystem, HostBackendBytesFollowWhatChanged) {
   add_scene(sys, scene);
   FrameStats first;
   sys.update(&first);
-  const SceneBuffers& sb = internals(sys).sb;
+  const SceneBuffers& sb = FrameSnapshot(sys).compiled();
   uint64_t scene_bytes = (sb.tri_vertices.size() + sb.tri_normals.size()) * sizeof(Vec3) + sb.tri_object.size() * 4 +
                          sb.objects.size() * sizeof(ObjectData) + sb.volumes.size() * sizeof(VolumeData) +
                          (sb.voxels.size() + sb.macro_max.size()) * 4 + sb.nano_pool.size() * sizeof(GridBlock) +

@@ -21,7 +21,7 @@ namespace {
 
 ::testing::AssertionResult refused(const Scene& s, const std::vector<std::string>& parts) {
   try {
-    compile_scene(s);
+    compiled_scene(s);
   } catch (const Error& e) {
     std::string m = e.what();
     for (const std::string& p : parts)
@@ -75,7 +75,7 @@ TEST(CompileErrors, SingularTransform) {
   lim.rlim_cur = lim.rlim_max = rlim_t(pages) * 4096 + (rlim_t(256) << 20);
   setrlimit(RLIMIT_AS, &lim);
   try {
-    compile_scene(s);
+    compiled_scene(s);
     std::fprintf(stderr, "no error\n");
   } catch (const Error& e) {
     std::fprintf(stderr, "%s\n", e.what());

@@ -20,17 +20,9 @@ using namespace cdsm_test;
 
 namespace {
 
-struct Built {
-  SceneBuffers sb;
-  ShadowCache cache;
-  ShadowFrame frame;
-  ShadowView view(const Scene& s) { return frame.view(s.shadows); }
-};
-
-void build(const Scene& scene, Built& b) {
-  b.sb = compile_scene(scene);
-  build_shadow_frame(scene, b.sb, cpu_fragment_producer(b.sb.view()), b.cache, b.frame);
-}
+// A frame built by a ShadowSystem (common/system_frame.h).
+using Built = SystemFrame;
+void build(const Scene& scene, Built& b) { b.build(scene); }
 
 // The object index of `name` (objects compile in scene order).
 uint32_t object_named(const Scene& s, const std::string& name) {
@@ -338,7 +330,7 @@ TEST(Contact, ReferenceIsExactAtContact) {
     const float gap = gap_mm * 1e-3f;
     s.objects.push_back(make_object("glass", make_box({0.6f, 0.6f, 0.6f}), translation({0, gap + 0.3f, 0}), 0.4f));
     s.lights.push_back(spot_light({2, 31, 1}, {-2, -31, -1}, 10, 8));
-    const SceneBuffers sb = compile_scene(s);
+    const SceneBuffers sb = compiled_scene(s);
     std::vector<LightData> lights = {light_data(s.lights[0])};
     ReferenceRenderer ref(sb.view(), lights);
     double worst = 0.0;

@@ -456,7 +456,7 @@ TEST(Lookup, SpotConeInsideGuardBand) {
     for (float outer : {10.0f, 40.0f, 59.0f}) {
       Scene s = slab_scene(3.0f, res, true);
       s.lights[0] = spot_light({0.1f, 2.1f, -0.05f}, normalize(Vec3{0.3f, -1.0f, 0.2f}), outer, outer * 0.8f);
-      SceneBuffers sb = compile_scene(s);
+      SceneBuffers sb = compiled_scene(s);
       LightSetup ls = setup_lights(s.lights, sb, res);
       ASSERT_EQ(ls.maps.size(), 1u);
       const PinholeView& v = ls.maps[0].view;
@@ -486,7 +486,7 @@ TEST(Lookup, CubeFacesInsideGuardBand) {
   for (int res : {16, 64, 257}) {
     Scene s = slab_scene(3.0f, res, true);
     s.lights[0] = point_light({0.1f, 0.6f, -0.05f});
-    SceneBuffers sb = compile_scene(s);
+    SceneBuffers sb = compiled_scene(s);
     LightSetup ls = setup_lights(s.lights, sb, res);
     ASSERT_EQ(ls.maps.size(), 6u);
     ASSERT_EQ(ls.lights[0].map_mode, MapMode::CubeFaces);

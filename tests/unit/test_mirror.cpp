@@ -109,14 +109,14 @@ Result render(const Scene& s) {
 TEST(Mirror, CompiledTrianglesFaceOutwards) {
   for (Kind k : {Kind::ConstantSphere, Kind::VolumeBox, Kind::TranslucentBox})
     for (float sx : {1.0f, -1.0f}) {
-      SceneBuffers sb = compile_scene(mirror_scene(k, sx));
+      SceneBuffers sb = compiled_scene(mirror_scene(k, sx));
       EXPECT_GT(world_signed_volume(sb, 1), 0.0) << name_of(k) << " scale x " << sx;
     }
   // Mirrored in all three axes (determinant -1) and in two (+1, no flip).
   for (Vec3 sc : {Vec3{-1, -1, -1}, Vec3{-1, -1, 1}, Vec3{1, -2, 0.5f}}) {
     Scene s = empty_scene("mirror/axes");
     s.objects.push_back(make_object("box", make_box({1, 2, 3}), make_transform({1, 2, 3}, {10, 20, 30}, sc)));
-    SceneBuffers sb = compile_scene(s);
+    SceneBuffers sb = compiled_scene(s);
     EXPECT_GT(world_signed_volume(sb, 0), 0.0) << sc.x << " " << sc.y << " " << sc.z;
   }
 }

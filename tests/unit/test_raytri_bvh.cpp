@@ -56,7 +56,7 @@ std::vector<RayHit> brute_hits(const SceneView& s, Vec3 org, Vec3 dir, float tmi
 SceneBuffers compile_one(TriangleMesh mesh, Mat4 transform = Mat4{}) {
   Scene s = empty_scene("raytri");
   s.objects.push_back(make_object("mesh", std::move(mesh), transform));
-  return compile_scene(s);
+  return compiled_scene(s);
 }
 
 // A closed octahedron with vertices at +-r on the axes, counter-clockwise outwards.
@@ -313,7 +313,7 @@ SceneBuffers cluttered_scene() {
     TriangleMesh m = i % 3 == 0 ? make_box({1, 1, 1}) : make_sphere(1.0f, 24, 12);
     s.objects.push_back(make_object("o" + std::to_string(i), std::move(m), make_transform(t, r, sc)));
   }
-  return compile_scene(s);
+  return compiled_scene(s);
 }
 
 }  // namespace

@@ -21,17 +21,9 @@ using namespace cdsm_test;
 
 namespace {
 
-struct Built {
-  SceneBuffers sb;
-  ShadowCache cache;
-  ShadowFrame frame;
-  ShadowView view(const Scene& s) { return frame.view(s.shadows); }
-};
-
-void build(const Scene& scene, Built& b) {
-  b.sb = compile_scene(scene);
-  build_shadow_frame(scene, b.sb, cpu_fragment_producer(b.sb.view()), b.cache, b.frame);
-}
+// A frame built by a ShadowSystem (common/system_frame.h).
+using Built = SystemFrame;
+void build(const Scene& scene, Built& b) { b.build(scene); }
 
 // The camera pass's lookups over every `step`-th pixel, through `vis`.
 template <class Visibility>

@@ -25,7 +25,7 @@ struct Convergence {
 
 Convergence measure_convergence() {
   Scene scene = load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/default.json");
-  SceneBuffers sb = compile_scene(scene);
+  SceneBuffers sb = compiled_scene(scene);
   SceneView sv = sb.view();
   std::vector<LightData> lights = setup_lights(scene.lights, sb, 4).lights;
   EXPECT_FALSE(lights.empty());

@@ -69,7 +69,7 @@ SceneBuffers walker_scene() {
   o.interior = InteriorKind::Constant;
   o.sigma = vec3(1000.0f);
   s.objects.push_back(o);
-  return compile_scene(s);
+  return compiled_scene(s);
 }
 
 // The real fragments of one ray (all hits up to tmax), shuffled: the walker sorts.
@@ -227,7 +227,7 @@ TEST(SegmentWalker, EnclosingSetOverflowSummed) {
   const int n = 20;
   for (int i = 0; i < n; ++i)  // shell i (0 outermost, half-size n - i) has sigma 2^-i
     s.objects.push_back(box_with_sigma("b" + std::to_string(i), 2.0f * float(n - i), std::ldexp(1.0f, -i)));
-  SceneBuffers sb = compile_scene(s);
+  SceneBuffers sb = compiled_scene(s);
   SceneView sv = sb.view();
   WalkStats st;
   Recorder r = walk(sv, ray_fragments(sv, {-25.0f, 0.1f, 0.3f}, kDirX, 8u), {}, st, 100.0f);
@@ -268,7 +268,7 @@ TEST(SegmentWalker, MoreObjectsThanTheMatcherTracks) {
   for (int i = 0; i < n; ++i)
     s.objects.push_back(
         box_with_sigma("b" + std::to_string(i), 1.0f, 1.0f + 0.01f * float(i), {2.0f * float(i), 0, 0}));
-  SceneBuffers sb = compile_scene(s);
+  SceneBuffers sb = compiled_scene(s);
   SceneView sv = sb.view();
   const Vec3 org{100.0f, 0.1f, 0.3f}, dir{-1, 0, 0};
   std::vector<Fragment> all = ray_fragments(sv, org, dir, 11u);

@@ -15,7 +15,8 @@
 #include "cdsm/scene_io.h"
 #include "cdsm/shadow_system.h"
 #include "reference/reference.h"
-#include "shadow_system_impl.h"
+#include "frame_snapshot.h"
+#include "scene_sync.h"
 #include "common/sanitized.h"
 #include "unit_util.h"
 

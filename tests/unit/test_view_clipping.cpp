@@ -144,7 +144,7 @@ CLIP_TEST(CameraPassMatchesReference) {
       // column's centre ray: the wall (or background) dimmed by the medium
       // between the eye and min(wall, far).
       const PinholeView v = camera_view(s.camera);
-      SceneBuffers sb = compile_scene(s);
+      SceneBuffers sb = compiled_scene(s);
       uint32_t medium = 1;
       Vec3 dir = pixel_ray(v, 32, 24);
       float t_far = v.far / dot(dir, v.forward);
@@ -183,7 +183,7 @@ void check_light_views(const Producer& produce) {
     for (Medium m : {Medium::FogBox, Medium::Sphere}) {
       Scene s = empty_scene(std::string("clip light/") + c.name);
       add_medium(s, m, c.lo, c.hi, 0.6f);
-      SceneBuffers sb = compile_scene(s);
+      SceneBuffers sb = compiled_scene(s);
       SceneView sv = sb.view();
       PinholeView lv = light_view({0, 0, 0}, {0, 0, -1}, {0, 1, 0}, 0.25f, 32, 1, c.near, c.far);
       FragmentBuffers fb;

@@ -127,7 +127,7 @@ struct Agreement {
 // Light rays from a point above the volume through it: the light pass's
 // visibility function and the reference's transmittance against brute force.
 Agreement compare(const Medium& m) {
-  SceneBuffers sb = compile_scene(m.scene);
+  SceneBuffers sb = compiled_scene(m.scene);
   SceneView sv = sb.view();
   const Box3& box = sb.object_bounds[0];
   Vec3 c = box.center(), e = box.extent();
@@ -228,7 +228,7 @@ TEST(VolumeSkipping, DenseTrilinearMatchesWeightsInsideAndAcrossBorders) {
   g->values.resize(size_t(g->nx) * g->ny * g->nz);
   for (size_t n = 0; n < g->values.size(); ++n) g->values[n] = float((n * 7919u) % 101u) / 100.0f;
   Medium m = make_medium("dense 7x5x6", g, nullptr, {-0.5f, -0.5f, -0.5f}, {6.5f, 4.5f, 5.5f});
-  SceneBuffers sb = compile_scene(m.scene);
+  SceneBuffers sb = compiled_scene(m.scene);
   SceneView sv = sb.view();
   const VolumeData& v = sv.volumes[0];
   auto voxel = [&](int i, int j, int k) -> double {

@@ -13,8 +13,8 @@
 #include "cdsm/procedural.h"
 #include "cdsm/scene.h"
 #include "common/builders.h"
+#include "common/system_frame.h"
 #include "frame.h"
-#include "scene_compile.h"
 #include "hd/bvh.h"
 #include "hd/compress.h"
 
@@ -103,19 +103,13 @@ struct NodeFunction {
   }
 };
 
-// A scene compiled and its lights' deep shadow maps built on the cpu
-// backend with the exact CPU fragment producer.
-struct ShadowFixture {
+// A scene's frame built by a ShadowSystem on the cpu backend with the exact
+// CPU fragment producer (common/system_frame.h).
+struct ShadowFixture : SystemFrame {
   Scene scene;
-  SceneBuffers sb;
-  ShadowCache cache;
-  ShadowFrame frame;
-  explicit ShadowFixture(Scene s) : scene(std::move(s)), sb(compile_scene(scene)) {
-    build_shadow_frame(scene, sb, cpu_fragment_producer(sb.view()), cache, frame);
-  }
+  explicit ShadowFixture(Scene s) : SystemFrame(s), scene(std::move(s)) {}
   ShadowFixture(const ShadowFixture&) = delete;
   ShadowView view() const { return frame.view(scene.shadows); }
-  SceneView scene_view() const { return sb.view(); }
   const PinholeView& map_view(size_t i) const { return frame.headers[i].view; }
 };
 

@@ -304,12 +304,17 @@ class ShadowSystem {
   // order): what a fresh Renderer would render for the same picture.
   const Scene& scene() const;
   std::vector<ObjectHandle> objects() const;
+  std::vector<VolumeHandle> volumes() const;
   std::vector<LightHandle> lights() const;
 
   struct Impl;  // the library's own
 
  private:
-  friend struct SystemAccess;  // the research harness and the library's tests
+  // The library's own: its read-only snapshot of the built frame (the
+  // research harness, the tests), its test hooks and its Scene-value sync.
+  friend class FrameSnapshot;
+  friend struct SystemHooks;
+  friend void sync_scene(ShadowSystem& system, const Scene& scene);
   std::unique_ptr<Impl> impl_;
 };
 
