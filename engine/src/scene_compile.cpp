@@ -37,6 +37,23 @@ void allocating(const std::string& where, const std::string& what, uint64_t byte
   }
 }
 
+// A triangle's unit normal. The squared length of its edges' cross product
+// overflows float for triangles of ~1e9 units and more (a ground scaled by
+// 1e20 shaded NaN); those take it in double.
+Vec3 geometric_normal(Vec3 a, Vec3 b, Vec3 c) {
+  const Vec3 u = b - a, v = c - a;
+  const float reach = std::fmax(max_channel(vmax(u, -u)), max_channel(vmax(v, -v)));
+  if (reach < 1e9f) return normalize(cross(u, v));  // |u x v|^2 below 1e37: float holds it
+  const double ux = double(b.x) - a.x, uy = double(b.y) - a.y, uz = double(b.z) - a.z;
+  const double vx = double(c.x) - a.x, vy = double(c.y) - a.y, vz = double(c.z) - a.z;
+  const double nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+  const double len = std::sqrt(nx * nx + ny * ny + nz * nz);
+  return Vec3{float(nx / len), float(ny / len), float(nz / len)};
+}
+
+// Beyond this distance from the origin float positions are a unit apart.
+constexpr float kFloatReach = 1.0e7f;
+
 bool finite_matrix(const Mat4& m) {
   for (auto& row : m.m)
     for (float v : row)
@@ -385,7 +402,7 @@ void compile_object(const Object& o, bool closed, const std::string& where, Comp
         throw Error(where, "transform turns vertex " + std::to_string(idx[k]) +
                                " (finite in object space) into an infinite or NaN position in world space");
     }
-    Vec3 ng = normalize(cross(p[1] - p[0], p[2] - p[0]));
+    Vec3 ng = geometric_normal(p[0], p[1], p[2]);
     for (int k = 0; k < 3; ++k) {
       out.vertices.push_back(p[k]);
       out.bounds.grow(p[k]);
@@ -393,6 +410,16 @@ void compile_object(const Object& o, bool closed, const std::string& where, Comp
       out.normals.push_back(is_finite(n) ? n : ng);
     }
   }
+  // Float positions are 1 unit apart at 1.7e7 units from the origin: rays
+  // then miss surfaces near the camera (a ground scaled by 1e9 was not hit
+  // where the camera looked at it) and lookups lose their depth precision.
+  const Box3& b = out.bounds;
+  const float reach = out.vertices.empty() ? 0.0f : max_channel(vmax(vmax(b.lo, -b.lo), vmax(b.hi, -b.hi)));
+  if (reach > kFloatReach)
+    out.warnings.push_back(where + ": reaches " + format_number(reach) +
+                           " units from the origin, where float positions are " + format_number(reach * 5.96e-8f) +
+                           " units apart or more: rays may miss its surfaces and shadows lose precision; scale the "
+                           "scene down (or move it nearer the origin)");
 }
 
 uint32_t append_volume(SceneBuffers& sb, const CompiledVolume& cv) {

@@ -20,19 +20,44 @@ struct PixelResult {
   float alpha;  // accumulated opacity of the pixel (grey: its one value; coloured: the channel mean)
 };
 
-// Interpolated shading normal of triangle `tri` at p, facing the viewer.
+// A triangle of ~1e9 units or more has an edge cross product whose squared
+// length overflows float (a ground scaled by 1e20 shaded NaN; by 1e12 it
+// lost its normal): such a triangle is taken relative to `p` in units of
+// its largest edge coordinate, which changes none of the ratios used
+// below. Others are left as they are, bit for bit.
+CDSM_HD CDSM_INLINE void rescale_huge_triangle(Vec3& a, Vec3& b, Vec3& c, Vec3& p) {
+  const Vec3 e1 = b - a, e2 = c - a;
+  const float s = 1.0f / fmaxf(max_channel(vmax(e1, -e1)), max_channel(vmax(e2, -e2)));
+  a = (a - p) * s;
+  b = (b - p) * s;
+  c = (c - p) * s;
+  p = Vec3{0, 0, 0};
+}
+
 // Unit geometric normal of triangle `tri` (0 for a degenerate one).
 CDSM_HD CDSM_INLINE Vec3 geometric_normal(const SceneView& s, uint32_t tri) {
   Vec3 a = s.tri_vertices[3 * tri], b = s.tri_vertices[3 * tri + 1], c = s.tri_vertices[3 * tri + 2];
   Vec3 ng = cross(b - a, c - a);
   float l = length(ng);
+  if (!(l <= 3.0e38f)) {  // (NaN too: an infinite cross product)
+    Vec3 o = a;
+    rescale_huge_triangle(a, b, c, o);
+    ng = cross(b - a, c - a);
+    l = length(ng);
+  }
   return l > 0.0f ? ng * (1.0f / l) : Vec3{0, 0, 0};
 }
 
+// Interpolated shading normal of triangle `tri` at p, facing the viewer.
 CDSM_HD CDSM_INLINE Vec3 surface_normal(const SceneView& s, uint32_t tri, Vec3 p, Vec3 dir) {
   Vec3 a = s.tri_vertices[3 * tri], b = s.tri_vertices[3 * tri + 1], c = s.tri_vertices[3 * tri + 2];
   Vec3 ng = cross(b - a, c - a);
   float area2 = dot(ng, ng);
+  if (!(area2 <= 3.0e38f)) {
+    rescale_huge_triangle(a, b, c, p);
+    ng = cross(b - a, c - a);
+    area2 = dot(ng, ng);
+  }
   Vec3 n = ng;
   if (area2 > 0.0f && !s.tri_normals.empty()) {
     float wa = dot(cross(b - p, c - p), ng) / area2;

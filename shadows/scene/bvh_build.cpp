@@ -141,10 +141,12 @@ void build_bvh(SceneBuffers& sb) {
 namespace cdsm {
 namespace {
 
-float half_area(const Box3& b) {
-  if (b.empty()) return 0.0f;
-  Vec3 e = b.extent();
-  return e.x * e.y + e.y * e.z + e.z * e.x;
+// In double: boxes of 1e19 units and more (a ground scaled by 1e20) have
+// areas beyond float.
+double half_area(const Box3& b) {
+  if (b.empty()) return 0.0;
+  const Vec3 e = b.extent();
+  return double(e.x) * e.y + double(e.y) * e.z + double(e.z) * e.x;
 }
 
 }  // namespace
@@ -190,7 +192,7 @@ double bvh_cost(const SceneBuffers& sb) {
   const double root = half_area(Box3{sb.bvh[0].lo, sb.bvh[0].hi});
   if (!(root > 0.0)) return 0.0;
   double c = 0.0;
-  for (const BvhNode& n : sb.bvh) c += double(half_area(Box3{n.lo, n.hi})) * (n.count > 0 ? double(n.count) : 1.0);
+  for (const BvhNode& n : sb.bvh) c += half_area(Box3{n.lo, n.hi}) * (n.count > 0 ? double(n.count) : 1.0);
   return c / root;
 }
 

@@ -168,7 +168,16 @@ TEST(Soak, ThousandsOfChangingFrames) {
   }
   EXPECT_EQ(wrong, 0u) << first_wrong;
   std::printf("[ soak ] %d frames, %llu maps rebuilt\n", frames, (unsigned long long)rebuilds);
-  if (frames <= 500) return;  // the sanitizer variant: correctness only
+  if (frames <= 500) {
+    // soak_short (the stability label, also under ASan+UBSan, whose
+    // LeakSanitizer checks leaks at exit): the rebuild counts above only.
+    // The resident-memory and time-drift checks below need the full run.
+    std::printf(
+        "[ soak ] %d frames: memory and time drift not checked (they need more than 500 frames: the "
+        "`soak` test, label slow)\n",
+        frames);
+    return;
+  }
   // Memory: the peak of the last 500 frames against the peak of frames
   // 300..800 (single readings move by 1-2% with the allocator's buffers).
   const long warm = *std::max_element(rss.begin() + 300, rss.begin() + 800);

@@ -206,10 +206,16 @@ TEST(Baselines, FourierOpacityKeepsTheTotalAndItsRingingIsBounded) {
       const int harmonics = (coefficients - 1) / 2;
       const float gap = c == Case::Step ? 0.01f : 0.25f * range / float(harmonics) + 0.01f;
       const float worst = worst_away_from_surfaces(n, c, gap);
-      if (c == Case::Slab)  // a smooth ramp: only the slab's faces ring
-        EXPECT_LT(worst, 0.1f * total + 0.02f) << "N " << coefficients;
+      std::printf("[ fourier  ] case %d N %2d: worst away from the jumps %.4f (total absorbance %.3f)\n", int(c),
+                  coefficients, worst, total);
+      // Bounds near what each case measures (2026-12-06, N 4 / 8 / 16): the
+      // slab, a smooth ramp where only its faces ring, 0.0054 / 0.0084 /
+      // 0.0029; the quads 0.0345 / 0.0133 / 0.0263 (a Gibbs share of the
+      // total, 0.713); the step nothing (away from its one jump).
+      if (c == Case::Slab)
+        EXPECT_LT(worst, 0.015f) << "N " << coefficients;
       else
-        EXPECT_LT(worst, c == Case::Step ? 2e-3f : 0.1f * total + 2e-3f) << int(c) << " N " << coefficients;
+        EXPECT_LT(worst, c == Case::Step ? 2e-3f : 0.06f) << int(c) << " N " << coefficients;
     }
 }
 
@@ -224,11 +230,12 @@ TEST(Baselines, MomentsBracketTheTrueOpacityAndKeepTheTotal) {
       EXPECT_EQ(at_depth(n, 2.0f), 0.0f);  // in front of every caster
     }
   // The stacked quads: the two surfaces span the range, u = -1 and +1.
-  // Between them the map holds the reconstruction (the lower bound of the
-  // absorbance in front, hd/series.h kMomentOverestimation), which lies
-  // between the bound's two sides; the true opacity (0.3) lies between them
-  // too, up to the bias: the map's transmittance is never below the truth
-  // by more than the bias allows.
+  // Two atoms are what four or eight moments determine exactly, so between
+  // them the map holds the true opacity of the front quad, 0.3, up to the
+  // bias (beta b0: 3.6e-5 for eight moments) and the tabulation (measured
+  // 2026-12-06: 0.29998 .. 0.30000 for 4 moments, 0.29990 .. 0.30000 for
+  // 8). And the bound itself (PowerMoments::bound, which the maps use)
+  // brackets that truth up to the bias.
   for (int moments : {4, 8}) {
     Rig rig(analytic(Case::Quads, ShadowMethod::Moments, float(moments)));
     std::vector<DsmNode> n = centre(rig);
@@ -238,26 +245,31 @@ TEST(Baselines, MomentsBracketTheTrueOpacityAndKeepTheTotal) {
     m.add_surface(1.0, A);
     m.store();
     const double beta = moment_bias(moments).beta;
+    float map_lo = 1.0f, map_hi = 0.0f;
     for (float z = 2.82f; z < 2.99f; z += 0.01f) {
+      map_lo = std::min(map_lo, at_depth(n, z));
+      map_hi = std::max(map_hi, at_depth(n, z));
       double lower, at;
       m.bound(2.0 * (z - 2.8) / 0.2 - 1.0, moment_bias(moments), lower, at);
       const float lo = float(1.0 - std::exp(-m.b[0] * lower)), hi = float(1.0 - std::exp(-m.b[0] * (lower + at)));
-      EXPECT_GE(at_depth(n, z), lo - 2e-3f) << z;
-      EXPECT_LE(at_depth(n, z), hi + 2e-3f) << z;
-      EXPECT_NEAR(at_depth(n, z), float(1.0 - std::exp(-m.b[0] * (lower + kMomentOverestimation * at))), 2e-3f);
+      EXPECT_NEAR(at_depth(n, z), 0.3f, 1.5e-4f) << moments << " moments, z " << z;
       EXPECT_GE(0.3f, lo - float(beta * m.b[0]));
       EXPECT_LE(0.3f, hi + float(beta * m.b[0]));
-      EXPECT_LE(at_depth(n, z), 0.3f + float(beta * m.b[0]) + 2e-3f) << z;
     }
+    std::printf("[ moments  ] n %d: between the quads alpha %.5f .. %.5f (true 0.3)\n", moments, map_lo, map_hi);
   }
 }
 
 TEST(Baselines, SeriesMethodsStoreAFixedCountPerTexel) {
-  EXPECT_EQ(stored_components(ShadowMethod::DeepOpacity, 8), 9);      // layers + the first depth
-  EXPECT_EQ(stored_components(ShadowMethod::FourierOpacity, 8), 10);  // coefficients + the range
-  EXPECT_EQ(stored_components(ShadowMethod::Moments, 4), 7);          // b_0, the moments + the range
-  EXPECT_EQ(stored_components(ShadowMethod::Moments, 0), 7);          // the default: 4 moments
-  EXPECT_EQ(stored_components(ShadowMethod::DeepOpacity, 0), 9);
+  // What an engine stores per texel, by what each method is: N layers and
+  // the first caster depth; N coefficients and the depth range (2); the
+  // total b_0, N moments and the range (2).
+  for (int n : {1, 4, 8, 16, 64}) EXPECT_EQ(stored_components(ShadowMethod::DeepOpacity, float(n)), n + 1) << n;
+  for (int n : {3, 4, 8, 16, 32}) EXPECT_EQ(stored_components(ShadowMethod::FourierOpacity, float(n)), n + 2) << n;
+  for (int n : {4, 8}) EXPECT_EQ(stored_components(ShadowMethod::Moments, float(n)), 1 + n + 2) << n;
+  // Parameter 0: the method's default count (baselines.h).
+  EXPECT_EQ(stored_components(ShadowMethod::Moments, 0), 1 + kDefaultMoments + 2);
+  EXPECT_EQ(stored_components(ShadowMethod::DeepOpacity, 0), kDefaultLayers + 1);
   for (ShadowMethod m :
        {ShadowMethod::Dsm, ShadowMethod::ShadowMap, ShadowMethod::OpacitySlices, ShadowMethod::FixedNodes})
     EXPECT_EQ(stored_components(m, 8), 0);  // node lists: their nodes are their memory

@@ -80,7 +80,9 @@ TEST(Directional, ConstantSlabFollowsBeerLambert) {
     }
     std::cout << "elevation " << elev << ": T " << expected << ", worst |dT| under the slab " << worst_in << ", beside "
               << worst_out << "\n";
-    EXPECT_LE(worst_in, 0.01 + 1e-3) << "elevation " << elev;
+    // Exact up to float rounding: measured 6.1e-7, 7.8e-7 and 8e-9 at 35, 60
+    // and 90 degrees (2026-12-06).
+    EXPECT_LE(worst_in, 1.5e-6) << "elevation " << elev;
     EXPECT_LE(worst_out, 1e-3) << "elevation " << elev;
   }
 }
@@ -184,7 +186,7 @@ TEST(Directional, SystemKeepsTheMapWhileTheCameraMovesAndMatchesTheReference) {
   std::cout << "transmittance error: " << e.points << " points, map p99 " << e.map.p99 << ", interior max "
             << e.interior.total.max << "\n";
   EXPECT_GT(e.points, 1000u);
-  EXPECT_LE(e.map.p99, s.shadows.epsilon + 0.005);
+  EXPECT_LE(e.map.p99, 3e-5);  // measured 1.75e-5 (2026-12-06): one orthographic map, nearly exact
   EXPECT_LE(e.interior.total.max, 0.05);
 }
 
@@ -278,6 +280,10 @@ TEST(Directional, SunCloudsCameraPathHoldsStill) {
               frames, s.shadows.max_clusters, c.frames_with_rebuilds, c.maps_rebuilt, c.worst_p99, c.worst_max);
   EXPECT_LT(c.frames_with_rebuilds * 10, uint32_t(frames));
   EXPECT_LE(c.worst_p99, 0.01);
+  // The largest single change: a receiver at a shadow edge whose texel
+  // moved when its cluster's window did (measured 0.359, 60 frames at
+  // 96 x 64, 2026-12-06); never a whole region flipping.
+  EXPECT_LE(c.worst_max, 0.5);
   s.shadows.max_clusters = 1;
   const PathFigures one = walk_sun_path(s, frames);
   std::printf("[ sun path ] %d frames, one map: %u frames with rebuilds\n", frames, one.frames_with_rebuilds);
