@@ -23,16 +23,8 @@ constexpr const char* kReferenceCacheSalt = "cdsm-reference-v2";  // v2: lights 
 // Every field that changes what is drawn (names and budgets do not).
 constexpr uint32_t kEveryEffect = kAffectsLookup | kAffectsPlan | kAffectsClusters | kAffectsMaps;
 
-// FNV-1a, 64 bit.
-struct Hasher {
-  uint64_t h = 1469598103934665603ull;
-  void bytes(const void* p, size_t n) {
-    const unsigned char* c = static_cast<const unsigned char*>(p);
-    for (size_t i = 0; i < n; ++i) {
-      h ^= c[i];
-      h *= 1099511628211ull;
-    }
-  }
+// The cache key: cdsm::Fnv1a with the values a scene holds.
+struct Hasher : Fnv1a {
   void f(float v) { bytes(&v, sizeof v); }
   void i(int64_t v) { bytes(&v, sizeof v); }
   void v3(Vec3 v) {

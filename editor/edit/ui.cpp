@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 
 namespace cdsm::editor {
@@ -651,8 +652,9 @@ void remember_recent(std::vector<std::string>& recent, const std::string& path) 
   if (recent.size() > 10) recent.resize(10);
   const std::string dir = config_dir();
   if (dir.empty()) return;
-  std::string mk = "mkdir -p '" + dir + "' 2>/dev/null";
-  if (std::system(mk.c_str()) != 0) return;
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) return;  // no place for the list: it stays this session's
   std::ofstream f(dir + "/recent");
   for (const std::string& r : recent) f << r << "\n";
 }

@@ -26,21 +26,7 @@ Vec3 any_perpendicular(Vec3 d) {
   return normalize(cross(cross(d, a), d)) * -1.0f;
 }
 
-// FNV-1a over bytes, mixed.
-struct Hasher {
-  uint64_t h = 1469598103934665603ull;
-  void bytes(const void* p, size_t n) {
-    const unsigned char* c = static_cast<const unsigned char*>(p);
-    for (size_t i = 0; i < n; ++i) {
-      h ^= c[i];
-      h *= 1099511628211ull;
-    }
-  }
-  template <class T>
-  void pod(const T& v) {
-    bytes(&v, sizeof(T));
-  }
-};
+using Hasher = Fnv1a;
 
 uint64_t hash_light(const LightData& l) {
   Hasher h;

@@ -15,6 +15,9 @@
 #include "hd/fragment.h"
 #include "hd/segments.h"
 #include "hd/volume.h"
+#if CDSM_HAVE_NANOVDB
+#include "scene/nano_blocks.h"
+#endif
 
 namespace cdsm {
 namespace {
@@ -135,7 +138,7 @@ void compile_dense(CompiledVolume& sb, VolumeData& vd, const DenseGrid& g, const
   for (size_t i = 0; i < g.values.size(); ++i)
     if (!is_finite(g.values[i])) throw Error(where, "voxel " + std::to_string(i) + " is NaN or infinite");
   if (!is_finite(g.background)) throw Error(where, "background is NaN or infinite");
-  vd.grid_kind = kGridDense;
+  vd.grid_kind = GridKind::Dense;
   vd.nx = g.nx;
   vd.ny = g.ny;
   vd.nz = g.nz;
@@ -154,7 +157,7 @@ void compile_dense(CompiledVolume& sb, VolumeData& vd, const DenseGrid& g, const
 // value has its 26 neighbour leaves and no tile holds a non-background
 // value (load_vdb makes grids so), such a cell is background within its
 // apron; otherwise (tiles above leaf level, grids made in code) skipping
-// reads the cell's 27-cell neighbourhood (kNanoSkipNeighbours).
+// reads the cell's 27-cell neighbourhood (NanoSkip::Neighbours).
 void compile_nano(CompiledVolume& sb, VolumeData& vd, const SparseGrid& g, const std::string& where) {
   using Leaf = nanovdb::FloatTree::LeafNodeType;
   const uint64_t bytes = g.nanovdb_bytes;
@@ -170,7 +173,7 @@ void compile_nano(CompiledVolume& sb, VolumeData& vd, const SparseGrid& g, const
   if (leaves == 0) throw Error(where, "sparse grid has no leaf nodes (no voxels)");
 
   // Pool: whole 32-byte blocks, so every grid starts aligned.
-  vd.grid_kind = kGridNano;
+  vd.grid_kind = GridKind::Nano;
   vd.voxel_offset = sb.nano_pool.size() * sizeof(GridBlock);
   allocating(where, "copying its NanoVDB grid", bytes, [&] {
     const size_t blocks = (bytes + sizeof(GridBlock) - 1) / sizeof(GridBlock);
@@ -236,33 +239,16 @@ void compile_nano(CompiledVolume& sb, VolumeData& vd, const SparseGrid& g, const
   const auto& root = tree.root();
   for (uint32_t i = 0; i < root.tileCount(); ++i)
     if (root.data()->tile(i)->isValue()) check_tile(root.data()->tile(i)->value);
-  vd.skip_mode = (tiles || bad_apron >= 0) ? kNanoSkipNeighbours : kNanoSkipLeaves;
+  vd.skip_mode = (tiles || bad_apron >= 0) ? NanoSkip::Neighbours : NanoSkip::Leaves;
   // The cells that can read a non-background value: every leaf and every
   // non-background tile, one cell of apron around them (a sample reads one
   // voxel beyond its cell), as index positions of the cells' extents.
   Vec3 lo = vec3(3e38f), hi = vec3(-3e38f);
-  auto grow = [&](const nanovdb::Coord& o, int dim) {
+  for_each_value_block(tree, [&](const nanovdb::Coord& o, int dim) {
     lo = vmin(lo, Vec3{float(o[0] - kMacroCell), float(o[1] - kMacroCell), float(o[2] - kMacroCell)} - vec3(0.5f));
     hi = vmax(hi, Vec3{float(o[0] + dim + kMacroCell), float(o[1] + dim + kMacroCell), float(o[2] + dim + kMacroCell)} -
                       vec3(0.5f));
-  };
-  for (uint32_t i = 0; i < leaves; ++i) grow(first[i].origin(), kMacroCell);
-  auto tiles_of = [&](const auto& node, int log2dim, int child_dim) {  // slot n: child (n >> 2L, (n >> L) & m, n & m)
-    const nanovdb::Coord o = node.origin();
-    const uint32_t mask = (1u << log2dim) - 1u;
-    for (auto it = node.beginValue(); it; ++it) {
-      if (*it == bg) continue;
-      uint32_t n = it.pos();
-      grow(o + nanovdb::Coord(int(n >> (2 * log2dim)) * child_dim, int((n >> log2dim) & mask) * child_dim,
-                              int(n & mask) * child_dim),
-           child_dim);
-    }
-  };
-  for (uint32_t i = 0; i < tree.nodeCount(1); ++i) tiles_of(lower[i], 4, 8);
-  for (uint32_t i = 0; i < tree.nodeCount(2); ++i) tiles_of(upper[i], 5, 128);
-  for (uint32_t i = 0; i < root.tileCount(); ++i)
-    if (root.data()->tile(i)->isValue() && root.data()->tile(i)->value != bg)
-      grow(root.data()->tile(i)->origin(), 4096);
+  });
   vd.cells_lo = lo;
   vd.cells_hi = hi;
 }
@@ -290,7 +276,7 @@ CompiledVolume compile_volume(const Volume& v, const std::string& where) {
   CompiledVolume cv;
   VolumeData& vd = cv.data;
   vd.tf = compile_transfer(v, where);
-  vd.shading = uint32_t(v.shading);
+  vd.shading = v.shading;
   vd.gradient_scale = v.gradient_scale;
   if (v.grid) {
     compile_dense(cv, vd, *v.grid, where);
@@ -424,7 +410,7 @@ void compile_object(const Object& o, bool closed, const std::string& where, Comp
 
 uint32_t append_volume(SceneBuffers& sb, const CompiledVolume& cv) {
   VolumeData vd = cv.data;
-  if (vd.grid_kind == kGridDense) {
+  if (vd.grid_kind == GridKind::Dense) {
     vd.voxel_offset = sb.voxels.size();
     sb.voxels.insert(sb.voxels.end(), cv.voxels.begin(), cv.voxels.end());
   } else {

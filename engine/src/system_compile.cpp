@@ -55,7 +55,7 @@ void ShadowSystem::Impl::erase_volume_data(size_t vi) {
     if (o.block_begin > rec.block_begin) o.block_begin -= rec.block_count;
     if (o.macro_begin > rec.macro_begin) o.macro_begin -= rec.macro_count;
     VolumeData& d = sb.volumes[k];
-    d.voxel_offset = d.grid_kind == kGridDense ? o.voxel_begin : o.block_begin * sizeof(GridBlock);
+    d.voxel_offset = d.grid_kind == GridKind::Dense ? o.voxel_begin : o.block_begin * sizeof(GridBlock);
     d.macro_offset = o.macro_begin;
   }
   volumes[vi].compiled = false;

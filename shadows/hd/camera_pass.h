@@ -70,6 +70,40 @@ CDSM_HD CDSM_INLINE Vec3 surface_normal(const SceneView& s, uint32_t tri, Vec3 p
   return dot(n, dir) > 0.0f ? -n : n;
 }
 
+// The shading input of a volume sample at p seen along dir, base colour
+// `color`: isotropic scattering (VolumeShading::Scatter, or a flat density),
+// or Phong with the density gradient as its normal. The camera pass and the
+// reference shade volume samples with this one definition.
+CDSM_HD CDSM_INLINE ShadeInput volume_sample_shading(const SceneView& s, const VolumeData& v, Vec3 p, Vec3 dir,
+                                                     Vec3 color) {
+  ShadeInput in;
+  in.p = p;
+  in.v = -dir;
+  in.color = color;
+  in.ka = 1.0f;
+  in.kd = 1.0f;
+  in.ks = 0.0f;
+  in.shininess = 1.0f;
+  in.has_normal = false;
+  in.plane = Vec3{0, 0, 0};
+  in.object = kNoObject;
+  in.n = Vec3{0, 0, 0};
+  if (v.shading == VolumeShading::Phong) {
+    const Vec3 g = density_gradient(s, v, p) * v.gradient_scale;
+    const float gl = length(g);
+    if (gl > 1e-6f) {
+      in.n = g * (-1.0f / gl);
+      if (dot(in.n, dir) > 0.0f) in.n = -in.n;
+      in.has_normal = true;
+      in.ka = 0.3f;
+      in.kd = 0.7f;
+      in.ks = 0.2f;
+      in.shininess = 16.0f;
+    }
+  }
+  return in;
+}
+
 // A recorder sees every shaded point with its compositing weight (the
 // largest channel's):
 //   void shaded(Vec3 p, Vec3 normal, bool is_surface, float weight)
@@ -143,31 +177,7 @@ struct CameraVisitor {
             vol_a[k] = ms.extinction[k] > 0.0f ? a[k] * (ms.extinction[k] - m.sigma[k]) / ms.extinction[k] : 0.0f;
           if (max_channel(vol_a) > 0.0f && ms.dominant >= 0) {
             const VolumeData& v = s.volumes[m.volume[ms.dominant]];
-            ShadeInput in;
-            in.p = org + dir * (0.5f * (ms.t0 + ms.t1));
-            in.v = -dir;
-            in.color = ms.color;
-            in.ka = 1.0f;
-            in.kd = 1.0f;
-            in.ks = 0.0f;
-            in.shininess = 1.0f;
-            in.has_normal = false;
-            in.plane = Vec3{0, 0, 0};
-            in.object = kNoObject;
-            in.n = Vec3{0, 0, 0};
-            if (v.shading == 1u) {  // phong: normal from the density gradient
-              Vec3 g = density_gradient(s, v, in.p) * v.gradient_scale;
-              float gl = length(g);
-              if (gl > 1e-6f) {
-                in.n = g * (-1.0f / gl);
-                if (dot(in.n, dir) > 0.0f) in.n = -in.n;
-                in.has_normal = true;
-                in.ka = 0.3f;
-                in.kd = 0.7f;
-                in.ks = 0.2f;
-                in.shininess = 16.0f;
-              }
-            }
+            const ShadeInput in = volume_sample_shading(s, v, org + dir * (0.5f * (ms.t0 + ms.t1)), dir, ms.color);
             Vec3 c = shade_point(in, lights, ambient, visibility);
             const Vec3 w = T * vol_a;
             rec.shaded(in.p, in.n, false, max_channel(w));

@@ -3,6 +3,8 @@
 // scene/scene_buffers.h from a cdsm::Scene.
 #pragma once
 
+#include <cstddef>
+
 #include "cdsm/math.h"
 #include "cdsm/tags.h"
 #include "hd/span.h"
@@ -59,28 +61,24 @@ struct TransferData {
   uint32_t coloured;     // 1: some point's extinction differs between channels
   float pad;
 };
+static_assert(sizeof(TransferData) == 4 + 16 * 4 * 7 + 12,
+              "TransferData: count, 7 arrays of kMaxTransferPoints, 3 words");
+static_assert(offsetof(TransferData, extinction) == 68 && offsetof(TransferData, max_extinction) == 452,
+              "TransferData's arrays follow each other without padding");
 
 // A grid volume placed in the world. Macro-cells of kMacroCell^3 voxels
 // hold the maximum extinction (after the transfer function) over the
 // voxels a trilinear sample inside the cell can touch (one-voxel apron),
 // for empty-space skipping. Cell c covers index positions
 // [c*K - 0.5, (c+1)*K - 0.5) on each axis.
-//  - kGridDense: a dense array in SceneView::voxels, x fastest, and a dense
+//  - GridKind::Dense: a dense array in SceneView::voxels, x fastest, and a dense
 //    array of macro-cells -1 .. ceil(n/K) per axis (stored from 0): samples
 //    up to a voxel outside the grid read its border voxels.
-//  - kGridNano: a NanoVDB float grid in SceneView::nano_pool. Its leaf
+//  - GridKind::Nano: a NanoVDB float grid in SceneView::nano_pool. Its leaf
 //    nodes (8^3 voxels) are exactly the macro-cells: one maximum per leaf,
 //    in the tree's leaf order. A cell without a leaf holds one value (a
 //    tile's or the background); skip_mode says how its apron is bounded.
 inline constexpr int kMacroCell = 8;
-inline constexpr uint32_t kGridDense = 0u;
-inline constexpr uint32_t kGridNano = 1u;
-// How a sparse grid's cells without a leaf are skipped: kNanoSkipLeaves
-// (the cell is background within its apron: load_vdb's grids),
-// kNanoSkipNeighbours (the cell and its 26 neighbours decide: tiles, grids
-// made in code).
-inline constexpr uint32_t kNanoSkipLeaves = 0u;
-inline constexpr uint32_t kNanoSkipNeighbours = 1u;
 
 struct VolumeData {
   Mat4 world_to_index;    // world -> voxel index coordinates
@@ -92,15 +90,21 @@ struct VolumeData {
   int32_t mx, my, mz;     // dense: macro-cells (with the outer ring); nano: mx = leaf count, my = mz = 1
   float background;       // value where the grid stores none
   float step;             // march step, world units
-  uint32_t shading;       // VolumeShading: 0 scatter, 1 phong
+  VolumeShading shading;  // scatter or phong (cdsm/tags.h)
   float gradient_scale;   // phong: gradient -> normal scale
   float voxel_world;      // smallest world size of a voxel edge
-  uint32_t grid_kind;     // kGridDense / kGridNano
-  uint32_t skip_mode;     // nano: kNanoSkipLeaves / kNanoSkipNeighbours
+  GridKind grid_kind;     // dense or NanoVDB (cdsm/tags.h)
+  NanoSkip skip_mode;     // nano: how cells without a leaf are skipped
   Vec3 cells_lo;          // index-space box of the macro-cells that can hold a non-background
   Vec3 cells_hi;          // value (apron included); outside it every sample reads the background
   TransferData tf;
 };
+// The bytes the CPU and CUDA read alike: two matrices, two 64-bit offsets,
+// then 4-byte fields only (the tags are uint32_t enums).
+static_assert(sizeof(VolumeData) == 688 && alignof(VolumeData) == 8, "VolumeData is 688 bytes, 8-aligned");
+static_assert(offsetof(VolumeData, voxel_offset) == 128 && offsetof(VolumeData, shading) == 176 &&
+                  offsetof(VolumeData, grid_kind) == 188 && offsetof(VolumeData, tf) == 220,
+              "VolumeData's fields where the kernels expect them");
 
 // A BVH node: inner nodes have count == 0, children at index+1 and `first`;
 // leaves hold prims[first .. first+count).
@@ -123,7 +127,7 @@ struct SceneView {
   Span<const VolumeData> volumes;
   Span<const float> voxels;        // all dense grids
   Span<const float> macro_max;     // all macro-cell maxima
-  Span<const uint8_t> nano_pool;   // all NanoVDB grids (kGridNano), each 32-byte aligned
+  Span<const uint8_t> nano_pool;   // all NanoVDB grids (GridKind::Nano), each 32-byte aligned
   Span<const BvhNode> bvh;         // node 0 is the root (absent if empty)
   Span<const uint32_t> bvh_prims;  // triangle indices referenced by leaves
 };

@@ -74,7 +74,7 @@ CDSM_HD CDSM_INLINE void corners_by_voxel(int i, int j, int k, float* c, Fetch&&
 }
 
 #if CDSM_HAVE_NANOVDB
-// The NanoVDB grid of a kGridNano volume.
+// The NanoVDB grid of a GridKind::Nano volume.
 CDSM_HD CDSM_INLINE const nanovdb::FloatGrid* nano_grid(const SceneView& s, const VolumeData& v) {
   return reinterpret_cast<const nanovdb::FloatGrid*>(s.nano_pool.data() + v.voxel_offset);
 }
@@ -99,9 +99,9 @@ CDSM_HD CDSM_NOINLINE inline float nano_density_at_index(const SceneView& s, con
 CDSM_HD CDSM_INLINE float density_at_index(const SceneView& s, const VolumeData& v, Vec3 q) {
   switch (v.grid_kind) {
 #if CDSM_HAVE_NANOVDB
-    case kGridNano: return nano_density_at_index(s, v, q);
+    case GridKind::Nano: return nano_density_at_index(s, v, q);
 #endif
-    case kGridDense:
+    case GridKind::Dense:
     default:
       return trilinear(q, [&](int i, int j, int k, float* c) {
         if (i >= 0 && j >= 0 && k >= 0 && i + 1 < v.nx && j + 1 < v.ny && k + 1 < v.nz) {
@@ -145,7 +145,7 @@ CDSM_HD CDSM_NOINLINE inline float nano_macro_max_at(const SceneView& s, const V
   const auto* first = tree.getFirstLeaf();
   const auto* leaf = tree.root().probeLeaf(nanovdb::Coord(ci * kMacroCell, cj * kMacroCell, ck * kMacroCell));
   if (leaf != nullptr) return s.macro_max[v.macro_offset + uint64_t(leaf - first)];
-  if (v.skip_mode != kNanoSkipNeighbours) return -1.0f;
+  if (v.skip_mode != NanoSkip::Neighbours) return -1.0f;
   // A cell without a leaf is one value; its apron reaches into the 26
   // neighbours: each a leaf (its stored maximum) or one value.
   float m = 0.0f;
@@ -173,7 +173,7 @@ CDSM_HD CDSM_INLINE float macro_max_at(const SceneView& s, const VolumeData& v, 
   int cj = int(floorf((clamp_index(q.y) + 0.5f) / float(kMacroCell)));
   int ck = int(floorf((clamp_index(q.z) + 0.5f) / float(kMacroCell)));
 #if CDSM_HAVE_NANOVDB
-  if (v.grid_kind == kGridNano) return nano_macro_max_at(s, v, ci, cj, ck);
+  if (v.grid_kind == GridKind::Nano) return nano_macro_max_at(s, v, ci, cj, ck);
 #endif
   ci += 1;  // the stored cells start at -1
   cj += 1;

@@ -11,6 +11,9 @@
 
 #include "hd/bvh.h"
 #include "hd/volume.h"
+#if CDSM_HAVE_NANOVDB
+#include "scene/nano_blocks.h"
+#endif
 
 namespace cdsm {
 
@@ -27,41 +30,14 @@ void value_box(const SceneView& s, const VolumeData& v, Vec3& lo, Vec3& hi) {
     lo = vmin(lo, Vec3{x0 - 1.0f, y0 - 1.0f, z0 - 1.0f});
     hi = vmax(hi, Vec3{x1 + 1.0f, y1 + 1.0f, z1 + 1.0f});
   };
-  if (v.grid_kind == kGridDense) {
+  if (v.grid_kind == GridKind::Dense) {
     grow(0, 0, 0, float(v.nx - 1), float(v.ny - 1), float(v.nz - 1));
     return;
   }
 #if CDSM_HAVE_NANOVDB
-  const nanovdb::FloatTree& tree = nano_grid(s, v)->tree();
-  const float bg = tree.background();
-  auto grow_block = [&](const nanovdb::Coord& o, int dim) {
+  for_each_value_block(nano_grid(s, v)->tree(), [&](const nanovdb::Coord& o, int dim) {
     grow(float(o[0]), float(o[1]), float(o[2]), float(o[0] + dim - 1), float(o[1] + dim - 1), float(o[2] + dim - 1));
-  };
-  const auto* leaf = tree.getFirstLeaf();
-  for (uint32_t i = 0; i < tree.nodeCount(0); ++i) grow_block(leaf[i].origin(), 8);
-  // Tiles of an internal node: table slot n holds child block (x, y, z) =
-  // (n >> 2L, (n >> L) & (2^L - 1), n & (2^L - 1)), L = log2 of its size
-  // (NanoVDB's CoordToOffset; its iterators' getOrigin does not compile).
-  auto tiles_of = [&](const auto& node, int log2dim, int child_dim) {
-    const nanovdb::Coord o = node.origin();
-    const uint32_t mask = (1u << log2dim) - 1u;
-    for (auto it = node.beginValue(); it; ++it) {
-      if (*it == bg) continue;
-      uint32_t n = it.pos();
-      grow_block(o + nanovdb::Coord(int(n >> (2 * log2dim)) * child_dim, int((n >> log2dim) & mask) * child_dim,
-                                    int(n & mask) * child_dim),
-                 child_dim);
-    }
-  };
-  const auto* lower = tree.getFirstLower();
-  for (uint32_t i = 0; i < tree.nodeCount(1); ++i) tiles_of(lower[i], 4, 8);
-  const auto* upper = tree.getFirstUpper();
-  for (uint32_t i = 0; i < tree.nodeCount(2); ++i) tiles_of(upper[i], 5, 128);
-  const auto& root = tree.root();
-  for (uint32_t i = 0; i < root.tileCount(); ++i) {
-    const auto* t = root.data()->tile(i);
-    if (t->isValue() && t->value != bg) grow_block(t->origin(), 4096);
-  }
+  });
 #endif
 }
 
@@ -420,31 +396,9 @@ void ReferenceRenderer::render(const CameraPassParams& params, std::vector<float
             if (std::max({a[0], a[1], a[2]}) <= 0.0) continue;
             if (max_channel(vol_ext) > 0.0f && dom >= 0) {
               const VolumeData& v = scene_.volumes[vols[dom]];
-              ShadeInput in;
-              in.p = p;
-              in.v = -dir;
-              for (int k = 0; k < 3; ++k) in.color[k] = vol_ext[k] > 0.0f ? col[k] / vol_ext[k] : 0.0f;
-              in.ka = 1.0f;
-              in.kd = 1.0f;
-              in.ks = 0.0f;
-              in.shininess = 1.0f;
-              in.has_normal = false;
-              in.plane = Vec3{0, 0, 0};
-              in.object = kNoObject;
-              in.n = Vec3{0, 0, 0};
-              if (v.shading == 1u) {
-                Vec3 g = density_gradient(scene_, v, p) * v.gradient_scale;
-                float gl = length(g);
-                if (gl > 1e-6f) {
-                  in.n = g * (-1.0f / gl);
-                  if (dot(in.n, dir) > 0.0f) in.n = -in.n;
-                  in.has_normal = true;
-                  in.ka = 0.3f;
-                  in.kd = 0.7f;
-                  in.ks = 0.2f;
-                  in.shininess = 16.0f;
-                }
-              }
+              Vec3 base{0, 0, 0};
+              for (int k = 0; k < 3; ++k) base[k] = vol_ext[k] > 0.0f ? col[k] / vol_ext[k] : 0.0f;
+              const ShadeInput in = volume_sample_shading(scene_, v, p, dir, base);
               Vec3 c = shade_point(in, lights, params.ambient, visibility);
               for (int k = 0; k < 3; ++k)
                 if (ext[k] > 0.0f) color[k] += c[k] * float(T[k] * a[k] * (vol_ext[k] / ext[k]));

@@ -28,6 +28,7 @@
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 
+#include "cdsm/fields.h"
 #include "cdsm/scene_io.h"
 #include "cdsm/shadow_system.h"
 #include "frame_snapshot.h"
@@ -41,17 +42,7 @@ const std::string kGoldens = std::string(CDSM_COLOUR_TEST_DIR) + "/grey_goldens.
 const std::string kGoldenImages = std::string(CDSM_COLOUR_TEST_DIR) + "/goldens";
 const std::string kOutput = std::string(CDSM_TEST_OUTPUT_DIR) + "/colour";
 
-struct Fnv {
-  uint64_t h = 1469598103934665603ull;
-  void bytes(const void* p, size_t n) {
-    const auto* b = static_cast<const unsigned char*>(p);
-    for (size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
-  }
-  template <class T>
-  void value(const T& v) {
-    bytes(&v, sizeof v);
-  }
-};
+using Fnv = Fnv1a;
 
 struct Case {
   std::string name;   // key in the goldens file
@@ -102,11 +93,11 @@ std::pair<uint64_t, uint64_t> hashes(const Scene& scene, Image& img) {
   for (const DsmMap& m : f.headers) {
     EXPECT_EQ(m.rgb, 0u) << "a grey scene built an RGB map";
     if (m.rgb != 0u) continue;
-    nodes.value(m.res);
+    nodes.pod(m.res);
     for (int ty = 0; ty < int(m.res); ++ty)
       for (int tx = 0; tx < int(m.res); ++tx) {
         const uint32_t n = read_texel(view.storage, m, tx, ty, buf.data(), uint32_t(buf.size()));
-        nodes.value(n);
+        nodes.pod(n);
         nodes.bytes(buf.data(), std::min<size_t>(n, buf.size()) * sizeof(DsmNode));
       }
   }

@@ -40,14 +40,7 @@ struct FieldTable<TestSettings> {
 
 namespace {
 
-struct Hasher {
-  uint64_t h = 1469598103934665603ull;
-  template <class T>
-  void pod(const T& v) {
-    const unsigned char* c = reinterpret_cast<const unsigned char*>(&v);
-    for (size_t i = 0; i < sizeof(T); ++i) h = (h ^ c[i]) * 1099511628211ull;
-  }
-};
+using Hasher = Fnv1a;
 
 template <class S>
 uint64_t hash_of(const S& s, uint32_t bits) {

@@ -94,6 +94,21 @@ std::string changed_fields(const S& a, const S& b) {
   return keys;
 }
 
+// FNV-1a, 64 bit, over bytes: the hash of the library's keys (maps, clusters,
+// caches); deterministic on every platform. One copy for all of them.
+struct Fnv1a {
+  uint64_t h = 1469598103934665603ull;
+  void bytes(const void* p, size_t n) {
+    const unsigned char* c = static_cast<const unsigned char*>(p);
+    for (size_t i = 0; i < n; ++i) h = (h ^ c[i]) * 1099511628211ull;
+  }
+  template <class T>
+  void pod(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>, "pod() hashes the bytes of plain values");
+    bytes(&v, sizeof(T));
+  }
+};
+
 // h.pod(value) for every field with one of the `affects` bits (names and
 // other strings affect nothing built and are never hashed).
 template <class S, class Hash>

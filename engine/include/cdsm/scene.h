@@ -68,12 +68,6 @@ struct TransferPoint {
   Vec3 color{1, 1, 1};       // albedo (scatter) or base colour (phong)
 };
 
-enum class VolumeShading : uint32_t { Scatter = 0, Phong = 1 };
-template <>
-struct TagNames<VolumeShading> {
-  static constexpr const char* names[] = {"scatter", "phong"};
-};
-
 // A sparse float grid in NanoVDB's layout: the bytes of one
 // nanovdb::NanoGrid<float> (position-independent, so the same bytes are
 // sampled on the CPU and copied as is to a GPU). Made by load_vdb()

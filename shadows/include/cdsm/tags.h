@@ -63,6 +63,20 @@ enum class ShadowMethod : uint32_t {
   Moments = 6,         // moment-based transmittance: method_param (4 or 8) power moments of the absorbance
 };
 
+// How a volume's samples are shaded (hd/camera_pass.h, the reference):
+// single scattering (smoke, clouds) or Phong with the density gradient as
+// the normal (CT data).
+enum class VolumeShading : uint32_t { Scatter = 0, Phong = 1 };
+
+// How a volume's grid is stored (hd/scene_data.h VolumeData): a dense array,
+// or a NanoVDB grid whose leaves are the macro-cells.
+enum class GridKind : uint32_t { Dense = 0, Nano = 1 };
+
+// How a sparse grid's cells without a leaf are skipped: Leaves (the cell is
+// background within its apron: load_vdb's grids), Neighbours (the cell and
+// its 26 neighbours decide: tiles, grids made in code).
+enum class NanoSkip : uint32_t { Leaves = 0, Neighbours = 1 };
+
 // ---- names ------------------------------------------------------------------
 // The one spelling of each value, in value order: scene files (reader and
 // writer), the command line, the editor and messages all use these.
@@ -95,6 +109,10 @@ struct TagNames<ReceiverLookup> {
 template <>
 struct TagNames<Penumbra> {
   static constexpr const char* names[] = {"estimated", "fixed_kernel", "hard"};
+};
+template <>
+struct TagNames<VolumeShading> {
+  static constexpr const char* names[] = {"scatter", "phong"};
 };
 template <>
 struct TagNames<ShadowMethod> {
