@@ -19,12 +19,10 @@
 #include "reference/lookup_recorder.h"
 #include "reference/reference.h"
 #include "scene_sync.h"
+#include "stopwatch.h"
 
 namespace cdsm {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 // One compared lookup: its map, resolution and total error, weight, class.
 struct PointError {

@@ -18,13 +18,11 @@
 #include "reference/reference.h"
 #include "scene_compile.h"
 #include "shadow_system_impl.h"
+#include "stopwatch.h"
 
 namespace cdsm {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 // A refit tree whose surface-area cost grew beyond this factor of its
 // build's is rebuilt (tests/bench/bench_frames.cpp measured refit against

@@ -17,13 +17,11 @@
 #include "reference/reference.h"
 #include "scene_compile.h"
 #include "shadow_system_impl.h"
+#include "stopwatch.h"
 
 namespace cdsm {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 template <class T>
 uint64_t capacity_bytes(const std::vector<T>& v) {

@@ -16,6 +16,11 @@
 // call (the probes read it, and the GL map buffers where the executor
 // cannot write them itself); the camera pass reads the executor's copy, and
 // over CudaExec the GL map buffers are written from it (write_gl_maps).
+//
+// Its parts: the scene's arrays (backend/scene_store.h), the held fragment
+// lists (backend/list_store.h), the maps' slots and compaction
+// (exec/map_store.h); this class is the facade that ties them to the
+// executor's passes.
 #pragma once
 
 #include <algorithm>
@@ -26,6 +31,8 @@
 #include <vector>
 
 #include "backend/backend.h"
+#include "backend/list_store.h"
+#include "backend/scene_store.h"
 #include "exec/camera_pass.h"
 #include "exec/light_pass.h"
 #include "exec/map_store.h"
@@ -49,16 +56,8 @@ class ExecBackend final : public ExecShadowBackend {
   explicit ExecBackend(const char* name, Args&&... args)
       : name_(name),
         ex_(std::forward<Args>(args)...),
-        tri_vertices_(ex_),
-        tri_normals_(ex_),
-        tri_object_(ex_),
-        objects_(ex_),
-        volumes_(ex_),
-        voxels_(ex_),
-        macro_max_(ex_),
-        nano_pool_(ex_),
-        bvh_(ex_),
-        bvh_prims_(ex_),
+        scene_(ex_),
+        lists_(ex_),
         grey_(ex_),
         rgb_(ex_),
         scratch_(ex_),
@@ -77,42 +76,8 @@ class ExecBackend final : public ExecShadowBackend {
   Ex& executor() { return ex_; }
 
   // The scene's arrays into executor memory (on CPU threads too: the same
-  // code, counted as copies): all of them on `everything` (or the first
-  // call), else only what `change` names — a moved object's triangles and
-  // the BVH nodes a refit changed, the object or volume data when edited.
-  void update_scene(const SceneBuffers& sb, const SceneChange& change) override {
-    const bool all = change.everything || host_scene_ == nullptr || tri_vertices_.size() != sb.tri_vertices.size() ||
-                     bvh_.size() != sb.bvh.size() || objects_.size() != sb.objects.size();
-    host_scene_ = &sb;
-    if (all) {
-      tri_vertices_.assign(sb.tri_vertices);
-      tri_normals_.assign(sb.tri_normals);
-      tri_object_.assign(sb.tri_object);
-      objects_.assign(sb.objects);
-      bvh_.assign(sb.bvh);
-      bvh_prims_.assign(sb.bvh_prims);
-    } else {
-      for (const IndexRange& r : change.triangles) {
-        const uint64_t v = uint64_t(r.first) * 3, n = uint64_t(r.count) * 3;
-        tri_vertices_.write(v, sb.tri_vertices.data() + v, n);
-        if (!sb.tri_normals.empty()) tri_normals_.write(v, sb.tri_normals.data() + v, n);
-      }
-      if (change.bvh) {
-        bvh_.assign(sb.bvh);
-        bvh_prims_.assign(sb.bvh_prims);
-      } else {
-        for (const IndexRange& r : change.bvh_nodes) bvh_.write(r.first, sb.bvh.data() + r.first, r.count);
-      }
-      if (change.objects) objects_.assign(sb.objects);
-    }
-    if (all || change.volumes || change.grids) volumes_.assign(sb.volumes);
-    if (all || change.grids) {
-      voxels_.assign(sb.voxels);
-      macro_max_.assign(sb.macro_max);
-      nano_pool_.assign(reinterpret_cast<const unsigned char*>(sb.nano_pool.data()),
-                        sb.nano_pool.size() * sizeof(GridBlock));
-    }
-  }
+  // code, counted as copies): ExecSceneStore::update.
+  void update_scene(const SceneBuffers& sb, const SceneChange& change) override { scene_.update(sb, change); }
 
   TransferBytes take_transfers() override {
     const TransferBytes t{ex_.bytes_up - taken_up_, ex_.bytes_down - taken_down_};
@@ -123,7 +88,7 @@ class ExecBackend final : public ExecShadowBackend {
 
   MapId build_map(const LightPassParams& params, ListsId lists, const DsmLayoutParams& layout,
                   DsmBuildStats& stats) override {
-    const FragmentLists frags = held(lists, "build_map").lists();
+    const FragmentLists frags = lists_.held(lists, "build_map").lists();
     check_layout(layout);
     if (params.rgb && params.method != ShadowMethod::Dsm)
       throw std::invalid_argument("build_map: the baselines are grey (no RGB maps)");
@@ -274,12 +239,7 @@ class ExecBackend final : public ExecShadowBackend {
     s.compactions = compactions_;
     s.compacted_bytes = compacted_bytes_;
     s.maps = slots_.live();
-    for (const std::unique_ptr<HeldLists>& h : held_)
-      if (h) {
-        const FragmentLists l = h->lists();
-        ++s.lists;
-        s.list_bytes += l.offsets.size() * sizeof(uint32_t) + l.fragments.size() * sizeof(Fragment);
-      }
+    lists_.add_stats(s);
     return s;
   }
 
@@ -287,56 +247,24 @@ class ExecBackend final : public ExecShadowBackend {
   std::vector<StageTime> take_stage_times() override { return ex_.take_stage_times(); }
 
   ListsId cast_lists(const PinholeView& view, ObjectMask mask) override {
-    CDSM_CHECK(host_scene_, "cast_lists: no scene (update_scene first)");
-    const bool any_media = mask_has_media(host_scene_->view(), mask);
+    CDSM_CHECK(scene_.host(), "cast_lists: no scene (update_scene first)");
+    const bool any_media = mask_has_media(scene_.host()->view(), mask);
     frag_mask_.assign(mask.words.data(), mask.words.size());
-    auto h = std::make_unique<HeldLists>(ex_);
-    cast_fragments_exec(ex_, scene_view(), view, ObjectMask{frag_mask_.cspan()}, any_media, frag_counts_, h->offsets,
+    auto h = lists_.make();
+    cast_fragments_exec(ex_, scene_.view(), view, ObjectMask{frag_mask_.cspan()}, any_media, frag_counts_, h->offsets,
                         h->fragments, frag_total_);
     h->width = view.width;
     h->height = view.height;
-    return hold(std::move(h));
+    return lists_.hold(std::move(h));
   }
 
-  ListsId adopt_lists(FragmentBuffers&& lists) override {
-    check_lists(lists.width, lists.height, lists.offsets.size(), lists.fragments.size(), "adopt_lists");
-    auto h = std::make_unique<HeldLists>(ex_);
-    h->width = lists.width;
-    h->height = lists.height;
-    if constexpr (Ex::kHostMemory) {
-      h->host = std::move(lists);  // moved in: no copy
-      h->on_host = true;
-    } else {
-      h->offsets.assign(lists.offsets);
-      h->fragments.assign(lists.fragments);
-    }
-    return hold(std::move(h));
+  ListsId adopt_lists(FragmentBuffers&& lists) override { return lists_.adopt(std::move(lists)); }
+  ListsId copy_lists(ListsId id) override { return lists_.copy(id); }
+  void free_lists(ListsId id) override { lists_.free(id); }
+  uint64_t lists_fragments(ListsId id) const override {
+    return lists_.held(id, "lists_fragments").lists().fragments.size();
   }
-
-  ListsId copy_lists(ListsId id) override {
-    const FragmentLists from = held(id, "copy_lists").lists();
-    auto h = std::make_unique<HeldLists>(ex_);
-    h->width = from.width;
-    h->height = from.height;
-    h->offsets.resize_discard(from.offsets.size());
-    h->fragments.resize_discard(from.fragments.size());
-    if (from.offsets.size()) ex_.copy(h->offsets.data(), from.offsets.data(), from.offsets.size() * sizeof(uint32_t));
-    if (from.fragments.size())
-      ex_.copy(h->fragments.data(), from.fragments.data(), from.fragments.size() * sizeof(Fragment));
-    return hold(std::move(h));
-  }
-
-  void free_lists(ListsId id) override {
-    held(id, "free_lists");
-    held_[id].reset();
-    free_held_.push_back(id);
-  }
-
-  uint64_t lists_fragments(ListsId id) const override { return held(id, "lists_fragments").lists().fragments.size(); }
-  uint64_t lists_bytes(ListsId id) const override {
-    const FragmentLists l = held(id, "lists_bytes").lists();
-    return l.offsets.size() * sizeof(uint32_t) + l.fragments.size() * sizeof(Fragment);
-  }
+  uint64_t lists_bytes(ListsId id) const override { return lists_.bytes(lists_.held(id, "lists_bytes").lists()); }
 
   // Each tile mapped (read-only) and copied on the executor into the
   // lists' fragments, which grow as tiles come; then the offsets uploaded.
@@ -344,7 +272,7 @@ class ExecBackend final : public ExecShadowBackend {
     if constexpr (Ex::kGlInterop) {
       CDSM_CHECK(ex_.gl_context_on_device(),
                  std::string(name_) + " backend: lists_from_gl needs the current GL context on its device");
-      auto h = std::make_unique<HeldLists>(ex_);
+      auto h = lists_.make();
       FragmentBuffers out;
       rasterize(
           [&](uint64_t first, uint64_t count, uint32_t gl_buffer, uint64_t gl_buffer_bytes, uint64_t generation) {
@@ -358,29 +286,20 @@ class ExecBackend final : public ExecShadowBackend {
                                [&](const void* src) { ex_.copy(dst, src, count * sizeof(Fragment)); });
           },
           out);
-      check_lists(out.width, out.height, out.offsets.size(), h->fragments.size(), "lists_from_gl");
+      ExecListStore<Ex>::check(out.width, out.height, out.offsets.size(), h->fragments.size(), "lists_from_gl");
       CDSM_CHECK(out.offsets.back() == h->fragments.size(), "lists_from_gl: " + std::to_string(h->fragments.size()) +
                                                                 " fragments copied, the offsets count " +
                                                                 std::to_string(out.offsets.back()));
       h->width = out.width;
       h->height = out.height;
       h->offsets.assign(out.offsets);
-      return hold(std::move(h));
+      return lists_.hold(std::move(h));
     } else {
       return ShadowBackend::lists_from_gl(rasterize);
     }
   }
 
-  void read_lists(ListsId id, FragmentBuffers& out) override {
-    const FragmentLists l = held(id, "read_lists").lists();
-    out.width = l.width;
-    out.height = l.height;
-    out.offsets.resize(l.offsets.size());
-    out.fragments.resize(l.fragments.size());
-    if (l.offsets.size()) ex_.download(out.offsets.data(), l.offsets.data(), l.offsets.size() * sizeof(uint32_t));
-    if (l.fragments.size())
-      ex_.download(out.fragments.data(), l.fragments.data(), l.fragments.size() * sizeof(Fragment));
-  }
+  void read_lists(ListsId id, FragmentBuffers& out) override { lists_.read(id, out); }
 
   void read_map(MapId id, uint32_t cap, std::vector<uint32_t>& counts, std::vector<DsmNode>& nodes) override {
     const DsmMap m = map_header(id);
@@ -389,54 +308,9 @@ class ExecBackend final : public ExecShadowBackend {
   }
 
  private:
-  // Fragment lists held for the frame: adopted host lists kept as they came
-  // where the executor's memory is host memory, else (and cast or copied
-  // lists) in executor arrays.
-  struct HeldLists {
-    explicit HeldLists(Ex& ex) : offsets(ex), fragments(ex) {}
-    int32_t width = 0, height = 0;
-    bool on_host = false;
-    FragmentBuffers host;
-    ExecArray<uint32_t, Ex> offsets;
-    ExecArray<Fragment, Ex> fragments;
-    FragmentLists lists() {
-      if (on_host) return host.lists();
-      FragmentLists l;
-      l.width = width;
-      l.height = height;
-      l.offsets = offsets.cspan();
-      l.fragments = fragments.span();
-      return l;
-    }
-  };
-
-  // Lists of width x height pixels: width * height + 1 offsets, the last the
-  // fragment count (the only entry checked here: the rest is the producer's).
-  static void check_lists(int32_t width, int32_t height, uint64_t offsets, uint64_t fragments, const char* what) {
-    if (width < 0 || height < 0 || offsets != uint64_t(width) * uint64_t(height) + 1)
-      throw std::invalid_argument(std::string(what) + ": " + std::to_string(offsets) + " offsets for lists of " +
-                                  std::to_string(width) + "x" + std::to_string(height) +
-                                  " pixels (width * height + 1 expected)");
-    if (fragments > 0xffffffffull) throw std::length_error(std::string(what) + ": more than 2^32-1 fragments");
-  }
-  ListsId hold(std::unique_ptr<HeldLists> h) {
-    if (free_held_.empty()) {
-      held_.push_back(std::move(h));
-      return ListsId(held_.size() - 1);
-    }
-    const ListsId id = free_held_.back();
-    free_held_.pop_back();
-    held_[id] = std::move(h);
-    return id;
-  }
-  HeldLists& held(ListsId id, const char* what) const {
-    CDSM_CHECK(id < held_.size() && held_[id],
-               std::string(what) + ": fragment lists " + std::to_string(id) + " are not held");
-    return *held_[id];
-  }
   // Lists `id`, which must cover the camera view.
   FragmentLists camera_lists(ListsId id, const CameraPassParams& params) const {
-    const FragmentLists l = held(id, "camera_pass").lists();
+    const FragmentLists l = lists_.held(id, "camera_pass").lists();
     if (l.width != params.view.width || l.height != params.view.height)
       throw std::invalid_argument("camera_pass: fragment lists of " + std::to_string(l.width) + "x" +
                                   std::to_string(l.height) + " pixels for a view of " +
@@ -515,20 +389,7 @@ class ExecBackend final : public ExecShadowBackend {
     return m;
   }
 
-  SceneView scene_view() const {
-    SceneView v;
-    v.tri_vertices = tri_vertices_.cspan();
-    v.tri_normals = tri_normals_.cspan();
-    v.tri_object = tri_object_.cspan();
-    v.objects = objects_.cspan();
-    v.volumes = volumes_.cspan();
-    v.voxels = voxels_.cspan();
-    v.macro_max = macro_max_.cspan();
-    v.nano_pool = {nano_pool_.data(), nano_pool_.size()};
-    v.bvh = bvh_.cspan();
-    v.bvh_prims = bvh_prims_.cspan();
-    return v;
-  }
+  SceneView scene_view() const { return scene_.view(); }
 
   DsmStorage exec_storage() const {
     DsmStorage s;
@@ -596,14 +457,8 @@ class ExecBackend final : public ExecShadowBackend {
 
   const char* name_;
   Ex ex_;  // first: every array below holds a pointer to it
-  ExecArray<Vec3, Ex> tri_vertices_, tri_normals_;
-  ExecArray<uint32_t, Ex> tri_object_;
-  ExecArray<ObjectData, Ex> objects_;
-  ExecArray<VolumeData, Ex> volumes_;
-  ExecArray<float, Ex> voxels_, macro_max_;
-  ExecArray<unsigned char, Ex> nano_pool_;
-  ExecArray<BvhNode, Ex> bvh_;
-  ExecArray<uint32_t, Ex> bvh_prims_;
+  ExecSceneStore<Ex> scene_;
+  ExecListStore<Ex> lists_;
   KindStore<DsmNode, Ex> grey_;
   KindStore<DsmNodeRgb, Ex> rgb_;
   LightPassScratch<Ex> scratch_;
@@ -615,10 +470,7 @@ class ExecBackend final : public ExecShadowBackend {
   ExecArray<uint32_t, Ex> frag_counts_;
   ExecArray<unsigned long long, Ex> frag_total_;
   ExecArray<uint32_t, Ex> frag_mask_;
-  std::vector<std::unique_ptr<HeldLists>> held_;  // by ListsId (null: free)
-  std::vector<ListsId> free_held_;
 
-  const SceneBuffers* host_scene_ = nullptr;
   uint64_t taken_up_ = 0, taken_down_ = 0;  // the executor's byte counts at the last take_transfers
   LightPassOptions options_;
   DsmLayoutParams layout_;

@@ -1,0 +1,134 @@
+// Fragment lists an ExecBackend holds for a frame (ListsId): adopted host
+// lists kept as they came where the executor's memory is host memory,
+// else (and cast or copied lists) in executor arrays.
+#pragma once
+
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "backend/backend.h"
+#include "exec/exec.h"
+
+namespace cdsm::exec {
+
+template <class Ex>
+class ExecListStore {
+ public:
+  // One view's lists.
+  struct Held {
+    explicit Held(Ex& ex) : offsets(ex), fragments(ex) {}
+    int32_t width = 0, height = 0;
+    bool on_host = false;
+    FragmentBuffers host;
+    ExecArray<uint32_t, Ex> offsets;
+    ExecArray<Fragment, Ex> fragments;
+    FragmentLists lists() {
+      if (on_host) return host.lists();
+      FragmentLists l;
+      l.width = width;
+      l.height = height;
+      l.offsets = offsets.cspan();
+      l.fragments = fragments.span();
+      return l;
+    }
+  };
+
+  explicit ExecListStore(Ex& ex) : ex_(ex) {}
+
+  // New, empty lists in executor memory, to fill and hold().
+  std::unique_ptr<Held> make() { return std::make_unique<Held>(ex_); }
+  ListsId hold(std::unique_ptr<Held> h) {
+    if (free_.empty()) {
+      held_.push_back(std::move(h));
+      return ListsId(held_.size() - 1);
+    }
+    const ListsId id = free_.back();
+    free_.pop_back();
+    held_[id] = std::move(h);
+    return id;
+  }
+  // Lists `id`; a broken invariant (CDSM_CHECK) when they are not held.
+  Held& held(ListsId id, const char* what) const {
+    CDSM_CHECK(id < held_.size() && held_[id],
+               std::string(what) + ": fragment lists " + std::to_string(id) + " are not held");
+    return *held_[id];
+  }
+  void free(ListsId id) {
+    held(id, "free_lists");
+    held_[id].reset();
+    free_.push_back(id);
+  }
+
+  // Host lists handed over: moved in over host memory, else uploaded.
+  ListsId adopt(FragmentBuffers&& lists) {
+    check(lists.width, lists.height, lists.offsets.size(), lists.fragments.size(), "adopt_lists");
+    auto h = make();
+    h->width = lists.width;
+    h->height = lists.height;
+    if constexpr (Ex::kHostMemory) {
+      h->host = std::move(lists);  // moved in: no copy
+      h->on_host = true;
+    } else {
+      h->offsets.assign(lists.offsets);
+      h->fragments.assign(lists.fragments);
+    }
+    return hold(std::move(h));
+  }
+
+  // A copy made on the executor.
+  ListsId copy(ListsId id) {
+    const FragmentLists from = held(id, "copy_lists").lists();
+    auto h = make();
+    h->width = from.width;
+    h->height = from.height;
+    h->offsets.resize_discard(from.offsets.size());
+    h->fragments.resize_discard(from.fragments.size());
+    if (from.offsets.size()) ex_.copy(h->offsets.data(), from.offsets.data(), from.offsets.size() * sizeof(uint32_t));
+    if (from.fragments.size())
+      ex_.copy(h->fragments.data(), from.fragments.data(), from.fragments.size() * sizeof(Fragment));
+    return hold(std::move(h));
+  }
+
+  // Downloads lists `id` into `out` (host memory).
+  void read(ListsId id, FragmentBuffers& out) const {
+    const FragmentLists l = held(id, "read_lists").lists();
+    out.width = l.width;
+    out.height = l.height;
+    out.offsets.resize(l.offsets.size());
+    out.fragments.resize(l.fragments.size());
+    if (l.offsets.size()) ex_.download(out.offsets.data(), l.offsets.data(), l.offsets.size() * sizeof(uint32_t));
+    if (l.fragments.size())
+      ex_.download(out.fragments.data(), l.fragments.data(), l.fragments.size() * sizeof(Fragment));
+  }
+
+  static uint64_t bytes(const FragmentLists& l) {
+    return l.offsets.size() * sizeof(uint32_t) + l.fragments.size() * sizeof(Fragment);
+  }
+  // Every held lists' count and bytes (MapStoreStats).
+  void add_stats(MapStoreStats& s) const {
+    for (const std::unique_ptr<Held>& h : held_)
+      if (h) {
+        ++s.lists;
+        s.list_bytes += bytes(h->lists());
+      }
+  }
+
+  // Lists of width x height pixels: width * height + 1 offsets, the last the
+  // fragment count (the only entry checked here: the rest is the producer's).
+  static void check(int32_t width, int32_t height, uint64_t offsets, uint64_t fragments, const char* what) {
+    if (width < 0 || height < 0 || offsets != uint64_t(width) * uint64_t(height) + 1)
+      throw std::invalid_argument(std::string(what) + ": " + std::to_string(offsets) + " offsets for lists of " +
+                                  std::to_string(width) + "x" + std::to_string(height) +
+                                  " pixels (width * height + 1 expected)");
+    if (fragments > 0xffffffffull) throw std::length_error(std::string(what) + ": more than 2^32-1 fragments");
+  }
+
+ private:
+  Ex& ex_;
+  std::vector<std::unique_ptr<Held>> held_;  // by ListsId (null: free)
+  std::vector<ListsId> free_;
+};
+
+}  // namespace cdsm::exec
