@@ -1,6 +1,6 @@
 // One editing session of `cdsm edit`: the document and its undo history
 // (editor/state), the shadow system kept in step with it edit by edit, the
-// viewport renderer (engine/examples/forward: an OpenGL forward renderer
+// viewport renderer (engine/forward: an OpenGL forward renderer
 // with cdsm.glsl, like an engine's), and the views' data. No ImGui here:
 // the panels (ui.cpp) read and write this state; the script runner drives
 // it the same way.

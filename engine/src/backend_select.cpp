@@ -187,4 +187,13 @@ BackendChoice make_backend(Backend want, GlUse gl) {
   return c;
 }
 
+BackendChoice make_system_backend(const SystemOptions& o) {
+  GlUse gl_use = GlUse::None;
+  if (o.gl_context == GlContextUse::Application)
+    gl_use = GlUse::Current;
+  else if (o.fragments == FragmentSource::Auto || o.fragments == FragmentSource::Gl)
+    gl_use = default_gl_use();
+  return make_backend(o.backend, gl_use);
+}
+
 }  // namespace cdsm

@@ -12,6 +12,7 @@
 
 #include "backend/backend.h"
 #include "cdsm/renderer.h"
+#include "cdsm/shadow_system.h"
 
 namespace cdsm {
 
@@ -59,5 +60,11 @@ struct BackendChoice {
 GlUse default_gl_use();                     // Headless in builds with GL, else None
 GlUse gl_use_of(FragmentSource fragments);  // Cpu, Cuda: None; Gl, Auto: default_gl_use()
 BackendChoice make_backend(Backend want, GlUse gl = default_gl_use());
+
+// A shadow system's backend (SystemOptions::backend): Auto takes cuda only
+// where the GL context the system uses (if any) is on the CUDA device — the
+// application's (GlContextUse::Application, current now), or the headless
+// one its fragment rasterizer makes.
+BackendChoice make_system_backend(const SystemOptions& options);
 
 }  // namespace cdsm

@@ -41,15 +41,7 @@ ShadowSystem::Impl::Impl(const SystemOptions& o) : options(o) {
     gl = make_system_gl(o.source);
     if (!o.private_fragment_context) fragments.use_context(system_context(*gl));
   }
-  // Auto takes cuda only where the GL context this system uses (if any) is
-  // on the CUDA device: the application's (current now), or the headless
-  // one the fragment rasterizer makes.
-  GlUse gl_use = GlUse::None;
-  if (o.gl_context == GlContextUse::Application)
-    gl_use = GlUse::Current;
-  else if (o.fragments == FragmentSource::Auto || o.fragments == FragmentSource::Gl)
-    gl_use = default_gl_use();
-  BackendChoice c = make_backend(o.backend, gl_use);
+  BackendChoice c = make_system_backend(o);
   backend = std::move(c.backend);
   backend_name = c.name;
   backend_reason = c.reason;
@@ -329,44 +321,6 @@ void ShadowSystem::publish(FrameStats* stats) {
 
 ShadowSystem::BuildProgress ShadowSystem::build_progress() const {
   return {impl_->progress_built.load(), impl_->progress_total.load()};
-}
-
-std::shared_ptr<const TriangleMesh> ShadowSystem::read_gl_mesh(const GlMeshSource& source) {
-  Impl& I = *impl_;
-  const std::string where = I.scene.source + ": read_gl_mesh";
-  if (!I.gl)
-    throw Error(where,
-                "needs a system created on the application's GL context (SystemOptions::gl_context = "
-                "GlContextUse::Application)");
-  std::vector<std::string> warnings;
-  SystemGlScope scope(I.gl.get(), &warnings);
-  return cdsm::read_gl_mesh(*I.gl, source, where, I.gl_readback_bytes);
-}
-
-GlMapBuffers ShadowSystem::gl_buffers() const {
-  const Impl& I = *impl_;
-  if (!I.gl)
-    throw Error(I.scene.source + ": gl_buffers",
-                "needs a system created on the application's GL context (SystemOptions::gl_context = "
-                "GlContextUse::Application)");
-  return gl_map_buffers(*I.gl);
-}
-
-void ShadowSystem::bind_gl(uint32_t program) {
-  Impl& I = *impl_;
-  const std::string where = I.scene.source + ": bind_gl";
-  if (!I.gl)
-    throw Error(where,
-                "needs a system created on the application's GL context (SystemOptions::gl_context = "
-                "GlContextUse::Application)");
-  bind_gl_maps(*I.gl, program);  // checks the context; changes exactly the program's cdsm bindings
-}
-
-int ShadowSystem::gl_light_index(LightHandle light) const { return int(impl_->light_index(light)); }
-
-uint32_t ShadowSystem::gl_object_id(ObjectHandle object) const {
-  const size_t i = impl_->object_index(object);
-  return impl_->scene.objects[i].casts_shadows ? uint32_t(i) : kNoObject;
 }
 
 void ShadowSystem::reset_maps() {

@@ -6,6 +6,8 @@
 #include <vector>
 
 #include "cdsm/error.h"
+#include "cdsm/shadow_system.h"
+#include "shadow_system_impl.h"
 
 #if CDSM_HAVE_GL
 #include "gl/context.h"
@@ -248,5 +250,45 @@ std::string glsl_include() {
 }
 
 #endif
+
+// ---- ShadowSystem's GL methods (cdsm/shadow_system.h, engine integration) --
+
+std::shared_ptr<const TriangleMesh> ShadowSystem::read_gl_mesh(const GlMeshSource& source) {
+  Impl& I = *impl_;
+  const std::string where = I.scene.source + ": read_gl_mesh";
+  if (!I.gl)
+    throw Error(where,
+                "needs a system created on the application's GL context (SystemOptions::gl_context = "
+                "GlContextUse::Application)");
+  std::vector<std::string> warnings;
+  SystemGlScope scope(I.gl.get(), &warnings);
+  return cdsm::read_gl_mesh(*I.gl, source, where, I.gl_readback_bytes);
+}
+
+GlMapBuffers ShadowSystem::gl_buffers() const {
+  const Impl& I = *impl_;
+  if (!I.gl)
+    throw Error(I.scene.source + ": gl_buffers",
+                "needs a system created on the application's GL context (SystemOptions::gl_context = "
+                "GlContextUse::Application)");
+  return gl_map_buffers(*I.gl);
+}
+
+void ShadowSystem::bind_gl(uint32_t program) {
+  Impl& I = *impl_;
+  const std::string where = I.scene.source + ": bind_gl";
+  if (!I.gl)
+    throw Error(where,
+                "needs a system created on the application's GL context (SystemOptions::gl_context = "
+                "GlContextUse::Application)");
+  bind_gl_maps(*I.gl, program);  // checks the context; changes exactly the program's cdsm bindings
+}
+
+int ShadowSystem::gl_light_index(LightHandle light) const { return int(impl_->light_index(light)); }
+
+uint32_t ShadowSystem::gl_object_id(ObjectHandle object) const {
+  const size_t i = impl_->object_index(object);
+  return impl_->scene.objects[i].casts_shadows ? uint32_t(i) : kNoObject;
+}
 
 }  // namespace cdsm
