@@ -19,7 +19,8 @@ namespace cdsm::cli::bench {
 namespace {
 
 // Bump when the reference renderer's output changes, so old caches miss.
-constexpr const char* kReferenceCacheSalt = "cdsm-reference-v2";  // v2: lights and materials by their field tables
+// v3: objects, volumes and the camera by their field tables too
+constexpr const char* kReferenceCacheSalt = "cdsm-reference-v3";
 // Every field that changes what is drawn (names and budgets do not).
 constexpr uint32_t kEveryEffect = kAffectsLookup | kAffectsPlan | kAffectsClusters | kAffectsMaps;
 
@@ -200,7 +201,7 @@ std::string reference_key(const Scene& s, float step_voxels) {
       h.vec(o.mesh->normals);
     }
     h.m4(o.transform);
-    h.i(o.casts_shadows);
+    hash_fields(h, o, kEveryEffect);          // the object's table (casts_shadows)
     hash_fields(h, o.surface, kEveryEffect);  // every field of the material's table
     h.i(int64_t(o.interior));
     h.v3(o.sigma);
@@ -217,20 +218,11 @@ std::string reference_key(const Scene& s, float step_voxels) {
     }
     h.m4(v.index_to_object);
     h.vec(v.transfer);
-    h.i(int64_t(v.shading));
-    h.f(v.gradient_scale);
+    hash_fields(h, v, kEveryEffect);  // shading, step, gradient scale
   }
   h.i(int64_t(s.lights.size()));
   for (const Light& l : s.lights) hash_fields(h, l, kEveryEffect);  // its size too: an area light's reference
-  const Camera& c = s.camera;
-  h.v3(c.position);
-  h.v3(c.target);
-  h.v3(c.up);
-  h.f(c.fov_y_deg);
-  h.f(c.near);
-  h.f(c.far);
-  h.i(c.width);
-  h.i(c.height);
+  hash_fields(h, s.camera, kEveryEffect);                           // every field of the camera's table
   h.v3(s.shadows.ambient_light);
   h.v3(s.background);
   char hex[17];

@@ -1,11 +1,15 @@
 #define GL_GLEXT_PROTOTYPES 1
 #include "script.h"
 
+#include "cdsm/fields.h"
+
 #include <GL/glcorearb.h>
 #include <stb/stb_image_write.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <type_traits>
 #include <fstream>
 #include <sstream>
 
@@ -26,6 +30,49 @@ bool on_off(const std::string& v, const std::string& where) {
   if (v == "on" || v == "1" || v == "true") return true;
   if (v == "off" || v == "0" || v == "false") return false;
   throw Error(where, "expected on or off, got '" + v + "'");
+}
+
+// The field of S whose table key (cdsm/fields.h: the scene file's name) is
+// `key`, read from the script's words as its type says — a number (an
+// integer field takes an integer), three for a vector, on/off for a flag,
+// a tag's name — and checked against the table's range. False when S has
+// no field of that name.
+template <class S>
+bool read_field(S& s, const std::string& key, std::istream& in, const std::string& where) {
+  bool found = false;
+  for_each_field<S>([&](const auto& f) {
+    if (found || key != f.key) return;
+    found = true;
+    using T = std::remove_cv_t<std::remove_reference_t<decltype(s.*f.member)>>;
+    const auto number = [&] {
+      double v;
+      if (!(in >> v)) throw Error(where, key + ": expected a number");
+      if (!(v >= f.lo && v <= f.hi))
+        throw Error(where, key + " must lie within [" + format_number(f.lo) + ", " + format_number(f.hi) + "]");
+      return v;
+    };
+    T& out = s.*f.member;
+    if constexpr (std::is_same_v<T, bool>) {
+      std::string w;
+      in >> w;
+      out = on_off(w, where);
+    } else if constexpr (std::is_enum_v<T>) {
+      std::string w;
+      if (!(in >> w) || !parse_tag(w, out)) throw Error(where, key + ": expected " + tag_choices<T>());
+    } else if constexpr (std::is_same_v<T, Vec3>) {
+      const double x = number(), y = number(), z = number();
+      out = Vec3{float(x), float(y), float(z)};
+    } else if constexpr (std::is_same_v<T, std::string>) {
+      if (!(in >> out)) throw Error(where, key + ": expected a name");
+    } else if constexpr (std::is_integral_v<T>) {
+      const double v = number();
+      if (v != std::floor(v)) throw Error(where, key + " takes an integer");
+      out = T(v);
+    } else {
+      out = T(number());
+    }
+  });
+  return found;
 }
 
 }  // namespace
@@ -123,31 +170,7 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
     if (cmd == "set") {
       const std::string field = word("a setting");
       ShadowSettings next = s.scene().shadows;
-      if (field == "epsilon")
-        next.epsilon = float(number("epsilon"));
-      else if (field == "resolution")
-        next.resolution = int(number("resolution"));
-      else if (field == "clusters")
-        next.max_clusters = int(number("clusters"));
-      else if (field == "d0")
-        next.d0 = float(number("d0"));
-      else if (field == "filtering")
-        next.filtering = on_off(word("on or off"), where);
-      else if (field == "layout") {
-        const std::string l = word("a layout");
-        if (!parse_tag(l, next.layout))
-          throw Error(where, "unknown layout '" + l + "' (" + tag_choices<DsmLayout>() + ")");
-      } else if (field == "receiver") {
-        const std::string r = word("plane or slope_bias");
-        if (!parse_tag(r, next.receiver))
-          throw Error(where, "unknown receiver '" + r + "' (" + tag_choices<ReceiverLookup>() + ")");
-      } else if (field == "penumbra") {
-        const std::string r = word("estimated, fixed_kernel or hard");
-        if (!parse_tag(r, next.penumbra))
-          throw Error(where, "unknown penumbra '" + r + "' (" + tag_choices<Penumbra>() + ")");
-      } else {
-        throw Error(where, "unknown setting '" + field + "'");
-      }
+      if (!read_field(next, field, in, where)) throw Error(where, "unknown setting '" + field + "'");
       s.apply(set_settings(s.document(), next), now);
       changed_at_ = now;
       changed_cpu_ = cpu_seconds();
@@ -160,18 +183,7 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
         s.selected_light = int(li);
         continue;
       }
-      if (field == "position")
-        l.position = {float(number("x")), float(number("y")), float(number("z"))};
-      else if (field == "direction")
-        l.direction = normalize(Vec3{float(number("x")), float(number("y")), float(number("z"))});
-      else if (field == "intensity")
-        l.intensity = float(number("intensity"));
-      else if (field == "radius")
-        l.radius = float(number("radius"));
-      else if (field == "angular_diameter")
-        l.angular_diameter_deg = float(number("angular diameter"));
-      else
-        throw Error(where, "unknown light field '" + field + "'");
+      if (!read_field(l, field, in, where)) throw Error(where, "unknown light field '" + field + "'");
       s.apply(set_light(s.document(), li, l), now);
       changed_at_ = now;
       changed_cpu_ = cpu_seconds();

@@ -3,8 +3,10 @@
 // echoed with what it did; `wait` prints the time from the last change to
 // the refined frame). Commands:
 //
-//   set epsilon|resolution|clusters|d0|layout|filtering|receiver|penumbra VALUE
-//   light INDEX position|direction X Y Z | light INDEX intensity|radius|angular_diameter V | light INDEX select
+//   set KEY VALUE            any shadow setting by its scene-file key (cdsm/fields.h): epsilon,
+//                            resolution, clusters, d0, layout, filtering, receiver, penumbra, ambient R G B, ...
+//   light INDEX KEY VALUE    any light field by its key: position X Y Z, direction X Y Z, intensity,
+//                            radius, angular_diameter, color R G B, ...; light INDEX select
 //   orbit DYAW DPITCH        camera orbit, degrees
 //   zoom STEPS | frame
 //   select OBJECT            name or index

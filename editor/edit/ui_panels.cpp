@@ -132,12 +132,10 @@ void shadows_panel(Session& s) {
   ShadowSettings next = s.scene().shadows;
   bool changed = false;
   bool exact = next.epsilon == 0.0f;
-  float eps = exact ? 1e-4f : next.epsilon;
+  if (exact) next.epsilon = 1e-4f;
   ImGui::BeginDisabled(exact);
-  if (ImGui::SliderFloat("epsilon", &eps, 1e-4f, 0.5f, "%.4f", ImGuiSliderFlags_Logarithmic)) {
-    next.epsilon = eps;
-    changed = true;
-  }
+  changed |= field_slider("epsilon", next, &ShadowSettings::epsilon, 1e-4f, 0.5f, "%.4f", ImGuiSliderFlags_Logarithmic);
+  if (exact) next.epsilon = 0.0f;
   ImGui::EndDisabled();
   ImGui::SameLine();
   if (ImGui::Checkbox("0", &exact)) {
@@ -154,8 +152,8 @@ void shadows_panel(Session& s) {
     next.resolution = resolutions[ri];
     changed = true;
   }
-  changed |= ImGui::SliderInt("clusters m", &next.max_clusters, 1, 8);
-  changed |= ImGui::SliderFloat("d0", &next.d0, 0.0f, 1.0f, "%.3f");
+  changed |= field_slider("clusters m", next, &ShadowSettings::max_clusters, 1, 8);
+  changed |= field_slider("d0", next, &ShadowSettings::d0, 0.0f, 1.0f, "%.3f");
   int layout = int(next.layout);
   if (ImGui::Combo("layout", &layout, TagNames<DsmLayout>::names, int(tag_count<DsmLayout>()))) {
     next.layout = DsmLayout(layout);
@@ -176,8 +174,8 @@ void shadows_panel(Session& s) {
     ImGui::SetTooltip(
         "lights with a radius (or the sun's angular diameter): blockers estimated from the maps,\n"
         "a fixed-kernel PCF (baseline), or hard shadows");
-  changed |= ImGui::SliderFloat("bias constant", &next.bias_constant, 0.0f, 0.01f, "%.5f");
-  changed |= ImGui::SliderFloat("bias slope", &next.bias_slope, 0.0f, 2.0f, "%.3f");
+  changed |= field_slider("bias constant", next, &ShadowSettings::bias_constant, 0.0f, 0.01f, "%.5f");
+  changed |= field_slider("bias slope", next, &ShadowSettings::bias_slope, 0.0f, 2.0f, "%.3f");
   changed |= color_edit("ambient light", next.ambient_light);
   if (changed) s.apply(set_settings(s.document(), next), now_seconds());
 }
@@ -218,8 +216,7 @@ void lights_panel(Session& s) {
   Light next = s.scene().lights[size_t(li)];
   bool changed = false;
   int type = int(next.type);
-  const char* types[] = {"spot", "omni", "sun"};
-  if (ImGui::Combo("type", &type, types, 3)) {
+  if (ImGui::Combo("type", &type, TagNames<LightType>::names, int(tag_count<LightType>()))) {
     next.type = LightType(type);
     if (next.type == LightType::Directional && !(length(next.direction) > 0.0f)) next.direction = {0, -1, 0};
     changed = true;
@@ -237,10 +234,10 @@ void lights_panel(Session& s) {
       next.direction = Vec3{-std::cos(e) * std::sin(a), -std::sin(e), -std::cos(e) * std::cos(a)};
       changed = true;
     }
-    changed |= ImGui::SliderFloat("angular diameter", &next.angular_diameter_deg, 0.0f, 10.0f, "%.2f deg");
+    changed |= field_slider("angular diameter", next, &Light::angular_diameter_deg, 0.0f, 10.0f, "%.2f deg");
   } else {
     changed |= drag3("position", next.position, 0.02f);
-    changed |= ImGui::SliderFloat("radius", &next.radius, 0.0f, 2.0f, "%.3f");  // a sphere light: soft shadows
+    changed |= field_slider("radius", next, &Light::radius, 0.0f, 2.0f, "%.3f");  // a sphere light: soft shadows
     if (ImGui::IsItemHovered()) ImGui::SetTooltip("the light's size: penumbrae estimated from the maps (0: a point)");
   }
   if (next.type == LightType::Spot) {
@@ -248,11 +245,11 @@ void lights_panel(Session& s) {
       if (length(next.direction) > 1e-4f) next.direction = normalize(next.direction);
       changed = true;
     }
-    changed |= ImGui::SliderFloat("outer cone", &next.outer_cone_deg, 1.0f, 89.5f, "%.1f deg");
-    changed |= ImGui::SliderFloat("inner cone", &next.inner_cone_deg, 0.0f, next.outer_cone_deg, "%.1f deg");
+    changed |= field_slider("outer cone", next, &Light::outer_cone_deg, 1.0f, 89.5f, "%.1f deg");
+    changed |= field_slider("inner cone", next, &Light::inner_cone_deg, 0.0f, next.outer_cone_deg, "%.1f deg");
   }
   changed |= color_edit("colour", next.color);
-  changed |= ImGui::SliderFloat("intensity", &next.intensity, 0.0f, 10.0f, "%.2f");
+  changed |= field_slider("intensity", next, &Light::intensity, 0.0f, 10.0f, "%.2f");
   if (changed) s.apply(set_light(s.document(), size_t(li), next), now_seconds());
   if (ImGui::Button("remove light")) {
     s.apply(remove_light(s.document(), size_t(li)), now_seconds());
@@ -292,11 +289,11 @@ void objects_panel(Session& s) {
   shown_for = oi;
   SurfaceMaterial m = o.surface;
   bool surf = color_edit("colour", m.color);
-  surf |= ImGui::SliderFloat("opacity", &m.opacity, 0.0f, 1.0f, "%.3f");
+  surf |= field_slider("opacity", m, &SurfaceMaterial::opacity, 0.0f, 1.0f, "%.3f");
   surf |= color_edit("transmission", m.transmission_color);
   m.transmission_color = vmin(vmax(m.transmission_color, vec3(0.0f)), vec3(1.0f));
-  surf |= ImGui::SliderFloat("specular", &m.specular, 0.0f, 1.0f, "%.2f");
-  surf |= ImGui::SliderFloat("shininess", &m.shininess, 1.0f, 200.0f, "%.0f");
+  surf |= field_slider("specular", m, &SurfaceMaterial::specular, 0.0f, 1.0f, "%.2f");
+  surf |= field_slider("shininess", m, &SurfaceMaterial::shininess, 1.0f, 200.0f, "%.0f");
   if (surf) s.apply(set_surface(s.document(), size_t(oi), m), now_seconds());
   bool casts = o.casts_shadows;
   if (ImGui::Checkbox("casts shadows", &casts))

@@ -127,10 +127,7 @@ void split_light(const FrameInputs& in, size_t li, LightSetup& ls) {
 // the hysteresis (clusters are recomputed from scratch).
 uint64_t light_signature(const Light& l, const ShadowSettings& s) {
   Fnv1a h;
-  h.pod(l.type);
-  h.pod(l.position);
-  h.pod(l.direction);
-  h.pod(l.outer_cone_deg);
+  hash_fields(h, l, kAffectsClusters);  // type, position, direction, outer cone (fields.h)
   hash_fields(h, s, kAffectsClusters);
   return h.h;
 }

@@ -258,6 +258,21 @@ TEST(EditScript, BadScriptLineIsAClearError) {
   EXPECT_NE(status, 0);
   EXPECT_NE(out.find("bad.txt:2"), std::string::npos) << out;
   EXPECT_NE(out.find("frobnicate"), std::string::npos) << out;
+  // Settings and light fields by their field tables (cdsm/fields.h): the
+  // table's range, the tag's names, the keys it has.
+  const std::pair<const char*, const char*> bad_values[] = {
+      {"set epsilon 3", "epsilon must lie within [0, 1]"},
+      {"set layout diagonal", "layout: expected packed, fixed or chunked"},
+      {"set resolution 100.5", "resolution takes an integer"},
+      {"light 0 flux 3", "unknown light field 'flux'"}};
+  for (const auto& [line, says] : bad_values) {
+    std::ofstream(kDir + "/bad_value.txt") << "set d0 0.2\n" << line << "\n";
+    const std::string o =
+        run("'" + kScene + "' --script '" + kDir + "/bad_value.txt' --hidden --width 800 --height 600", &status);
+    EXPECT_NE(status, 0) << line;
+    EXPECT_NE(o.find("bad_value.txt:2"), std::string::npos) << o;
+    EXPECT_NE(o.find(says), std::string::npos) << o;
+  }
 }
 
 }  // namespace

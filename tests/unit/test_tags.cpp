@@ -8,8 +8,13 @@
 #include <sstream>
 #include <string>
 
+#include <cstdlib>
+#include <regex>
+
 #include "cdsm/procedural.h"
 #include "cdsm/tags.h"
+#include "hd/fragment.h"
+#include "hd/lights.h"
 
 namespace cdsm {
 namespace {
@@ -76,6 +81,41 @@ TEST(Tags, TheShaderIncludeNamesTheSameValues) {
   expect_glsl_constants<MapMode>(glsl, "CDSM_MAPS_");
   expect_glsl_constants<ReceiverLookup>(glsl, "CDSM_RECEIVER_");
   expect_glsl_constants<Penumbra>(glsl, "CDSM_PENUMBRA_");
+}
+
+// The value of `const float|int NAME = VALUE;` in cdsm.glsl, as a float
+// (NaN when the line is not there).
+float glsl_constant(const std::string& glsl, const std::string& name) {
+  std::smatch m;
+  if (!std::regex_search(glsl, m, std::regex("const (float|int) " + name + " = ([-+0-9.eE]+);"))) return std::nanf("");
+  return std::strtof(m[2].str().c_str(), nullptr);
+}
+
+// The constants and the 16 search directions cdsm.glsl copies from
+// hd/lights.h and hd/fragment.h are the C++ values, float for float.
+TEST(Tags, TheShaderIncludeCopiesTheLookupConstants) {
+  const std::string glsl = read_glsl();
+  ASSERT_FALSE(glsl.empty());
+  const std::pair<const char*, float> constants[] = {{"CDSM_PLANE_REACH_TEXELS", kPlaneReachTexels},
+                                                     {"CDSM_RELATIVE_DEPTH_OFFSET", kRelativeDepthOffset},
+                                                     {"CDSM_SLOPE_BIAS_CONSTANT", kSlopeBiasConstant},
+                                                     {"CDSM_SLOPE_BIAS_TEXELS", kSlopeBiasTexels},
+                                                     {"CDSM_PENUMBRA_SEARCH_RINGS", float(kPenumbraSearchRings)},
+                                                     {"CDSM_PENUMBRA_MAX_SIDE", float(kPenumbraMaxSide)},
+                                                     {"CDSM_PENUMBRA_SEARCH_TEXELS", kPenumbraSearchTexels},
+                                                     {"CDSM_PENUMBRA_MIN_ALPHA", kPenumbraMinAlpha}};
+  for (const auto& [name, value] : constants) EXPECT_EQ(glsl_constant(glsl, name), value) << name;
+  const size_t at = glsl.find("CDSM_PENUMBRA_DIRECTIONS[16] = vec2[16](");
+  ASSERT_NE(at, std::string::npos) << "cdsm.glsl lacks the penumbra directions";
+  std::string rest = glsl.substr(at);
+  const std::regex pair(R"(vec2\(([-+0-9.eE]+), ([-+0-9.eE]+)\))");
+  int d = 0;
+  for (std::sregex_iterator it(rest.begin(), rest.end(), pair), end; it != end && d < 16; ++it, ++d) {
+    const Vec2 want = penumbra_direction(d);
+    EXPECT_EQ(std::strtof((*it)[1].str().c_str(), nullptr), want.x) << "direction " << d;
+    EXPECT_EQ(std::strtof((*it)[2].str().c_str(), nullptr), want.y) << "direction " << d;
+  }
+  EXPECT_EQ(d, 16);
 }
 
 }  // namespace
