@@ -32,12 +32,8 @@ Probe probe(const Scene& scene) {
   SceneView sv = f.scene_view();
   const ShadowFrame& frame = f.frame;
   ShadowView shv = f.view(scene);
-  CameraPassParams cam;
-  cam.view = camera_view(scene.camera);
-  std::vector<uint32_t> inside = objects_containing(sv, cam.view.eye, ObjectMask{});
-  cam.inside = {inside.data(), inside.size()};
-  cam.ambient = scene.shadows.ambient_light;
-  cam.background = scene.background;
+  std::vector<uint32_t> inside;
+  const CameraPassParams cam = cdsm_test::camera_pass_params(scene, sv, inside);
   FragmentBuffers fb;
   cast_fragments(sv, cam.view, ObjectMask{}, fb);
   // The camera pass's own lookups (shadows/cpu/lookup_recorder.h).

@@ -11,6 +11,8 @@
 #include "cdsm/shadow_system.h"
 #include "frame.h"
 #include "frame_snapshot.h"
+#include "hd/camera_pass.h"
+#include "scene/fragments.h"
 #include "scene/scene_buffers.h"
 #include "scene_sync.h"
 
@@ -60,6 +62,19 @@ struct SystemFrame {
   ShadowView view(const Scene& s) const { return frame.view(s.shadows); }
   SceneView scene_view() const { return sb.view(); }
 };
+
+// The camera pass's inputs for `scene`'s camera over the compiled scene
+// `sv`, as the system sets them; the ids of the objects that hold the eye
+// go to `inside`, which must outlive the result.
+inline CameraPassParams camera_pass_params(const Scene& scene, const SceneView& sv, std::vector<uint32_t>& inside) {
+  CameraPassParams cam;
+  cam.view = camera_view(scene.camera);
+  inside = objects_containing(sv, cam.view.eye, ObjectMask{});
+  cam.inside = {inside.data(), inside.size()};
+  cam.ambient = scene.shadows.ambient_light;
+  cam.background = scene.background;
+  return cam;
+}
 
 // The scene as a ShadowSystem compiles it (geometry arrays, BVH, volumes),
 // for tests of what reads a compiled scene (ray casting, segments, the

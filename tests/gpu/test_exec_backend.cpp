@@ -420,12 +420,8 @@ TEST(ExecBackend, ImageEqualsASerialCameraPass) {
     parity::run(s, std::make_unique<HostBackend>("cpu"), f);
     const SceneBuffers& sb = FrameSnapshot(*f.system).compiled();
     const ShadowView sv = f.frame.view(s.shadows);
-    CameraPassParams cam;
-    cam.view = camera_view(s.camera);
-    std::vector<uint32_t> inside = objects_containing(sb.view(), cam.view.eye, ObjectMask{});
-    cam.inside = {inside.data(), inside.size()};
-    cam.ambient = s.shadows.ambient_light;
-    cam.background = s.background;
+    std::vector<uint32_t> inside;
+    const CameraPassParams cam = cdsm_test::camera_pass_params(s, sb.view(), inside);
     FragmentBuffers fb;
     cast_fragments(sb.view(), cam.view, ObjectMask{}, fb);
     const FragmentLists lists = fb.lists();

@@ -20,9 +20,6 @@ using namespace cdsm_test;
 
 namespace {
 
-// A frame built by a ShadowSystem (common/system_frame.h).
-using Built = SystemFrame;
-void build(const Scene& scene, Built& b) { b.build(scene); }
 
 // The object index of `name` (objects compile in scene order).
 uint32_t object_named(const Scene& s, const std::string& name) {
@@ -129,36 +126,32 @@ void slab_points(Vec3 c, float h, float margin, float cross_h, Vec3 light, int n
 TEST(Contact, SlabPillarAndGlassOfTheIssue) {
   for (float scale : {1.0f, 1e-3f, 1e4f}) {
     Scene s = slab_pillar_glass(scale);
-    Built b;
-    build(s, b);
-    ShadowView sv = b.view(s);
-    DsmVisibility vis{sv};
-    ReferenceRenderer ref(b.sb.view(), b.frame.setup.lights);
+    const ProbedFrame b(s);
     const uint32_t slab = object_named(s, "slab");
     const Vec3 light = s.lights[0].position;
-    const float fp = footprint_at(sv, Vec3{8, 0, 8} * scale);
+    const float fp = footprint_at(b.sv, Vec3{8, 0, 8} * scale);
     Compare cap, glass, lit;
     double ref_cap = 0.0, ref_glass = 0.0;
     slab_points(Vec3{5, 0, 5} * scale, 0.5f * scale, 3.0f * fp, 0.0008f * scale, light, 24, [&](Vec3 p) {
       const Receiver r{p, {0, 1, 0}, slab};
-      const double t_ref = grey_of(ref.transmittance(0, r));
-      cap.add(grey_of(vis(0, r)), t_ref);
+      const double t_ref = grey_of(b.ref.transmittance(0, r));
+      cap.add(grey_of(b.vis(0, r)), t_ref);
       ref_cap = t_ref;
     });
     slab_points(Vec3{11, 0, 11} * scale, 0.5f * scale, 3.0f * fp, 0.001f * scale, light, 24, [&](Vec3 p) {
       const Receiver r{p, {0, 1, 0}, slab};
-      const double t_ref = grey_of(ref.transmittance(0, r));
-      glass.add(grey_of(vis(0, r)), t_ref);
+      const double t_ref = grey_of(b.ref.transmittance(0, r));
+      glass.add(grey_of(b.vis(0, r)), t_ref);
       ref_glass = t_ref;
     });
     // Lit slab between them: no shadow of its own.
     for (float x = 6.5f; x <= 9.5f; x += 0.25f)
       for (float z = 6.5f; z <= 9.5f; z += 0.25f) {
         const Receiver r{Vec3{x, 0, z} * scale, {0, 1, 0}, slab};
-        lit.add(grey_of(vis(0, r)), 1.0);
+        lit.add(grey_of(b.vis(0, r)), 1.0);
       }
     std::printf(
-        "scale %g: under the cap %d points max |dT| %.4f (ref %.4f), under the glass %d max %.4f (ref %.4f), "
+        "scale %g: under the cap %d points max |dT| %.4f (b.ref %.4f), under the glass %d max %.4f (b.ref %.4f), "
         "lit slab max %.5f\n",
         scale, cap.n, cap.worst, ref_cap, glass.n, glass.worst, ref_glass, lit.worst);
     ASSERT_GT(cap.n, 100);
@@ -193,23 +186,19 @@ TEST(Contact, GapsFromATenthOfAMillimetreAtEveryResolutionAndIncidence) {
         s.lights.push_back(spot_light(pos, -pos, 14, 12));
         s.shadows.resolution = res;
         s.shadows.epsilon = 0.01f;
-        Built b;
-        build(s, b);
-        ShadowView sv = b.view(s);
-        DsmVisibility vis{sv};
-        ReferenceRenderer ref(b.sb.view(), b.frame.setup.lights);
-        const float fp = footprint_at(sv, {0, 0, 0});
+        const ProbedFrame b(s);
+        const float fp = footprint_at(b.sv, {0, 0, 0});
         Compare under, lit;
         slab_points({0, 0, 0}, 0.5f, 3.0f * fp + 0.01f, gap, pos, 20, [&](Vec3 p) {
           const Receiver r{p, {0, 1, 0}, 0};
-          under.add(grey_of(vis(0, r)), grey_of(ref.transmittance(0, r)));
+          under.add(grey_of(b.vis(0, r)), grey_of(b.ref.transmittance(0, r)));
         });
         // Lit slab beside the plate's shadow (inside the cone).
         for (float x : {-1.2f, -0.9f, 0.9f, 1.2f})
           for (float z = -0.4f; z <= 0.4f; z += 0.2f) {
             const Receiver r{{x, 0, z}, {0, 1, 0}, 0};
-            if (cone_factor(sv.lights[0], r.p) <= 0.0f) continue;
-            lit.add(grey_of(vis(0, r)), grey_of(ref.transmittance(0, r)));
+            if (cone_factor(b.sv.lights[0], r.p) <= 0.0f) continue;
+            lit.add(grey_of(b.vis(0, r)), grey_of(b.ref.transmittance(0, r)));
           }
         const bool ok = under.n > 50 && under.worst <= 0.015 && lit.worst <= 1e-3;
         failures += !ok;
@@ -238,19 +227,15 @@ TEST(Contact, TranslucentPlinthSunkIntoACastingFloor) {
     const Vec3 pos{0.0f, 7.0f * std::cos(a), 7.0f * std::sin(a)};
     s.lights.push_back(spot_light(pos, Vec3{0, 0.2f, -0.3f} - pos, 22, 20));
     s.shadows.resolution = res;
-    Built b;
-    build(s, b);
-    ShadowView sv = b.view(s);
-    DsmVisibility vis{sv};
-    ReferenceRenderer ref(b.sb.view(), b.frame.setup.lights);
-    const float fp = footprint_at(sv, {0, 0, 0});
+    const ProbedFrame b(s);
+    const float fp = footprint_at(b.sv, {0, 0, 0});
     Compare inside, behind, front;
     // The floor inside the plinth near its front (+z) face, where its light
     // rays leave the plinth, away from the other faces.
     for (float x = -0.4f; x <= 0.4f; x += 0.01f)
       for (float z = 0.499f; z >= 0.4f; z -= 0.0025f) {
         const Receiver r{{x, 0, z}, {0, 1, 0}, 0};
-        inside.add(grey_of(vis(0, r)), filtered_exact(sv, ref, r));
+        inside.add(grey_of(b.vis(0, r)), filtered_exact(b.sv, b.ref, r));
       }
     // The floor behind it (-z): light through its front and back faces.
     for (float x = -0.4f; x <= 0.4f; x += 0.02f)
@@ -260,13 +245,13 @@ TEST(Contact, TranslucentPlinthSunkIntoACastingFloor) {
         const Vec3 f = p + d * ((0.5f - p.z) / d.z);  // crosses the front face z = 0.5
         if (f.y > 0.7f - 3 * fp || std::fabs(f.x) > 0.5f - 3 * fp) continue;
         const Receiver r{p, {0, 1, 0}, 0};
-        behind.add(grey_of(vis(0, r)), grey_of(ref.transmittance(0, r)));
+        behind.add(grey_of(b.vis(0, r)), grey_of(b.ref.transmittance(0, r)));
       }
     // Its front face (+z, lit at 10 degrees from grazing) above the floor.
     for (float x = -0.4f; x <= 0.4f; x += 0.05f)
       for (float y = 0.005f; y <= 0.6f; y += 0.04f) {
         const Receiver r{{x, y, 0.5f}, {0, 0, 1}, 1};
-        front.add(grey_of(vis(0, r)), filtered_exact(sv, ref, r));
+        front.add(grey_of(b.vis(0, r)), filtered_exact(b.sv, b.ref, r));
       }
     std::printf(
         "plinth %d^2: map error on the floor inside it %d points max %.4f; |dT| behind it %d max %.4f; map "
@@ -287,12 +272,8 @@ TEST(Contact, InterpenetratingTranslucentBoxes) {
   s.objects.push_back(make_object("b", make_box({1, 1, 1}), translation({0.5f, 1.0f, 0.3f}), 0.3f));
   s.lights.push_back(spot_light({0.8f, 6, 1.5f}, {-0.6f, -5, -1.2f}, 20, 18));
   s.shadows.resolution = 1024;
-  Built b;
-  build(s, b);
-  ShadowView sv = b.view(s);
-  DsmVisibility vis{sv};
-  ReferenceRenderer ref(b.sb.view(), b.frame.setup.lights);
-  const float fp = footprint_at(sv, {0.25f, 1, 0.2f});
+  const ProbedFrame b(s);
+  const float fp = footprint_at(b.sv, {0.25f, 1, 0.2f});
   Compare c;
   // a's top face (y = 1) inside b, and b's bottom face (y = 0.5) inside a,
   // away from the edges of every face in front by 3 texels.
@@ -309,8 +290,8 @@ TEST(Contact, InterpenetratingTranslucentBoxes) {
   for (float x = 0.05f; x <= 0.45f; x += 0.025f)
     for (float z = -0.15f; z <= 0.45f; z += 0.025f) {
       const Receiver top_a{{x, 1.0f, z}, {0, 1, 0}, 0}, bottom_b{{x, 0.5f, z}, {0, 1, 0}, 1};
-      if (keep(top_a.p)) c.add(grey_of(vis(0, top_a)), grey_of(ref.transmittance(0, top_a)));
-      if (keep(bottom_b.p)) c.add(grey_of(vis(0, bottom_b)), grey_of(ref.transmittance(0, bottom_b)));
+      if (keep(top_a.p)) c.add(grey_of(b.vis(0, top_a)), grey_of(b.ref.transmittance(0, top_a)));
+      if (keep(bottom_b.p)) c.add(grey_of(b.vis(0, bottom_b)), grey_of(b.ref.transmittance(0, bottom_b)));
     }
   std::printf("interpenetrating boxes: %d points max |dT| %.4f\n", c.n, c.worst);
   ASSERT_GT(c.n, 100);
@@ -363,12 +344,8 @@ TEST(Contact, CoplanarSurfacesAreInFront) {
     s.objects.push_back(make_object("quad 2", make_quad(0.8f, 0.8f), translation({0, 0.5f, 1.2f}), 0.5f));
     s.lights.push_back(spot_light({0.3f, 7, 0.4f}, {-0.3f, -7, -0.4f}, 25, 23));
     s.shadows.resolution = 512;
-    Built b;
-    build(s, b);
-    ShadowView sv = b.view(s);
-    DsmVisibility vis{sv};
-    ReferenceRenderer ref(b.sb.view(), b.frame.setup.lights);
-    const float fp = footprint_at(sv, {0, 0, 0});
+    const ProbedFrame b(s);
+    const float fp = footprint_at(b.sv, {0, 0, 0});
     const uint32_t g = ground_casts ? 0u : kNoObject;
     struct Patch {
       const char* what;
@@ -391,7 +368,7 @@ TEST(Contact, CoplanarSurfacesAreInFront) {
       double lo = 1.0, hi = 0.0;
       slab_points(pt.c, 0.4f, 3 * fp + 0.02f, pt.cross_h, s.lights[0].position, 16, [&](Vec3 p) {
         const Receiver r{p + pt.at, {0, 1, 0}, pt.object};
-        const double d = grey_of(vis(0, r)), t = grey_of(ref.transmittance(0, r));
+        const double d = grey_of(b.vis(0, r)), t = grey_of(b.ref.transmittance(0, r));
         c.add(d, t);
         lo = std::min(lo, d);
         hi = std::max(hi, d);

@@ -21,21 +21,14 @@ using namespace cdsm_test;
 
 namespace {
 
-// A frame built by a ShadowSystem (common/system_frame.h).
-using Built = SystemFrame;
-void build(const Scene& scene, Built& b) { b.build(scene); }
 
 // The camera pass's lookups over every `step`-th pixel, through `vis`.
 template <class Visibility>
-std::vector<RecordedLookup> camera_lookups(const Scene& scene, Built& b, const Visibility& vis, int step) {
+std::vector<RecordedLookup> camera_lookups(const Scene& scene, const SystemFrame& b, const Visibility& vis, int step) {
   SceneView sv = b.sb.view();
   ShadowView shv = b.view(scene);
-  CameraPassParams cam;
-  cam.view = camera_view(scene.camera);
-  std::vector<uint32_t> inside = objects_containing(sv, cam.view.eye, ObjectMask{});
-  cam.inside = {inside.data(), inside.size()};
-  cam.ambient = scene.shadows.ambient_light;
-  cam.background = scene.background;
+  std::vector<uint32_t> inside;
+  const CameraPassParams cam = camera_pass_params(scene, sv, inside);
   FragmentBuffers fb;
   cast_fragments(sv, cam.view, ObjectMask{}, fb);
   FragmentLists lists = fb.lists();
@@ -116,11 +109,8 @@ struct VolumeBiasedVisibility {
 // figures — the probe measures the lookups the image makes.
 TEST(Receivers, ProbeRecordsTheCameraPassLookupsAndVolumesAreUnbiased) {
   Scene scene = phong_volume_scene();
-  Built b;
-  build(scene, b);
-  ShadowView shv = b.view(scene);
-  DsmVisibility vis{shv};
-  std::vector<RecordedLookup> ls = camera_lookups(scene, b, vis, 2);
+  const ProbedFrame b(scene);
+  std::vector<RecordedLookup> ls = camera_lookups(scene, b, b.vis, 2);
   ASSERT_GT(ls.size(), 500u);
   // Volume samples (Phong ones have a gradient normal: for shading only)
   // have no plane; the receive-only ground has its plane and no own step.
@@ -137,13 +127,13 @@ TEST(Receivers, ProbeRecordsTheCameraPassLookupsAndVolumesAreUnbiased) {
   EXPECT_EQ(wrong, 0u) << "of " << ls.size() << " lookups";
   // Each recorded value is the functor's answer at the recorded arguments.
   for (size_t i = 0; i < ls.size(); i += 97) {
-    const Vec3 again = vis(ls[i].light, ls[i].at);
+    const Vec3 again = b.vis(ls[i].light, ls[i].at);
     EXPECT_EQ(std::memcmp(&ls[i].transmittance, &again, sizeof again), 0);
   }
 
   ReferenceRenderer ref(b.sb.view(), b.frame.setup.lights);
   const double good = mean_error(ls, ref);
-  VolumeBiasedVisibility broken{shv};
+  VolumeBiasedVisibility broken{b.sv};
   const double moved = mean_error(camera_lookups(scene, b, broken, 2), ref);
   std::printf("phong volume: mean |dT| %.5f at the exact depth, %.5f with a volume-sample bias\n", good, moved);
   EXPECT_LT(good, 0.01);
@@ -162,18 +152,15 @@ TEST(Receivers, NoAcneOnALitCasterPlaneFromHeadOnTo85Degrees) {
       const Vec3 pos{0.0f, 6.0f * std::cos(a), 6.0f * std::sin(a)};
       s.lights.push_back(spot_light(pos, -pos, 40, 38));
       s.shadows.resolution = res;
-      Built b;
-      build(s, b);
-      ShadowView shv = b.view(s);
-      DsmVisibility vis{shv};
-      const LightData& L = shv.lights[0];
+      const ProbedFrame b(s);
+      const LightData& L = b.sv.lights[0];
       float worst = 0.0f;
       int n = 0;
       for (float x = -1.9f; x <= 1.9f; x += 0.05f)
         for (float z = -1.9f; z <= 1.9f; z += 0.05f) {
           const Vec3 p{x, 0.0f, z};
           if (cone_factor(L, p) <= 0.0f) continue;
-          worst = std::max(worst, std::fabs(1.0f - grey_of(vis(0, Receiver{p, {0, 1, 0}, 0u}))));
+          worst = std::max(worst, std::fabs(1.0f - grey_of(b.vis(0, Receiver{p, {0, 1, 0}, 0u}))));
           ++n;
         }
       EXPECT_GT(n, 100) << res << " " << deg;
@@ -188,15 +175,12 @@ TEST(Receivers, LoneTranslucentQuadIsLitOnItself) {
   s.objects.push_back(make_object("quad", make_quad(2, 2), translation({0, 0.5f, 0}), 0.6f));
   s.lights.push_back(spot_light({0.5f, 4, 1}, {-0.5f, -3.5f, -1}, 30, 28));
   s.shadows.resolution = 512;
-  Built b;
-  build(s, b);
-  ShadowView shv = b.view(s);
-  DsmVisibility vis{shv};
+  const ProbedFrame b(s);
   float worst = 0.0f;
   for (float x = -0.95f; x <= 0.95f; x += 0.05f)
     for (float z = -0.95f; z <= 0.95f; z += 0.05f) {
       const Vec3 p{x, 0.5f, z};
-      worst = std::max(worst, std::fabs(1.0f - grey_of(vis(0, Receiver{p, {0, 1, 0}, 0u}))));
+      worst = std::max(worst, std::fabs(1.0f - grey_of(b.vis(0, Receiver{p, {0, 1, 0}, 0u}))));
     }
   EXPECT_LE(worst, 1e-3f);
 }
@@ -236,17 +220,13 @@ bool under_the_box(const LightData& L, Vec3 p) {
 TEST(Receivers, TranslucentBoxOneMillimetreAboveTheGround) {
   for (bool casts : {false, true}) {
     Scene s = box_over_ground(casts);
-    Built b;
-    build(s, b);
-    ShadowView shv = b.view(s);
-    DsmVisibility vis{shv};
-    ReferenceRenderer ref(b.sb.view(), b.frame.setup.lights);
-    const LightData& L = shv.lights[0];
+    const ProbedFrame b(s);
+    const LightData& L = b.sv.lights[0];
     double sum = 0.0, worst = 0.0, lit_worst = 0.0;
     int n = 0, lit = 0;
-    for (const RecordedLookup& l : camera_lookups(s, b, vis, 1)) {
+    for (const RecordedLookup& l : camera_lookups(s, b, b.vis, 1)) {
       if (std::fabs(l.at.p.y) > 1e-3f) continue;  // the ground's top face
-      const double e = std::fabs(double(grey_of(l.transmittance)) - grey_of(ref.transmittance(l.light, l.at)));
+      const double e = std::fabs(double(grey_of(l.transmittance)) - grey_of(b.ref.transmittance(l.light, l.at)));
       if (under_the_box(L, l.at.p)) {
         sum += e;
         worst = std::max(worst, e);
@@ -256,7 +236,7 @@ TEST(Receivers, TranslucentBoxOneMillimetreAboveTheGround) {
       bool in_light = true;
       for (Vec3 o : {Vec3{0, 0, 0}, Vec3{0.03f, 0, 0}, Vec3{-0.03f, 0, 0}, Vec3{0, 0, 0.03f}, Vec3{0, 0, -0.03f}})
         in_light =
-            in_light && grey_of(ref.transmittance(l.light, Receiver{l.at.p + o, l.at.plane, l.at.object})) >= 1.0f;
+            in_light && grey_of(b.ref.transmittance(l.light, Receiver{l.at.p + o, l.at.plane, l.at.object})) >= 1.0f;
       if (in_light) {
         lit_worst = std::max(lit_worst, e);
         ++lit;
@@ -285,10 +265,7 @@ TEST(Receivers, StackedTranslucentSheetsOneMillimetreApart) {
     s.lights.push_back(spot_light(pos, Vec3{0, 0.5f, 0} - pos, 25, 22));
     s.shadows.resolution = 512;
     s.shadows.epsilon = 0.0f;
-    Built b;
-    build(s, b);
-    ShadowView shv = b.view(s);
-    DsmVisibility vis{shv};
+    const ProbedFrame b(s);
     float worst = 0.0f;
     for (int k = 0; k < 5; ++k) {
       double expected = 1.0;
@@ -296,7 +273,7 @@ TEST(Receivers, StackedTranslucentSheetsOneMillimetreApart) {
       for (float x = -0.6f; x <= 0.6f; x += 0.05f)
         for (float z = -0.6f; z <= 0.6f; z += 0.05f) {
           const Vec3 p{x, 0.5f - 0.001f * float(k), z};
-          worst = std::max(worst, float(std::fabs(grey_of(vis(0, Receiver{p, {0, 1, 0}, uint32_t(k)})) - expected)));
+          worst = std::max(worst, float(std::fabs(grey_of(b.vis(0, Receiver{p, {0, 1, 0}, uint32_t(k)})) - expected)));
         }
     }
     EXPECT_LE(worst, 1e-3f) << "light at " << tilt << " degrees";
@@ -322,18 +299,14 @@ TEST(Receivers, NoLeakOrAcneAtTerminators) {
   s.objects.push_back(ground);
   s.lights.push_back(spot_light({-4.0f, 1.0f, 0.5f}, {4.7f, -0.5f, -0.5f}, 30, 27));
   s.shadows.resolution = 512;
-  Built b;
-  build(s, b);
-  ShadowView shv = b.view(s);
-  DsmVisibility vis{shv};
-  ReferenceRenderer ref(b.sb.view(), b.frame.setup.lights);
-  const LightData& L = shv.lights[0];
-  const DsmMap& m = shv.maps[L.first_map];
+  const ProbedFrame b(s);
+  const LightData& L = b.sv.lights[0];
+  const DsmMap& m = b.sv.maps[L.first_map];
   double worst = 0.0;
   int n = 0, band = 0;
-  for (const RecordedLookup& l : camera_lookups(s, b, vis, 1)) {
+  for (const RecordedLookup& l : camera_lookups(s, b, b.vis, 1)) {
     if (l.at.p.y < 0.01f) continue;  // the ground
-    const double t_ref = grey_of(ref.transmittance(l.light, l.at));
+    const double t_ref = grey_of(b.ref.transmittance(l.light, l.at));
     // The band: the reference changes within one texel footprint around p.
     const float fp = texel_footprint(m, project(m.view, l.at.p).axial);
     const Vec3 n0 = l.at.plane;
@@ -344,7 +317,7 @@ TEST(Receivers, NoLeakOrAcneAtTerminators) {
     bool edge = dot(normalize(L.position - l.at.p), n0) < 0.05f;
     for (Vec3 o : {t1, t1 * -1.0f, t2, t2 * -1.0f}) {
       const Vec3 q = l.at.p + o * (1.5f * fp);
-      edge = edge || std::fabs(grey_of(ref.transmittance(l.light, Receiver{q, n0, l.at.object})) - t_ref) > 0.02 ||
+      edge = edge || std::fabs(grey_of(b.ref.transmittance(l.light, Receiver{q, n0, l.at.object})) - t_ref) > 0.02 ||
              dot(normalize(L.position - q), n0) <= 0.0f;
     }
     if (edge) {
@@ -353,7 +326,7 @@ TEST(Receivers, NoLeakOrAcneAtTerminators) {
     }
     const double e = std::fabs(double(grey_of(l.transmittance)) - t_ref);
     if (e > 0.02 && std::getenv("CDSM_TEST_VERBOSE"))
-      std::printf("  at %.3f %.3f %.3f n.l %.3f: dsm %.4f ref %.4f\n", l.at.p.x, l.at.p.y, l.at.p.z,
+      std::printf("  at %.3f %.3f %.3f n.l %.3f: dsm %.4f b.ref %.4f\n", l.at.p.x, l.at.p.y, l.at.p.z,
                   dot(normalize(L.position - l.at.p), n0), grey_of(l.transmittance), t_ref);
     worst = std::max(worst, e);
     ++n;

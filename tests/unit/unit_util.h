@@ -16,7 +16,9 @@
 #include "common/system_frame.h"
 #include "frame.h"
 #include "hd/bvh.h"
+#include "hd/camera_pass.h"
 #include "hd/compress.h"
+#include "reference/reference.h"
 
 namespace cdsm_test {
 
@@ -111,6 +113,17 @@ struct ShadowFixture : SystemFrame {
   ShadowFixture(const ShadowFixture&) = delete;
   ShadowView view() const { return frame.view(scene.shadows); }
   const PinholeView& map_view(size_t i) const { return frame.headers[i].view; }
+};
+
+// A scene's frame with what the map tests compare at once: the lookups
+// over its maps (sv), the camera pass's visibility through them (vis) and
+// the reference renderer over the same lights (ref).
+struct ProbedFrame : SystemFrame {
+  ShadowView sv;
+  DsmVisibility vis;
+  ReferenceRenderer ref;
+  explicit ProbedFrame(const Scene& s) : SystemFrame(s), sv(view(s)), vis{sv}, ref(sb.view(), frame.setup.lights) {}
+  ProbedFrame(const ProbedFrame&) = delete;
 };
 
 // What the camera pass uses for a surface point of object `object` (a
