@@ -65,16 +65,8 @@ Scene dense_ct(int n) {
   ground.name = "ground";
   ground.mesh = std::make_shared<TriangleMesh>(make_ground(8, 8));
   s.objects.push_back(ground);
-  Light spot;
-  spot.position = {1.5f, 4.0f, 1.0f};
-  spot.direction = normalize(Vec3{-1.5f, -4.0f, -1.0f});
-  spot.outer_cone_deg = 35.0f;
-  spot.inner_cone_deg = 30.0f;
-  s.lights.push_back(spot);
-  s.camera.position = {0, 1.6f, 3.2f};
-  s.camera.target = {0, 0.7f, 0};
-  s.camera.width = 720;
-  s.camera.height = 480;
+  s.lights.push_back(cdsm_test::spot_light({1.5f, 4.0f, 1.0f}, {-1.5f, -4.0f, -1.0f}, 35.0f, 30.0f));
+  s.camera = cdsm_test::camera_at({0, 1.6f, 3.2f}, {0, 0.7f, 0}, 720, 480);
   return s;
 }
 

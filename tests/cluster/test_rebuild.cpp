@@ -140,12 +140,8 @@ TEST(Rebuild, ChangingEpsilonRebuildsEverything) {
 // the filtering error, and never jumps between neighbouring samples more
 // than the reference does.
 TEST(OmniLight, RingOfCastersShadowsAllSidesWithoutSeams) {
-  Scene s;
-  s.source = "omni ring (test)";
-  s.camera.position = {0, 6, 0.01f};
-  s.camera.target = {0, 0, 0};
-  s.camera.width = 32;
-  s.camera.height = 32;
+  Scene s = cdsm_test::empty_scene("omni ring (test)");
+  s.camera = cdsm_test::camera_at({0, 6, 0.01f}, {0, 0, 0}, 32, 32);
   s.shadows.resolution = 512;
   s.shadows.epsilon = 0.005f;
   Object ground;

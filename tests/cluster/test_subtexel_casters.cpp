@@ -40,19 +40,11 @@ Scene ten_km(int clusters) {
     o.transform = make_transform(at[i], {0, 0, 0}, {1, 1, 1});
     s.objects.push_back(o);
   }
-  Light sun;
-  sun.name = "sun";
-  sun.position = {0, 3000, 0};
-  sun.direction = {0, -1, 0};
-  sun.outer_cone_deg = 59.0f;
-  sun.inner_cone_deg = 55.0f;
-  s.lights.push_back(sun);
-  s.camera.position = {0, 2500, 7000};
-  s.camera.target = {0, 0, 0};
+  s.lights.push_back(cdsm_test::spot_light({0, 3000, 0}, {0, -1, 0}, 59.0f, 55.0f));
+  s.lights.back().name = "sun";
+  s.camera = cdsm_test::camera_at({0, 2500, 7000}, {0, 0, 0}, 64, 48);
   s.camera.near = 1.0f;
   s.camera.far = 20000.0f;
-  s.camera.width = 64;
-  s.camera.height = 48;
   s.shadows.resolution = 512;
   s.shadows.max_clusters = clusters;
   return s;

@@ -33,14 +33,22 @@ inline cdsm::Light sun_light(cdsm::Vec3 dir) {
   return l;
 }
 
+// A camera at `position` looking at `target`, width x height pixels (its
+// other fields Camera's defaults).
+inline cdsm::Camera camera_at(cdsm::Vec3 position, cdsm::Vec3 target, int width = 64, int height = 48) {
+  cdsm::Camera c;
+  c.position = position;
+  c.target = target;
+  c.width = width;
+  c.height = height;
+  return c;
+}
+
 // A scene with a camera (64x48, from (0, 2, 6) at the origin) and no objects or lights.
 inline cdsm::Scene empty_scene(const std::string& name) {
   cdsm::Scene s;
   s.source = name;
-  s.camera.position = {0, 2, 6};
-  s.camera.target = {0, 0, 0};
-  s.camera.width = 64;
-  s.camera.height = 48;
+  s.camera = camera_at({0, 2, 6}, {0, 0, 0});
   return s;
 }
 

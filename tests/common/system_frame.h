@@ -9,6 +9,7 @@
 
 #include "cdsm/scene.h"
 #include "cdsm/shadow_system.h"
+#include "common/builders.h"
 #include "frame.h"
 #include "frame_snapshot.h"
 #include "hd/camera_pass.h"

@@ -26,6 +26,7 @@
 #include "cdsm/procedural.h"
 #include "cdsm/scene_io.h"
 #include "cdsm/shadow_system.h"
+#include "common/builders.h"
 #include "editor/scene_equal.h"
 #include "state/document.h"
 #include "state/edit.h"
@@ -51,12 +52,8 @@ std::string scratch_dir() {
 // both lights), an opaque box, a small receive-only tile, a coloured
 // medium box and a dense volume in its own object; a spot and a point light.
 Scene test_scene() {
-  Scene s;
-  s.source = "editor test scene";
-  s.camera.position = {0.5f, 3.0f, 5.5f};
-  s.camera.target = {0, 0.3f, 0};
-  s.camera.width = 64;
-  s.camera.height = 48;
+  Scene s = cdsm_test::empty_scene("editor test scene");
+  s.camera = cdsm_test::camera_at({0.5f, 3.0f, 5.5f}, {0, 0.3f, 0}, 64, 48);
   s.camera.far = 40;
   s.shadows.resolution = 64;
   s.shadows.epsilon = 0.01f;

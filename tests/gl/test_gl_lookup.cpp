@@ -23,6 +23,7 @@
 #include "gl/gl_api.h"
 #include "gl_test_util.h"
 #include "reference/reference.h"
+#include "common/builders.h"
 #include "frame_snapshot.h"
 #include "scene_sync.h"
 
@@ -257,12 +258,7 @@ TEST_F(GlLookup, SurfacesInContact) {
       object("decal", make_quad(1, 1), {-2, 0, 2}, 0.5f);
       const uint32_t lying = object("lying slab", make_box({1, 0.1f, 1}), {2, 0.05f, 2}, 0.3f);
       if (tinted) scene.objects[lying].surface.transmission_color = {1.0f, 0.5f, 0.2f};
-      Light light;
-      light.position = {0.5f, 9, 0.4f};
-      light.direction = normalize(Vec3{-0.5f, -9, -0.4f});
-      light.outer_cone_deg = 35;
-      light.inner_cone_deg = 32;
-      scene.lights.push_back(light);
+      scene.lights.push_back(cdsm_test::spot_light({0.5f, 9, 0.4f}, {-0.5f, -9, -0.4f}, 35, 32));
       scene.shadows.layout = layout;
       scene.shadows.resolution = 256;
       std::vector<LookupPoint> extra;
@@ -298,12 +294,7 @@ TEST_F(GlLookup, SurfacesInContactWithGlFragments) {
   const uint32_t slab = object("slab", make_ground(16, 16, 0.3f), {8, 0, 8}, 1.0f);
   object("pillar", make_box({1, 1, 1}), {5, 0.0008f - 0.5f, 5}, 0.45f);
   object("glass", make_box({1, 1, 1}), {11, 0.501f, 11}, 0.45f);
-  Light light;
-  light.position = {8, 12, 8};
-  light.direction = {0, -1, 0};
-  light.outer_cone_deg = 40;
-  light.inner_cone_deg = 36;
-  scene.lights.push_back(light);
+  scene.lights.push_back(cdsm_test::spot_light({8, 12, 8}, {0, -1, 0}, 40, 36));
   scene.shadows.resolution = 512;
   SystemOptions o;
   o.gl_context = GlContextUse::Application;

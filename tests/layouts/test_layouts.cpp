@@ -86,16 +86,8 @@ Scene make_scene() {
   ground.casts_shadows = false;
   s.objects.push_back(ground);
 
-  Light l;
-  l.position = {0.0f, 4.0f, 0.5f};
-  l.direction = {0.0f, -1.0f, 0.0f};
-  l.outer_cone_deg = 30.0f;
-  l.inner_cone_deg = 25.0f;
-  s.lights.push_back(l);
-  s.camera.position = {0.0f, 2.5f, 4.0f};
-  s.camera.target = {0.0f, 0.4f, 0.0f};
-  s.camera.width = 64;
-  s.camera.height = 48;
+  s.lights.push_back(cdsm_test::spot_light({0.0f, 4.0f, 0.5f}, {0.0f, -1.0f, 0.0f}, 30.0f, 25.0f));
+  s.camera = cdsm_test::camera_at({0.0f, 2.5f, 4.0f}, {0.0f, 0.4f, 0.0f}, 64, 48);
   return s;
 }
 

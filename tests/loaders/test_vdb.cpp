@@ -60,13 +60,7 @@ Scene volume_scene(const VdbVolume& vdb, float sigma, VolumeProxy proxy, Vec3 li
   o.interior = InteriorKind::Volume;
   o.volume = 0;
   s.objects.push_back(o);
-  Light l;
-  l.type = LightType::Spot;
-  l.position = light;
-  l.direction = normalize(target - light);
-  l.outer_cone_deg = 4.0f;
-  l.inner_cone_deg = 3.0f;
-  s.lights.push_back(l);
+  s.lights.push_back(spot_light(light, target - light, 4.0f, 3.0f));
   s.shadows.epsilon = 1e-4f;
   s.shadows.resolution = 64;
   s.shadows.filtering = true;

@@ -23,6 +23,7 @@
 #include "cdsm/loaders.h"
 #include "cdsm/procedural.h"
 #include "cdsm/scene_io.h"
+#include "common/builders.h"
 #include "editor/scene_equal.h"
 
 namespace cdsm_test {
@@ -253,13 +254,9 @@ TEST(SceneWrite, SharedGltfSceneRoundTrips) {
 // ---- a scene built in code ----------------------------------------------------------
 
 Scene code_scene() {
-  Scene s;
-  s.source = "code scene";
-  s.camera.position = {0.1f, 2.3f, 6.7f};
-  s.camera.target = {0, 0.3f, 0};
+  Scene s = cdsm_test::empty_scene("code scene");
+  s.camera = cdsm_test::camera_at({0.1f, 2.3f, 6.7f}, {0, 0.3f, 0}, 96, 64);
   s.camera.fov_y_deg = 41.3f;
-  s.camera.width = 96;
-  s.camera.height = 64;
   s.shadows.epsilon = 0.0123f;
   s.shadows.resolution = 300;
   s.shadows.filtering = false;
