@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "backend/backend.h"
+#include "backend/host_storage.h"
 #include "backend/list_store.h"
 #include "backend/scene_store.h"
 #include "exec/camera_pass.h"
@@ -141,16 +142,7 @@ class ExecBackend final : public ExecShadowBackend {
         rgb_.tags.read(mirror_.rgb_tags);
         mirror_dirty_ = false;
       }
-      DsmStorage st = exec_storage();
-      st.texels = {mirror_.texels.data(), mirror_.texels.size()};
-      st.nodes = {mirror_.nodes.data(), mirror_.nodes.size()};
-      st.chunks = {mirror_.chunks.data(), mirror_.chunks.size()};
-      st.tags = {mirror_.tags.data(), mirror_.tags.size()};
-      st.rgb_texels = {mirror_.rgb_texels.data(), mirror_.rgb_texels.size()};
-      st.rgb_nodes = {mirror_.rgb_nodes.data(), mirror_.rgb_nodes.size()};
-      st.rgb_chunks = {mirror_.rgb_chunks.data(), mirror_.rgb_chunks.size()};
-      st.rgb_tags = {mirror_.rgb_tags.data(), mirror_.rgb_tags.size()};
-      return st;
+      return mirror_.view(exec_storage());
     }
   }
   uint64_t storage_epoch() const override { return epoch_; }
@@ -479,15 +471,7 @@ class ExecBackend final : public ExecShadowBackend {
   uint64_t compactions_ = 0, compacted_bytes_ = 0;
   uint64_t epoch_ = 1;
   // storage() over device memory: a host copy of the store's arrays.
-  struct HostMirror {
-    std::vector<TexelRange> texels, rgb_texels;
-    std::vector<DsmNode> nodes;
-    std::vector<DsmNodeRgb> rgb_nodes;
-    std::vector<ChunkNode> chunks;
-    std::vector<ChunkNodeRgb> rgb_chunks;
-    std::vector<SurfaceTag> tags, rgb_tags;
-  };
-  mutable HostMirror mirror_;
+  mutable HostStorage mirror_;
   mutable bool mirror_dirty_ = true;
 };
 

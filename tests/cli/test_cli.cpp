@@ -16,38 +16,17 @@
 #include <vector>
 
 #include "cdsm/fields.h"
+#include "common/cli_run.h"
 
 namespace {
 
-struct CliRun {
-  int code = -1;
-  std::string out, err;
-};
+using cdsm_test::CliRun;
+using cdsm_test::slurp;
 
-std::string output_dir() {
-  std::string d = std::string(CDSM_TEST_OUTPUT_DIR) + "/cli";
-  ::mkdir(d.c_str(), 0755);
-  return d;
-}
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+std::string output_dir() { return cdsm_test::cli_output_dir("cli"); }
 
 // Runs `cdsm ARGS` (a shell word list) and captures its streams.
-CliRun run_cdsm(const std::string& args) {
-  const std::string out = output_dir() + "/stdout.txt", err = output_dir() + "/stderr.txt";
-  std::string cmd = std::string("'") + CDSM_EXE + "' " + args + " >'" + out + "' 2>'" + err + "'";
-  int status = std::system(cmd.c_str());
-  CliRun r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
-}
+CliRun run_cdsm(const std::string& args) { return cdsm_test::run_program(CDSM_EXE, "", args, output_dir()); }
 
 const std::string kScene = std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/default.json";
 

@@ -14,16 +14,10 @@ namespace cdsm_test {
 
 using namespace cdsm;
 
-struct HostMaps {
+// The store's arrays as of the last build (HostStorage), its maps' headers.
+struct HostMaps : HostStorage {
   std::unique_ptr<exec::ExecBackend<exec::HostExec>> backend;
   std::vector<DsmMap> maps;
-  // The grey store's arrays as of the last build (RGB maps: rgb_*).
-  std::vector<TexelRange> texels, rgb_texels;
-  std::vector<DsmNode> nodes;
-  std::vector<DsmNodeRgb> rgb_nodes;
-  std::vector<ChunkNode> chunks;
-  std::vector<ChunkNodeRgb> rgb_chunks;
-  std::vector<SurfaceTag> tags, rgb_tags;
 
   DsmStorage storage() const { return backend->storage(); }
 };
@@ -42,15 +36,7 @@ inline DsmBuildStats build_host_map(const SceneBuffers& sb, const LightPassParam
   DsmBuildStats stats;
   const MapId id = build_map_from_host(*out.backend, params, frags, layout, stats);
   out.maps.push_back(out.backend->map_header(id));
-  const DsmStorage s = out.backend->storage();
-  out.texels.assign(s.texels.begin(), s.texels.end());
-  out.nodes.assign(s.nodes.begin(), s.nodes.end());
-  out.chunks.assign(s.chunks.begin(), s.chunks.end());
-  out.tags.assign(s.tags.begin(), s.tags.end());
-  out.rgb_texels.assign(s.rgb_texels.begin(), s.rgb_texels.end());
-  out.rgb_nodes.assign(s.rgb_nodes.begin(), s.rgb_nodes.end());
-  out.rgb_chunks.assign(s.rgb_chunks.begin(), s.rgb_chunks.end());
-  out.rgb_tags.assign(s.rgb_tags.begin(), s.rgb_tags.end());
+  out.assign(out.backend->storage());
   return stats;
 }
 

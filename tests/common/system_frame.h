@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 
+#include "cdsm/renderer.h"
 #include "cdsm/scene.h"
 #include "cdsm/shadow_system.h"
 #include "common/builders.h"
@@ -63,6 +64,24 @@ struct SystemFrame {
   ShadowView view(const Scene& s) const { return frame.view(s.shadows); }
   SceneView scene_view() const { return sb.view(); }
 };
+
+// One frame rendered as `cdsm render --compare-reference` renders it (CPU
+// fragments): its image and stats, which hold the error against the
+// reference (transmittance at `error_samples` probe points, the image's).
+struct ComparedFrame {
+  Image image;
+  FrameStats stats;
+};
+inline ComparedFrame compared_render(const Scene& s, int error_samples = 4000) {
+  Renderer r;
+  RenderOptions opt;
+  opt.fragments = FragmentSource::Cpu;
+  opt.compare_reference = true;
+  opt.error_samples = error_samples;
+  ComparedFrame out;
+  out.image = r.render(s, opt, &out.stats);
+  return out;
+}
 
 // The camera pass's inputs for `scene`'s camera over the compiled scene
 // `sv`, as the system sets them; the ids of the objects that hold the eye

@@ -14,6 +14,7 @@
 
 #include "cdsm/error.h"
 #include "cdsm/loaders.h"
+#define CDSM_FUZZ_OWN_INITIALIZE 1
 #include "fuzz_util.h"
 
 namespace {

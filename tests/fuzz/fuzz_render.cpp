@@ -149,11 +149,6 @@ void check_image(const cdsm::Image& image, const cdsm::Scene& scene) {
 
 }  // namespace
 
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  cdsm_fuzz::quiet_and_hermetic();
-  return 0;
-}
-
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   ByteReader in(data, size);
   cdsm::Scene scene;

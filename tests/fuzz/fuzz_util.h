@@ -51,3 +51,12 @@ inline void quiet_and_hermetic() {
 }
 
 }  // namespace cdsm_fuzz
+
+// libFuzzer's one-time setup of every target: quiet_and_hermetic(). A
+// target with more to do defines CDSM_FUZZ_OWN_INITIALIZE and its own.
+#ifndef CDSM_FUZZ_OWN_INITIALIZE
+extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  cdsm_fuzz::quiet_and_hermetic();
+  return 0;
+}
+#endif

@@ -8,11 +8,6 @@
 #include "cdsm/loaders.h"
 #include "fuzz_util.h"
 
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  cdsm_fuzz::quiet_and_hermetic();
-  return 0;
-}
-
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::vector<unsigned char> bytes(data, data + size);
   try {

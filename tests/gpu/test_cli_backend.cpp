@@ -14,35 +14,17 @@
 #include <sstream>
 #include <string>
 
+#include "common/cli_run.h"
+
 namespace {
 
-struct CliRun {
-  int code = -1;
-  std::string out, err;
-};
+using cdsm_test::CliRun;
+using cdsm_test::slurp;
 
-std::string dir() {
-  std::string d = std::string(CDSM_TEST_OUTPUT_DIR) + "/cli_backend";
-  ::mkdir(d.c_str(), 0755);
-  return d;
-}
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+std::string dir() { return cdsm_test::cli_output_dir("cli_backend"); }
 
 CliRun cdsm(const std::string& env, const std::string& args) {
-  const std::string out = dir() + "/stdout.txt", err = dir() + "/stderr.txt";
-  const std::string cmd = env + " '" + std::string(CDSM_EXE) + "' " + args + " >'" + out + "' 2>'" + err + "'";
-  const int status = std::system(cmd.c_str());
-  CliRun r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
+  return cdsm_test::run_program(CDSM_EXE, env, args, dir());
 }
 
 const std::string kScene = std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/default.json";

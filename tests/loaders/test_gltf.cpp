@@ -319,19 +319,14 @@ TEST(Gltf, MirroredNodeRendersLikeTheReferenceAndUnmirrored) {
       s.camera.width = 64;
       s.camera.height = 48;
       s.shadows.resolution = 256;
-      Renderer r;
-      RenderOptions opt;
-      opt.fragments = FragmentSource::Cpu;
-      opt.compare_reference = true;
-      opt.error_samples = 4000;
-      FrameStats st;
-      Image img = r.render(s, opt, &st);
+      const ComparedFrame frame = compared_render(s);
+      const FrameStats& st = frame.stats;
       std::printf("[ mirror ] glTF %s%s: %.2f dB against the reference, T mean %.4f\n", mirrored ? "mirrored" : "plain",
                   eye_inside ? ", eye inside" : "", st.image.psnr, st.transmittance.mean);
       EXPECT_GE(st.image.psnr, 40.0) << mirrored << eye_inside;
       EXPECT_LE(st.transmittance.mean, 0.02) << mirrored << eye_inside;
       EXPECT_EQ(st.unmatched_fragments, 0u) << mirrored << eye_inside;
-      if (!eye_inside) images[mirrored] = img;
+      if (!eye_inside) images[mirrored] = frame.image;
     }
   EXPECT_GE(compare_images(images[0], images[1]).psnr, 50.0);
 }
@@ -430,13 +425,7 @@ TEST(Gltf, DirectionalLightRendersLikeTheReference) {
   s.camera.width = 64;
   s.camera.height = 48;
   s.shadows.resolution = 256;
-  Renderer r;
-  RenderOptions opt;
-  opt.fragments = FragmentSource::Cpu;
-  opt.compare_reference = true;
-  opt.error_samples = 4000;
-  FrameStats st;
-  r.render(s, opt, &st);
+  const FrameStats st = compared_render(s).stats;
   std::printf("[ gltf sun ] %llu lookups, %.2f dB against the reference, T mean %.4f\n",
               (unsigned long long)st.transmittance.points, st.image.psnr, st.transmittance.mean);
   EXPECT_GT(st.transmittance.points, 1000u) << "the sun lights the ground";

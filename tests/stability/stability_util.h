@@ -184,6 +184,23 @@ inline ::testing::AssertionResult finite_image(const Image& img) {
   return ::testing::AssertionSuccess();
 }
 
+// The scene's image from the maps and from the reference (CPU fragments),
+// and their PSNR, each image checked finite (the result's `finite`).
+struct ImagePair {
+  Image img, ref;
+  ::testing::AssertionResult finite = ::testing::AssertionSuccess();
+  double psnr() const { return compare_images(img, ref).psnr; }
+};
+inline ImagePair render_both(Renderer& r, const Scene& s) {
+  ImagePair p;
+  const RenderOptions o = cpu_options();
+  p.img = r.render(s, o);
+  p.ref = r.render_reference(s, o);
+  p.finite = finite_image(p.img);
+  if (p.finite) p.finite = finite_image(p.ref);
+  return p;
+}
+
 inline Vec3 pixel(const Image& img, int x, int y) {
   const float* p = img.rgb.data() + (size_t(y) * img.width + x) * 3;
   return {p[0], p[1], p[2]};

@@ -125,23 +125,35 @@ struct Compressed {
   float extra_error = 0.0f;
 };
 
-Compressed compress(const std::vector<Sample>& seq, float eps, int capacity) {
-  std::vector<DsmNode> storage(static_cast<size_t>(capacity));
-  NodeBuffer buf{storage.data(), capacity};
-  buf.eps = eps;
-  WedgeCompressor c(eps);
-  for (const Sample& s : seq) {
+// Every sample of `seq` (grey or RGB) through compressor c into buf, then finished.
+template <class Compressor, class Buffer, class Sequence>
+void feed(Compressor& c, Buffer& buf, const Sequence& seq) {
+  for (const auto& s : seq) {
     if (s.step)
       c.step(buf, s.z, s.a);
     else
       c.push(buf, s.z, s.a);
   }
   c.finish(buf);
+}
+
+// The sequence through the compressor into a buffer of `capacity` nodes
+// over `storage` (at least capacity long).
+Compressed compress_into(std::vector<DsmNode>& storage, const std::vector<Sample>& seq, float eps, int capacity) {
+  NodeBuffer buf{storage.data(), capacity};
+  buf.eps = eps;
+  WedgeCompressor c(eps);
+  feed(c, buf, seq);
   Compressed r;
   r.nodes.assign(storage.begin(), storage.begin() + buf.count);
   r.removed = buf.removed;
   r.extra_error = buf.extra_error;
   return r;
+}
+
+Compressed compress(const std::vector<Sample>& seq, float eps, int capacity) {
+  std::vector<DsmNode> storage(static_cast<size_t>(capacity));
+  return compress_into(storage, seq, eps, capacity);
 }
 
 // The largest deviation of the node list from the samples. Samples sharing
@@ -186,16 +198,13 @@ double max_deviation(const std::vector<Sample>& seq, const std::vector<DsmNode>&
 
 const float kEps[] = {0.0f, 0.001f, 0.01f, 0.1f};
 
+// 10^5 random sequences; the ASan+UBSan build (about 20x slower) checks a tenth.
+constexpr int kSequences = CDSM_TEST_SANITIZED ? 10000 : 100000;
+
 }  // namespace
 
 // >= 10^5 random sequences of every kind, four tolerances each.
 TEST(Compression, ErrorBoundMonotoneAndNodeCounts) {
-  // 10^5 sequences; the ASan+UBSan build (about 20x slower) checks a tenth.
-#if CDSM_TEST_SANITIZED
-  constexpr int kSequences = 10000;
-#else
-  constexpr int kSequences = 100000;
-#endif
   std::mt19937 rng(20240611u);
   double count_sum[4] = {0, 0, 0, 0};
   double worst[4] = {0, 0, 0, 0};
@@ -267,13 +276,7 @@ std::vector<DsmNodeRgb> compress_rgb(const std::vector<RgbSample>& seq, float ep
   std::vector<DsmNodeRgb> storage(3 * seq.size() + 16);  // two nodes per sample, below node_limit
   RgbNodeBuffer buf{storage.data(), int(storage.size())};
   Wedge<RgbNodeBuffer> c(eps);
-  for (const RgbSample& s : seq) {
-    if (s.step)
-      c.step(buf, s.z, s.a);
-    else
-      c.push(buf, s.z, s.a);
-  }
-  c.finish(buf);
+  feed(c, buf, seq);
   EXPECT_EQ(buf.removed, 0);
   storage.resize(size_t(buf.count));
   return storage;
@@ -297,11 +300,6 @@ std::vector<DsmNode> channel_of(const std::vector<DsmNodeRgb>& nodes, int k) {
 // channel, every channel is physical, and one channel's tolerance never
 // costs more nodes than all three compressed apart would need together.
 TEST(CompressionRgb, PerChannelBoundOnRandomSequences) {
-#if CDSM_TEST_SANITIZED
-  constexpr int kSequences = 10000;
-#else
-  constexpr int kSequences = 100000;
-#endif
   std::mt19937 rng(20261202u);
   double worst[4] = {0, 0, 0, 0}, rgb_nodes[4] = {0, 0, 0, 0}, scalar_nodes[4] = {0, 0, 0, 0};
   int failures = 0;
@@ -483,21 +481,7 @@ namespace {
 // past `capacity` shows up as a count, not as heap corruption.
 Compressed compress_guarded(const std::vector<Sample>& seq, float eps, int capacity) {
   std::vector<DsmNode> storage(static_cast<size_t>(capacity) + seq.size() * 2 + 16);
-  NodeBuffer buf{storage.data(), capacity};
-  buf.eps = eps;
-  WedgeCompressor c(eps);
-  for (const Sample& s : seq) {
-    if (s.step)
-      c.step(buf, s.z, s.a);
-    else
-      c.push(buf, s.z, s.a);
-  }
-  c.finish(buf);
-  Compressed r;
-  r.nodes.assign(storage.begin(), storage.begin() + buf.count);
-  r.removed = buf.removed;
-  r.extra_error = buf.extra_error;
-  return r;
+  return compress_into(storage, seq, eps, capacity);
 }
 
 }  // namespace

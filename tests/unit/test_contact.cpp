@@ -20,7 +20,6 @@ using namespace cdsm_test;
 
 namespace {
 
-
 // The object index of `name` (objects compile in scene order).
 uint32_t object_named(const Scene& s, const std::string& name) {
   for (size_t i = 0; i < s.objects.size(); ++i)

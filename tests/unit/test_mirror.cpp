@@ -88,21 +88,8 @@ Scene mirror_scene(Kind kind, float sx, bool eye_inside = false) {
   return s;
 }
 
-struct Result {
-  Image image;
-  FrameStats stats;
-};
-
-Result render(const Scene& s) {
-  Renderer r;
-  RenderOptions opt;
-  opt.fragments = FragmentSource::Cpu;
-  opt.compare_reference = true;
-  opt.error_samples = 4000;
-  Result out;
-  out.image = r.render(s, opt, &out.stats);
-  return out;
-}
+using Result = ComparedFrame;
+Result render(const Scene& s) { return compared_render(s); }
 
 }  // namespace
 

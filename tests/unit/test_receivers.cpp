@@ -21,7 +21,6 @@ using namespace cdsm_test;
 
 namespace {
 
-
 // The camera pass's lookups over every `step`-th pixel, through `vis`.
 template <class Visibility>
 std::vector<RecordedLookup> camera_lookups(const Scene& scene, const SystemFrame& b, const Visibility& vis, int step) {
