@@ -128,7 +128,7 @@ struct Parser {
   }
 
   Mat4 transform(const JsonNode& n) {
-    if (n.has("matrix")) return matrix(n);  // ranges (singular, infinite): compile_scene
+    if (n.has("matrix")) return matrix(n);  // ranges (singular, infinite): the compile
     n.expect_object({"translate", "rotate", "scale"});
     Vec3 s = n.get("scale", Vec3{1, 1, 1});
     if (s.x == 0 || s.y == 0 || s.z == 0) n.at("scale").fail("scale must not be 0");

@@ -7,7 +7,7 @@
 
 // NanoVDB is header-only and __hostdev__: sparse grids are sampled through
 // it on the CPU and under nvcc. A build without its headers samples dense
-// grids only (compile_scene rejects sparse ones there).
+// grids only (the scene compile rejects sparse ones there).
 #if __has_include(<nanovdb/NanoVDB.h>)
 #include <nanovdb/NanoVDB.h>
 #define CDSM_HAVE_NANOVDB 1

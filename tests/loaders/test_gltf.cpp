@@ -232,7 +232,7 @@ TEST(Gltf, GlbSceneWithLightsCameraAndMaterials) {
   EXPECT_NEAR(big.surface.color.z, 0.6f, 1e-6f);
   EXPECT_EQ(big.interior, InteriorKind::None);
   // The mirrored glass cube keeps glTF's winding in mesh space (outward
-  // there); compile_scene flips it under the mirroring transform, once (the
+  // there); compile_object flips it under the mirroring transform, once (the
   // compiled world triangles below face outwards). Its attenuation is a
   // constant interior, -ln(c)/d per channel.
   EXPECT_TRUE(is_closed(*mir.mesh));

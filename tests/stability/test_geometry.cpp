@@ -399,7 +399,7 @@ TEST(ManyFragments, OverAThousandLayersInAPixelCompositeExactly) {
 // ---- extreme coordinates in the BVH (issue "Reliability") -------------------------
 
 // The teapot's triangles placed straight into the scene's arrays at scales
-// compile_scene refuses or that sit at the ends of float's range (1e-30,
+// the compile refuses or that sit at the ends of float's range (1e-30,
 // 1e-45 denormals, 3e38, everything at one point): the BVH builder's binning
 // and the traversal never index out of bounds (ASan checks it in the
 // sanitizer build), every triangle is in exactly one leaf, and the

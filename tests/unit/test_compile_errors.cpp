@@ -1,4 +1,4 @@
-// Scenes built in code that compile_scene must refuse with a clear error
+// Scenes built in code that the system's compile must refuse with a clear error
 // (issue "No silent wrong answers", item 8): transforms that turn finite
 // vertices into Inf/NaN in world space, singular transforms, and an
 // allocation that fails while compiling (named, with its size).

@@ -1,5 +1,5 @@
 // Mirrored transforms (negative determinant; issue "No silent wrong
-// answers", item 2): compile_scene flips the triangle winding of an object
+// answers", item 2): the compile (compile_object) flips the triangle winding of an object
 // whose object-to-world transform mirrors, exactly once, so entries stay
 // entries. Media, volumes and translucent surfaces under a mirror render as
 // the reference renders them and as the same scene unmirrored does.

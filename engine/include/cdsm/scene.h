@@ -75,7 +75,7 @@ struct TransferPoint {
 // voxel centres at integers, which may be negative. A value that is not
 // stored reads as `background`. Every leaf holding a non-background value
 // has its 26 neighbour leaves (empty-space skipping relies on it;
-// load_vdb() adds them, compile_scene checks). The summary fields repeat
+// load_vdb() adds them, the scene compile checks). The summary fields repeat
 // what the bytes say, for code that does not include NanoVDB.
 struct SparseGrid {
   struct alignas(32) Block {

@@ -230,7 +230,7 @@ Scene load_gltf_scene(const std::string& path) {
       o.name = nd.name.empty() ? "node " + std::to_string(ni) : nd.name;
       if (me.primitives.size() > 1) o.name += "/" + std::to_string(p);
       // The mesh stays in mesh space, counter-clockwise outward as glTF
-      // stores it; a mirroring node transform `g` is undone by compile_scene
+      // stores it; a mirroring node transform `g` is undone by compile_object
       // (the one place winding follows the object-to-world determinant).
       const bool closed = is_closed(prim);
       o.mesh = std::make_shared<TriangleMesh>(std::move(prim));

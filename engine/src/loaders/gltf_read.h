@@ -70,7 +70,7 @@ bool read_primitive(const File& f, int mesh, int prim, const std::string& where,
 // Appends `src` transformed by `m` to `dst` (normals by the inverse
 // transpose). `m` is baked into the positions, so a mirroring `m` flips the
 // winding here (the result is counter-clockwise outward in dst's space;
-// compile_scene flips again only for the object's own transform). Drops
+// the scene compile (compile_object) flips again only for the object's own transform). Drops
 // dst's normals when the two disagree about having them.
 void append_transformed(TriangleMesh& dst, const TriangleMesh& src, const Mat4& m);
 

@@ -25,7 +25,7 @@ void add_quad(TriangleMesh& m, uint32_t a, uint32_t b, uint32_t c, uint32_t d, b
 
 // Box [lo, hi] in index space, mapped to object space. The index-to-object
 // map is baked into the positions, so a mirroring one flips the winding here
-// (counter-clockwise outward in object space); compile_scene flips again
+// (counter-clockwise outward in object space); compile_object flips again
 // only for the object's own transform.
 TriangleMesh index_box(Vec3 lo, Vec3 hi, const Mat4& index_to_object) {
   TriangleMesh m;
