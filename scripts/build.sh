@@ -3,6 +3,10 @@
 # Usage: scripts/build.sh [--cuda guard|auto|on|off] [--target T]... [extra cmake args...]
 #   --cuda guard (default): the CUDA backend is compiled whenever nvcc is
 #                 found, GPU or not (the test command's compile guard).
+#                 Without an NVIDIA driver only PTX is generated (90-virtual:
+#                 the CUDA and C++ front ends check every kernel; ptxas,
+#                 four fifths of the kernels' compile time, is skipped, since
+#                 nothing could run its code here).
 #   --cuda auto:  compiled only where it can run: nvcc found and an NVIDIA
 #                 driver loaded (/proc/driver/nvidia/version, or libcuda.so.1
 #                 known to the loader); $CDSM_CUDA=1 / 0 forces it on / off.
@@ -25,10 +29,17 @@ done
 nvcc=/usr/local/cuda/bin/nvcc
 [[ -x $nvcc ]] || nvcc=$(command -v nvcc || true)
 cuda=OFF why=""
+driver() { [[ -r /proc/driver/nvidia/version ]] || ldconfig -p 2>/dev/null | grep -c 'libcuda\.so\.1' >/dev/null; }
+arch=${CDSM_CUDA_ARCH:-90}
 case $cuda_mode in
   guard)
-    if [[ -n $nvcc ]]; then cuda=ON why="nvcc found ($nvcc): compiled as a guard, GPU or not"
-    else why="no nvcc"; fi ;;
+    if [[ -n $nvcc ]]; then
+      cuda=ON why="nvcc found ($nvcc): compiled as a guard, GPU or not"
+      if [[ -z ${CDSM_CUDA_ARCH:-} ]] && ! driver; then
+        arch=90-virtual why+="; no NVIDIA driver: PTX only (90-virtual), no machine code"
+      fi
+    else why="no nvcc"; fi
+    echo "build: CUDA backend ${cuda,,}: $why" >&2 ;;
   auto)
     if [[ ${CDSM_CUDA:-} == 1 ]]; then
       [[ -n $nvcc ]] || { echo "build: CDSM_CUDA=1 but no nvcc (looked at /usr/local/cuda/bin and PATH)" >&2; exit 2; }
@@ -39,7 +50,7 @@ case $cuda_mode in
       cuda=ON why="build/ is already configured with it (scripts/test.sh): kept, not rebuilt without it"
     elif [[ -z $nvcc ]]; then
       why="no nvcc (looked at /usr/local/cuda/bin and PATH)"
-    elif [[ -r /proc/driver/nvidia/version ]] || ldconfig -p 2>/dev/null | grep -q 'libcuda\.so\.1'; then
+    elif driver; then
       cuda=ON why="nvcc and an NVIDIA driver found"
     else
       why="nvcc found but no NVIDIA driver (no /proc/driver/nvidia/version, no libcuda.so.1): nothing could run it; CDSM_CUDA=1 builds it anyway"
@@ -53,7 +64,7 @@ esac
 cuda_args=(-DCDSM_CUDA="$cuda")
 if [[ $cuda == ON ]]; then
   # One real architecture keeps the build short; override with CDSM_CUDA_ARCH.
-  cuda_args+=(-DCMAKE_CUDA_COMPILER="$nvcc" -DCMAKE_CUDA_ARCHITECTURES="${CDSM_CUDA_ARCH:-90}")
+  cuda_args+=(-DCMAKE_CUDA_COMPILER="$nvcc" -DCMAKE_CUDA_ARCHITECTURES="$arch")
 fi
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release "${cuda_args[@]}" "$@" >/dev/null
 cmake --build build -j "$jobs" "${targets[@]}"
