@@ -83,6 +83,7 @@ class CudaExec {
 
   void* allocate(size_t bytes) {
     check_usable("allocate");
+    ++counters.allocations;
     void* p = nullptr;
     if (async_alloc_)
       CDSM_CUDA_CHECK(cudaMallocAsync(&p, bytes ? bytes : 1, stream()));
@@ -109,6 +110,7 @@ class CudaExec {
     take_events(l);
     CDSM_CUDA_CHECK(cudaEventRecord(l.start, stream()));
     note_launch(name);
+    ++counters.launches;
     parallel_for_kernel<F><<<unsigned(grid), unsigned(block), 0, stream()>>>(n, f);
     const cudaError_t launched = cudaGetLastError();
     if (launched != cudaSuccess) {
@@ -151,16 +153,15 @@ class CudaExec {
   void upload(void* dst, const void* src, size_t bytes) {
     check_usable("upload");
     if (bytes) CDSM_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyHostToDevice, stream()));
-    bytes_up += bytes;
+    counters.bytes_up += bytes;
   }
   void download(void* dst, const void* src, size_t bytes) {
     check_usable("download");
     if (bytes) CDSM_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToHost, stream()));
     synchronize();
-    bytes_down += bytes;
+    counters.bytes_down += bytes;
   }
-  // Bytes through upload() and download() so far (host <-> device transfers).
-  uint64_t bytes_up = 0, bytes_down = 0;
+  exec::ExecCounters counters;  // shadows/exec/exec.h (HostExec counts the same)
   void copy(void* dst, const void* src, size_t bytes) {
     check_usable("copy");
     if (bytes) CDSM_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToDevice, stream()));
@@ -172,6 +173,7 @@ class CudaExec {
 
   void synchronize() {
     check_usable("synchronize");
+    ++counters.syncs;
     CDSM_CUDA_CHECK(cudaStreamSynchronize(stream()));
   }
 
@@ -236,8 +238,10 @@ class CudaExec {
   }
 #endif
 
+  // The times of the launches that have finished, without waiting: a launch
+  // still running is reported by a later call (the next frame's).
   std::vector<exec::StageTime> take_stage_times() {
-    fold();
+    fold_finished();
     return std::exchange(folded_, {});
   }
 
@@ -264,16 +268,27 @@ class CudaExec {
     const char* name;  // a string literal
     cudaEvent_t start, stop;
   };
-  // The finished launches' times into folded_, their events back to the pool.
+  // Every pending launch's time into folded_ (waiting for the last), their
+  // events back to the pool.
   void fold() {
     synchronize();
-    for (Launch& l : pending_) {
+    fold_finished();
+  }
+  // The launches whose stop event has been reached, in stream order (the
+  // first unfinished one ends the walk), into folded_; never waits.
+  void fold_finished() {
+    size_t done = 0;
+    for (; done < pending_.size(); ++done) {
+      Launch& l = pending_[done];
+      const cudaError_t q = cudaEventQuery(l.stop);
+      if (q == cudaErrorNotReady) break;
+      CDSM_CUDA_CHECK(q);
       float ms = 0.0f;
       CDSM_CUDA_CHECK(cudaEventElapsedTime(&ms, l.start, l.stop));
       exec::add_stage_time(folded_, l.name, double(ms));
       free_events_.push_back({l.start, l.stop});
     }
-    pending_.clear();
+    pending_.erase(pending_.begin(), pending_.begin() + ptrdiff_t(done));
   }
 
   void take_events(Launch& l) {

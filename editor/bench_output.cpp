@@ -7,6 +7,8 @@
 #include <iterator>
 #include <map>
 #include <sstream>
+#include <type_traits>
+#include <vector>
 
 #include "bench.h"
 
@@ -97,21 +99,7 @@ void write_csv(const std::vector<Result>& results, const std::string& path) {
                                          "camera_ms_q3",
                                          "frame_ms_median",
                                          "time_ms",
-                                         "maps",
-                                         "texels",
-                                         "nodes",
-                                         "index_bytes",
-                                         "node_bytes",
-                                         "slack_bytes",
-                                         "tag_bytes",
                                          "memory_bytes",
-                                         "avg_nodes_per_texel",
-                                         "max_nodes_per_texel",
-                                         "overflow_texels",
-                                         "overflow_extra_error",
-                                         "rgb_maps",
-                                         "rgb_map_bytes",
-                                         "grey_map_bytes",
                                          "t_points",
                                          "t_mean",
                                          "t_p99",
@@ -143,9 +131,17 @@ void write_csv(const std::vector<Result>& results, const std::string& path) {
                                          "pareto_memory",
                                          "reference_ms",
                                          "reference_cached"};
+  // The maps' memory figures by their names in cdsm/frame_stats.h
+  // (for_each_stat), before memory_bytes, their sum.
+  std::vector<std::string> columns;
+  for (const char* k : kColumns) {
+    if (std::string(k) == "memory_bytes")
+      for_each_stat(DsmMemory{}, [&](const char* name, auto) { columns.push_back(name); });
+    columns.push_back(k);
+  }
   std::ofstream f(path);
   if (!f) throw Error(path, "cannot write the results CSV");
-  for (size_t i = 0; i < std::size(kColumns); ++i) f << (i ? "," : "") << kColumns[i];
+  for (size_t i = 0; i < columns.size(); ++i) f << (i ? "," : "") << columns[i];
   f << "\n";
   for (const Result& r : results) {
     std::map<std::string, std::string> v;
@@ -160,8 +156,7 @@ void write_csv(const std::vector<Result>& results, const std::string& path) {
       v["time_ms"] = num(r.reference_ms);
       // Every error figure is 0 (the transmittance's own, its map and
       // resolution parts, per class, the image's RMSE).
-      for (const char* k : kColumns) {
-        const std::string c = k;
+      for (const std::string& c : columns) {
         const bool error = c == "image_rmse" || c.rfind("map_err_", 0) == 0 || c.rfind("res_err_", 0) == 0 ||
                            c.rfind("interior_total_", 0) == 0 || c.rfind("interior_map_", 0) == 0 ||
                            c.rfind("edge_total_", 0) == 0 || c.rfind("edge_map_", 0) == 0 ||
@@ -196,21 +191,10 @@ void write_csv(const std::vector<Result>& results, const std::string& path) {
       }
       v["frame_ms_median"] = num(r.frame_ms.median);
       v["time_ms"] = num(r.time_ms());
-      v["maps"] = std::to_string(m.maps);
-      v["texels"] = std::to_string(m.texels);
-      v["nodes"] = std::to_string(m.nodes);
-      v["index_bytes"] = std::to_string(m.index_bytes);
-      v["node_bytes"] = std::to_string(m.node_bytes);
-      v["slack_bytes"] = std::to_string(m.slack_bytes);
-      v["tag_bytes"] = std::to_string(m.tag_bytes);
+      for_each_stat(m, [&](const char* name, auto x) {
+        v[name] = std::is_floating_point_v<decltype(x)> ? num(double(x)) : std::to_string(uint64_t(x));
+      });
       v["memory_bytes"] = num(r.memory_bytes(), "%.0f");
-      v["avg_nodes_per_texel"] = num(m.avg_nodes_per_texel);
-      v["max_nodes_per_texel"] = std::to_string(m.max_nodes_per_texel);
-      v["overflow_texels"] = std::to_string(m.overflow_texels);
-      v["overflow_extra_error"] = num(m.max_extra_error);
-      v["rgb_maps"] = std::to_string(m.rgb_maps);
-      v["rgb_map_bytes"] = std::to_string(m.rgb_bytes);
-      v["grey_map_bytes"] = std::to_string(m.grey_bytes);
       v["t_mean_r"] = num(t.channel_mean[0]);
       v["t_mean_g"] = num(t.channel_mean[1]);
       v["t_mean_b"] = num(t.channel_mean[2]);
@@ -241,7 +225,7 @@ void write_csv(const std::vector<Result>& results, const std::string& path) {
       v["pareto_time"] = r.pareto_time ? "1" : "0";
       v["pareto_memory"] = r.pareto_memory ? "1" : "0";
     }
-    for (size_t i = 0; i < std::size(kColumns); ++i) f << (i ? "," : "") << v[kColumns[i]];
+    for (size_t i = 0; i < columns.size(); ++i) f << (i ? "," : "") << v[columns[i]];
     f << "\n";
   }
   if (!f) throw Error(path, "cannot write the results CSV");

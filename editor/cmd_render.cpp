@@ -29,10 +29,19 @@ std::string sibling(const std::string& out, const std::string& suffix) {
   return base + suffix;
 }
 
+// One part of FrameStats as a JSON object, by its names (for_each_stat).
+template <class S>
+nlohmann::json stat_object(const S& part) {
+  nlohmann::json o = nlohmann::json::object();
+  for_each_stat(part, [&](const char* name, auto value) { o[name] = value; });
+  return o;
+}
+
 nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::string& backend) {
   nlohmann::json j;
   j["scene"] = scene.source;
   j["backend"] = backend;
+  j["backend_reason"] = s.backend_reason;
   j["fragment_source"] = s.fragment_source;
   j["fragment_source_reason"] = s.fragment_source_reason;
   j["image_width"] = scene.camera.width;
@@ -62,28 +71,16 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
                   {"p99_abs_dT", s.popping.p99},
                   {"max_abs_dT", s.popping.max}};
   {
-    const UpdateStats& u = s.update;
     auto& up = j["update"];
-    up["full_compiles"] = u.full_compiles;
-    up["objects_compiled"] = u.objects_compiled;
-    up["volumes_compiled"] = u.volumes_compiled;
-    up["bvh_refits"] = u.bvh_refits;
-    up["bvh_rebuilds"] = u.bvh_rebuilds;
-    up["gl_upload_bytes"] = u.gl_upload_bytes;
-    up["maps_freed"] = u.maps_freed;
+    up = stat_object(s.update);
     auto& why = up["maps_rebuilt_by_reason"];
-    for (int r = 0; r < kRebuildReasons; ++r) why[to_string(RebuildReason(r))] = u.rebuilt_by_reason[r];
+    for (int r = 0; r < kRebuildReasons; ++r) why[to_string(RebuildReason(r))] = s.update.rebuilt_by_reason[r];
     auto& list = up["rebuilt_maps"];
     list = nlohmann::json::array();
-    for (const MapRebuild& m : u.rebuilds)
+    for (const MapRebuild& m : s.update.rebuilds)
       list.push_back({{"light", m.light}, {"map", m.map}, {"reason", to_string(m.reason)}});
-    up["map_store_bytes"] = u.map_store_bytes;
-    up["map_live_bytes"] = u.map_live_bytes;
-    up["scene_bytes"] = u.scene_bytes;
-    up["gl_scene_bytes"] = u.gl_scene_bytes;
-    up["host_to_backend_bytes"] = u.host_to_backend_bytes;
-    up["backend_to_host_bytes"] = u.backend_to_host_bytes;
   }
+  j["counters"] = stat_object(s.counters);
   auto& t = j["times_ms"];
   t["compile_scene"] = s.times.compile_ms;
   t["clustering"] = s.cluster_ms;
@@ -99,24 +96,9 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
   kt = nlohmann::json::object();
   for (const KernelTime& k : s.times.kernels) kt[k.name] = {{"ms", k.ms}, {"launches", k.launches}};
   auto& m = j["dsm_memory"];
+  m = stat_object(s.memory);
   m["layout"] = tag_name(scene.shadows.layout);
   j["receiver_lookup"] = tag_name(scene.shadows.receiver);
-  m["maps"] = s.memory.maps;
-  m["texels"] = s.memory.texels;
-  m["nodes"] = s.memory.nodes;
-  m["index_bytes"] = s.memory.index_bytes;
-  m["tag_bytes"] = s.memory.tag_bytes;
-  m["rewalked_texels"] = s.memory.rewalked_texels;
-  m["node_bytes"] = s.memory.node_bytes;
-  m["slack_bytes"] = s.memory.slack_bytes;
-  m["avg_nodes_per_texel"] = s.memory.avg_nodes_per_texel;
-  m["max_nodes_per_texel"] = s.memory.max_nodes_per_texel;
-  m["overflow_texels"] = s.memory.overflow_texels;
-  m["overflow_extra_error"] = s.memory.max_extra_error;
-  m["rgb_maps"] = s.memory.rgb_maps;
-  m["grey_map_bytes"] = s.memory.grey_bytes;
-  m["rgb_map_bytes"] = s.memory.rgb_bytes;
-  m["rgb_nodes"] = s.memory.rgb_nodes;
   j["light_fragments"] = s.light_fragments;
   j["camera_fragments"] = s.camera_fragments;
   j["unmatched_fragments"] = s.unmatched_fragments;

@@ -2,6 +2,11 @@
 
 namespace cdsm::gl {
 
+GlCounters& thread_gl_counters() {
+  thread_local GlCounters c;
+  return c;
+}
+
 bool Buffer::reserve(uint64_t bytes) {
   if (id_ != 0 && bytes <= capacity_) return false;
   destroy();
@@ -10,6 +15,7 @@ bool Buffer::reserve(uint64_t bytes) {
   // Immutable storage: the driver may keep it in GPU memory; DYNAMIC_STORAGE
   // allows glBufferSubData uploads. Read-back uses glGetBufferSubData.
   CDSM_GL(glNamedBufferStorage(id_, GLsizeiptr(size), nullptr, GL_DYNAMIC_STORAGE_BIT));
+  ++thread_gl_counters().allocations;
   capacity_ = size;
   label_object(GL_BUFFER, id_, label_);
   return true;
@@ -23,6 +29,7 @@ void Buffer::upload(const void* data, uint64_t bytes, uint64_t offset) {
 void Buffer::download(void* dst, uint64_t bytes, uint64_t offset) const {
   if (bytes == 0) return;
   CDSM_GL(glGetNamedBufferSubData(id_, GLintptr(offset), GLsizeiptr(bytes), dst));
+  ++thread_gl_counters().readbacks;
 }
 
 void Buffer::clear(uint64_t bytes, uint64_t offset) {

@@ -41,6 +41,16 @@ class Object {
   std::string label_;
 };
 
+// GL buffer work of this thread (a context's work runs on the thread where
+// it is current): storage given to buffers and blocking read-backs, each of
+// which waits for the GL work queued before it. FrameStats::counters takes
+// the difference over a frame.
+struct GlCounters {
+  uint64_t allocations = 0;
+  uint64_t readbacks = 0;
+};
+GlCounters& thread_gl_counters();
+
 // A buffer with immutable storage that can only grow (so steady-state frames
 // allocate nothing). Growing drops the contents.
 class Buffer : public Object<Buffer> {

@@ -209,16 +209,17 @@ void build_missing(const FrameInputs& in, const FragmentProducer& produce, Shado
     frame = ShadowFrame{};
   };
   try {
+    std::vector<MapId> replaced;
     for (size_t c = 0; c < cache.entries.size(); ++c) {
       if (m.taken[c]) continue;
       released[c] = 1;
-      if (frame.previous_kept) {
+      if (frame.previous_kept)
         cache.retired.push_back(cache.entries[c].id);
-      } else {
-        backend.free_map(cache.entries[c].id);
-        ++frame.freed;
-      }
+      else
+        replaced.push_back(cache.entries[c].id);
     }
+    backend.free_maps(replaced);  // one decision about the store for all of them
+    frame.freed += uint32_t(replaced.size());
     if (in.maps_built) in.maps_built->store(0);
     if (in.maps_to_build) in.maps_to_build->store(uint32_t(m.missing()));
     for (size_t k = 0; k < n; ++k) {

@@ -143,10 +143,8 @@ std::unordered_map<uint64_t, MapCache::LightState> plan_maps(const FrameInputs& 
   frame.setup = setup_lights(in.lights, *in.scene, s.resolution);
   frame.clusters.resize(in.lights.size());
   // Last frame's replaced maps (kept for the popping probe) go now.
-  for (MapId id : cache.retired) {
-    backend.free_map(id);
-    ++frame.freed;
-  }
+  backend.free_maps(cache.retired);
+  frame.freed += uint32_t(cache.retired.size());
   cache.retired.clear();
   if (s.parallel_splits > 1) {
     for (size_t li = 0; li < in.lights.size(); ++li) split_light(in, li, frame.setup);

@@ -288,12 +288,16 @@ void ShadowSystem::remove_light(LightHandle h) {
   I.changed = true;
 }
 
+// The same camera or settings again (an engine sets them every frame)
+// change nothing: the next update() stays free.
 void ShadowSystem::set_camera(const Camera& camera) {
+  if (same_fields(impl_->scene.camera, camera)) return;
   impl_->scene.camera = camera;
   impl_->changed = true;
 }
 
 void ShadowSystem::set_settings(const ShadowSettings& settings) {
+  if (same_fields(impl_->scene.shadows, settings)) return;
   impl_->scene.shadows = settings;
   impl_->changed = true;
 }

@@ -57,6 +57,7 @@ struct ShadowSystem::Impl {
   // Application); declared before `fragments`, whose rasterizer uses it.
   SystemGlPtr gl;
   uint64_t gl_readback_bytes = 0;  // read_gl_mesh() bytes since the last update
+  uint64_t gl_readbacks = 0;       // and its blocking reads
   FragmentSourceSelector fragments;
   std::string fragment_name, fragment_reason;
   // Changes whenever compiled content or the fragment producer changes:
@@ -93,6 +94,7 @@ struct ShadowSystem::Impl {
   void compile(FrameStats& st);                                // the scene part of update()
   void update(FrameStats& st);                                 // build() + publish()
   void build(FrameStats& st);                                  // compile, fragments, maps (GL only with GL fragments)
+  void build_maps(FrameStats& st);                             // build() less its counters
   void publish(FrameStats& st);                                // the map buffers (GlContextUse::Application)
   std::atomic<uint32_t> progress_built{0}, progress_total{0};  // of the running build
   void compile_volumes(FrameStats& st);

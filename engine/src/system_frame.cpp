@@ -71,27 +71,55 @@ static void take_kernel_times(ShadowBackend& backend, StageTimes& t, double& fra
   }
 }
 
-// The backend's host <-> backend bytes since the last take, into `u`.
-static void add_transfers(ShadowBackend& backend, UpdateStats& u) {
-  const TransferBytes t = backend.take_transfers();
-  u.host_to_backend_bytes += t.host_to_backend;
-  u.backend_to_host_bytes += t.backend_to_host;
+// What the backend's executor did since the last take (bytes each way,
+// synchronizations, allocations, launches), into `st`.
+static void add_counters(ShadowBackend& backend, FrameStats& st) {
+  const exec::ExecCounters c = backend.take_counters();
+  st.update.host_to_backend_bytes += c.bytes_up;
+  st.update.backend_to_host_bytes += c.bytes_down;
+  st.counters.host_syncs += c.syncs;
+  st.counters.backend_allocations += c.allocations;
+  st.counters.launches += c.launches;
+}
+
+// This thread's GL buffer work since `before`, into `st`.
+static void add_gl_work(FrameStats& st, const GlWork& before) {
+  const GlWork now = thread_gl_work();
+  st.counters.gl_allocations += now.allocations - before.allocations;
+  st.counters.gl_readbacks += now.readbacks - before.readbacks;
 }
 
 void ShadowSystem::Impl::update(FrameStats& st) {
+  const auto t0 = Clock::now();
   build(st);
   publish(st);
+  st.times.total_ms = ms_since(t0);
 }
 
 void ShadowSystem::Impl::publish(FrameStats& st) {
   if (!gl) return;
-  SystemGlScope gl_scope(gl.get(), &st.warnings);
-  sync_gl_maps(*gl, frame.view(scene.shadows, /*with_storage=*/false), *backend, st.update);
+  const GlWork gl0 = thread_gl_work();
+  {
+    SystemGlScope gl_scope(gl.get(), &st.warnings);
+    sync_gl_maps(*gl, frame.view(scene.shadows, /*with_storage=*/false), *backend, st.update);
+  }
   st.update.gl_readback_bytes = gl_readback_bytes;
   gl_readback_bytes = 0;
+  st.counters.gl_readbacks += gl_readbacks;  // the meshes read since the last update
+  gl_readbacks = 0;
+  add_gl_work(st, gl0);
+  add_counters(*backend, st);
 }
 
 void ShadowSystem::Impl::build(FrameStats& st) {
+  const GlWork gl0 = thread_gl_work();
+  build_maps(st);
+  add_gl_work(st, gl0);
+  st.backend = backend_name;
+  st.backend_reason = backend_reason;
+}
+
+void ShadowSystem::Impl::build_maps(FrameStats& st) {
   // The application's context only where the fragments are rasterized on it
   // (then on that context's thread).
   const bool app_fragments = (options.fragments == FragmentSource::Auto || options.fragments == FragmentSource::Gl) &&
@@ -128,16 +156,15 @@ void ShadowSystem::Impl::build(FrameStats& st) {
     in.maps_built = &progress_built;
     in.maps_to_build = &progress_total;
     build_shadow_frame(in, fragments.producer(sb), *backend, cache, frame);
+    st.update.frames_planned = 1;
     changed = false;
   } else {
     for (uint8_t& r : frame.map_rebuilt) r = 0;
     frame.rebuilt = frame.freed = 0;
     // Maps kept for the popping probe are not needed by a frame whose maps
     // did not change.
-    for (MapId id : cache.retired) {
-      backend->free_map(id);
-      ++frame.freed;
-    }
+    backend->free_maps(cache.retired);
+    frame.freed += uint32_t(cache.retired.size());
     cache.retired.clear();
     if (frame.freed) frame.refresh_headers();
     frame.rebuilds.clear();
@@ -178,7 +205,7 @@ void ShadowSystem::Impl::build(FrameStats& st) {
   st.times.fragments_ms = frame.fragments_ms;
   st.times.dsm_build_ms = frame.build_ms;
   take_kernel_times(*backend, st.times, st.times.kernel_fragments_ms, st.times.kernel_dsm_build_ms);
-  add_transfers(*backend, st.update);
+  add_counters(*backend, st);
   st.light_fragments = frame.fragments;
   DsmMemory& m = st.memory;
   m = DsmMemory{};
@@ -247,7 +274,7 @@ Image ShadowSystem::render(FrameStats* stats) {
   I.backend->camera_pass(I.frame.view(I.scene.shadows, /*with_storage=*/false), cam, I.camera_lists, img.rgb, ws);
   st.times.camera_ms = ms_since(t0);
   take_kernel_times(*I.backend, st.times, st.times.kernel_camera_ms, st.times.kernel_camera_ms);
-  add_transfers(*I.backend, st.update);
+  add_counters(*I.backend, st);
   add_walk(st, ws);
   if (st.march_lengthened > 0)
     st.warnings.push_back(I.scene.source + ": " + std::to_string(st.march_lengthened) +

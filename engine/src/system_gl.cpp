@@ -11,6 +11,7 @@
 
 #if CDSM_HAVE_GL
 #include "gl/context.h"
+#include "gl/gl_objects.h"
 #include "gl/map_buffers.h"
 #include "gl/shaders.h"
 #include "gl/state_guard.h"
@@ -147,6 +148,7 @@ std::vector<Vec3> read_vec3(GLuint buffer, uint64_t offset, uint32_t stride, uin
                            " stride " + std::to_string(stride) + " need " + std::to_string(offset + span));
   std::vector<unsigned char> raw(span);
   CDSM_GL(glGetNamedBufferSubData(buffer, GLintptr(offset), GLsizeiptr(span), raw.data()));
+  ++gl::thread_gl_counters().readbacks;
   bytes += span;
   std::vector<Vec3> out(count);
   for (uint32_t i = 0; i < count; ++i) {
@@ -203,7 +205,10 @@ std::shared_ptr<TriangleMesh> read_gl_mesh(SystemGl& g, const GlMeshSource& s, c
                              " bytes; " + std::to_string(s.index_count) + " indices at offset " +
                              std::to_string(s.index_offset) + " need " + std::to_string(s.index_offset + span));
     std::vector<unsigned char> raw(span);
-    if (span) CDSM_GL(glGetNamedBufferSubData(s.index_buffer, GLintptr(s.index_offset), GLsizeiptr(span), raw.data()));
+    if (span) {
+      CDSM_GL(glGetNamedBufferSubData(s.index_buffer, GLintptr(s.index_offset), GLsizeiptr(span), raw.data()));
+      ++gl::thread_gl_counters().readbacks;
+    }
     bytes += span;
     mesh->indices.resize(s.index_count);
     for (uint32_t i = 0; i < s.index_count; ++i) {
@@ -228,6 +233,11 @@ std::shared_ptr<TriangleMesh> read_gl_mesh(SystemGl& g, const GlMeshSource& s, c
 
 std::string glsl_include() { return gl::shader_source("cdsm.glsl"); }
 
+GlWork thread_gl_work() {
+  const gl::GlCounters& c = gl::thread_gl_counters();
+  return {c.allocations, c.readbacks};
+}
+
 #else  // no OpenGL in this build
 
 struct SystemGl {};
@@ -245,6 +255,7 @@ GlMapBuffers gl_map_buffers(const SystemGl&) { return {}; }
 void bind_gl_maps(SystemGl&, uint32_t) {}
 std::shared_ptr<TriangleMesh> read_gl_mesh(SystemGl&, const GlMeshSource&, const std::string&, uint64_t&) { return {}; }
 void set_gl_map_block_limit(SystemGl&, uint64_t) {}
+GlWork thread_gl_work() { return {}; }
 std::string glsl_include() {
   throw Error("cdsm::glsl_include", "this build has no OpenGL (configured with CDSM_GL=OFF)");
 }
@@ -262,7 +273,10 @@ std::shared_ptr<const TriangleMesh> ShadowSystem::read_gl_mesh(const GlMeshSourc
                 "GlContextUse::Application)");
   std::vector<std::string> warnings;
   SystemGlScope scope(I.gl.get(), &warnings);
-  return cdsm::read_gl_mesh(*I.gl, source, where, I.gl_readback_bytes);
+  const uint64_t reads = thread_gl_work().readbacks;
+  auto mesh = cdsm::read_gl_mesh(*I.gl, source, where, I.gl_readback_bytes);
+  I.gl_readbacks += thread_gl_work().readbacks - reads;
+  return mesh;
 }
 
 GlMapBuffers ShadowSystem::gl_buffers() const {

@@ -63,6 +63,14 @@ void bind_gl_maps(SystemGl& g, uint32_t program);
 // Reads a mesh from application buffers; adds the bytes read to `bytes`.
 std::shared_ptr<TriangleMesh> read_gl_mesh(SystemGl& g, const GlMeshSource& src, const std::string& where,
                                            uint64_t& bytes);
+// This thread's GL buffer allocations and blocking read-backs so far (a GL
+// context's work runs on the thread where it is current; zeros without
+// OpenGL): FrameStats::counters takes their difference over a frame.
+struct GlWork {
+  uint64_t allocations = 0;
+  uint64_t readbacks = 0;
+};
+GlWork thread_gl_work();
 // Test hook: the largest block the map buffers may use (0: the driver's).
 void set_gl_map_block_limit(SystemGl& g, uint64_t bytes);
 

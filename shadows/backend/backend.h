@@ -43,13 +43,6 @@ struct SceneChange {
   }
 };
 
-// Bytes between the host and a backend's memory (FrameStats::update): on a
-// GPU the transfers, on CPU threads the copies the backend still makes.
-struct TransferBytes {
-  uint64_t host_to_backend = 0;
-  uint64_t backend_to_host = 0;
-};
-
 // The eight arrays of DsmStorage, in its order (texels, nodes, chunks, the
 // RGB maps' three, then the grey and the RGB maps' surface tags).
 enum class StorageArray : int { Texels = 0, Nodes, Chunks, RgbTexels, RgbNodes, RgbChunks, Tags, RgbTags, Count };
@@ -136,11 +129,12 @@ struct MapSlots {
 struct MapStoreStats {
   uint64_t live_bytes = 0;
   uint64_t allocated_bytes = 0;
-  uint64_t compactions = 0;      // cumulative
-  uint64_t compacted_bytes = 0;  // cumulative bytes moved by compaction
-  uint32_t maps = 0;             // maps stored
-  uint32_t lists = 0;            // fragment lists held (ListsId)
-  uint64_t list_bytes = 0;       // their bytes
+  uint64_t compactions = 0;       // cumulative
+  uint64_t compacted_bytes = 0;   // cumulative bytes moved by compaction
+  uint32_t maps = 0;              // maps stored
+  uint32_t lists = 0;             // fragment lists held (ListsId)
+  uint64_t list_bytes = 0;        // their bytes
+  uint64_t spare_list_bytes = 0;  // capacity of freed lists kept for the next ones
 };
 
 class ShadowBackend {
@@ -162,7 +156,7 @@ class ShadowBackend {
   virtual ListsId cast_lists(const PinholeView& view, ObjectMask mask) = 0;
   // Lists made on the host (the GL rasterizer's read-back, the host ray
   // caster): moved in where the backend's memory is host memory, else
-  // uploaded once (counted in take_transfers).
+  // uploaded once (counted in take_counters).
   virtual ListsId adopt_lists(FragmentBuffers&& lists) = 0;
   // A copy of lists `id` in the backend's memory (the light pass sorts the
   // lists it reads in place; a copy kept for a later rebuild stays intact).
@@ -172,7 +166,7 @@ class ShadowBackend {
   virtual uint64_t lists_fragments(ListsId id) const = 0;
   virtual uint64_t lists_bytes(ListsId id) const = 0;
   // Lists `id` to the host, on request (probes, inspection, tests): a copy,
-  // counted in take_transfers.
+  // counted in take_counters.
   virtual void read_lists(ListsId id, FragmentBuffers& out) = 0;
 
   // Each tile of fragments a GL rasterizer made: the first `count` fragments
@@ -201,6 +195,11 @@ class ShadowBackend {
                           DsmBuildStats& stats) = 0;
   // Releases a map's memory (the id is then invalid).
   virtual void free_map(MapId id) = 0;
+  // Releases several maps with one decision about the store (a frame's
+  // replaced maps: freed one by one, each could compact it again).
+  virtual void free_maps(const std::vector<MapId>& ids) {
+    for (MapId id : ids) free_map(id);
+  }
 
   // A stored map's header (its view and where its texels lie in storage()).
   // Both change when the store compacts (in free_map): fetch them again
@@ -268,8 +267,10 @@ class ShadowBackend {
   // Milliseconds per kernel launch name since the last call (CUDA events on
   // the cuda backend, the wall clock on CPU threads).
   virtual std::vector<exec::StageTime> take_stage_times() = 0;
-  // Bytes moved between the host and the backend since the last call.
-  virtual TransferBytes take_transfers() = 0;
+  // What the backend's executor did since the last call (exec/exec.h: bytes
+  // each way, host synchronizations, allocations, launches), counted alike
+  // on the device and on CPU threads (FrameStats::counters, ::update).
+  virtual exec::ExecCounters take_counters() = 0;
 };
 
 // Host lists handed to `backend` for one build (adopt_lists, build_map,

@@ -80,11 +80,10 @@ class ExecBackend final : public ExecShadowBackend {
   // code, counted as copies): ExecSceneStore::update.
   void update_scene(const SceneBuffers& sb, const SceneChange& change) override { scene_.update(sb, change); }
 
-  TransferBytes take_transfers() override {
-    const TransferBytes t{ex_.bytes_up - taken_up_, ex_.bytes_down - taken_down_};
-    taken_up_ = ex_.bytes_up;
-    taken_down_ = ex_.bytes_down;
-    return t;
+  ExecCounters take_counters() override {
+    const ExecCounters d = ex_.counters.since(taken_);
+    taken_ = ex_.counters;
+    return d;
   }
 
   MapId build_map(const LightPassParams& params, ListsId lists, const DsmLayoutParams& layout,
@@ -119,10 +118,12 @@ class ExecBackend final : public ExecShadowBackend {
 
   void free_map(MapId id) override {
     slots_.free(id);
-    if (slots_.live() == 0)
-      reset_store();
-    else if (slots_.needs_compaction())
-      compact();
+    settle_store();
+  }
+  void free_maps(const std::vector<MapId>& ids) override {
+    for (MapId id : ids) slots_.at(id, "free_maps");
+    for (MapId id : ids) slots_.free(id);
+    if (!ids.empty()) settle_store();
   }
 
   DsmMap map_header(MapId id) const override { return slots_.at(id, "map_header").map; }
@@ -242,7 +243,7 @@ class ExecBackend final : public ExecShadowBackend {
     CDSM_CHECK(scene_.host(), "cast_lists: no scene (update_scene first)");
     const bool any_media = mask_has_media(scene_.host()->view(), mask);
     frag_mask_.assign(mask.words.data(), mask.words.size());
-    auto h = lists_.make();
+    auto h = lists_.make(uint64_t(view.width) * uint64_t(view.height) + 1);
     cast_fragments_exec(ex_, scene_.view(), view, ObjectMask{frag_mask_.cspan()}, any_media, frag_counts_, h->offsets,
                         h->fragments, frag_total_);
     h->width = view.width;
@@ -405,18 +406,30 @@ class ExecBackend final : public ExecShadowBackend {
            (grey_.tags.capacity() + rgb_.tags.capacity()) * sizeof(SurfaceTag);
   }
 
+  // Emptied, capacity kept: when every map was replaced (the usual rebuild
+  // of a one-map light) the next builds reuse the memory instead of
+  // allocating it again. Compaction is what gives memory back.
   template <class Node>
-  static void release(KindStore<Node, Ex>& k) {
-    k.texels.reset();
-    k.nodes.reset();
-    k.chunks.reset();
-    k.tags.reset();
+  static void empty(KindStore<Node, Ex>& k) {
+    k.texels.resize_discard(0);
+    k.nodes.resize_discard(0);
+    k.chunks.resize_discard(0);
+    k.tags.resize_discard(0);
     k.texel_count = 0;
   }
 
+  // After maps were freed: empty when none is left, else compacted when
+  // holes pass a quarter of it.
+  void settle_store() {
+    if (slots_.live() == 0)
+      reset_store();
+    else if (slots_.needs_compaction())
+      compact();
+  }
+
   void reset_store() {
-    release(grey_);
-    release(rgb_);
+    empty(grey_);
+    empty(rgb_);
     slots_.clear();
     stored_any_ = false;
     mirror_dirty_ = true;
@@ -463,7 +476,7 @@ class ExecBackend final : public ExecShadowBackend {
   ExecArray<unsigned long long, Ex> frag_total_;
   ExecArray<uint32_t, Ex> frag_mask_;
 
-  uint64_t taken_up_ = 0, taken_down_ = 0;  // the executor's byte counts at the last take_transfers
+  ExecCounters taken_;  // the executor's counters at the last take_counters
   LightPassOptions options_;
   DsmLayoutParams layout_;
   bool stored_any_ = false;

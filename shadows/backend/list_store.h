@@ -1,6 +1,8 @@
 // Fragment lists an ExecBackend holds for a frame (ListsId): adopted host
 // lists kept as they came where the executor's memory is host memory,
-// else (and cast or copied lists) in executor arrays.
+// else (and cast or copied lists) in executor arrays. Freed executor
+// arrays are kept as spares (a few, capacity intact) for the next lists, so
+// a steady frame's lists allocate nothing.
 #pragma once
 
 #include <memory>
@@ -37,8 +39,24 @@ class ExecListStore {
 
   explicit ExecListStore(Ex& ex) : ex_(ex) {}
 
-  // New, empty lists in executor memory, to fill and hold().
-  std::unique_ptr<Held> make() { return std::make_unique<Held>(ex_); }
+  // New, empty lists in executor memory, to fill and hold(): a spare with
+  // room for `offsets` and `fragments` if one has it (else the roomiest).
+  std::unique_ptr<Held> make(uint64_t offsets = 0, uint64_t fragments = 0) {
+    if (spares_.empty()) return std::make_unique<Held>(ex_);
+    size_t pick = 0;
+    for (size_t i = 0; i < spares_.size(); ++i) {
+      const Held& s = *spares_[i];
+      const bool fits = s.offsets.capacity() >= offsets && s.fragments.capacity() >= fragments;
+      if (fits || s.fragments.capacity() > spares_[pick]->fragments.capacity()) pick = i;
+      if (fits) break;
+    }
+    std::unique_ptr<Held> h = std::move(spares_[pick]);
+    spares_.erase(spares_.begin() + std::ptrdiff_t(pick));
+    h->width = h->height = 0;
+    h->offsets.resize_discard(0);
+    h->fragments.resize_discard(0);
+    return h;
+  }
   ListsId hold(std::unique_ptr<Held> h) {
     if (free_.empty()) {
       held_.push_back(std::move(h));
@@ -57,8 +75,11 @@ class ExecListStore {
   }
   void free(ListsId id) {
     held(id, "free_lists");
-    held_[id].reset();
+    std::unique_ptr<Held> h = std::move(held_[id]);
     free_.push_back(id);
+    if (h->on_host) return;                                         // host lists handed over go back to the heap
+    if (spares_.size() == kSpares) spares_.erase(spares_.begin());  // the oldest goes
+    spares_.push_back(std::move(h));
   }
 
   // Host lists handed over: moved in over host memory, else uploaded.
@@ -80,7 +101,7 @@ class ExecListStore {
   // A copy made on the executor.
   ListsId copy(ListsId id) {
     const FragmentLists from = held(id, "copy_lists").lists();
-    auto h = make();
+    auto h = make(from.offsets.size(), from.fragments.size());
     h->width = from.width;
     h->height = from.height;
     h->offsets.resize_discard(from.offsets.size());
@@ -113,6 +134,8 @@ class ExecListStore {
         ++s.lists;
         s.list_bytes += bytes(h->lists());
       }
+    for (const std::unique_ptr<Held>& h : spares_)
+      s.spare_list_bytes += h->offsets.capacity() * sizeof(uint32_t) + h->fragments.capacity() * sizeof(Fragment);
   }
 
   // Lists of width x height pixels: width * height + 1 offsets, the last the
@@ -129,6 +152,8 @@ class ExecListStore {
   Ex& ex_;
   std::vector<std::unique_ptr<Held>> held_;  // by ListsId (null: free)
   std::vector<ListsId> free_;
+  static constexpr size_t kSpares = 8;         // freed lists kept for reuse, at most
+  std::vector<std::unique_ptr<Held>> spares_;  // oldest first
 };
 
 }  // namespace cdsm::exec

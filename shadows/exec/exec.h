@@ -23,7 +23,7 @@
 //   template <class F> void parallel_for(const char* name, uint64_t n, F f);  // f(i) for i in [0, n)
 //   void upload(void* dst, const void* src, size_t bytes);    // host -> executor (src reusable on return)
 //   void download(void* dst, const void* src, size_t bytes);  // executor -> host, complete on return
-//   uint64_t bytes_up, bytes_down;     // bytes through upload() and download() so far
+//   ExecCounters counters;             // what it was asked so far (below)
 //   void copy(void* dst, const void* src, size_t bytes);      // executor -> executor, in stream order
 //   void fill_zero(void* dst, size_t bytes);
 //   void synchronize();
@@ -51,6 +51,23 @@ struct StageTime {
   std::string name;
   double ms = 0.0;
   uint64_t launches = 0;
+};
+
+// What an executor was asked to do so far, counted alike on CPU threads and
+// on the device: HostExec counts a download() as the synchronization it is
+// on CUDA, so a test on CPU threads checks a frame's structure (how often the
+// host waits, allocates, launches) as the GPU would run it.
+struct ExecCounters {
+  uint64_t bytes_up = 0;     // host -> executor bytes (upload)
+  uint64_t bytes_down = 0;   // executor -> host bytes (download)
+  uint64_t syncs = 0;        // the host waited for the executor (synchronize(), download(), blocking event reads)
+  uint64_t allocations = 0;  // allocate() calls
+  uint64_t launches = 0;     // parallel_for calls over a non-empty range
+
+  ExecCounters since(const ExecCounters& before) const {
+    return {bytes_up - before.bytes_up, bytes_down - before.bytes_down, syncs - before.syncs,
+            allocations - before.allocations, launches - before.launches};
+  }
 };
 
 // Adds `ms` to the entry `name` of `times` (in first-seen order).

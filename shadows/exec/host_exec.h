@@ -25,6 +25,7 @@ class HostExec {
 
   void* allocate(size_t bytes) {
     injected_failure("allocate");
+    ++counters.allocations;
     return ::operator new(bytes ? bytes : 1, std::align_val_t(256));
   }
   void release(void* p) noexcept { ::operator delete(p, std::align_val_t(256)); }
@@ -32,6 +33,7 @@ class HostExec {
   template <class F>
   void parallel_for(const char* name, uint64_t n, F f) {
     injected_failure(name);
+    if (n > 0) ++counters.launches;
     const auto t0 = std::chrono::steady_clock::now();
     if (n > 0)
       tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, 64), [&](const tbb::blocked_range<uint64_t>& r) {
@@ -43,21 +45,21 @@ class HostExec {
 
   void upload(void* dst, const void* src, size_t bytes) {
     std::memcpy(dst, src, bytes);
-    bytes_up += bytes;
+    counters.bytes_up += bytes;
   }
-  void download(void* dst, const void* src, size_t bytes) {
+  void download(void* dst, const void* src, size_t bytes) {  // complete on return: a synchronization on CUDA
+    synchronize();
     std::memcpy(dst, src, bytes);
-    bytes_down += bytes;
+    counters.bytes_down += bytes;
   }
   void copy(void* dst, const void* src, size_t bytes) { std::memmove(dst, src, bytes); }
   void fill_zero(void* dst, size_t bytes) { std::memset(dst, 0, bytes); }
 
-  void synchronize() {}
+  void synchronize() { ++counters.syncs; }
 
   std::vector<StageTime> take_stage_times() { return std::exchange(times_, {}); }
 
-  // Bytes through upload() and download() so far (host <-> executor copies).
-  uint64_t bytes_up = 0, bytes_down = 0;
+  ExecCounters counters;  // exec.h: counted as CudaExec counts them
 
   // Tests of the callers' exception guarantees: the fail_after-th call
   // (0-based) of allocate or parallel_for from now throws, naming it; -1 none.

@@ -523,6 +523,7 @@ class InPlaceBackend final : public ShadowBackend {
     return inner_->build_map(p, f, l, st);
   }
   void free_map(MapId id) override { inner_->free_map(id); }
+  void free_maps(const std::vector<MapId>& ids) override { inner_->free_maps(ids); }
   DsmMap map_header(MapId id) const override { return inner_->map_header(id); }
   DsmStorage storage() const override { return inner_->storage(); }
   uint64_t storage_epoch() const override { return inner_->storage_epoch(); }
@@ -533,7 +534,7 @@ class InPlaceBackend final : public ShadowBackend {
   }
   MapStoreStats map_store() const override { return inner_->map_store(); }
   std::vector<exec::StageTime> take_stage_times() override { return inner_->take_stage_times(); }
-  TransferBytes take_transfers() override { return inner_->take_transfers(); }
+  exec::ExecCounters take_counters() override { return inner_->take_counters(); }
 
   bool can_write_gl_maps() const override { return true; }
   void write_gl_maps(const GlMapWrite* w, int n) override {

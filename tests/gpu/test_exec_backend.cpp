@@ -483,7 +483,7 @@ TEST(ExecBackend, FragmentListsAreHeldWhereTheyAreUsed) {
   SceneBuffers sb = cdsm_test::compiled_scene(s);
   HostBackend ex("cpu");
   ex.update_scene(sb, SceneChange::all());
-  ex.take_transfers();
+  ex.take_counters();
   const PinholeView cam = camera_view(s.camera);
   FragmentBuffers host;
   cast_fragments(sb.view(), cam, ObjectMask{}, host);
@@ -493,7 +493,7 @@ TEST(ExecBackend, FragmentListsAreHeldWhereTheyAreUsed) {
   const ListsId adopted = ex.adopt_lists(std::move(host));
   const ListsId cast = ex.cast_lists(cam, ObjectMask{});
   const ListsId copy = ex.copy_lists(adopted);
-  EXPECT_EQ(ex.take_transfers().host_to_backend, 0u) << "moved in, cast and copied in the executor's memory";
+  EXPECT_EQ(ex.take_counters().bytes_up, 0u) << "moved in, cast and copied in the executor's memory";
   const uint64_t bytes = (original.offsets.size()) * sizeof(uint32_t) + original.total() * sizeof(Fragment);
   for (ListsId id : {adopted, cast, copy}) {
     EXPECT_EQ(ex.lists_fragments(id), original.total());
@@ -505,7 +505,7 @@ TEST(ExecBackend, FragmentListsAreHeldWhereTheyAreUsed) {
     EXPECT_EQ(std::memcmp(back.fragments.data(), original.fragments.data(), back.fragments.size() * sizeof(Fragment)),
               0);
   }
-  EXPECT_EQ(ex.take_transfers().backend_to_host, 3 * bytes) << "reads to the host are counted";
+  EXPECT_EQ(ex.take_counters().bytes_down, 3 * bytes) << "reads to the host are counted";
   EXPECT_EQ(ex.map_store().lists, 3u);
   EXPECT_EQ(ex.map_store().list_bytes, 3 * bytes);
 

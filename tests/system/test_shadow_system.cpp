@@ -319,7 +319,9 @@ TEST(ShadowSystem, AFailedBuildLeavesNothingBehind) {
     EXPECT_TRUE(same_pixels(sys.render(), want[k % 2]));
     if (!failed) break;  // past the frame's last call
   }
-  EXPECT_GT(failures, 20) << "every step of four builds was reached";
+  // At least the three launches of each of the four builds (the warm
+  // frames allocate nothing: lists and store keep their capacity).
+  EXPECT_GE(failures, 12) << "every step of four builds was reached";
 }
 
 TEST(ShadowSystem, MovedLightRebuildsOnlyItsMaps) {
@@ -771,4 +773,97 @@ TEST(ShadowSystem, HostBackendBytesFollowWhatChanged) {
   EXPECT_GT(eps.maps_rebuilt, 0u);
   EXPECT_EQ(eps.update.fragment_lists_reused, eps.maps_rebuilt);
   EXPECT_EQ(eps.update.host_to_backend_bytes, 0u);
+}
+
+// What a frame asks of the machine (issue 45 item 6), counted on CPU threads
+// as the CUDA executor counts it: a frame with nothing to rebuild — nothing
+// changed, the same camera and settings set again, a camera orbit that moves
+// no cluster — waits for, allocates, launches and moves nothing.
+TEST(ShadowSystem, SteadyFramesWaitAllocateLaunchAndMoveNothing) {
+  Scene scene = shipped("default", 96, 64, 64);
+  SystemOptions o;
+  o.fragments = FragmentSource::Cpu;
+  o.backend = Backend::Cpu;
+  ShadowSystem sys(o);
+  add_scene(sys, scene);
+  FrameStats cold;
+  sys.update(&cold);
+  ASSERT_GT(cold.maps_rebuilt, 0u);
+  EXPECT_GT(cold.counters.backend_allocations, 0u) << "the first frame allocates its stores";
+  EXPECT_GT(cold.counters.launches, 0u);
+  EXPECT_GT(cold.times.total_ms, 0.0) << "update() times itself";
+  EXPECT_EQ(cold.backend, "cpu");
+
+  auto expect_free = [](const FrameStats& st, const char* what) {
+    EXPECT_EQ(st.maps_rebuilt, 0u) << what;
+    EXPECT_EQ(st.update.full_compiles + st.update.objects_compiled + st.update.volumes_compiled, 0u) << what;
+    EXPECT_EQ(st.counters.host_syncs, 0u) << what;
+    EXPECT_EQ(st.counters.backend_allocations, 0u) << what;
+    EXPECT_EQ(st.counters.launches, 0u) << what;
+    EXPECT_EQ(st.counters.gl_readbacks, 0u) << what;
+    EXPECT_EQ(st.counters.gl_allocations, 0u) << what;
+    EXPECT_EQ(st.update.host_to_backend_bytes, 0u) << what;
+    EXPECT_EQ(st.update.backend_to_host_bytes, 0u) << what;
+    EXPECT_GT(st.times.total_ms, 0.0) << what;
+  };
+  FrameStats st;
+  sys.update(&st);
+  expect_free(st, "nothing changed");
+  EXPECT_EQ(st.update.frames_planned, 0u);
+
+  sys.set_camera(scene.camera);
+  sys.set_settings(scene.shadows);
+  sys.update(&st);
+  expect_free(st, "the same camera and settings again");
+  EXPECT_EQ(st.update.frames_planned, 0u) << "an engine sets its camera every frame: the same one changes nothing";
+
+  for (int step = 1; step <= 3; ++step) {
+    Camera c = scene.camera;
+    const float a = 0.0174533f * float(step);  // 1 degree per frame around the target
+    const Vec3 d = c.position - c.target;
+    c.position = c.target + Vec3{d.x * std::cos(a) - d.z * std::sin(a), d.y, d.x * std::sin(a) + d.z * std::cos(a)};
+    sys.set_camera(c);
+    sys.update(&st);
+    expect_free(st, "camera orbit, no cluster moved");
+  }
+}
+// A rebuild after warm-up (issue 45 items 4 and 6): four maps rebuilt (an
+// epsilon edit over four clusters) allocate nothing (the store, emptied of
+// the maps they replace, keeps its capacity; the light pass's scratch only
+// grows), upload nothing (the kept fragment lists are where the executor
+// reads them) and read back only the light pass's counters.
+TEST(ShadowSystem, ARebuildAfterWarmUpAllocatesNothing) {
+  Scene scene = shipped("default", 96, 64, 64);
+  scene.shadows.max_clusters = 4;
+  scene.shadows.d0 = 0.02f;
+  SystemOptions o;
+  o.fragments = FragmentSource::Cpu;
+  o.backend = Backend::Cpu;
+  o.keep_fragment_lists = true;
+  ShadowSystem sys(o);
+  add_scene(sys, scene);
+  FrameStats st;
+  sys.update(&st);
+  const uint32_t maps = st.maps_rebuilt;
+  ASSERT_EQ(maps, 4u) << "four clusters";
+  for (int i = 1; i <= 3; ++i) {  // the first rebuild may still grow the scratch
+    ShadowSettings s = scene.shadows;
+    s.epsilon = scene.shadows.epsilon * (i % 2 ? 0.5f : 1.0f);
+    sys.set_settings(s);
+    sys.update(&st);
+    ASSERT_EQ(st.maps_rebuilt, maps);
+    ASSERT_EQ(st.update.fragment_lists_reused, maps);
+    if (i == 1) continue;
+    EXPECT_EQ(st.counters.backend_allocations, 0u) << "rebuild " << i;
+    EXPECT_EQ(st.counters.gl_allocations, 0u) << "rebuild " << i;
+    EXPECT_EQ(st.update.host_to_backend_bytes, 0u) << "rebuild " << i;
+    EXPECT_GT(st.counters.launches, 0u);
+    // Each map's walk reads its counters back (at most three times: after
+    // the walk, the reservation and the placement). Issue 45 asks for one
+    // read of every map's counters per frame; this bounds what is there.
+    EXPECT_GE(st.counters.host_syncs, 1u);
+    EXPECT_LE(st.counters.host_syncs, 3u * maps) << "rebuild " << i;
+    EXPECT_EQ(st.update.backend_to_host_bytes % sizeof(exec::BuildCounters), 0u) << "only the build counters come back";
+    EXPECT_LE(st.update.backend_to_host_bytes, st.counters.host_syncs * sizeof(exec::BuildCounters));
+  }
 }

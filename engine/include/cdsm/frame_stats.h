@@ -149,6 +149,7 @@ struct MapRebuild {
 
 // What the frame's update did to the persistent state (ShadowSystem).
 struct UpdateStats {
+  uint32_t frames_planned = 0;         // 1: lights, clusters and maps planned again (an edit since the last update)
   uint32_t full_compiles = 0;          // geometry arrays and BVH rebuilt from every object (objects added / removed)
   uint32_t objects_compiled = 0;       // objects whose world-space data was recomputed (moved, added)
   uint32_t volumes_compiled = 0;       // volumes whose grid was compiled (voxels copied, macro-cells built)
@@ -183,8 +184,24 @@ struct UpdateStats {
   uint64_t backend_to_host_bytes = 0;  // the image, the builds' counters, the map store when inspected
 };
 
+// What a frame asked of the machine (update and render), counted the same
+// on every backend: the CPU threads count what the CUDA device would do (a
+// read-back there is a synchronization), so a test on CPU threads checks a
+// frame's structure as a GPU would run it. The bytes each way are in
+// UpdateStats (host_to_backend_bytes, backend_to_host_bytes).
+struct FrameCounters {
+  uint64_t host_syncs = 0;           // the host waited for the backend (a stream synchronization, a read-back)
+  uint64_t backend_allocations = 0;  // buffers allocated in the backend's memory (device memory on a GPU)
+  uint64_t launches = 0;             // kernel launches (parallel_for over a non-empty range)
+  uint64_t gl_readbacks = 0;         // blocking reads of GL buffers (each waits for the GL work queued before it)
+  uint64_t gl_allocations = 0;       // GL buffers given new storage
+};
+
 struct FrameStats {
   StageTimes times;
+  FrameCounters counters;
+  std::string backend;         // "cpu" or "cuda": where the kernels ran
+  std::string backend_reason;  // why (SystemOptions::backend Auto: the device found, or why none serves)
   DsmMemory memory;
   uint32_t lights = 0;
   uint32_t maps_rebuilt = 0;  // DSMs built this frame
@@ -210,5 +227,65 @@ struct FrameStats {
   TransmittanceError transmittance;
   ImageError image;
 };
+
+// ---- each figure's name, written down once ------------------------------------
+// f(name, value) for every scalar figure of a part of FrameStats, in
+// declaration order: the one list `cdsm render --stats` writes to JSON and
+// `cdsm bench` to its columns (a figure added here reaches both).
+template <class F>
+void for_each_stat(const DsmMemory& m, F&& f) {
+  f("maps", m.maps);
+  f("texels", m.texels);
+  f("nodes", m.nodes);
+  f("index_bytes", m.index_bytes);
+  f("node_bytes", m.node_bytes);
+  f("slack_bytes", m.slack_bytes);
+  f("tag_bytes", m.tag_bytes);
+  f("avg_nodes_per_texel", m.avg_nodes_per_texel);
+  f("max_nodes_per_texel", m.max_nodes_per_texel);
+  f("overflow_texels", m.overflow_texels);
+  f("rewalked_texels", m.rewalked_texels);
+  f("overflow_extra_error", m.max_extra_error);
+  f("rgb_maps", m.rgb_maps);
+  f("grey_map_bytes", m.grey_bytes);
+  f("rgb_map_bytes", m.rgb_bytes);
+  f("rgb_nodes", m.rgb_nodes);
+}
+
+template <class F>
+void for_each_stat(const FrameCounters& c, F&& f) {
+  f("host_syncs", c.host_syncs);
+  f("backend_allocations", c.backend_allocations);
+  f("launches", c.launches);
+  f("gl_readbacks", c.gl_readbacks);
+  f("gl_allocations", c.gl_allocations);
+}
+
+// The scalars of UpdateStats (rebuilt_by_reason and rebuilds are lists).
+template <class F>
+void for_each_stat(const UpdateStats& u, F&& f) {
+  f("frames_planned", u.frames_planned);
+  f("full_compiles", u.full_compiles);
+  f("objects_compiled", u.objects_compiled);
+  f("volumes_compiled", u.volumes_compiled);
+  f("bvh_refits", u.bvh_refits);
+  f("bvh_rebuilds", u.bvh_rebuilds);
+  f("gl_upload_bytes", u.gl_upload_bytes);
+  f("maps_freed", u.maps_freed);
+  f("fragment_lists_reused", u.fragment_lists_reused);
+  f("fragment_cache_bytes", u.fragment_cache_bytes);
+  f("map_store_bytes", u.map_store_bytes);
+  f("map_live_bytes", u.map_live_bytes);
+  f("scene_bytes", u.scene_bytes);
+  f("gl_scene_bytes", u.gl_scene_bytes);
+  f("gl_map_upload_bytes", u.gl_map_upload_bytes);
+  f("gl_map_device_bytes", u.gl_map_device_bytes);
+  f("gl_map_copy_bytes", u.gl_map_copy_bytes);
+  f("gl_map_full_upload", u.gl_map_full_upload);
+  f("gl_map_bytes", u.gl_map_bytes);
+  f("gl_readback_bytes", u.gl_readback_bytes);
+  f("host_to_backend_bytes", u.host_to_backend_bytes);
+  f("backend_to_host_bytes", u.backend_to_host_bytes);
+}
 
 }  // namespace cdsm

@@ -117,8 +117,12 @@ enum class GlContextUse {
 struct SystemOptions {
   FragmentSource fragments = FragmentSource::Auto;  // Auto: GL when a context can be made
   std::string source = "shadow system";             // names the content in messages
-  Backend backend = Backend::Cpu;                   // where the kernels run (Reference is not a map backend)
-  GlContextUse gl_context = GlContextUse::Own;      // Application: work on the caller's current GL context
+  // Where the kernels run. Auto: the cuda backend where it can serve (a CUDA
+  // device, and with GlContextUse::Application the application's context on
+  // it), else the CPU threads; FrameStats::backend and ::backend_reason say
+  // which and why. Reference is not a map backend.
+  Backend backend = Backend::Auto;
+  GlContextUse gl_context = GlContextUse::Own;  // Application: work on the caller's current GL context
   // With GlContextUse::Application: rasterize the fragment lists on a
   // headless context of the system's own (made on the thread of the first
   // build()) instead of the application's, so build() may run with GL
