@@ -135,6 +135,18 @@ std::string entry(const char* m, int i, int j, float v) {
 
 }  // namespace
 
+Camera Camera::from_matrices(const float* view, const float* proj, int32_t width, int32_t height, ClipDepth depth) {
+  if (!view || !proj)
+    throw Error("Camera::from_matrices", std::string(view ? "projection" : "view") + " is a null pointer");
+  Mat4 v, p;  // row-major: m[row][col] = a[col * 4 + row]
+  for (int row = 0; row < 4; ++row)
+    for (int col = 0; col < 4; ++col) {
+      v.m[row][col] = view[col * 4 + row];
+      p.m[row][col] = proj[col * 4 + row];
+    }
+  return from_matrices(v, p, width, height, depth);
+}
+
 Camera Camera::from_matrices(const Mat4& view, const Mat4& proj, int32_t width, int32_t height, ClipDepth depth) {
   const std::string where = "Camera::from_matrices";
   if (width <= 0 || height <= 0)

@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
 #include <string>
 
 #include "cdsm/error.h"
@@ -137,6 +139,30 @@ TEST(CameraMatrices, EngineMatricesOfEveryDepthConvention) {
   const Camera g = Camera::from_matrices(view, gl_inf, 800, 450);
   EXPECT_NEAR(g.near, 0.1f, 1e-6f);
   EXPECT_EQ(g.far, Camera::kMaxFar);
+}
+
+// glm's own matrices, handed over as glm holds them (column-major,
+// glm::value_ptr), in both clip depths; a null pointer is refused by name.
+TEST(CameraMatrices, GlmMatricesAsGiven) {
+  const Camera want = look_at({2, 3, 5}, {0, 0.5f, 0}, {0, 1, 0}, 50.0f, 800, 450, 0.1f, 300.0f);
+  const glm::mat4 view = glm::lookAt(glm::vec3(2, 3, 5), glm::vec3(0, 0.5f, 0), glm::vec3(0, 1, 0));
+  const float fovy = glm::radians(50.0f), aspect = 800.0f / 450.0f;
+  const glm::mat4 no = glm::perspectiveRH_NO(fovy, aspect, 0.1f, 300.0f);
+  const glm::mat4 zo = glm::perspectiveRH_ZO(fovy, aspect, 0.1f, 300.0f);
+  expect_same_view(want, Camera::from_matrices(glm::value_ptr(view), glm::value_ptr(no), 800, 450), "glm RH_NO");
+  expect_same_view(want,
+                   Camera::from_matrices(glm::value_ptr(view), glm::value_ptr(zo), 800, 450, ClipDepth::ZeroToOne),
+                   "glm RH_ZO");
+  // The column-major arrays are the transposes of the row-major Mat4s.
+  const Camera rows = Camera::from_matrices(engine_look_at({2, 3, 5}, {0, 0.5f, 0}, {0, 1, 0}),
+                                            engine_perspective(fovy, aspect, 0.1f, 300.0f, false), 800, 450);
+  expect_same_view(rows, Camera::from_matrices(glm::value_ptr(view), glm::value_ptr(no), 800, 450), "Mat4 vs glm");
+  try {
+    Camera::from_matrices(glm::value_ptr(view), nullptr, 800, 450);
+    ADD_FAILURE() << "a null projection was taken";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("projection is a null pointer"), std::string::npos) << e.what();
+  }
 }
 
 // What does not describe this library's camera is refused, naming it.

@@ -183,6 +183,11 @@ struct Camera {
   // width / height beyond 0.1%).
   static Camera from_matrices(const Mat4& view, const Mat4& projection, int32_t width, int32_t height,
                               ClipDepth depth = ClipDepth::MinusOneToOne);
+  // The same from column-major float[16] arrays, as an engine holds them:
+  // glm::value_ptr(m), GL's glUniformMatrix4fv with transpose GL_FALSE
+  // (element [col * 4 + row]). Throws cdsm::Error on a null pointer.
+  static Camera from_matrices(const float* view_column_major, const float* projection_column_major, int32_t width,
+                              int32_t height, ClipDepth depth = ClipDepth::MinusOneToOne);
   // This camera as matrices (OpenGL's conventions, row-major): world -> eye,
   // and eye -> clip with clip depth `depth`.
   Mat4 view_matrix() const;
