@@ -242,7 +242,7 @@ void write_markdown(const std::vector<Result>& results, const RunInfo& info, con
     << "*time* = DSM build + camera pass (light-view fragment generation, the same for every method at a "
        "resolution, is in the CSV). Transmittance error: |T - T_ref| at about "
     << info.error_samples
-    << " shadow lookups of shaded points, compositing-weighted (DESIGN.md §7), decomposed with the filtered "
+    << " shadow lookups of shaded points, compositing-weighted, decomposed with the filtered "
        "exact reference T_f (the exact transmittance along each lookup tap's light ray, with the lookup's "
        "weights): *map* = |T - T_f| p99 (what ε controls), *res* = |T_f - T_ref| p99 (resolution, "
        "clustering), *int.* = total error p99 / max over interior points (the taps' and the point's exact "

@@ -1,4 +1,4 @@
-// cdsm bench: speed against error (DESIGN.md §7). Sweeps epsilon,
+// cdsm bench: speed against error (docs/bench/README.md). Sweeps epsilon,
 // resolution, cluster count, layout, backend and the baseline methods over
 // scenes; measures build and camera-pass times over repeated runs, memory,
 // nodes per texel, and the error against the exact reference (rendered once
@@ -26,7 +26,7 @@ std::string bench_footer() {
          "scene's camera view N times (each with a fresh renderer, so every map is built) and reports\n"
          "median and spread (min, max, quartiles) of the DSM build and camera-pass times, DSM memory\n"
          "(index, nodes, slack), nodes per texel (average, max), and the error against the exact\n"
-         "reference of the same view (DESIGN.md §7): transmittance |T - T_ref| at sampled shaded\n"
+         "reference of the same view: transmittance |T - T_ref| at sampled shaded\n"
          "points (mean, p99, max, RMSE) and the image RMSE / PSNR. The reference image of a view is\n"
          "rendered once (progress bar on stderr) and cached on disk under a hash of the scene content\n"
          "and the view. The baselines are built from the same light rays and read by the same lookup.\n"

@@ -1,12 +1,14 @@
 // cdsm render: one frame, its cost, and (on request) its error; cdsm info.
 #include <nlohmann/json.hpp>
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 
 #include "cdsm/cdsm.h"
+#include "cdsm/loaders.h"
 #include "commands.h"
 #include "options.h"
 
@@ -254,7 +256,47 @@ int run_render(const RenderArgs& a) {
   return 0;
 }
 
+// A volume file given where a scene is expected: what it is and how a
+// scene names it. Returns false for anything else.
+bool info_of_volume_file(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".vdb") {
+    std::printf("%s: an OpenVDB volume, not a scene.\n", path.c_str());
+    if (vdb_supported()) {
+      try {
+        const VdbVolume v = load_vdb(path);
+        std::printf("  grid 'density': active box %dx%dx%d, %llu active voxels\n",
+                    v.grid->active_max[0] - v.grid->active_min[0] + 1,
+                    v.grid->active_max[1] - v.grid->active_min[1] + 1,
+                    v.grid->active_max[2] - v.grid->active_min[2] + 1, (unsigned long long)v.grid->active_voxels);
+      } catch (const std::exception& e) {
+        std::printf("  %s\n", e.what());  // e.g. no grid 'density': the message lists the grids
+      }
+    }
+    std::printf(
+        "  A scene uses it as a volume's grid: \"volumes\": [{\"name\": \"smoke\", \"grid\": {\"type\": \"vdb\", "
+        "\"file\": \"%s\", \"grid\": \"density\"}, ...}] (README, \"Supported formats\").\n",
+        path.c_str());
+    return true;
+  }
+  if (ext == ".raw") {
+    std::error_code ec;
+    const auto bytes = std::filesystem::file_size(path, ec);
+    if (ec) throw Error(path, "cannot read the file: " + ec.message());
+    std::printf("%s: a raw volume (%llu bytes), not a scene; its dimensions and format are not in the file.\n",
+                path.c_str(), (unsigned long long)bytes);
+    std::printf(
+        "  A scene uses it as a volume's grid: \"grid\": {\"type\": \"raw\", \"file\": \"%s\", \"dims\": [x, y, z], "
+        "\"format\": \"uint8\" or \"uint16\"} (README, \"Supported formats\").\n",
+        path.c_str());
+    return true;
+  }
+  return false;
+}
+
 int run_info(const std::string& path) {
+  if (info_of_volume_file(path)) return 0;
   Scene s = load_scene(path);
   size_t tris = 0;
   for (const Object& o : s.objects) tris += o.mesh ? o.mesh->triangle_count() : 0;
@@ -311,8 +353,7 @@ Command add_render(CLI::App& cdsm) {
   scene.add(*app, "--fixed-layers", &Scene::shadows, "fixed_layers");
   scene.add(*app, "--receiver", &Scene::shadows, "receiver",
             "plane: per-tap receiver planes; slope_bias: the previous\nconstant + slope-scaled bias (a baseline)");
-  scene.add(*app, "--penumbra", &Scene::shadows, "penumbra",
-            "lights with a size: estimated (blockers from the maps), fixed_kernel (a PCF\nbaseline) or hard");
+  scene.add(*app, "--penumbra", &Scene::shadows, "penumbra");  // the field table's text says it all
   app->add_flag("--compare-reference", a->frame.render.compare_reference,
                 "also render the exact reference of the same view; report the transmittance error at\n"
                 "sampled shaded points (mean, p99, max, RMSE) and the image RMSE/PSNR; write OUT.error.png\n"

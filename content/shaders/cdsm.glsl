@@ -1,5 +1,5 @@
 // cdsm.glsl — clustered deep shadow map lookups for an application's own
-// shaders (DESIGN.md §8). Include it after the application's `#version 450`
+// shaders (README.md, "Use it in your engine"). Include it after the application's `#version 450`
 // (or later) line, in any stage that may use shader storage blocks
 // (fragment and compute shaders always can), then bind the buffers with
 // cdsm::ShadowSystem::bind_gl(program) after each update().

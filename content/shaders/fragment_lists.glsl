@@ -1,5 +1,5 @@
 #version 450 core
-// Per-pixel fragment lists (DESIGN.md 2.1), engine/gl/fragment_raster.cpp.
+// Per-pixel fragment lists, engine/gl/fragment_raster.cpp.
 // One program for both passes, so both rasterize identically:
 //   u_pass 0 (count): atomicAdd(counts[pixel], 1)
 //   u_pass 1 (fill):  counts[pixel] runs back down to 0 as a cursor and each

@@ -9,7 +9,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <sstream>
 #include <string>
@@ -121,6 +123,54 @@ TEST(Cli, OptionRangesAreTheFieldTables) {
   row(cdsm::ShadowSettings{}, "clusters", "--clusters");
   row(cdsm::ShadowSettings{}, "fixed_layers", "--fixed-layers");
   row(cdsm::Camera{}, "width", "--width");
+}
+
+// What ships (the installed shaders, the docs, the README, --help) cites no
+// document that is not shipped: the design notes stay with the team.
+TEST(Cli, ShippedFilesCiteOnlyShippedDocuments) {
+  namespace fs = std::filesystem;
+  const fs::path root = fs::path(CDSM_SOURCE_DIR_TEST);
+  std::vector<fs::path> files = {root / "README.md"};
+  for (const char* dir : {"content/shaders", "docs"})
+    for (const auto& e : fs::recursive_directory_iterator(root / dir))
+      if (e.is_regular_file() && (e.path().extension() == ".glsl" || e.path().extension() == ".md"))
+        files.push_back(e.path());
+  ASSERT_GT(files.size(), 3u);
+  for (const fs::path& f : files) {
+    std::ifstream in(f);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(text.find("DESIGN.md"), std::string::npos) << f;
+  }
+  for (const char* cmd : {"render --help", "bench --help", "--help"})
+    EXPECT_EQ(run_cdsm(cmd).out.find("DESIGN.md"), std::string::npos) << cmd;
+}
+
+// `cdsm info` on a volume file says what it is and how a scene names it
+// (it said "invalid JSON"): a .vdb with its grid, a .raw with its size.
+TEST(Cli, InfoOnAVolumeFileSaysHowASceneUsesIt) {
+  const std::string data = std::string(CDSM_CONTENT_DIR_TEST) + "/data";
+  const CliRun vdb = run_cdsm("info '" + data + "/vdb/vpt_box_fog.vdb'");
+  EXPECT_EQ(vdb.code, 0) << vdb.err;
+  EXPECT_NE(vdb.out.find("an OpenVDB volume, not a scene"), std::string::npos) << vdb.out;
+  EXPECT_NE(vdb.out.find("\"type\": \"vdb\""), std::string::npos) << vdb.out;
+  const CliRun raw = run_cdsm("info '" + data + "/raw/bucky_32x32x32_uint8.raw'");
+  EXPECT_EQ(raw.code, 0) << raw.err;
+  EXPECT_NE(raw.out.find("a raw volume (32768 bytes), not a scene"), std::string::npos) << raw.out;
+  EXPECT_NE(raw.out.find("\"type\": \"raw\""), std::string::npos) << raw.out;
+}
+
+// Each option's text once in --help: an option over a field says the
+// table's description and only what it adds (--penumbra said it twice).
+TEST(Cli, HelpSaysEachOptionsTextOnce) {
+  for (const char* cmd : {"render --help", "bench --help"}) {
+    const std::string help = run_cdsm(cmd).out;
+    size_t lines = 0;
+    for (size_t at = help.find("blockers from the maps"); at != std::string::npos;
+         at = help.find("blockers from the maps", at + 1))
+      ++lines;
+    EXPECT_LE(lines, 1u) << cmd << "\n" << help;
+  }
+  EXPECT_NE(run_cdsm("render --help").out.find("--penumbra"), std::string::npos);
 }
 
 // A command line the program cannot use is one line naming the option (or
