@@ -7,11 +7,16 @@ constexpr GLenum kCapList[] = {GL_SCISSOR_TEST, GL_DEPTH_CLAMP, GL_CLIP_DISTANCE
                                GL_CULL_FACE,    GL_BLEND,       GL_RASTERIZER_DISCARD, GL_MULTISAMPLE};
 }  // namespace
 
-StateGuard::StateGuard() {
-  static_assert(sizeof(kCapList) / sizeof(kCapList[0]) == kCaps, "one slot per capability");
-  pending_ = glGetError();
+GLenum drain_gl_errors() {
+  const GLenum first = glGetError();
   for (int i = 0; i < 16 && glGetError() != GL_NO_ERROR; ++i) {
   }
+  return first;
+}
+
+StateGuard::StateGuard() {
+  static_assert(sizeof(kCapList) / sizeof(kCapList[0]) == kCaps, "one slot per capability");
+  pending_ = drain_gl_errors();
   glGetIntegerv(GL_CURRENT_PROGRAM, &program_);
   glGetIntegerv(GL_VERTEX_ARRAY_BINDING, &vao_);
   glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &draw_fbo_);

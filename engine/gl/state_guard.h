@@ -24,6 +24,10 @@ namespace cdsm::gl {
 
 inline constexpr int kSavedStorageBindings = 8;
 
+// The first GL error pending on the current context (GL_NO_ERROR: none),
+// the others drained with it.
+GLenum drain_gl_errors();
+
 class StateGuard {
  public:
   StateGuard();

@@ -39,6 +39,7 @@ void SystemHooks::limit_gl_map_block(ShadowSystem& system, uint64_t bytes) {
   ShadowSystem::Impl& I = *system.impl_;
   if (!I.gl) throw Error(I.scene.source, "limit_gl_map_block needs a system on the application's GL context");
   set_gl_map_block_limit(*I.gl, bytes);
+  I.gl_published = false;
 }
 
 void SystemHooks::wrap_backend(ShadowSystem& system, const BackendWrap& wrap) {
@@ -46,6 +47,7 @@ void SystemHooks::wrap_backend(ShadowSystem& system, const BackendWrap& wrap) {
   I.backend = wrap(std::move(I.backend));
   CDSM_CHECK(I.backend != nullptr, "wrap_backend: the wrap returned no backend");
   I.fragments.use_backend(I.backend.get());
+  I.gl_published = false;
 }
 
 void SystemHooks::keep_replaced_maps(ShadowSystem& system, bool keep) { system.impl_->keep_previous = keep; }

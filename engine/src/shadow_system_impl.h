@@ -58,6 +58,10 @@ struct ShadowSystem::Impl {
   SystemGlPtr gl;
   uint64_t gl_readback_bytes = 0;  // read_gl_mesh() bytes since the last update
   uint64_t gl_readbacks = 0;       // and its blocking reads
+  // The GL buffers hold the current frame (publish() since anything
+  // changed): an update() with nothing new publishes nothing.
+  bool gl_published = false;
+  uint64_t gl_map_bytes = 0;  // the last publish's GL buffer bytes (reported again while nothing changes)
   FragmentSourceSelector fragments;
   std::string fragment_name, fragment_reason;
   // Changes whenever compiled content or the fragment producer changes:

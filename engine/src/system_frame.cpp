@@ -99,9 +99,15 @@ void ShadowSystem::Impl::update(FrameStats& st) {
 void ShadowSystem::Impl::publish(FrameStats& st) {
   if (!gl) return;
   const GlWork gl0 = thread_gl_work();
-  {
+  if (gl_published) {
+    // Nothing changed since the last publish: the buffers hold this frame.
+    require_gl_current(*gl, &st.warnings);
+    st.update.gl_map_bytes = gl_map_bytes;
+  } else {
     SystemGlScope gl_scope(gl.get(), &st.warnings);
     sync_gl_maps(*gl, frame.view(scene.shadows, /*with_storage=*/false), *backend, st.update);
+    gl_map_bytes = st.update.gl_map_bytes;
+    gl_published = true;
   }
   st.update.gl_readback_bytes = gl_readback_bytes;
   gl_readback_bytes = 0;
@@ -124,7 +130,9 @@ void ShadowSystem::Impl::build_maps(FrameStats& st) {
   // (then on that context's thread).
   const bool app_fragments = (options.fragments == FragmentSource::Auto || options.fragments == FragmentSource::Gl) &&
                              !options.private_fragment_context;
-  SystemGlScope gl_scope(app_fragments ? gl.get() : nullptr, &st.warnings);
+  // GL work here only for a frame with edits (fragments rasterized).
+  SystemGlScope gl_scope(app_fragments && changed ? gl.get() : nullptr, &st.warnings);
+  if (changed) gl_published = false;
   if (scene.objects.empty() && scene.lights.empty()) {
     // An empty system (an engine's empty level) is valid and free: no maps,
     // nothing compiled; the maps of what was removed are dropped.
@@ -166,7 +174,10 @@ void ShadowSystem::Impl::build_maps(FrameStats& st) {
     backend->free_maps(cache.retired);
     frame.freed += uint32_t(cache.retired.size());
     cache.retired.clear();
-    if (frame.freed) frame.refresh_headers();
+    if (frame.freed) {
+      frame.refresh_headers();
+      gl_published = false;  // the store may have moved
+    }
     frame.rebuilds.clear();
     frame.reused = uint32_t(frame.maps.size());
     frame.fragments_ms = frame.build_ms = frame.cluster_ms = 0.0;

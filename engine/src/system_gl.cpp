@@ -66,13 +66,17 @@ struct SystemGlScope::Guard {
   gl::StateGuard state;
 };
 
+static void warn_pending(GLenum e, std::vector<std::string>* warnings) {
+  if (e != GL_NO_ERROR && warnings)
+    warnings->push_back(std::string("the application left the GL error ") + gl::error_name(e) +
+                        " pending before a shadow-system call; it was cleared");
+}
+
 SystemGlScope::SystemGlScope(SystemGl* g, std::vector<std::string>* warnings) {
   if (!g) return;
   g->context->make_current();  // throws naming what is current instead
   guard_ = std::make_unique<Guard>();
-  if (const GLenum e = guard_->state.pending_error(); e != GL_NO_ERROR && warnings)
-    warnings->push_back(std::string("the application left the GL error ") + gl::error_name(e) +
-                        " pending before a shadow-system call; it was cleared");
+  warn_pending(guard_->state.pending_error(), warnings);
 }
 SystemGlScope::~SystemGlScope() = default;
 
@@ -97,6 +101,11 @@ void sync_gl_maps(SystemGl& g, ShadowView view, ShadowBackend& backend, UpdateSt
   st.gl_map_copy_bytes += m.copy_bytes;
   st.gl_map_full_upload = st.gl_map_full_upload || m.full;
   st.gl_map_bytes = m.allocated_bytes;
+}
+
+void require_gl_current(SystemGl& g, std::vector<std::string>* warnings) {
+  g.context->make_current();
+  warn_pending(gl::drain_gl_errors(), warnings);
 }
 
 GlMapBuffers gl_map_buffers(const SystemGl& g) {
@@ -252,6 +261,7 @@ SystemGlScope::SystemGlScope(SystemGl*, std::vector<std::string>*) {}
 SystemGlScope::~SystemGlScope() = default;
 void sync_gl_maps(SystemGl&, ShadowView, ShadowBackend&, UpdateStats&) {}
 GlMapBuffers gl_map_buffers(const SystemGl&) { return {}; }
+void require_gl_current(SystemGl&, std::vector<std::string>*) {}
 void bind_gl_maps(SystemGl&, uint32_t) {}
 std::shared_ptr<TriangleMesh> read_gl_mesh(SystemGl&, const GlMeshSource&, const std::string&, uint64_t&) { return {}; }
 void set_gl_map_block_limit(SystemGl&, uint64_t) {}

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "cdsm/gl.h"
 #include "cdsm/renderer.h"
@@ -25,6 +26,12 @@ struct SystemGlDeleter {
   void operator()(SystemGl* p) const;
 };
 using SystemGlPtr = std::unique_ptr<SystemGl, SystemGlDeleter>;
+
+// Makes the system's context current; throws cdsm::Error naming the context
+// that is current instead (the check of every call on the application's
+// context, also those with nothing to do). A GL error the application left
+// pending is cleared and reported in `warnings`, as SystemGlScope does.
+void require_gl_current(SystemGl& g, std::vector<std::string>* warnings);
 
 // Adopts the context current on this thread. Throws cdsm::Error (`where`
 // names the system) when there is none, or it is not GL 4.5 core.
