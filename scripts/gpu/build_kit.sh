@@ -241,7 +241,7 @@ if [[ ${1:-} != --no-build ]]; then
   start=$SECONDS
   for b in "$release" "$parity"; do
     strict=OFF
-    targets=(bench_gpu)
+    targets=(bench_gpu bench_warm)
     if [[ $b == "$parity" ]]; then
       strict=ON
       targets=(test_cuda_backend test_gl_interop test_cuda_faults "${gl_tests[@]}")
@@ -264,13 +264,13 @@ for t in test_cuda_backend test_gl_interop test_cuda_faults; do
 done
 rm -rf "$kit"
 mkdir -p "$kit/bin/parity"
-cp "$release/tests/gpu/bench_gpu" "$kit/bin/"
+cp "$release/tests/gpu/bench_gpu" "$release/tests/gl/bench_warm" "$kit/bin/"
 cp "$parity/tests/gpu/test_cuda_backend" "$parity/tests/gpu/test_gl_interop" "$parity/tests/gpu/test_cuda_faults" "$kit/bin/parity/"
 for t in "${gl_tests[@]}"; do
   [[ -x $parity/tests/gl/$t ]] || die "$parity/tests/gl/$t missing: build first"
   cp "$parity/tests/gl/$t" "$kit/bin/parity/"
 done
-strip --strip-unneeded "$kit/bin/bench_gpu" "$kit/bin/parity/"*
+strip --strip-unneeded "$kit/bin/bench_gpu" "$kit/bin/bench_warm" "$kit/bin/parity/"*
 gather_libraries "$kit" download
 write_manifest "$kit" device
 say "kit: $(find "$kit" -type f | wc -l) files, $(du -sh "$kit" | cut -f1)"

@@ -15,7 +15,9 @@
 #               test_gl_system) on the device's own OpenGL;
 #   sanitizers  compute-sanitizer memcheck and initcheck on one small case;
 #   bench       bench_gpu (release build): per-stage times at 1280x720 and
-#               1920x1080, GL against CUDA fragments, the CPU/CUDA ratio.
+#               1920x1080, GL against CUDA fragments, the CPU/CUDA ratio;
+#               bench_warm --backend cuda: the warm frames of an engine
+#               (bench_warm.txt), 100 frames per scenario at 1920x1080.
 #
 # Every figure goes into $OUT/results.json (each stage's exit code, seconds
 # and output tail; the tests' GoogleTest JSON; the sanitizers' error counts;
@@ -129,6 +131,10 @@ if wants bench; then
   run bench_gpu 240 "$work/bench_gpu.log" env "LD_LIBRARY_PATH=$libs" \
     "$kit/bin/bench_gpu" --out "$work/bench" --repeat 3 --scene "$root/content/scenes/default.json"
   [[ -f $work/bench/bench_gpu.md ]] && cp "$work/bench/bench_gpu.md" "$out/"
+  # The warm frames an engine runs (update() + bind_gl() on its context, GL
+  # fragments handed to CUDA), the scenarios bench_warm runs on CPU threads.
+  run bench_warm 150 "$out/bench_warm.txt" env "LD_LIBRARY_PATH=$libs" "CDSM_CONTENT_DIR=$root/content" \
+    "$kit/bin/bench_warm" --backend cuda --frames 100
 fi
 
 # Last of all, after every other stage: a kernel that faults on purpose. Its

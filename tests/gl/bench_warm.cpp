@@ -2,6 +2,7 @@
 // code for the CPU threads and the CUDA device (--backend):
 //   build/tests/gl/bench_warm [--backend cpu|cuda|auto] [--frames N]
 //                                [--width W --height H] [--scene NAME]...
+// ($CDSM_CONTENT_DIR: where scenes/NAME.json is, default this tree's content/)
 // One ShadowSystem on the program's own GL context (GlContextUse::Application,
 // GL fragments), warmed up, then per scenario N frames of: the change,
 // update(), bind_gl(program), closed by glFinish (the CUDA stream is
@@ -87,7 +88,8 @@ std::vector<Scenario> scenarios() {
 }
 
 Scene bench_scene(const std::string& name, const Options& o) {
-  Scene s = load_scene(std::string(CDSM_CONTENT_DIR_BENCH) + "/scenes/" + name + ".json");
+  const char* dir = std::getenv("CDSM_CONTENT_DIR");  // the GPU kit runs it away from this tree
+  Scene s = load_scene(std::string(dir ? dir : CDSM_CONTENT_DIR_BENCH) + "/scenes/" + name + ".json");
   s.camera.width = o.width;
   s.camera.height = o.height;
   if (name == "default") {
