@@ -60,6 +60,8 @@ int main(int argc, char** argv) {
     } catch (const CLI::CallForHelp&) {
       std::fputs(app.help().c_str(), stdout);  // of the subcommand that asked
       return 0;
+    } catch (const CLI::Success&) {  // (after CallForHelp, one of its kind) a flag that printed what was asked
+      return 0;
     } catch (const CLI::ParseError& e) {
       return refuse(app, e);
     }

@@ -20,6 +20,7 @@
 #include "cdsm/gl_window.h"
 #include "commands.h"
 #include "script.h"
+#include "script_commands.h"
 #include "session.h"
 #include "ui.h"
 
@@ -119,8 +120,16 @@ Command add_edit(CLI::App& cdsm) {
   app->footer(kEditFooter);
   app->add_option("SCENE", a->scene_path, "a JSON scene, or a glTF / GLB file")->required();
   app->add_option("--script", a->script_path,
-                  "run the commands of FILE (see editor/edit/script.h) instead of waiting for a person")
+                  "run the commands of FILE (--script-help lists them) instead of waiting for a person")
       ->type_name("FILE");
+  app->add_flag_callback(
+         "--script-help",
+         [] {
+           std::fputs(editor::script_help().c_str(), stdout);
+           throw CLI::Success();
+         },
+         "print the script commands and exit")
+      ->trigger_on_parse();
   app->add_option("--width", a->width, "window width")->check(within(640, 8192, true))->capture_default_str();
   app->add_option("--height", a->height, "window height")->check(within(400, 8192, true))->capture_default_str();
   app->add_flag("--hidden", a->hidden, "no visible window (scripts)");

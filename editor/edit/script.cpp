@@ -1,6 +1,8 @@
 #define GL_GLEXT_PROTOTYPES 1
 #include "script.h"
+#include "script_commands.h"
 
+#include "cdsm/error.h"
 #include "cdsm/fields.h"
 
 #include <GL/glcorearb.h>
@@ -156,6 +158,9 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
     const std::string where = file_ + ":" + std::to_string(line_no);
     std::printf("script: %s\n", line.c_str());
     std::fflush(stdout);
+    if (!find_script_command(cmd))
+      throw Error(where, "unknown command '" + cmd + "' (the commands: " + script_command_names() +
+                             "; cdsm edit --script-help)");
     auto number = [&](const char* what) {
       double v;
       if (!(in >> v)) throw Error(where, std::string("expected a number (") + what + ")");
@@ -287,7 +292,7 @@ bool ScriptRunner::step(Session& s, UiState& ui) {
       next_ = lines_.size();
       return false;
     } else {
-      throw Error(where, "unknown command '" + cmd + "' (see cdsm edit --help)");
+      CDSM_CHECK(false, "script command '" + cmd + "' is in kScriptCommands but script.cpp does not run it");
     }
   }
   return false;

@@ -1,26 +1,8 @@
 // Script mode of `cdsm edit SCENE --script FILE`: the editor driven by a
 // list of commands, one per line, for tests and for measuring (each line is
 // echoed with what it did; `wait` prints the time from the last change to
-// the refined frame). Commands:
-//
-//   set KEY VALUE            any shadow setting by its scene-file key (cdsm/fields.h): epsilon,
-//                            resolution, clusters, d0, layout, filtering, receiver, penumbra, ambient R G B, ...
-//   light INDEX KEY VALUE    any light field by its key: position X Y Z, direction X Y Z, intensity,
-//                            radius, angular_diameter, color R G B, ...; light INDEX select
-//   orbit DYAW DPITCH        camera orbit, degrees
-//   zoom STEPS | frame
-//   select OBJECT            name or index
-//   click X Y                viewport pixel (full resolution, row 0 at the top): select + inspect
-//   view clusters on|off [LIGHT] | view map INDEX nodes|alpha [DEPTH] | view plot on|off
-//   view error WIDTH         compute the error against the reference (waits until done)
-//   noop                     an edit that changes nothing
-//   undo | redo
-//   wait                     until the frame is refined (maps built and published, full resolution)
-//   screenshot FILE.png      the window (FILE.png.rect: the viewport's x y w h)
-//   viewport FILE.pfm        the viewport frame, linear float (Portable Float Map)
-//   save FILE [overwrite]
-//   quit
-//   # comment
+// the refined frame). The commands: script_commands.h (`cdsm edit
+// --script-help`, the README's "Scripts").
 #pragma once
 
 #include <string>

@@ -13,12 +13,16 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "cdsm/fields.h"
 #include "common/cli_run.h"
+#if CDSM_HAVE_EDITOR
+#include "script_commands.h"
+#endif
 
 namespace {
 
@@ -158,6 +162,37 @@ TEST(Cli, InfoOnAVolumeFileSaysHowASceneUsesIt) {
   EXPECT_NE(raw.out.find("a raw volume (32768 bytes), not a scene"), std::string::npos) << raw.out;
   EXPECT_NE(raw.out.find("\"type\": \"raw\""), std::string::npos) << raw.out;
 }
+
+#if CDSM_HAVE_EDITOR
+// The editor's script commands, one table (editor/edit/script_commands.h):
+// `cdsm edit --script-help` prints it, the README shows that print, and
+// the parser (script.cpp) runs exactly the table's commands.
+TEST(Cli, ScriptCommandsAreOneTable) {
+  const CliRun help = run_cdsm("edit --script-help");
+  EXPECT_EQ(help.code, 0) << help.err;
+  EXPECT_EQ(help.out, cdsm::editor::script_help());
+  auto text_of = [](const std::string& path) {
+    std::ifstream in(path);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  const std::string readme = text_of(std::string(CDSM_SOURCE_DIR_TEST) + "/README.md");
+  const std::string open = "<!-- script-commands: the output of `cdsm edit --script-help` -->\n```text\n";
+  const size_t a = readme.find(open), b = readme.find("```\n<!-- /script-commands -->");
+  ASSERT_NE(a, std::string::npos) << "the README's script-command list";
+  ASSERT_NE(b, std::string::npos);
+  EXPECT_EQ(readme.substr(a + open.size(), b - a - open.size()), help.out)
+      << "README.md's list differs from cdsm edit --script-help";
+  // Every `cmd == "NAME"` the parser tests is a table command, and back.
+  const std::string parser = text_of(std::string(CDSM_SOURCE_DIR_TEST) + "/editor/edit/script.cpp");
+  std::set<std::string> handled, table;
+  for (size_t at = parser.find("cmd == \""); at != std::string::npos; at = parser.find("cmd == \"", at + 1)) {
+    const size_t from = at + 8, to = parser.find('"', from);
+    handled.insert(parser.substr(from, to - from));
+  }
+  for (const cdsm::editor::ScriptCommand& c : cdsm::editor::kScriptCommands) table.insert(c.name);
+  EXPECT_EQ(handled, table);
+}
+#endif
 
 // Each option's text once in --help: an option over a field says the
 // table's description and only what it adds (--penumbra said it twice).
