@@ -65,6 +65,7 @@ class CudaExec {
     int pools = 0;
     CDSM_CUDA_CHECK(cudaDeviceGetAttribute(&pools, cudaDevAttrMemoryPoolsSupported, device));
     async_alloc_ = pools != 0;
+    if (async_alloc_) make_pool();
     stream_ = std::make_unique<Stream>();
   }
   ~CudaExec() {
@@ -74,6 +75,9 @@ class CudaExec {
       CDSM_CUDA_CHECK_NOTHROW(cudaEventDestroy(e.first));
       CDSM_CUDA_CHECK_NOTHROW(cudaEventDestroy(e.second));
     }
+    // Arrays still holding pool memory (none: the backend's arrays go
+    // first) defer the destruction until they are freed.
+    if (pool_) CDSM_CUDA_CHECK_NOTHROW(cudaMemPoolDestroy(pool_));
   }
   CudaExec(const CudaExec&) = delete;
   CudaExec& operator=(const CudaExec&) = delete;
@@ -85,7 +89,9 @@ class CudaExec {
     check_usable("allocate");
     ++counters.allocations;
     void* p = nullptr;
-    if (async_alloc_)
+    if (pool_)
+      CDSM_CUDA_CHECK(cudaMallocFromPoolAsync(&p, bytes ? bytes : 1, pool_, stream()));
+    else if (async_alloc_)
       CDSM_CUDA_CHECK(cudaMallocAsync(&p, bytes ? bytes : 1, stream()));
     else
       CDSM_CUDA_CHECK(cudaMalloc(&p, bytes ? bytes : 1));
@@ -306,6 +312,30 @@ class CudaExec {
 
   int device_;
   bool async_alloc_ = false;
+  // The executor's own stream-ordered pool, its release threshold the
+  // largest value: memory freed in a frame stays mapped for the next one
+  // (the device's default pool gives it back at every synchronization, so a
+  // steady frame would map its buffers again), and the application's own
+  // cudaMallocAsync users keep their default pool as they set it. Null
+  // where the pool cannot be made: the default pool then.
+  cudaMemPool_t pool_ = nullptr;
+  void make_pool() noexcept {
+    cudaMemPoolProps props{};
+    props.allocType = cudaMemAllocationTypePinned;
+    props.location.type = cudaMemLocationTypeDevice;
+    props.location.id = device_;
+    if (cudaMemPoolCreate(&pool_, &props) != cudaSuccess) {
+      (void)cudaGetLastError();
+      pool_ = nullptr;
+      return;
+    }
+    uint64_t keep = ~uint64_t(0);
+    if (cudaMemPoolSetAttribute(pool_, cudaMemPoolAttrReleaseThreshold, &keep) != cudaSuccess) {
+      (void)cudaGetLastError();
+      (void)cudaMemPoolDestroy(pool_);
+      pool_ = nullptr;
+    }
+  }
   std::unique_ptr<Stream> stream_;
 #if defined(CDSM_HAVE_CUDA_GL)
   GlBufferLink gl_links_[kStorageArrays];  // declared after stream_: unregistered before it is destroyed
