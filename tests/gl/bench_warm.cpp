@@ -29,6 +29,8 @@
 #include "cdsm/shadow_system.h"
 #include "gl/context.h"
 #include "gl/gl_api.h"
+#include "forward_internal.h"
+#include "scene_sync.h"
 
 using namespace cdsm;
 
@@ -99,31 +101,16 @@ Scene bench_scene(const std::string& name, const Options& o) {
   return s;
 }
 
-// A compute program that reads the maps through cdsm.glsl, so bind_gl()
-// binds what a shader of the application's would.
-GLuint lookup_program() {
-  const std::string src = "#version 450\n" + glsl_include() +
-                          "layout(local_size_x = 1) in;\n"
-                          "layout(std430, binding = 15) buffer Out { vec4 result; };\n"
-                          "void main() { result = vec4(cdsm_surface_transmittance(vec3(0.0), vec3(0.0, 1.0, 0.0),\n"
-                          "                                 CDSM_NO_OBJECT, 0), 1.0); }\n";
-  const GLuint sh = glCreateShader(GL_COMPUTE_SHADER);
-  const char* p = src.c_str();
-  glShaderSource(sh, 1, &p, nullptr);
-  glCompileShader(sh);
-  GLint ok = 0;
-  glGetShaderiv(sh, GL_COMPILE_STATUS, &ok);
-  if (!ok) {
-    char log[4096];
-    glGetShaderInfoLog(sh, sizeof log, nullptr, log);
-    std::fprintf(stderr, "bench_warm: the lookup shader does not compile:\n%s\n", log);
-    std::exit(1);
-  }
-  const GLuint prog = glCreateProgram();
-  glAttachShader(prog, sh);
-  glLinkProgram(prog);
-  glDeleteShader(sh);
-  return prog;
+// A compute program that reads the maps through cdsm.glsl (compiled for
+// the maps' node layout), so bind_gl() binds what a shader of the
+// application's would.
+GLuint lookup_program(int layout) {
+  return forward::link({forward::compile(GL_COMPUTE_SHADER,
+                                         "layout(local_size_x = 1) in;\n"
+                                         "layout(std430, binding = 15) buffer Out { vec4 result; };\n"
+                                         "void main() { result = vec4(cdsm_surface_transmittance(vec3(0.0),\n"
+                                         "    vec3(0.0, 1.0, 0.0), CDSM_NO_OBJECT, 0), 1.0); }\n",
+                                         layout)});
 }
 
 double percentile(std::vector<double> v, double q) {
@@ -132,7 +119,7 @@ double percentile(std::vector<double> v, double q) {
   return v[size_t(std::lround(q * double(v.size() - 1)))];
 }
 
-void run_scene(const std::string& name, const Options& o, GLuint program, bool& header) {
+void run_scene(const std::string& name, const Options& o, GLuint& program, bool& header) {
   const Scene scene = bench_scene(name, o);
   for (const Scenario& sc : scenarios()) {
     SystemOptions so;
@@ -141,17 +128,12 @@ void run_scene(const std::string& name, const Options& o, GLuint program, bool& 
     so.backend = o.backend;
     so.source = name;
     ShadowSystem sys(so);
-    std::vector<VolumeHandle> vols;
-    for (const Volume& v : scene.volumes) vols.push_back(sys.add_volume(v));
-    for (const Object& ob : scene.objects)
-      sys.add_object(ob, ob.interior == InteriorKind::Volume ? vols[size_t(ob.volume)] : VolumeHandle{});
-    for (const Light& l : scene.lights) sys.add_light(l);
-    sys.set_camera(scene.camera);
-    sys.set_settings(scene.shadows);
+    sync_scene(sys, scene);
     FrameStats st;
     for (int f = -3; f < 0; ++f) {  // warm-up: the first build, then the change twice
       if (f > -3) sc.change(sys, scene, f + 1000);
       sys.update(&st);
+      if (!program) program = lookup_program(int(sys.gl_buffers().layout));
       sys.bind_gl(program);
       glFinish();
     }
@@ -238,7 +220,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   try {
-    const GLuint program = lookup_program();
+    GLuint program = 0;  // made after the first update(), for the maps' layout
     bool header = false;
     for (const std::string& s : o.scenes) run_scene(s, o, program, header);
     glDeleteProgram(program);

@@ -63,6 +63,16 @@ std::set<uint32_t> maps_with(ShadowSystem& sys, uint32_t li, uint32_t oi) {
   return out;
 }
 
+// A system on the CPU threads with CPU fragments (what the executor
+// counters and the failure injection need), `keep` its fragment lists.
+SystemOptions cpu_options(bool keep_lists) {
+  SystemOptions o;
+  o.fragments = FragmentSource::Cpu;
+  o.backend = Backend::Cpu;
+  o.keep_fragment_lists = keep_lists;
+  return o;
+}
+
 bool same_pixels(const Image& a, const Image& b) {
   return a.width == b.width && a.height == b.height && a.rgb.size() == b.rgb.size() &&
          std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float)) == 0;
@@ -278,10 +288,7 @@ TEST(ShadowSystem, KeptFragmentListsServeEpsilonEditsAndNeverOutliveAContentEdit
 TEST(ShadowSystem, AFailedBuildLeavesNothingBehind) {
   Scene s = shipped("default", 48, 36, 48);
   s.shadows.max_clusters = 4;
-  SystemOptions o;
-  o.keep_fragment_lists = true;
-  o.fragments = FragmentSource::Cpu;
-  o.backend = Backend::Cpu;
+  const SystemOptions o = cpu_options(true);
   ShadowSystem sys(o);
   add_scene(sys, s);
   sys.render();
@@ -709,11 +716,7 @@ TEST(ShadowSystem, HandlesStayValidAcrossRemovalsAndStaleOnesAreNamed) {
 // the backend.
 TEST(ShadowSystem, HostBackendBytesFollowWhatChanged) {
   Scene scene = shipped("default", 96, 64, 64);
-  SystemOptions o;
-  o.fragments = FragmentSource::Cpu;
-  o.backend = Backend::Cpu;
-  o.keep_fragment_lists = true;
-  ShadowSystem sys(o);
+  ShadowSystem sys(cpu_options(true));
   add_scene(sys, scene);
   FrameStats first;
   sys.update(&first);
@@ -781,10 +784,7 @@ TEST(ShadowSystem, HostBackendBytesFollowWhatChanged) {
 // no cluster — waits for, allocates, launches and moves nothing.
 TEST(ShadowSystem, SteadyFramesWaitAllocateLaunchAndMoveNothing) {
   Scene scene = shipped("default", 96, 64, 64);
-  SystemOptions o;
-  o.fragments = FragmentSource::Cpu;
-  o.backend = Backend::Cpu;
-  ShadowSystem sys(o);
+  ShadowSystem sys(cpu_options(false));
   add_scene(sys, scene);
   FrameStats cold;
   sys.update(&cold);
@@ -836,11 +836,7 @@ TEST(ShadowSystem, ARebuildAfterWarmUpAllocatesNothing) {
   Scene scene = shipped("default", 96, 64, 64);
   scene.shadows.max_clusters = 4;
   scene.shadows.d0 = 0.02f;
-  SystemOptions o;
-  o.fragments = FragmentSource::Cpu;
-  o.backend = Backend::Cpu;
-  o.keep_fragment_lists = true;
-  ShadowSystem sys(o);
+  ShadowSystem sys(cpu_options(true));
   add_scene(sys, scene);
   FrameStats st;
   sys.update(&st);
