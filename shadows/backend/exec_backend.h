@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "backend/backend.h"
+#include "backend/exec_shadow_backend.h"
 #include "backend/host_storage.h"
 #include "backend/list_store.h"
 #include "backend/scene_store.h"
@@ -39,16 +40,6 @@
 #include "exec/map_store.h"
 
 namespace cdsm::exec {
-
-// The exec backend's own controls beyond ShadowBackend (tests, benchmark).
-class ExecShadowBackend : public ShadowBackend {
- public:
-  // How the light pass walks texels (its buffers).
-  virtual LightPassOptions& light_pass() = 0;
-  // Texel t's nodes of map `id` (pads excluded), read on the executor:
-  // counts[t], nodes[t * cap ...]. Grey maps only.
-  virtual void read_map(MapId id, uint32_t cap, std::vector<uint32_t>& counts, std::vector<DsmNode>& nodes) = 0;
-};
 
 template <class Ex>
 class ExecBackend final : public ExecShadowBackend {

@@ -4,6 +4,10 @@
 
 namespace cdsm {
 
-std::unique_ptr<ShadowBackend> make_cpu_backend() { return std::make_unique<exec::ExecBackend<exec::HostExec>>("cpu"); }
+std::unique_ptr<exec::ExecShadowBackend> exec::make_cpu_exec_backend() {
+  return std::make_unique<ExecBackend<HostExec>>("cpu");
+}
+
+std::unique_ptr<ShadowBackend> make_cpu_backend() { return exec::make_cpu_exec_backend(); }
 
 }  // namespace cdsm

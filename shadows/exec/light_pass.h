@@ -35,6 +35,7 @@
 #include <string>
 
 #include "exec/exec.h"
+#include "exec/light_pass_options.h"
 #include "hd/dsm_chunked.h"
 #include "hd/dsm_fixed.h"
 #include "hd/light_pass.h"
@@ -55,16 +56,6 @@ struct BuildCounters {
   uint32_t max_built_nodes;         // per texel, before the layout
   uint32_t max_extra_error_bits;    // float bits of the largest error re-compression added
   uint32_t walk[4];                 // WalkStats: enclosing, match, unmatched, lengthened
-};
-
-struct LightPassOptions {
-  int walk_nodes = kWalkNodes;         // K of the first walk (>= 4)
-  int max_nodes = kTexelNodeCapacity;  // the second walk's buffer: re-compression beyond node_limit() of it
-  // The first walk's buffers of one batch of tile rows, and the second's of
-  // one chunk; 0: the executor's (Ex::kLightPassBatchBytes: 8 MiB on CPU
-  // threads, where a batch's buffers stay in cache — measured against 2, 32
-  // and 1024 MiB —, 1 GiB on a device, where a batch must fill it).
-  uint64_t batch_bytes = 0;
 };
 
 // Per node kind (DsmNodeN<N>): the chunk slot, the bounded buffer and its

@@ -1,5 +1,6 @@
 // Maps for tests that look at one map's nodes: built by the cpu backend
-// (the exec backend over CPU threads, shadows/backend/exec_backend.h) into
+// (the exec backend over CPU threads, shadows/backend/exec_backend.h,
+// reached through its interface so the kernels are compiled once) into
 // its store, with host copies of the store's arrays after each build so a
 // test reads `maps[k]`, `texels`, `nodes`, `chunks` and `tags` directly.
 #pragma once
@@ -7,8 +8,8 @@
 #include <memory>
 #include <vector>
 
-#include "backend/exec_backend.h"
-#include "exec/host_exec.h"
+#include "backend/exec_shadow_backend.h"
+#include "backend/host_storage.h"
 
 namespace cdsm_test {
 
@@ -16,7 +17,7 @@ using namespace cdsm;
 
 // The store's arrays as of the last build (HostStorage), its maps' headers.
 struct HostMaps : HostStorage {
-  std::unique_ptr<exec::ExecBackend<exec::HostExec>> backend;
+  std::unique_ptr<exec::ExecShadowBackend> backend;
   std::vector<DsmMap> maps;
 
   DsmStorage storage() const { return backend->storage(); }
@@ -29,7 +30,7 @@ struct HostMaps : HostStorage {
 inline DsmBuildStats build_host_map(const SceneBuffers& sb, const LightPassParams& params, FragmentBuffers frags,
                                     HostMaps& out, const DsmLayoutParams& layout = {},
                                     int max_nodes = kTexelNodeCapacity, int walk_nodes = kWalkNodes) {
-  if (!out.backend) out.backend = std::make_unique<exec::ExecBackend<exec::HostExec>>("cpu");
+  if (!out.backend) out.backend = exec::make_cpu_exec_backend();
   out.backend->update_scene(sb, SceneChange::all());
   out.backend->light_pass().max_nodes = max_nodes;
   out.backend->light_pass().walk_nodes = walk_nodes < max_nodes ? walk_nodes : max_nodes;

@@ -18,6 +18,7 @@
 #include "common/host_maps.h"
 #include "scene_compile.h"
 #include "common/system_frame.h"
+#include "hd/dsm_chunked.h"
 
 using namespace cdsm;
 using cdsm_test::build_host_map;
