@@ -118,12 +118,11 @@ if(TARGET cdsm)  # the cdsm program (CDSM_EDITOR)
   install(TARGETS cdsm RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT Runtime)
 endif()
 
-# Shipped content: the GLSL include (content/shaders/cdsm.glsl, for engines'
+# Shipped content: the GLSL include (CDSM_GLSL, cmake/CdsmGlsl.cmake, for engines'
 # own shaders), the scenes, the meshes they read by name and data/ (the
 # public meshes and volumes of content/data/MANIFEST.tsv). The layout
 # mirrors content/, so CDSM_CONTENT_DIR=<prefix>/share/cdsm serves both.
-install(FILES ${PROJECT_SOURCE_DIR}/content/shaders/cdsm.glsl
-        DESTINATION ${CDSM_INSTALL_DATADIR}/shaders COMPONENT Runtime OPTIONAL)
+install(FILES ${CDSM_GLSL} DESTINATION ${CDSM_INSTALL_DATADIR}/shaders COMPONENT Runtime)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/content/scenes ${PROJECT_SOURCE_DIR}/content/meshes
                   ${PROJECT_SOURCE_DIR}/content/data
         DESTINATION ${CDSM_INSTALL_DATADIR} COMPONENT Runtime)

@@ -1,6 +1,6 @@
 // An application's own forward renderer (OpenGL 4.5) that takes its
 // translucent and volumetric shadows from cdsm only through the public API
-// (cdsm/shadow_system.h, cdsm/gl.h) and content/shaders/cdsm.glsl:
+// (cdsm/shadow_system.h, cdsm/gl.h) and cdsm.glsl (content/shaders/cdsm/):
 //   - its meshes live in its own vertex / index buffers (mesh_source() hands
 //     them to ShadowSystem::read_gl_mesh, which reads them back once);
 //   - opaque meshes first (depth test and write), then translucent meshes

@@ -1,5 +1,5 @@
 // The deep shadow maps of a frame in GL shader storage buffers, in the
-// std430 layout content/shaders/cdsm.glsl reads (DESIGN.md §8): one block of
+// std430 layout cdsm.glsl (content/shaders/cdsm/) reads (DESIGN.md §8): one block of
 // frame data (lookup settings, lights, map headers) and the eight arrays of
 // the backend's storage (DsmStorage: texel headers, nodes and chunk slots,
 // grey and RGB, and the two pools' surface tags), byte for byte, so the

@@ -13,14 +13,28 @@ namespace detail {
 const char* embedded_shader(const char* name);  // generated: shaders_embedded.cpp
 }
 
+namespace {
+
+std::string read_file_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path, "cannot read shader (CDSM_SHADER_DIR is set)");
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+}  // namespace
+
 std::string shader_source(const std::string& file) {
   if (const char* dir = std::getenv("CDSM_SHADER_DIR"); dir && *dir) {
-    std::string path = std::string(dir) + "/" + file;
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw Error(path, "cannot read shader (CDSM_SHADER_DIR is set)");
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
+    if (file != "cdsm.glsl") return read_file_text(std::string(dir) + "/" + file);
+    // cdsm.glsl is kept as parts (cmake/CdsmGlsl.cmake): joined in the
+    // build's order, as the embedded copy was.
+    std::string text;
+    std::istringstream parts(CDSM_GLSL_PARTS);
+    for (std::string part; std::getline(parts, part, ',');)
+      text += read_file_text(std::string(dir) + "/cdsm/" + part + ".glsl");
+    return text;
   }
   if (const char* text = detail::embedded_shader(file.c_str())) return text;
   throw Error("shaders/" + file, "no such embedded shader");

@@ -5,7 +5,8 @@
 // raw string literals (embed_shaders.cmake), so cdsm_gl needs no files at
 // run time and no link to the engine's content_dir() (the engine links
 // cdsm_gl, not the other way round). While developing shaders, set
-// CDSM_SHADER_DIR=/path/to/content/shaders to load them from disk instead.
+// CDSM_SHADER_DIR=/path/to/content/shaders to load them from disk instead
+// (cdsm.glsl from its parts in cdsm/, joined as the build joins them).
 #pragma once
 
 #include <initializer_list>

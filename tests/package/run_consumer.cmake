@@ -91,7 +91,7 @@ endforeach()
 # 3. Configure the consumer against the prefix alone (no package registry),
 #    with this build's generator and compiler.
 if(EXPECT_GLSL STREQUAL "AUTO")
-  if(EXISTS "${SOURCE_DIR}/content/shaders/cdsm.glsl")
+  if(EXISTS "${SOURCE_DIR}/content/shaders/cdsm/interface.glsl")
     set(EXPECT_GLSL ON)
   else()
     set(EXPECT_GLSL OFF)

@@ -47,7 +47,7 @@ TEST(Tags, NamesReadBackToTheirValues) {
 }
 
 std::string read_glsl() {
-  const std::string path = content_dir() + "/shaders/cdsm.glsl";
+  const std::string path = CDSM_GLSL_TEST;  // as joined from its parts (cmake/CdsmGlsl.cmake)
   std::ifstream f(path);
   EXPECT_TRUE(f.good()) << path;
   std::stringstream ss;

@@ -1,0 +1,170 @@
+// cdsm.glsl, part 5 of 6 (content/shaders/cdsm/, joined by cmake/CdsmGlsl.cmake): lights with a size.
+
+// ---- lights with a size: penumbrae from the maps (hd/lights.h) ---------------
+
+float cdsm_grey(vec3 a) { return a.x == a.y && a.y == a.z ? a.x : (a.x + a.y + a.z) * (1.0 / 3.0); }
+
+// The radius (window units) within which shadow rays to the light's area
+// cross depth zb (hd/lights.h penumbra_radius).
+float cdsm_penumbra_radius(CdsmLight L, CdsmMap m, float z, float zb) {
+  float d = max(z - zb, 0.0);
+  return m.view.projection == CDSM_PROJECTION_ORTHOGRAPHIC ? L.size * d : L.size * d / (z * max(zb, 1e-6));
+}
+
+bool cdsm_disk_grid_point(int i, int j, int side, out float x, out float y) {
+  x = (2.0 * float(i) + 1.0) / float(side) - 1.0;
+  y = (2.0 * float(j) + 1.0) / float(side) - 1.0;
+  return x * x + y * y <= 1.0;
+}
+
+// Texel t's opacity in front of z_lim and its opacity-weighted mean depth
+// (hd/lights.h texel_blockers): vec2(alpha, depth), 0 for none.
+vec2 cdsm_texel_blockers(CdsmMap m, uint t, float z_lim) {
+  bool rgb = m.rgb != 0u;
+  uint slot, i0, count;
+  cdsm_read_start(m, t, -3.0e38, slot, i0, count);
+  float pz = 0.0, pa = 0.0, moment = 0.0;
+  bool have_prev = false;
+  for (uint i = i0; i < count; ++i) {
+    float z;
+    vec3 a3;
+    uint next;
+    cdsm_slot(rgb, slot, z, a3, next);
+    float a = cdsm_grey(a3);
+    if (z >= z_lim) {
+      if (have_prev && z > pz) {
+        float at = pa + (a - pa) * ((z_lim - pz) / (z - pz));
+        moment += (at - pa) * 0.5 * (pz + z_lim);
+        pa = at;
+      }
+      break;
+    }
+    moment += (a - pa) * (have_prev ? 0.5 * (pz + z) : z);
+    pz = z;
+    pa = a;
+    have_prev = true;
+    slot = CDSM_LAYOUT_IS(CDSM_LAYOUT_CHUNKED) ? next : slot + 1u;
+  }
+  return pa > 0.0 ? vec2(pa, moment / pa) : vec2(0.0);
+}
+
+// The depth in front of which texel (tx, ty) holds the receiver's blockers.
+float cdsm_blocker_limit(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, int tx, int ty) {
+  if (cdsm_receiver == CDSM_RECEIVER_SLOPE_BIAS) return pr.depth - cdsm_slope_bias_offset(L, m, pr, p, plane);
+  if (!(cdsm_dot(plane, plane) > 0.0)) return pr.depth;
+  float depth = cdsm_tap_depth(m, pr, p, plane, tx, ty);
+  float coplanar = CDSM_RELATIVE_DEPTH_OFFSET * depth;
+  float window = cdsm_bias_constant + cdsm_bias_slope * cdsm_texel_footprint(m, pr.axial) + coplanar;
+  return depth - window;
+}
+
+// The penumbra's filter radius in window units (0: hard): blockers searched
+// around the receiver, each counted within its own reach of it.
+float cdsm_penumbra_filter_radius(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane) {
+  float z = pr.depth;
+  if (cdsm_penumbra == CDSM_PENUMBRA_FIXED_KERNEL) return cdsm_penumbra_radius(L, m, z, 0.5 * z);
+  float texel = 2.0 * max(m.view.tan_half_x, m.view.tan_half_y) / float(m.res);
+  float search = min(cdsm_penumbra_radius(L, m, z, max(m.view.near_z, 1e-6)), CDSM_PENUMBRA_SEARCH_TEXELS * texel);
+  float to_u = float(m.res) / (2.0 * m.view.tan_half_x), to_v = float(m.res) / (2.0 * m.view.tan_half_y);
+  int res = int(m.res);
+  float weight = 0.0, moment = 0.0;
+  // The texel under the receiver, then rings of 8 at 1, 2, 4, ... texels
+  // out to the search radius (every other ring turned by 22.5 degrees).
+  float ring = 0.0;
+  for (int k = 0; k < 2 + 8 * CDSM_PENUMBRA_SEARCH_RINGS; ++k) {
+    if (k > 0 && (k - 1) % 8 == 0) {
+      if (ring >= search) break;
+      ring = min(k == 1 ? texel : 2.0 * ring, search);
+    }
+    int d = k == 0 ? 0 : ((k - 1) % 8) * 2 + (((k - 1) / 8) & 1);
+    float x = k == 0 ? 0.0 : ring * CDSM_PENUMBRA_DIRECTIONS[d].x;
+    float y = k == 0 ? 0.0 : ring * CDSM_PENUMBRA_DIRECTIONS[d].y;
+    int tx = int(floor(pr.u + x * to_u)), ty = int(floor(pr.v + y * to_v));
+    if (tx < 0 || ty < 0 || tx >= res || ty >= res) continue;
+    vec2 b = cdsm_texel_blockers(m, m.texel_offset + uint(ty) * m.res + uint(tx),
+                                 cdsm_blocker_limit(L, m, pr, p, plane, tx, ty));
+    if (!(b.x > CDSM_PENUMBRA_MIN_ALPHA)) continue;
+    float dx = (float(tx) + 0.5 - pr.u) / to_u, dy = (float(ty) + 0.5 - pr.v) / to_v;
+    if (sqrt(dx * dx + dy * dy) > 2.0 * cdsm_penumbra_radius(L, m, z, b.y) + texel) continue;
+    weight += b.x;
+    moment += b.x * b.y;
+  }
+  return weight > CDSM_PENUMBRA_MIN_ALPHA ? cdsm_penumbra_radius(L, m, z, moment / weight) : 0.0;
+}
+
+// Whether a filter tap at `at` may shadow the receiver (hd/lights.h
+// blocks_receiver): its texel's blockers within their own reach of it (plus
+// a texel), or none.
+bool cdsm_blocks_receiver(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, CdsmProjection at) {
+  int tx = int(floor(at.u)), ty = int(floor(at.v)), res = int(m.res);
+  if (tx < 0 || ty < 0 || tx >= res || ty >= res) return true;
+  float to_u = float(m.res) / (2.0 * m.view.tan_half_x), to_v = float(m.res) / (2.0 * m.view.tan_half_y);
+  float texel = 2.0 * max(m.view.tan_half_x, m.view.tan_half_y) / float(m.res);
+  vec2 b = cdsm_texel_blockers(m, m.texel_offset + uint(ty) * m.res + uint(tx),
+                               cdsm_blocker_limit(L, m, pr, p, plane, tx, ty));
+  if (!(b.x > CDSM_PENUMBRA_MIN_ALPHA)) return true;
+  float dx = (at.u - pr.u) / to_u, dy = (at.v - pr.v) / to_v;
+  return sqrt(dx * dx + dy * dy) <= cdsm_penumbra_radius(L, m, pr.depth, b.y) + texel;
+}
+
+// One map's α for a light with a size: the hard lookup filtered over the
+// penumbra's disk (hd/lights.h soft_map_alpha_in_colour); else the hard one.
+vec3 cdsm_light_map_alpha(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, uint object) {
+  if (!(L.size > 0.0) || cdsm_penumbra == CDSM_PENUMBRA_HARD) return cdsm_map_alpha(L, m, pr, p, plane, object);
+  float radius = cdsm_penumbra_filter_radius(L, m, pr, p, plane);
+  float to_u = float(m.res) / (2.0 * m.view.tan_half_x), to_v = float(m.res) / (2.0 * m.view.tan_half_y);
+  float texels = radius * max(to_u, to_v);
+  if (!(texels >= 0.5)) return cdsm_map_alpha(L, m, pr, p, plane, object);
+  int side = int(min(ceil(2.0 * texels), float(CDSM_PENUMBRA_MAX_SIDE)));
+  vec3 sum = vec3(0.0);
+  int taps = 0;
+  for (int j = 0; j < side; ++j)
+    for (int i = 0; i < side; ++i) {
+      float x, y;
+      if (!cdsm_disk_grid_point(i, j, side, x, y)) continue;
+      CdsmProjection at = pr;
+      at.u = pr.u + x * radius * to_u;
+      at.v = pr.v + y * radius * to_v;
+      ++taps;
+      if (cdsm_penumbra == CDSM_PENUMBRA_ESTIMATED && !cdsm_blocks_receiver(L, m, pr, p, plane, at)) continue;
+      sum = sum + cdsm_map_alpha(L, m, at, p, plane, object);
+    }
+  return sum * (1.0 / float(taps));
+}
+
+int cdsm_cube_face(vec3 d) {
+  float ax = abs(d.x), ay = abs(d.y), az = abs(d.z);
+  if (ax >= ay && ax >= az) return d.x >= 0.0 ? 0 : 1;
+  if (ay >= az) return d.y >= 0.0 ? 2 : 3;
+  return d.z >= 0.0 ? 4 : 5;
+}
+
+// α per channel between light L and the receiver over the light's maps:
+// clusters combined (eq. 3.12), the one cube face, or the first split holding it.
+vec3 cdsm_shadow_alpha(CdsmLight L, vec3 p, vec3 plane, uint object) {
+  vec3 alpha = vec3(0.0);
+  uint first = L.first_map, count = L.map_count;
+  if (L.map_mode == CDSM_MAPS_CUBE_FACES && count == 6u) {
+    first += uint(cdsm_cube_face(p - L.position));
+    count = 1u;
+  }
+  for (uint k = 0u; k < count; ++k) {
+    CdsmMap m = cdsm_maps[first + k];
+    CdsmProjection pr = cdsm_project(m.view, p);
+    if (pr.axial <= 0.0) continue;
+    // Every tap outside the map: it adds nothing (alpha + 0 (1 - alpha) is
+    // alpha exactly), skipped before its offsets and taps are computed (a
+    // soft lookup's taps reach farther: never skipped).
+    float res_f = float(m.res);
+    bool hard = !(L.size > 0.0) || cdsm_penumbra == CDSM_PENUMBRA_HARD;
+    if (hard && L.map_mode == CDSM_MAPS_COMBINE && (pr.u < -0.5 || pr.v < -0.5 || pr.u > res_f + 0.5 || pr.v > res_f + 0.5)) continue;
+    if (L.map_mode == CDSM_MAPS_FIRST_CONTAINING) {
+      float lo = 1.0, hi = float(m.res) - 1.0;
+      if (k + 1u < count && (pr.u < lo || pr.v < lo || pr.u > hi || pr.v > hi)) continue;
+      count = k + 1u;
+    }
+    alpha = cdsm_over(alpha, cdsm_light_map_alpha(L, m, pr, p, plane, object));
+  }
+  return alpha;
+}
+
