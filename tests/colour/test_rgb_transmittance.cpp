@@ -36,7 +36,7 @@ double worst_channel(Vec3 a, Vec3 b) {
 void check_beer_lambert(TriangleMesh mesh, const char* what) {
   const float eps = 0.001f;
   Scene s = empty_scene(what);
-  Object o = make_object(what, std::move(mesh), translation({0.01f, 1.0f, -0.02f}), 0.0f);
+  Object o = surface_object(what, std::move(mesh), translation({0.01f, 1.0f, -0.02f}), 0.0f);
   o.interior = InteriorKind::Constant;
   o.sigma = kSigma;
   s.objects.push_back(o);
@@ -97,7 +97,7 @@ TEST(TintedFilters, ThreeStackedQuadsMultiplyPerChannel) {
   for (DsmLayout layout : {DsmLayout::Packed, DsmLayout::Fixed, DsmLayout::Chunked}) {
     Scene s = empty_scene("filters");
     for (int i = 0; i < 3; ++i) {
-      Object q = make_object("quad", make_quad(2.0f, 2.0f), translation({0.0f, 1.4f - 0.2f * float(i), 0.0f}), a[i]);
+      Object q = surface_object("quad", make_quad(2.0f, 2.0f), translation({0.0f, 1.4f - 0.2f * float(i), 0.0f}), a[i]);
       q.surface.transmission_color = f[i];
       s.objects.push_back(q);
     }
@@ -130,9 +130,9 @@ TEST(TintedFilters, ThreeStackedQuadsMultiplyPerChannel) {
 // pass stops only when every channel is saturated).
 TEST(TintedFilters, TerminationWaitsForEveryChannel) {
   Scene s = empty_scene("blue");
-  Object q1 = make_object("blue filter", make_quad(2.0f, 2.0f), translation({0.0f, 1.4f, 0.0f}), 0.0f);
+  Object q1 = surface_object("blue filter", make_quad(2.0f, 2.0f), translation({0.0f, 1.4f, 0.0f}), 0.0f);
   q1.surface.transmission_color = {0.0f, 0.0f, 1.0f};
-  Object q2 = make_object("half blue", make_quad(2.0f, 2.0f), translation({0.0f, 1.0f, 0.0f}), 0.0f);
+  Object q2 = surface_object("half blue", make_quad(2.0f, 2.0f), translation({0.0f, 1.0f, 0.0f}), 0.0f);
   q2.surface.transmission_color = {1.0f, 1.0f, 0.5f};
   s.objects = {q1, q2};
   s.lights.push_back(spot_light({0.0f, 4.0f, 0.0f}, {0, -1, 0}, 12.0f, 10.0f));
@@ -162,10 +162,10 @@ TEST(TintedFilters, CameraSeesThroughFiltersPerChannel) {
   s.camera.height = 16;
   s.background = {0.5f, 0.6f, 0.7f};
   s.shadows.ambient_light = {0, 0, 0};
-  Object proxy = make_object("proxy", make_quad(4.0f, 4.0f), translation({0, 2.0f, 0}), 0.0f);
-  Object red = make_object("red", make_quad(4.0f, 4.0f), translation({0, 1.5f, 0}), 0.0f);
+  Object proxy = surface_object("proxy", make_quad(4.0f, 4.0f), translation({0, 2.0f, 0}), 0.0f);
+  Object red = surface_object("red", make_quad(4.0f, 4.0f), translation({0, 1.5f, 0}), 0.0f);
   red.surface.transmission_color = {1.0f, 0.0f, 0.0f};
-  Object dim = make_object("dim", make_quad(4.0f, 4.0f), translation({0, 1.0f, 0}), 0.0f);
+  Object dim = surface_object("dim", make_quad(4.0f, 4.0f), translation({0, 1.0f, 0}), 0.0f);
   dim.surface.transmission_color = {0.25f, 0.5f, 0.5f};
   s.objects = {proxy, red, dim};
   SystemOptions opt;
@@ -189,8 +189,8 @@ TEST(TintedFilters, CameraSeesThroughFiltersPerChannel) {
 // memory per kind adds up.
 TEST(RgbMaps, OnlyWhereAMapHoldsColour) {
   Scene s = empty_scene("kinds");
-  Object grey = make_object("grey", make_quad(1.0f, 1.0f), translation({-3.0f, 1.0f, 0.0f}), 0.5f);
-  Object tint = make_object("tint", make_quad(1.0f, 1.0f), translation({3.0f, 1.0f, 0.0f}), 0.0f);
+  Object grey = surface_object("grey", make_quad(1.0f, 1.0f), translation({-3.0f, 1.0f, 0.0f}), 0.5f);
+  Object tint = surface_object("tint", make_quad(1.0f, 1.0f), translation({3.0f, 1.0f, 0.0f}), 0.0f);
   tint.surface.transmission_color = {0.9f, 0.5f, 0.1f};
   s.objects = {grey, tint};
   s.lights.push_back(spot_light({-3.0f, 4.0f, 0.0f}, {0, -1, 0}, 20.0f, 15.0f));

@@ -2,7 +2,9 @@
 // unit_util.h and stability_util.h build on these).
 #pragma once
 
+#include <memory>
 #include <string>
+#include <utility>
 
 #include "cdsm/scene.h"
 
@@ -42,6 +44,18 @@ inline cdsm::Camera camera_at(cdsm::Vec3 position, cdsm::Vec3 target, int width 
   c.width = width;
   c.height = height;
   return c;
+}
+
+// A surface object: `mesh` placed by `transform`, `opacity` per crossing.
+inline cdsm::Object surface_object(const std::string& name, cdsm::TriangleMesh mesh,
+                                   cdsm::Mat4 transform = cdsm::Mat4{}, float opacity = 1.0f, bool casts = true) {
+  cdsm::Object o;
+  o.name = name;
+  o.mesh = std::make_shared<const cdsm::TriangleMesh>(std::move(mesh));
+  o.transform = transform;
+  o.surface.opacity = opacity;
+  o.casts_shadows = casts;
+  return o;
 }
 
 // A scene with a camera (64x48, from (0, 2, 6) at the origin) and no objects or lights.

@@ -242,12 +242,8 @@ TEST_F(GlLookup, SurfacesInContact) {
       scene.camera.position = {0, 6, 8};
       scene.camera.target = {0, 0, 0};
       const auto object = [&](const char* name, TriangleMesh mesh, Vec3 at, float opacity) {
-        Object o;
-        o.name = name;
-        o.mesh = std::make_shared<const TriangleMesh>(std::move(mesh));
-        o.transform = make_transform(at, {0, 0, 0}, {1, 1, 1});
-        o.surface.opacity = opacity;
-        scene.objects.push_back(o);
+        scene.objects.push_back(
+            cdsm_test::surface_object(name, std::move(mesh), make_transform(at, {0, 0, 0}, {1, 1, 1}), opacity));
         return uint32_t(scene.objects.size() - 1);
       };
       const uint32_t slab = object("slab", make_ground(8, 8, 0.3f), {0, 0, 0}, 1.0f);
@@ -283,12 +279,8 @@ TEST_F(GlLookup, SurfacesInContactWithGlFragments) {
   Scene scene;
   scene.source = "contact";
   const auto object = [&](const char* name, TriangleMesh mesh, Vec3 at, float opacity) {
-    Object o;
-    o.name = name;
-    o.mesh = std::make_shared<const TriangleMesh>(std::move(mesh));
-    o.transform = make_transform(at, {0, 0, 0}, {1, 1, 1});
-    o.surface.opacity = opacity;
-    scene.objects.push_back(o);
+    scene.objects.push_back(
+        cdsm_test::surface_object(name, std::move(mesh), make_transform(at, {0, 0, 0}, {1, 1, 1}), opacity));
     return uint32_t(scene.objects.size() - 1);
   };
   const uint32_t slab = object("slab", make_ground(16, 16, 0.3f), {8, 0, 8}, 1.0f);

@@ -20,6 +20,7 @@
 
 #include "cdsm/cdsm.h"
 #include "cdsm/loaders.h"
+#include "common/builders.h"
 
 using namespace cdsm;
 
@@ -51,11 +52,7 @@ int frames_to_run() {
 }
 
 Object make(const std::string& name, TriangleMesh mesh, Vec3 at, float opacity, float sigma = 0.0f) {
-  Object o;
-  o.name = name;
-  o.mesh = std::make_shared<TriangleMesh>(std::move(mesh));
-  o.transform = make_transform(at, {0, 0, 0}, {1, 1, 1});
-  o.surface.opacity = opacity;
+  Object o = cdsm_test::surface_object(name, std::move(mesh), make_transform(at, {0, 0, 0}, {1, 1, 1}), opacity);
   if (sigma > 0.0f) {
     o.interior = InteriorKind::Constant;
     o.sigma = vec3(sigma);

@@ -21,6 +21,7 @@ namespace stab {
 
 using namespace cdsm;
 using cdsm_test::compiled_scene;
+using cdsm_test::surface_object;
 using cdsm_test::SystemFrame;
 
 inline std::shared_ptr<const TriangleMesh> share(TriangleMesh m) {
@@ -29,18 +30,6 @@ inline std::shared_ptr<const TriangleMesh> share(TriangleMesh m) {
 
 inline Mat4 at(Vec3 t, Vec3 scale = {1, 1, 1}, Vec3 rotate_deg = {0, 0, 0}) {
   return make_transform(t, rotate_deg, scale);
-}
-
-// A surface-only object (opacity per crossing).
-inline Object surface_object(const std::string& name, TriangleMesh mesh, Mat4 transform, float opacity,
-                             bool casts = true) {
-  Object o;
-  o.name = name;
-  o.mesh = share(std::move(mesh));
-  o.transform = transform;
-  o.surface.opacity = opacity;
-  o.casts_shadows = casts;
-  return o;
 }
 
 // A closed object with a constant absorbing interior and an invisible boundary.

@@ -14,6 +14,7 @@
 #include "cdsm/renderer.h"
 #include "cdsm/scene_io.h"
 #include "cdsm/shadow_system.h"
+#include "common/builders.h"
 #include "frame_snapshot.h"
 #include "scene_sync.h"
 
@@ -121,12 +122,8 @@ TEST(Inspect, TexelShowsWhatTheSurfaceReceives) {
   Scene scene;
   scene.source = "glass on slab";
   const auto add = [&](const char* name, TriangleMesh mesh, Vec3 at, float opacity) {
-    Object o;
-    o.name = name;
-    o.mesh = std::make_shared<const TriangleMesh>(std::move(mesh));
-    o.transform = make_transform(at, {0, 0, 0}, {1, 1, 1});
-    o.surface.opacity = opacity;
-    scene.objects.push_back(o);
+    scene.objects.push_back(
+        cdsm_test::surface_object(name, std::move(mesh), make_transform(at, {0, 0, 0}, {1, 1, 1}), opacity));
   };
   add("slab", make_ground(8, 8, 0.3f), {0, 0, 0}, 1.0f);
   add("glass", make_box({1, 1, 1}), {0, 0.501f, 0}, 0.45f);

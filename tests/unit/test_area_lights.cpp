@@ -22,8 +22,8 @@ constexpr double kPi = 3.14159265358979;
 // y = 0), lit by a point light of radius r at height D above the origin.
 Scene edge_scene(float a, float h, float D, float r) {
   Scene s = empty_scene("edge");
-  s.objects.push_back(make_object("ground", make_ground(30.0f, 30.0f, 0.05f)));
-  s.objects.push_back(make_object("half-plane", make_quad(20.0f, 20.0f), translation({-10.0f, h, 0}), a));
+  s.objects.push_back(surface_object("ground", make_ground(30.0f, 30.0f, 0.05f)));
+  s.objects.push_back(surface_object("half-plane", make_quad(20.0f, 20.0f), translation({-10.0f, h, 0}), a));
   Light l = point_light({0, D, 0});
   l.radius = r;
   s.lights.push_back(l);

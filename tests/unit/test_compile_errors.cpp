@@ -38,7 +38,7 @@ namespace {
 TEST(CompileErrors, TransformTurnsVerticesInfinite) {
   Scene s = empty_scene("huge");
   TriangleMesh m = make_box({2e30f, 2e30f, 2e30f});  // finite: +-1e30
-  s.objects.push_back(make_object("big box", m, make_transform({0, 0, 0}, {0, 0, 0}, {1e10f, 1, 1})));
+  s.objects.push_back(surface_object("big box", m, make_transform({0, 0, 0}, {0, 0, 0}, {1e10f, 1, 1})));
   EXPECT_TRUE(refused(s, {"huge", "big box", "world space", "infinite"}));
 }
 
@@ -46,7 +46,7 @@ TEST(CompileErrors, SingularTransform) {
   Scene s = empty_scene("flat");
   Mat4 flat = make_transform({0, 1, 0}, {0, 0, 0}, {1, 1, 1});
   flat.m[1][1] = 0.0f;  // squashes y: no inverse, no shading normals
-  s.objects.push_back(make_object("squashed", make_sphere(1.0f, 12, 6), flat));
+  s.objects.push_back(surface_object("squashed", make_sphere(1.0f, 12, 6), flat));
   EXPECT_TRUE(refused(s, {"flat", "squashed", "singular"}));
 }
 
@@ -65,7 +65,7 @@ TEST(CompileErrors, SingularTransform) {
   v.grid = g;
   v.transfer = {TransferPoint{0, vec3(1), {1, 1, 1}}};
   s.volumes.push_back(v);
-  Object o = make_object("fog", make_box({1, 1, 1}));
+  Object o = surface_object("fog", make_box({1, 1, 1}));
   o.interior = InteriorKind::Volume;
   o.volume = 0;
   s.objects.push_back(o);

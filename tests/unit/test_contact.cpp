@@ -85,13 +85,13 @@ Scene slab_pillar_glass(float scale = 1.0f) {
   Scene s = empty_scene("slab, pillar and glass");
   const auto at = [&](Vec3 p) { return translation(p * scale); };
   const auto sz = [&](Vec3 v) { return v * scale; };
-  Object slab = make_object("slab", make_ground(16 * scale, 16 * scale, 0.3f * scale), at({8, 0, 8}));
+  Object slab = surface_object("slab", make_ground(16 * scale, 16 * scale, 0.3f * scale), at({8, 0, 8}));
   s.objects.push_back(slab);
-  Object pillar = make_object("pillar", make_box(sz({1, 1, 1})), at({5, 0.0008f - 0.5f, 5}), 0.45f);
+  Object pillar = surface_object("pillar", make_box(sz({1, 1, 1})), at({5, 0.0008f - 0.5f, 5}), 0.45f);
   pillar.interior = InteriorKind::Constant;
   pillar.sigma = vec3(0.6f / scale);
   s.objects.push_back(pillar);
-  s.objects.push_back(make_object("glass", make_box(sz({1, 1, 1})), at({11, 0.501f, 11}), 0.45f));
+  s.objects.push_back(surface_object("glass", make_box(sz({1, 1, 1})), at({11, 0.501f, 11}), 0.45f));
   s.lights.push_back(spot_light(Vec3{8, 12, 8} * scale, {0, -1, 0}, 40, 36));
   s.camera.position = Vec3{8, 14, 20} * scale;
   s.camera.target = Vec3{8, 0, 8} * scale;
@@ -177,9 +177,9 @@ TEST(Contact, GapsFromATenthOfAMillimetreAtEveryResolutionAndIncidence) {
     for (int res : resolutions)
       for (float deg : {0.0f, 45.0f, 80.0f}) {
         Scene s = empty_scene("plate over slab");
-        s.objects.push_back(make_object("slab", make_ground(8, 8, 0.3f)));
+        s.objects.push_back(surface_object("slab", make_ground(8, 8, 0.3f)));
         const float gap = gap_mm * 1e-3f;
-        s.objects.push_back(make_object("plate", make_box({1, 0.02f, 1}), translation({0, gap + 0.01f, 0}), 0.5f));
+        s.objects.push_back(surface_object("plate", make_box({1, 0.02f, 1}), translation({0, gap + 0.01f, 0}), 0.5f));
         const float a = deg * 3.14159265f / 180.0f;
         const Vec3 pos{0.0f, 6.0f * std::cos(a), 6.0f * std::sin(a)};
         s.lights.push_back(spot_light(pos, -pos, 14, 12));
@@ -220,8 +220,8 @@ TEST(Contact, GapsFromATenthOfAMillimetreAtEveryResolutionAndIncidence) {
 TEST(Contact, TranslucentPlinthSunkIntoACastingFloor) {
   for (int res : {128, 1024}) {
     Scene s = empty_scene("plinth");
-    s.objects.push_back(make_object("floor", make_ground(8, 8, 0.5f)));
-    s.objects.push_back(make_object("plinth", make_box({1, 1, 1}), translation({0, 0.2f, 0}), 0.5f));
+    s.objects.push_back(surface_object("floor", make_ground(8, 8, 0.5f)));
+    s.objects.push_back(surface_object("plinth", make_box({1, 1, 1}), translation({0, 0.2f, 0}), 0.5f));
     const float a = 80.0f * 3.14159265f / 180.0f;
     const Vec3 pos{0.0f, 7.0f * std::cos(a), 7.0f * std::sin(a)};
     s.lights.push_back(spot_light(pos, Vec3{0, 0.2f, -0.3f} - pos, 22, 20));
@@ -267,8 +267,8 @@ TEST(Contact, TranslucentPlinthSunkIntoACastingFloor) {
 // other receive the other's entry face (and not their own).
 TEST(Contact, InterpenetratingTranslucentBoxes) {
   Scene s = empty_scene("boxes");
-  s.objects.push_back(make_object("a", make_box({1, 1, 1}), translation({0, 0.5f, 0}), 0.4f));
-  s.objects.push_back(make_object("b", make_box({1, 1, 1}), translation({0.5f, 1.0f, 0.3f}), 0.3f));
+  s.objects.push_back(surface_object("a", make_box({1, 1, 1}), translation({0, 0.5f, 0}), 0.4f));
+  s.objects.push_back(surface_object("b", make_box({1, 1, 1}), translation({0.5f, 1.0f, 0.3f}), 0.3f));
   s.lights.push_back(spot_light({0.8f, 6, 1.5f}, {-0.6f, -5, -1.2f}, 20, 18));
   s.shadows.resolution = 1024;
   const ProbedFrame b(s);
@@ -304,11 +304,11 @@ TEST(Contact, InterpenetratingTranslucentBoxes) {
 TEST(Contact, ReferenceIsExactAtContact) {
   for (float gap_mm : {0.01f, 0.05f, 0.1f, 0.3f, 1.0f}) {
     Scene s = empty_scene("box over ground");
-    Object ground = make_object("ground", make_ground(8, 8, 0.05f));
+    Object ground = surface_object("ground", make_ground(8, 8, 0.05f));
     ground.casts_shadows = false;
     s.objects.push_back(ground);
     const float gap = gap_mm * 1e-3f;
-    s.objects.push_back(make_object("glass", make_box({0.6f, 0.6f, 0.6f}), translation({0, gap + 0.3f, 0}), 0.4f));
+    s.objects.push_back(surface_object("glass", make_box({0.6f, 0.6f, 0.6f}), translation({0, gap + 0.3f, 0}), 0.4f));
     s.lights.push_back(spot_light({2, 31, 1}, {-2, -31, -1}, 10, 8));
     const SceneBuffers sb = compiled_scene(s);
     std::vector<LightData> lights = {light_data(s.lights[0])};
@@ -334,13 +334,13 @@ TEST(Contact, ReferenceIsExactAtContact) {
 TEST(Contact, CoplanarSurfacesAreInFront) {
   for (bool ground_casts : {false, true}) {
     Scene s = empty_scene("coplanar");
-    Object ground = make_object("ground", make_ground(8, 8, 0.05f));
+    Object ground = surface_object("ground", make_ground(8, 8, 0.05f));
     ground.casts_shadows = ground_casts;
     s.objects.push_back(ground);
-    s.objects.push_back(make_object("decal", make_quad(0.8f, 0.8f), translation({-1, 0, 0}), 0.5f));
-    s.objects.push_back(make_object("slab", make_box({0.8f, 0.1f, 0.8f}), translation({1, 0.05f, 0}), 0.3f));
-    s.objects.push_back(make_object("quad 1", make_quad(0.8f, 0.8f), translation({0, 0.5f, 1.2f}), 0.4f));
-    s.objects.push_back(make_object("quad 2", make_quad(0.8f, 0.8f), translation({0, 0.5f, 1.2f}), 0.5f));
+    s.objects.push_back(surface_object("decal", make_quad(0.8f, 0.8f), translation({-1, 0, 0}), 0.5f));
+    s.objects.push_back(surface_object("slab", make_box({0.8f, 0.1f, 0.8f}), translation({1, 0.05f, 0}), 0.3f));
+    s.objects.push_back(surface_object("quad 1", make_quad(0.8f, 0.8f), translation({0, 0.5f, 1.2f}), 0.4f));
+    s.objects.push_back(surface_object("quad 2", make_quad(0.8f, 0.8f), translation({0, 0.5f, 1.2f}), 0.5f));
     s.lights.push_back(spot_light({0.3f, 7, 0.4f}, {-0.3f, -7, -0.4f}, 25, 23));
     s.shadows.resolution = 512;
     const ProbedFrame b(s);

@@ -39,8 +39,8 @@ Vec3 sun_direction(float elev_deg, float az_deg) {
 // bottom at height h; the slab's surfaces pass all light.
 Scene slab_scene(float sigma, float d, float h, Vec3 sun, int res) {
   Scene s = empty_scene("sun slab");
-  s.objects.push_back(make_object("ground", make_ground(40.0f, 40.0f, 0.05f)));
-  Object slab = make_object("slab", make_box({8.0f, d, 8.0f}), translation({0, h + 0.5f * d, 0}), 0.0f);
+  s.objects.push_back(surface_object("ground", make_ground(40.0f, 40.0f, 0.05f)));
+  Object slab = surface_object("slab", make_box({8.0f, d, 8.0f}), translation({0, h + 0.5f * d, 0}), 0.0f);
   slab.interior = InteriorKind::Constant;
   slab.sigma = vec3(sigma);
   s.objects.push_back(slab);
@@ -109,8 +109,8 @@ TEST(Directional, QuadShadowLandsWhereTheParallelProjectionPutsIt) {
   const float h = 3.0f, half = 1.0f;
   const Vec3 sun = sun_direction(50.0f, 120.0f);
   Scene s = empty_scene("sun quad");
-  s.objects.push_back(make_object("ground", make_ground(30.0f, 30.0f, 0.05f)));
-  s.objects.push_back(make_object("quad", make_quad(2 * half, 2 * half), translation({0, h, 0}), 0.5f));
+  s.objects.push_back(surface_object("ground", make_ground(30.0f, 30.0f, 0.05f)));
+  s.objects.push_back(surface_object("quad", make_quad(2 * half, 2 * half), translation({0, h, 0}), 0.5f));
   s.lights.push_back(sun_light(sun));
   s.shadows.resolution = 512;
   s.shadows.filtering = false;
@@ -145,10 +145,10 @@ TEST(Directional, QuadShadowLandsWhereTheParallelProjectionPutsIt) {
 // with the reference's parallel shadow rays.
 TEST(Directional, SystemKeepsTheMapWhileTheCameraMovesAndMatchesTheReference) {
   Scene s = empty_scene("sun system");
-  s.objects.push_back(make_object("ground", make_ground(20.0f, 20.0f, 0.05f)));
-  s.objects.push_back(make_object("glass", make_box({1.0f, 1.0f, 1.0f}), translation({0, 1.2f, 0}), 0.4f));
+  s.objects.push_back(surface_object("ground", make_ground(20.0f, 20.0f, 0.05f)));
+  s.objects.push_back(surface_object("glass", make_box({1.0f, 1.0f, 1.0f}), translation({0, 1.2f, 0}), 0.4f));
   s.objects.back().surface.transmission_color = {0.9f, 0.5f, 0.3f};
-  Object fog = make_object("fog", make_sphere(0.7f, 32, 16), translation({-1.8f, 1.0f, 0.5f}), 0.0f);
+  Object fog = surface_object("fog", make_sphere(0.7f, 32, 16), translation({-1.8f, 1.0f, 0.5f}), 0.0f);
   fog.interior = InteriorKind::Constant;
   fog.sigma = vec3(1.2f);
   s.objects.push_back(fog);

@@ -26,7 +26,7 @@ constexpr float kDeg = 3.14159265358979f / 180.0f;
 // `light`.
 Scene ground_scene(Light light, int res, bool filtering) {
   Scene s = empty_scene("ground");
-  s.objects.push_back(make_object("ground", make_ground(60.0f, 60.0f, 0.05f)));
+  s.objects.push_back(surface_object("ground", make_ground(60.0f, 60.0f, 0.05f)));
   s.lights.push_back(light);
   s.shadows.resolution = res;
   s.shadows.filtering = filtering;
@@ -123,7 +123,7 @@ TEST(SelfShadowing, LitPlaneThroughRendererProbe) {
 TEST(SelfShadowing, TranslucentQuadLitOnItself) {
   for (bool filtering : {false, true}) {
     Scene s = empty_scene("quad");
-    s.objects.push_back(make_object("quad", make_quad(2.0f, 2.0f), translation({0, 1, 0}), 0.5f));
+    s.objects.push_back(surface_object("quad", make_quad(2.0f, 2.0f), translation({0, 1, 0}), 0.5f));
     s.lights.push_back(spot_light({0.05f, 5.0f, -0.03f}, {0, -1, 0}, 30.0f, 25.0f));
     s.shadows.resolution = 512;
     s.shadows.filtering = filtering;
@@ -194,7 +194,7 @@ namespace {
 // light slightly off its axis.
 Scene sphere_scene(int res, bool filtering) {
   Scene s = empty_scene("sphere");
-  Object o = make_object("sphere", make_sphere(1.0f, 48, 24), Mat4{}, 0.0f);
+  Object o = surface_object("sphere", make_sphere(1.0f, 48, 24), Mat4{}, 0.0f);
   o.interior = InteriorKind::Constant;
   o.sigma = vec3(1.5f);
   s.objects.push_back(o);
@@ -317,7 +317,7 @@ Scene slab_scene(float sigma, int res, bool filtering) {
   v.transfer = {TransferPoint{0.0f, vec3(0.0f), {1, 1, 1}}, TransferPoint{1.0f, vec3(sigma), {1, 1, 1}}};
   v.step_voxels = 0.5f;
   s.volumes.push_back(v);
-  Object o = make_object("slab", make_box({6.0f, 0.2f, 6.0f}), Mat4{}, 0.0f);
+  Object o = surface_object("slab", make_box({6.0f, 0.2f, 6.0f}), Mat4{}, 0.0f);
   o.interior = InteriorKind::Volume;
   o.volume = 0;
   s.objects.push_back(o);
@@ -424,7 +424,7 @@ TEST(BeerLambert, StackedTranslucentQuads) {
     Scene s = empty_scene("quads");
     for (int i = 0; i < 3; ++i)
       s.objects.push_back(
-          make_object("q" + std::to_string(i), make_quad(2.0f, 2.0f), translation({0, y[i], 0}), op[i]));
+          surface_object("q" + std::to_string(i), make_quad(2.0f, 2.0f), translation({0, y[i], 0}), op[i]));
     s.lights.push_back(spot_light({0.02f, 5.0f, 0.01f}, {0, -1, 0}, 30.0f, 25.0f));
     s.shadows.resolution = 256;
     s.shadows.filtering = filtering;
@@ -545,7 +545,7 @@ TEST(BeerLambert, VolumeSlabUnderPointLight) {
 TEST(BeerLambert, LightInsideConstantMedium) {
   const float sigma = 1.0f, eps = 0.001f;
   Scene s = empty_scene("inside");
-  Object o = make_object("sphere", make_sphere(1.0f, 32, 16), translation({0.05f, 0.02f, -0.03f}), 0.0f);
+  Object o = surface_object("sphere", make_sphere(1.0f, 32, 16), translation({0.05f, 0.02f, -0.03f}), 0.0f);
   o.interior = InteriorKind::Constant;
   o.sigma = vec3(sigma);
   s.objects.push_back(o);
@@ -591,8 +591,8 @@ TEST(BeerLambert, LightInsideConstantMedium) {
 // the step to 1 at the quad's depth, and every lookup beyond reads 1.
 TEST(LightPass, SaturatedRayEndsAtOpaqueSurface) {
   Scene s = empty_scene("saturate");
-  s.objects.push_back(make_object("wall", make_quad(3.0f, 3.0f), translation({0, 2, 0}), 1.0f));
-  Object o = make_object("sphere", make_sphere(0.8f, 24, 12), Mat4{}, 0.3f);
+  s.objects.push_back(surface_object("wall", make_quad(3.0f, 3.0f), translation({0, 2, 0}), 1.0f));
+  Object o = surface_object("sphere", make_sphere(0.8f, 24, 12), Mat4{}, 0.3f);
   o.interior = InteriorKind::Constant;
   o.sigma = vec3(2.0f);
   s.objects.push_back(o);

@@ -130,7 +130,7 @@ TEST(Fields, EveryFieldOfEveryTableIsWrittenReadAndRangeChecked) {
       base, [](Scene& s) -> Camera& { return s.camera; }, "/camera");
   check_table<Light>(
       base, [](Scene& s) -> Light& { return s.lights[0]; }, "/lights/0");
-  base.objects.push_back(cdsm_test::make_object("ground", make_quad(4.0f, 4.0f)));
+  base.objects.push_back(cdsm_test::surface_object("ground", make_quad(4.0f, 4.0f)));
   check_table<SurfaceMaterial>(
       base, [](Scene& s) -> SurfaceMaterial& { return s.objects[0].surface; }, "/objects/0/material");
   base.objects[0].name = "ground";
@@ -143,7 +143,7 @@ TEST(Fields, EveryFieldOfEveryTableIsWrittenReadAndRangeChecked) {
   smoke.grid = make_noise_volume(noise);
   smoke.transfer = {TransferPoint{}};
   base.volumes.push_back(smoke);
-  Object box = cdsm_test::make_object("smoke box", make_box({6, 6, 6}));
+  Object box = cdsm_test::surface_object("smoke box", make_box({6, 6, 6}));
   box.interior = InteriorKind::Volume;
   box.volume = 0;
   base.objects.push_back(box);

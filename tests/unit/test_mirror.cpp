@@ -58,7 +58,7 @@ Scene mirror_scene(Kind kind, float sx, bool eye_inside = false) {
   s.camera.target = eye_inside ? Vec3{0.3f, 0.0f, -2.0f} : Vec3{0.0f, 0.8f, 0.0f};
   s.camera.width = 64;
   s.camera.height = 48;
-  s.objects.push_back(make_object("ground", make_ground(12, 12, 0.1f)));
+  s.objects.push_back(surface_object("ground", make_ground(12, 12, 0.1f)));
   const Mat4 xf = make_transform({0, 1.0f, 0}, {0, 30, 0}, {sx, 1, 1});
   if (kind == Kind::VolumeBox) {
     Volume v;
@@ -77,8 +77,8 @@ Scene mirror_scene(Kind kind, float sx, bool eye_inside = false) {
     s.objects.push_back(o);
   } else {
     bool sphere = kind == Kind::ConstantSphere;
-    Object o = make_object(name_of(kind), sphere ? make_sphere(0.8f, 48, 24) : make_box({1.4f, 1.2f, 1.0f}), xf,
-                           sphere ? 0.0f : 0.4f);
+    Object o = surface_object(name_of(kind), sphere ? make_sphere(0.8f, 48, 24) : make_box({1.4f, 1.2f, 1.0f}), xf,
+                              sphere ? 0.0f : 0.4f);
     o.interior = InteriorKind::Constant;
     o.sigma = vec3(sphere ? 1.5f : 0.8f);
     s.objects.push_back(o);
@@ -102,7 +102,7 @@ TEST(Mirror, CompiledTrianglesFaceOutwards) {
   // Mirrored in all three axes (determinant -1) and in two (+1, no flip).
   for (Vec3 sc : {Vec3{-1, -1, -1}, Vec3{-1, -1, 1}, Vec3{1, -2, 0.5f}}) {
     Scene s = empty_scene("mirror/axes");
-    s.objects.push_back(make_object("box", make_box({1, 2, 3}), make_transform({1, 2, 3}, {10, 20, 30}, sc)));
+    s.objects.push_back(surface_object("box", make_box({1, 2, 3}), make_transform({1, 2, 3}, {10, 20, 30}, sc)));
     SceneBuffers sb = compiled_scene(s);
     EXPECT_GT(world_signed_volume(sb, 0), 0.0) << sc.x << " " << sc.y << " " << sc.z;
   }

@@ -44,8 +44,8 @@ Scene nested_media(int n, bool spheres) {
   Scene s = nested_scene(std::to_string(n) + (spheres ? " nested spheres" : " nested boxes"));
   for (int i = 0; i < n; ++i) {
     const float r = half_size(i);
-    Object o = make_object("shell " + std::to_string(i), spheres ? make_sphere(r, 32, 16) : make_box(vec3(2.0f * r)),
-                           Mat4{}, 0.02f);
+    Object o = surface_object("shell " + std::to_string(i), spheres ? make_sphere(r, 32, 16) : make_box(vec3(2.0f * r)),
+                              Mat4{}, 0.02f);
     o.interior = InteriorKind::Constant;
     o.sigma = vec3(nested_sigma(i, n));
     s.objects.push_back(o);

@@ -55,7 +55,7 @@ std::vector<RayHit> brute_hits(const SceneView& s, Vec3 org, Vec3 dir, float tmi
 
 SceneBuffers compile_one(TriangleMesh mesh, Mat4 transform = Mat4{}) {
   Scene s = empty_scene("raytri");
-  s.objects.push_back(make_object("mesh", std::move(mesh), transform));
+  s.objects.push_back(surface_object("mesh", std::move(mesh), transform));
   return compiled_scene(s);
 }
 
@@ -311,7 +311,7 @@ SceneBuffers cluttered_scene() {
     Vec3 r{360.0f * u(rng), 360.0f * u(rng), 360.0f * u(rng)};
     Vec3 sc{0.5f + u(rng), 0.5f + u(rng), 0.5f + u(rng)};
     TriangleMesh m = i % 3 == 0 ? make_box({1, 1, 1}) : make_sphere(1.0f, 24, 12);
-    s.objects.push_back(make_object("o" + std::to_string(i), std::move(m), make_transform(t, r, sc)));
+    s.objects.push_back(surface_object("o" + std::to_string(i), std::move(m), make_transform(t, r, sc)));
   }
   return compiled_scene(s);
 }

@@ -79,7 +79,7 @@ Scene phong_volume_scene() {
   cube.mesh = share(make_volume_proxy(s.volumes[0]));
   cube.surface.opacity = 0.0f;
   s.objects.push_back(cube);
-  Object ground = make_object("ground", make_ground(6, 6, 0.05f));
+  Object ground = surface_object("ground", make_ground(6, 6, 0.05f));
   ground.casts_shadows = false;
   s.objects.push_back(ground);
   s.lights.push_back(spot_light({1.5f, 4.0f, 0.8f}, {-1.5f, -3.6f, -0.8f}, 35, 30));
@@ -145,7 +145,7 @@ TEST(Receivers, NoAcneOnALitCasterPlaneFromHeadOnTo85Degrees) {
   for (int res : {128, 512, 2048}) {
     for (float deg : {0.0f, 30.0f, 60.0f, 75.0f, 85.0f}) {
       Scene s = empty_scene("plane");
-      Object plane = make_object("plane", make_quad(4, 4));  // y = 0, facing +y
+      Object plane = surface_object("plane", make_quad(4, 4));  // y = 0, facing +y
       s.objects.push_back(plane);
       const float a = deg * 3.14159265f / 180.0f;
       const Vec3 pos{0.0f, 6.0f * std::cos(a), 6.0f * std::sin(a)};
@@ -171,7 +171,7 @@ TEST(Receivers, NoAcneOnALitCasterPlaneFromHeadOnTo85Degrees) {
 // Item 3(c): a lone translucent quad, fully lit, is not shadowed by itself.
 TEST(Receivers, LoneTranslucentQuadIsLitOnItself) {
   Scene s = empty_scene("quad");
-  s.objects.push_back(make_object("quad", make_quad(2, 2), translation({0, 0.5f, 0}), 0.6f));
+  s.objects.push_back(surface_object("quad", make_quad(2, 2), translation({0, 0.5f, 0}), 0.6f));
   s.lights.push_back(spot_light({0.5f, 4, 1}, {-0.5f, -3.5f, -1}, 30, 28));
   s.shadows.resolution = 512;
   const ProbedFrame b(s);
@@ -192,8 +192,8 @@ Scene box_over_ground(bool ground_casts) {
   s.camera.height = 120;
   s.camera.position = {0.0f, 3.0f, 2.0f};
   s.camera.target = {0.0f, 0.0f, 0.0f};
-  s.objects.push_back(make_object("glass", make_box({0.6f, 0.6f, 0.6f}), translation({0, 0.301f, 0}), 0.35f));
-  Object ground = make_object("ground", make_ground(6, 6, 0.05f));
+  s.objects.push_back(surface_object("glass", make_box({0.6f, 0.6f, 0.6f}), translation({0, 0.301f, 0}), 0.35f));
+  Object ground = surface_object("ground", make_ground(6, 6, 0.05f));
   ground.casts_shadows = ground_casts;
   s.objects.push_back(ground);
   s.lights.push_back(spot_light({1.0f, 5.0f, 0.6f}, {-1.0f, -5.0f, -0.6f}, 30, 26));
@@ -257,8 +257,8 @@ TEST(Receivers, StackedTranslucentSheetsOneMillimetreApart) {
   for (float tilt : {0.0f, 40.0f}) {
     Scene s = empty_scene("sheets");
     for (int j = 0; j < 5; ++j)
-      s.objects.push_back(make_object("sheet " + std::to_string(j), make_quad(1.5f, 1.5f),
-                                      translation({0, 0.5f - 0.001f * float(j), 0}), opacity[j]));
+      s.objects.push_back(surface_object("sheet " + std::to_string(j), make_quad(1.5f, 1.5f),
+                                         translation({0, 0.5f - 0.001f * float(j), 0}), opacity[j]));
     const float a = tilt * 3.14159265f / 180.0f;
     const Vec3 pos{0.0f, 0.5f + 4.0f * std::cos(a), 4.0f * std::sin(a)};
     s.lights.push_back(spot_light(pos, Vec3{0, 0.5f, 0} - pos, 25, 22));
@@ -289,11 +289,11 @@ TEST(Receivers, NoLeakOrAcneAtTerminators) {
   s.camera.height = 200;
   s.camera.position = {-2.5f, 1.6f, 3.0f};
   s.camera.target = {0.6f, 0.5f, 0.0f};
-  s.objects.push_back(make_object("sphere", make_sphere(0.5f), translation({0, 0.6f, 0})));
+  s.objects.push_back(surface_object("sphere", make_sphere(0.5f), translation({0, 0.6f, 0})));
   const std::string newell = content_dir() + "/meshes/newell/teapot";
-  s.objects.push_back(make_object("teapot", make_newell_mesh(newell, 8),
-                                  make_transform({1.5f, 0, 0}, {-90, 0, 0}, {0.25f, 0.25f, 0.25f})));
-  Object ground = make_object("ground", make_ground(8, 8, 0.05f));
+  s.objects.push_back(surface_object("teapot", make_newell_mesh(newell, 8),
+                                     make_transform({1.5f, 0, 0}, {-90, 0, 0}, {0.25f, 0.25f, 0.25f})));
+  Object ground = surface_object("ground", make_ground(8, 8, 0.05f));
   ground.casts_shadows = false;
   s.objects.push_back(ground);
   s.lights.push_back(spot_light({-4.0f, 1.0f, 0.5f}, {4.7f, -0.5f, -0.5f}, 30, 27));

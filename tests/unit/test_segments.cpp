@@ -44,7 +44,7 @@ struct Recorder {
 };
 
 Object box_with_sigma(const std::string& name, float size, float sigma, Vec3 at = {0, 0, 0}) {
-  Object o = make_object(name, make_box({size, size, size}), translation(at));
+  Object o = surface_object(name, make_box({size, size, size}), translation(at));
   o.interior = InteriorKind::Constant;
   o.sigma = vec3(sigma);
   return o;
@@ -65,7 +65,7 @@ SceneBuffers walker_scene() {
     if (!px) kept.insert(kept.end(), open.indices.begin() + long(t), open.indices.begin() + long(t) + 3);
   }
   open.indices = kept;
-  Object o = make_object("open", open, translation({10, 0, 0}));
+  Object o = surface_object("open", open, translation({10, 0, 0}));
   o.interior = InteriorKind::Constant;
   o.sigma = vec3(1000.0f);
   s.objects.push_back(o);

@@ -32,8 +32,8 @@ constexpr double kPi = 3.14159265358979;
 // pointing down (outer half-angle 20 degrees), maps of res^2.
 Scene edge_scene(float a, float h, float D, float r, int res) {
   Scene s = empty_scene("soft edge");
-  s.objects.push_back(make_object("ground", make_ground(30.0f, 30.0f, 0.05f)));
-  s.objects.push_back(make_object("half-plane", make_quad(20.0f, 20.0f), translation({-10.0f, h, 0}), a));
+  s.objects.push_back(surface_object("ground", make_ground(30.0f, 30.0f, 0.05f)));
+  s.objects.push_back(surface_object("half-plane", make_quad(20.0f, 20.0f), translation({-10.0f, h, 0}), a));
   Light l = spot_light({0, D, 0}, {0, -1, 0}, 20.0f, 18.0f);
   l.radius = r;
   s.lights.push_back(l);
@@ -154,8 +154,8 @@ TEST(SoftShadows, PenumbraWidthGrowsWithHeightAndRadius) {
 // wide, and a fixed kernel blurs the foot as much as anywhere.
 TEST(SoftShadows, ContactStaysSharp) {
   Scene s = empty_scene("contact");
-  s.objects.push_back(make_object("ground", make_ground(20.0f, 20.0f, 0.05f)));
-  s.objects.push_back(make_object("wall", make_box({0.04f, 1.5f, 2.0f}), translation({0, 0.75f, 0})));
+  s.objects.push_back(surface_object("ground", make_ground(20.0f, 20.0f, 0.05f)));
+  s.objects.push_back(surface_object("wall", make_box({0.04f, 1.5f, 2.0f}), translation({0, 0.75f, 0})));
   Light l = spot_light({2.5f, 4.0f, 0.0f}, normalize(Vec3{-2.5f, -4.0f, 0.8f}), 16.0f, 14.0f);
   l.radius = 0.2f;
   s.lights.push_back(l);

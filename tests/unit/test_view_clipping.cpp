@@ -62,7 +62,7 @@ void add_medium(Scene& s, Medium kind, Vec3 lo, Vec3 hi, float sigma) {
     o.volume = int32_t(s.volumes.size() - 1);
     s.objects.push_back(o);
   } else {
-    Object o = make_object("sphere", make_sphere(0.5f * e.x, 64, 32), translation(c), 0.0f);
+    Object o = surface_object("sphere", make_sphere(0.5f * e.x, 64, 32), translation(c), 0.0f);
     o.interior = InteriorKind::Constant;
     o.sigma = vec3(sigma);
     s.objects.push_back(o);
@@ -94,7 +94,7 @@ Scene camera_scene(const Case& c, Medium m) {
   s.camera.width = 64;
   s.camera.height = 48;
   s.background = {0.6f, 0.7f, 0.8f};  // bright, so absorption before far shows
-  s.objects.push_back(make_object("wall", make_box({30, 30, 0.2f}), translation({0, 0, -8.1f})));
+  s.objects.push_back(surface_object("wall", make_box({30, 30, 0.2f}), translation({0, 0, -8.1f})));
   // The sphere of the "containing" case has radius 9 and would swallow the
   // wall; the same medium either way.
   add_medium(s, m, c.lo, c.hi, 0.35f);

@@ -86,7 +86,7 @@ Medium make_medium(const std::string& name, std::shared_ptr<DenseGrid> dense, st
   TriangleMesh box = make_box((proxy_hi - proxy_lo) * 0.05f);
   Vec3 c = (proxy_lo + proxy_hi) * (0.5f * 0.05f);
   for (Vec3& p : box.positions) p = p + c;
-  Object o = make_object(name, box, Mat4{}, 0.0f);
+  Object o = surface_object(name, box, Mat4{}, 0.0f);
   o.interior = InteriorKind::Volume;
   o.volume = 0;
   s.objects.push_back(o);

@@ -28,16 +28,6 @@ inline std::shared_ptr<const TriangleMesh> share(TriangleMesh m) {
   return std::make_shared<const TriangleMesh>(std::move(m));
 }
 
-// An object with the given mesh, placement and surface opacity.
-inline Object make_object(const std::string& name, TriangleMesh mesh, Mat4 transform = Mat4{}, float opacity = 1.0f) {
-  Object o;
-  o.name = name;
-  o.mesh = share(std::move(mesh));
-  o.transform = transform;
-  o.surface.opacity = opacity;
-  return o;
-}
-
 inline Mat4 translation(Vec3 t) { return make_transform(t, {0, 0, 0}, {1, 1, 1}); }
 
 // Every hit depth of the triangles of object `object` along org + t dir

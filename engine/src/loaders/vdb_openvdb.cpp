@@ -56,21 +56,28 @@ void read_exact(std::istream& is, char* data, size_t n) {
   if (!is.good() || size_t(is.gcount()) != n) OPENVDB_THROW(RuntimeError, "the data end before the chunk does");
 }
 
-}  // namespace
-
-void bloscFromStream(std::istream& is, char* data, size_t numBytes) {
-  const int64_t n = read_chunk_size(is, numBytes, "blosc");
+// A chunk stored uncompressed (n <= 0: numBytes raw bytes) or one without
+// a destination (skipped): handled here, whatever its compression.
+bool stored_or_skipped(std::istream& is, char* data, size_t numBytes, int64_t n) {
   if (n <= 0) {
     if (data)
       read_exact(is, data, numBytes);
     else
       is.seekg(std::streamoff(numBytes), std::ios_base::cur);
-    return;
+    return true;
   }
   if (!data) {
     is.seekg(std::streamoff(n), std::ios_base::cur);
-    return;
+    return true;
   }
+  return false;
+}
+
+}  // namespace
+
+void bloscFromStream(std::istream& is, char* data, size_t numBytes) {
+  const int64_t n = read_chunk_size(is, numBytes, "blosc");
+  if (stored_or_skipped(is, data, numBytes, n)) return;
   std::vector<char> packed(size_t(n) + BLOSC_MAX_OVERHEAD);
   read_exact(is, packed.data(), size_t(n));
   size_t nbytes = 0, cbytes = 0, blocksize = 0;
@@ -86,17 +93,7 @@ void bloscFromStream(std::istream& is, char* data, size_t numBytes) {
 
 void unzipFromStream(std::istream& is, char* data, size_t numBytes) {
   const int64_t n = read_chunk_size(is, numBytes, "zip");
-  if (n <= 0) {
-    if (data)
-      read_exact(is, data, numBytes);
-    else
-      is.seekg(std::streamoff(numBytes), std::ios_base::cur);
-    return;
-  }
-  if (!data) {
-    is.seekg(std::streamoff(n), std::ios_base::cur);
-    return;
-  }
+  if (stored_or_skipped(is, data, numBytes, n)) return;
   std::vector<char> packed(static_cast<size_t>(n));
   read_exact(is, packed.data(), size_t(n));
   uLongf out = uLongf(numBytes);
