@@ -2,6 +2,7 @@
 // unit_util.h and stability_util.h build on these).
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <utility>
@@ -56,6 +57,15 @@ inline cdsm::Object surface_object(const std::string& name, cdsm::TriangleMesh m
   o.surface.opacity = opacity;
   o.casts_shadows = casts;
   return o;
+}
+
+// Adds a surface object moved to `at` (no rotation, unit scale) to `scene`;
+// returns its index.
+inline uint32_t add_surface(cdsm::Scene& scene, const std::string& name, cdsm::TriangleMesh mesh, cdsm::Vec3 at,
+                            float opacity) {
+  scene.objects.push_back(
+      surface_object(name, std::move(mesh), cdsm::make_transform(at, {0, 0, 0}, {1, 1, 1}), opacity));
+  return uint32_t(scene.objects.size() - 1);
 }
 
 // A scene with a camera (64x48, from (0, 2, 6) at the origin) and no objects or lights.

@@ -241,18 +241,14 @@ TEST_F(GlLookup, SurfacesInContact) {
       scene.source = "contact";
       scene.camera.position = {0, 6, 8};
       scene.camera.target = {0, 0, 0};
-      const auto object = [&](const char* name, TriangleMesh mesh, Vec3 at, float opacity) {
-        scene.objects.push_back(
-            cdsm_test::surface_object(name, std::move(mesh), make_transform(at, {0, 0, 0}, {1, 1, 1}), opacity));
-        return uint32_t(scene.objects.size() - 1);
-      };
-      const uint32_t slab = object("slab", make_ground(8, 8, 0.3f), {0, 0, 0}, 1.0f);
-      object("glass", make_box({1, 1, 1}), {-2, 0.501f, -2}, 0.45f);
-      const uint32_t pillar = object("pillar", make_box({1, 1, 1}), {2, 0.0008f - 0.5f, -2}, 0.45f);
+      const uint32_t slab = cdsm_test::add_surface(scene, "slab", make_ground(8, 8, 0.3f), {0, 0, 0}, 1.0f);
+      cdsm_test::add_surface(scene, "glass", make_box({1, 1, 1}), {-2, 0.501f, -2}, 0.45f);
+      const uint32_t pillar =
+          cdsm_test::add_surface(scene, "pillar", make_box({1, 1, 1}), {2, 0.0008f - 0.5f, -2}, 0.45f);
       scene.objects[pillar].interior = InteriorKind::Constant;
       scene.objects[pillar].sigma = vec3(0.6f);
-      object("decal", make_quad(1, 1), {-2, 0, 2}, 0.5f);
-      const uint32_t lying = object("lying slab", make_box({1, 0.1f, 1}), {2, 0.05f, 2}, 0.3f);
+      cdsm_test::add_surface(scene, "decal", make_quad(1, 1), {-2, 0, 2}, 0.5f);
+      const uint32_t lying = cdsm_test::add_surface(scene, "lying slab", make_box({1, 0.1f, 1}), {2, 0.05f, 2}, 0.3f);
       if (tinted) scene.objects[lying].surface.transmission_color = {1.0f, 0.5f, 0.2f};
       scene.lights.push_back(cdsm_test::spot_light({0.5f, 9, 0.4f}, {-0.5f, -9, -0.4f}, 35, 32));
       scene.shadows.layout = layout;
@@ -278,14 +274,9 @@ TEST_F(GlLookup, SurfacesInContact) {
 TEST_F(GlLookup, SurfacesInContactWithGlFragments) {
   Scene scene;
   scene.source = "contact";
-  const auto object = [&](const char* name, TriangleMesh mesh, Vec3 at, float opacity) {
-    scene.objects.push_back(
-        cdsm_test::surface_object(name, std::move(mesh), make_transform(at, {0, 0, 0}, {1, 1, 1}), opacity));
-    return uint32_t(scene.objects.size() - 1);
-  };
-  const uint32_t slab = object("slab", make_ground(16, 16, 0.3f), {8, 0, 8}, 1.0f);
-  object("pillar", make_box({1, 1, 1}), {5, 0.0008f - 0.5f, 5}, 0.45f);
-  object("glass", make_box({1, 1, 1}), {11, 0.501f, 11}, 0.45f);
+  const uint32_t slab = cdsm_test::add_surface(scene, "slab", make_ground(16, 16, 0.3f), {8, 0, 8}, 1.0f);
+  cdsm_test::add_surface(scene, "pillar", make_box({1, 1, 1}), {5, 0.0008f - 0.5f, 5}, 0.45f);
+  cdsm_test::add_surface(scene, "glass", make_box({1, 1, 1}), {11, 0.501f, 11}, 0.45f);
   scene.lights.push_back(cdsm_test::spot_light({8, 12, 8}, {0, -1, 0}, 40, 36));
   scene.shadows.resolution = 512;
   SystemOptions o;

@@ -121,12 +121,8 @@ TEST(Inspect, TexelWithinEpsilonOfTheUncompressedRay) {
 TEST(Inspect, TexelShowsWhatTheSurfaceReceives) {
   Scene scene;
   scene.source = "glass on slab";
-  const auto add = [&](const char* name, TriangleMesh mesh, Vec3 at, float opacity) {
-    scene.objects.push_back(
-        cdsm_test::surface_object(name, std::move(mesh), make_transform(at, {0, 0, 0}, {1, 1, 1}), opacity));
-  };
-  add("slab", make_ground(8, 8, 0.3f), {0, 0, 0}, 1.0f);
-  add("glass", make_box({1, 1, 1}), {0, 0.501f, 0}, 0.45f);
+  cdsm_test::add_surface(scene, "slab", make_ground(8, 8, 0.3f), {0, 0, 0}, 1.0f);
+  cdsm_test::add_surface(scene, "glass", make_box({1, 1, 1}), {0, 0.501f, 0}, 0.45f);
   Light l;
   l.position = {0.2f, 6, 0.1f};
   l.direction = normalize(Vec3{-0.2f, -6, -0.1f});
