@@ -20,11 +20,6 @@ std::string mib(uint64_t bytes) {
   return b;
 }
 
-template <class T>
-uint64_t bytes_of(Span<const T> s) {
-  return s.size() * sizeof(T);
-}
-
 }  // namespace
 
 std::string storage_block_shortfall(const Limits& l) {
@@ -144,24 +139,13 @@ MapUploadStats MapBuffers::sync(const ShadowView& view, uint64_t epoch, const De
   MapUploadStats st;
   const DsmStorage& s = view.storage;
   st.full = !synced_ || epoch != epoch_ || s.layout != layout_;
-  const void* data[kMapBlocks] = {nullptr,
-                                  s.texels.data(),
-                                  s.nodes.data(),
-                                  s.chunks.data(),
-                                  s.rgb_texels.data(),
-                                  s.rgb_nodes.data(),
-                                  s.rgb_chunks.data(),
-                                  s.tags.data(),
-                                  s.rgb_tags.data()};
-  const uint64_t bytes[kMapBlocks] = {0,
-                                      bytes_of(s.texels),
-                                      bytes_of(s.nodes),
-                                      bytes_of(s.chunks),
-                                      bytes_of(s.rgb_texels),
-                                      bytes_of(s.rgb_nodes),
-                                      bytes_of(s.rgb_chunks),
-                                      bytes_of(s.tags),
-                                      bytes_of(s.rgb_tags)};
+  const void* data[kMapBlocks] = {};
+  uint64_t bytes[kMapBlocks] = {};
+  for (int b = int(MapBlock::Texels); b < kMapBlocks; ++b) {
+    const StorageBytes array = storage_bytes(s, StorageArray(b - int(MapBlock::Texels)));
+    data[b] = array.data;
+    bytes[b] = array.bytes;
+  }
   // The same ranges on both paths: what changed since the last sync.
   GlMapWrite writes[kMapBlocks];
   int count = 0;

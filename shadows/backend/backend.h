@@ -48,6 +48,32 @@ struct SceneChange {
 enum class StorageArray : int { Texels = 0, Nodes, Chunks, RgbTexels, RgbNodes, RgbChunks, Tags, RgbTags, Count };
 inline constexpr int kStorageArrays = int(StorageArray::Count);
 
+// Storage array `a` of `s` as bytes: where it starts (null where the host
+// cannot read it) and how long it is. The one map from StorageArray to
+// DsmStorage's arrays (the GL blocks, the executor's writes to them).
+struct StorageBytes {
+  const void* data = nullptr;
+  uint64_t bytes = 0;
+};
+template <class T>
+inline StorageBytes storage_bytes_of(Span<const T> span) {
+  return {span.data(), span.size() * sizeof(T)};
+}
+inline StorageBytes storage_bytes(const DsmStorage& s, StorageArray a) {
+  switch (a) {
+    case StorageArray::Texels: return storage_bytes_of(s.grey.texels);
+    case StorageArray::Nodes: return storage_bytes_of(s.grey.nodes);
+    case StorageArray::Chunks: return storage_bytes_of(s.grey.chunks);
+    case StorageArray::RgbTexels: return storage_bytes_of(s.rgb.texels);
+    case StorageArray::RgbNodes: return storage_bytes_of(s.rgb.nodes);
+    case StorageArray::RgbChunks: return storage_bytes_of(s.rgb.chunks);
+    case StorageArray::Tags: return storage_bytes_of(s.grey.tags);
+    case StorageArray::RgbTags: return storage_bytes_of(s.rgb.tags);
+    case StorageArray::Count: break;
+  }
+  return {};
+}
+
 // Bytes [offset, offset + bytes) of one storage() array to be written at the
 // same offset into a GL buffer object (name `gl_buffer`, `gl_buffer_bytes`
 // long) — by the backend itself, from its own memory (write_gl_maps).
@@ -66,14 +92,12 @@ struct GlMapWrite {
 // `s` with every array's data pointer null (the sizes only): what
 // storage_extent() returns over memory the host cannot read.
 inline DsmStorage storage_sizes(DsmStorage s) {
-  s.texels.ptr = nullptr;
-  s.nodes.ptr = nullptr;
-  s.chunks.ptr = nullptr;
-  s.rgb_texels.ptr = nullptr;
-  s.rgb_nodes.ptr = nullptr;
-  s.rgb_chunks.ptr = nullptr;
-  s.tags.ptr = nullptr;
-  s.rgb_tags.ptr = nullptr;
+  for_each_kind(s, [](auto& a) {
+    a.texels.ptr = nullptr;
+    a.nodes.ptr = nullptr;
+    a.chunks.ptr = nullptr;
+    a.tags.ptr = nullptr;
+  });
   return s;
 }
 

@@ -124,14 +124,8 @@ class ExecBackend final : public ExecShadowBackend {
       return exec_storage();
     } else {
       if (mirror_dirty_) {
-        grey_.texels.read(mirror_.texels);
-        grey_.nodes.read(mirror_.nodes);
-        grey_.chunks.read(mirror_.chunks);
-        grey_.tags.read(mirror_.tags);
-        rgb_.texels.read(mirror_.rgb_texels);
-        rgb_.nodes.read(mirror_.rgb_nodes);
-        rgb_.chunks.read(mirror_.rgb_chunks);
-        rgb_.tags.read(mirror_.rgb_tags);
+        read_kind(grey_, mirror_.grey);
+        read_kind(rgb_, mirror_.rgb);
         mirror_dirty_ = false;
       }
       return mirror_.view(exec_storage());
@@ -157,13 +151,13 @@ class ExecBackend final : public ExecShadowBackend {
   void write_gl_maps(const GlMapWrite* writes, int count) override {
     if constexpr (Ex::kGlInterop) {
       const DsmStorage s = exec_storage();
-      const void* src[kStorageArrays] = {s.texels.data(),    s.nodes.data(),      s.chunks.data(), s.rgb_texels.data(),
-                                         s.rgb_nodes.data(), s.rgb_chunks.data(), s.tags.data(),   s.rgb_tags.data()};
-      const uint64_t have[kStorageArrays] = {
-          s.texels.size() * sizeof(TexelRange),    s.nodes.size() * sizeof(DsmNode),
-          s.chunks.size() * sizeof(ChunkNode),     s.rgb_texels.size() * sizeof(TexelRange),
-          s.rgb_nodes.size() * sizeof(DsmNodeRgb), s.rgb_chunks.size() * sizeof(ChunkNodeRgb),
-          s.tags.size() * sizeof(SurfaceTag),      s.rgb_tags.size() * sizeof(SurfaceTag)};
+      const void* src[kStorageArrays];
+      uint64_t have[kStorageArrays];
+      for (int a = 0; a < kStorageArrays; ++a) {
+        const StorageBytes b = storage_bytes(s, StorageArray(a));
+        src[a] = b.data;
+        have[a] = b.bytes;
+      }
       bool seen[kStorageArrays] = {};
       for (int i = 0; i < count; ++i) {
         const int a = int(writes[i].array);
@@ -377,24 +371,27 @@ class ExecBackend final : public ExecShadowBackend {
 
   DsmStorage exec_storage() const {
     DsmStorage s;
-    s.texels = grey_.texels.cspan();
-    s.nodes = grey_.nodes.cspan();
-    s.chunks = grey_.chunks.cspan();
-    s.rgb_texels = rgb_.texels.cspan();
-    s.rgb_nodes = rgb_.nodes.cspan();
-    s.rgb_chunks = rgb_.chunks.cspan();
-    s.tags = grey_.tags.cspan();
-    s.rgb_tags = rgb_.tags.cspan();
+    s.grey = grey_.arrays();
+    s.rgb = rgb_.arrays();
     s.layout = layout_.layout;
     s.layers = layout_.layout == DsmLayout::Fixed ? uint32_t(layout_.fixed_layers) : 0u;
     return s;
   }
 
-  uint64_t allocated_bytes() const {
-    return grey_.texels.capacity() * sizeof(TexelRange) + grey_.nodes.capacity() * sizeof(DsmNode) +
-           grey_.chunks.capacity() * sizeof(ChunkNode) + rgb_.texels.capacity() * sizeof(TexelRange) +
-           rgb_.nodes.capacity() * sizeof(DsmNodeRgb) + rgb_.chunks.capacity() * sizeof(ChunkNodeRgb) +
-           (grey_.tags.capacity() + rgb_.tags.capacity()) * sizeof(SurfaceTag);
+  uint64_t allocated_bytes() const { return allocated_bytes(grey_) + allocated_bytes(rgb_); }
+  template <class Node>
+  static uint64_t allocated_bytes(const KindStore<Node, Ex>& k) {
+    return k.texels.capacity() * sizeof(TexelRange) + k.nodes.capacity() * sizeof(Node) +
+           k.chunks.capacity() * sizeof(typename KindStore<Node, Ex>::Chunk) + k.tags.capacity() * sizeof(SurfaceTag);
+  }
+
+  // The host mirror of one kind's arrays (a download each).
+  template <class Node>
+  static void read_kind(const KindStore<Node, Ex>& k, HostArrays<Node::kChannels>& out) {
+    k.texels.read(out.texels);
+    k.nodes.read(out.nodes);
+    k.chunks.read(out.chunks);
+    k.tags.read(out.tags);
   }
 
   // Emptied, capacity kept: when every map was replaced (the usual rebuild

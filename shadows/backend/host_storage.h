@@ -9,37 +9,43 @@
 
 namespace cdsm {
 
+// One node kind's arrays (NodeArrays<N>) held in host memory.
+template <int N>
+struct HostArrays {
+  std::vector<TexelRange> texels;
+  std::vector<DsmNodeN<N>> nodes;
+  std::vector<ChunkNodeN<N>> chunks;
+  std::vector<SurfaceTag> tags;
+
+  void assign(const NodeArrays<N>& a) {
+    texels.assign(a.texels.begin(), a.texels.end());
+    nodes.assign(a.nodes.begin(), a.nodes.end());
+    chunks.assign(a.chunks.begin(), a.chunks.end());
+    tags.assign(a.tags.begin(), a.tags.end());
+  }
+  NodeArrays<N> view() const {
+    return {{texels.data(), texels.size()},
+            {nodes.data(), nodes.size()},
+            {chunks.data(), chunks.size()},
+            {tags.data(), tags.size()}};
+  }
+};
+
 struct HostStorage {
-  std::vector<TexelRange> texels, rgb_texels;
-  std::vector<DsmNode> nodes;
-  std::vector<DsmNodeRgb> rgb_nodes;
-  std::vector<ChunkNode> chunks;
-  std::vector<ChunkNodeRgb> rgb_chunks;
-  std::vector<SurfaceTag> tags, rgb_tags;
+  HostArrays<1> grey;
+  HostArrays<3> rgb;
 
   // Copies the arrays of `s` (spans the host can read).
   void assign(const DsmStorage& s) {
-    texels.assign(s.texels.begin(), s.texels.end());
-    nodes.assign(s.nodes.begin(), s.nodes.end());
-    chunks.assign(s.chunks.begin(), s.chunks.end());
-    tags.assign(s.tags.begin(), s.tags.end());
-    rgb_texels.assign(s.rgb_texels.begin(), s.rgb_texels.end());
-    rgb_nodes.assign(s.rgb_nodes.begin(), s.rgb_nodes.end());
-    rgb_chunks.assign(s.rgb_chunks.begin(), s.rgb_chunks.end());
-    rgb_tags.assign(s.rgb_tags.begin(), s.rgb_tags.end());
+    grey.assign(s.grey);
+    rgb.assign(s.rgb);
   }
 
   // These arrays seen as a store with `shape`'s layout and layers.
   DsmStorage view(const DsmStorage& shape) const {
     DsmStorage st = shape;
-    st.texels = {texels.data(), texels.size()};
-    st.nodes = {nodes.data(), nodes.size()};
-    st.chunks = {chunks.data(), chunks.size()};
-    st.tags = {tags.data(), tags.size()};
-    st.rgb_texels = {rgb_texels.data(), rgb_texels.size()};
-    st.rgb_nodes = {rgb_nodes.data(), rgb_nodes.size()};
-    st.rgb_chunks = {rgb_chunks.data(), rgb_chunks.size()};
-    st.rgb_tags = {rgb_tags.data(), rgb_tags.size()};
+    st.grey = grey.view();
+    st.rgb = rgb.view();
     return st;
   }
 };

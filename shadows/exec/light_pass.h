@@ -97,6 +97,9 @@ struct KindStore {
   ExecArray<Chunk, Ex> chunks;       // chunked: the slot pool
   ExecArray<SurfaceTag, Ex> tags;    // per slot of `nodes` (packed, fixed) or of `chunks` (chunked)
   uint64_t texel_count = 0;          // this kind's texels (fixed keeps no headers)
+
+  // The arrays as the lookups read them (views of executor memory).
+  NodeArrays<Node::kChannels> arrays() const { return {texels.cspan(), nodes.cspan(), chunks.cspan(), tags.cspan()}; }
 };
 
 // Working memory of the light pass, kept across builds (it only grows).

@@ -76,7 +76,7 @@ struct DsmMap {
   uint64_t texel_offset;  // index of the map's first texel among its kind's texels (packed,
                           // chunked: its first TexelRange; fixed: slots from texel_offset * L)
   uint32_t res;
-  uint32_t rgb;  // 1: RGB nodes (DsmStorage::rgb_*), 0: scalar nodes
+  uint32_t rgb;  // 1: RGB nodes (DsmStorage::rgb), 0: scalar nodes
 };
 static_assert(sizeof(DsmMap) == 112, "DsmMap is 112 bytes");
 
@@ -89,33 +89,41 @@ struct NodeArrays {
   Span<const SurfaceTag> tags;       // per slot of nodes (packed, fixed) or chunks (chunked); empty: none
 };
 
-// All maps' texels and nodes in one layout (views; the owner is the backend).
+// All maps' texels and nodes in one layout (views; the owner is the backend):
+// the arrays of each node kind, the grey maps' and the RGB maps'.
 struct DsmStorage {
-  Span<const TexelRange> texels;  // packed, chunked: per-texel headers, map by map; fixed: empty
-  Span<const DsmNode> nodes;      // packed: the exact pool; fixed: `layers` slots per texel
-  Span<const ChunkNode> chunks;   // chunked: the slot pool, chunk after chunk
-  // The same three for RGB maps.
-  Span<const TexelRange> rgb_texels;
-  Span<const DsmNodeRgb> rgb_nodes;
-  Span<const ChunkNodeRgb> rgb_chunks;
-  // Per node slot (of `nodes` in the packed and fixed layouts, of `chunks`
-  // in the chunked one), the SurfaceTag of the surface whose step ends
-  // there (hd/compress.h); then the same for the RGB maps. Empty: no tags.
-  Span<const SurfaceTag> tags;
-  Span<const SurfaceTag> rgb_tags;
+  NodeArrays<1> grey;
+  NodeArrays<3> rgb;
   DsmLayout layout = DsmLayout::Packed;
   uint32_t layers = 0;  // fixed: L, node slots per texel
 
   template <int N>
-  CDSM_HD inline NodeArrays<N> arrays() const;  // one node kind's arrays (N = 1 grey, 3 RGB)
+  CDSM_HD inline const NodeArrays<N>& arrays() const;  // one node kind's arrays (N = 1 grey, 3 RGB)
+  template <int N>
+  CDSM_HD inline NodeArrays<N>& arrays();
 };
 template <>
-CDSM_HD inline NodeArrays<1> DsmStorage::arrays<1>() const {
-  return {texels, nodes, chunks, tags};
+CDSM_HD inline const NodeArrays<1>& DsmStorage::arrays<1>() const {
+  return grey;
 }
 template <>
-CDSM_HD inline NodeArrays<3> DsmStorage::arrays<3>() const {
-  return {rgb_texels, rgb_nodes, rgb_chunks, rgb_tags};
+CDSM_HD inline const NodeArrays<3>& DsmStorage::arrays<3>() const {
+  return rgb;
+}
+template <>
+CDSM_HD inline NodeArrays<1>& DsmStorage::arrays<1>() {
+  return grey;
+}
+template <>
+CDSM_HD inline NodeArrays<3>& DsmStorage::arrays<3>() {
+  return rgb;
+}
+
+// Calls f(kind's arrays) for the grey then the RGB arrays of `st`.
+template <class Storage, class F>
+inline void for_each_kind(Storage& st, F&& f) {
+  f(st.grey);
+  f(st.rgb);
 }
 
 // Slot i's tag (kNoSurface where the storage keeps none).

@@ -384,12 +384,12 @@ std::string gl_maps_differ(const GlMapBuffers& b, const DsmStorage& s) {
     uint64_t bytes;
   };
   const Array arrays[] = {
-      {"texels", b.texels, s.texels.data(), s.texels.size() * sizeof(TexelRange)},
-      {"nodes", b.nodes, s.nodes.data(), s.nodes.size() * sizeof(DsmNode)},
-      {"chunks", b.chunks, s.chunks.data(), s.chunks.size() * sizeof(ChunkNode)},
-      {"rgb_texels", b.rgb_texels, s.rgb_texels.data(), s.rgb_texels.size() * sizeof(TexelRange)},
-      {"rgb_nodes", b.rgb_nodes, s.rgb_nodes.data(), s.rgb_nodes.size() * sizeof(DsmNodeRgb)},
-      {"rgb_chunks", b.rgb_chunks, s.rgb_chunks.data(), s.rgb_chunks.size() * sizeof(ChunkNodeRgb)},
+      {"texels", b.texels, s.grey.texels.data(), s.grey.texels.size() * sizeof(TexelRange)},
+      {"nodes", b.nodes, s.grey.nodes.data(), s.grey.nodes.size() * sizeof(DsmNode)},
+      {"chunks", b.chunks, s.grey.chunks.data(), s.grey.chunks.size() * sizeof(ChunkNode)},
+      {"rgb_texels", b.rgb_texels, s.rgb.texels.data(), s.rgb.texels.size() * sizeof(TexelRange)},
+      {"rgb_nodes", b.rgb_nodes, s.rgb.nodes.data(), s.rgb.nodes.size() * sizeof(DsmNodeRgb)},
+      {"rgb_chunks", b.rgb_chunks, s.rgb.chunks.data(), s.rgb.chunks.size() * sizeof(ChunkNodeRgb)},
   };
   std::string out;
   for (const Array& a : arrays) {

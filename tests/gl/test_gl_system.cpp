@@ -189,9 +189,9 @@ TEST_F(GlSystem, UploadsOnlyWhatChanged) {
   sys.update(&first);
   const FrameSnapshot snap(sys);
   const DsmStorage s0 = snap.backend().storage();
-  const uint64_t arrays0 = (s0.texels.size() + s0.rgb_texels.size()) * 8 + s0.nodes.size() * 8 +
-                           s0.rgb_nodes.size() * 16 + s0.chunks.size() * 12 + s0.rgb_chunks.size() * 20 +
-                           (s0.tags.size() + s0.rgb_tags.size()) * 2;
+  const uint64_t arrays0 = (s0.grey.texels.size() + s0.rgb.texels.size()) * 8 + s0.grey.nodes.size() * 8 +
+                           s0.rgb.nodes.size() * 16 + s0.grey.chunks.size() * 12 + s0.rgb.chunks.size() * 20 +
+                           (s0.grey.tags.size() + s0.rgb.tags.size()) * 2;
   const uint64_t frame_block = sizeof(gl::FrameBlockHeader) + sizeof(DsmMap) * snap.frame().headers.size();
   EXPECT_TRUE(first.update.gl_map_full_upload);
   EXPECT_EQ(first.update.gl_map_upload_bytes, arrays0 + frame_block);
@@ -204,8 +204,8 @@ TEST_F(GlSystem, UploadsOnlyWhatChanged) {
   EXPECT_FALSE(again.update.gl_map_full_upload);
 
   const auto array_bytes = [](const DsmStorage& d) {
-    return (d.texels.size() + d.rgb_texels.size()) * 8 + d.nodes.size() * 8 + d.rgb_nodes.size() * 16 +
-           d.chunks.size() * 12 + d.rgb_chunks.size() * 20 + (d.tags.size() + d.rgb_tags.size()) * 2;
+    return (d.grey.texels.size() + d.rgb.texels.size()) * 8 + d.grey.nodes.size() * 8 + d.rgb.nodes.size() * 16 +
+           d.grey.chunks.size() * 12 + d.rgb.chunks.size() * 20 + (d.grey.tags.size() + d.rgb.tags.size()) * 2;
   };
   // A spot light is added: its map is appended to the buffers.
   ASSERT_EQ(scene.lights[0].type, LightType::Spot);
@@ -237,11 +237,11 @@ TEST_F(GlSystem, UploadsOnlyWhatChanged) {
 
   // The GL buffers hold exactly the backend's arrays.
   const GlMapBuffers b = sys.gl_buffers();
-  std::vector<unsigned char> gl_nodes(s2.nodes.size() * 8), gl_texels(s2.texels.size() * 8);
+  std::vector<unsigned char> gl_nodes(s2.grey.nodes.size() * 8), gl_texels(s2.grey.texels.size() * 8);
   glGetNamedBufferSubData(b.nodes, 0, GLsizeiptr(gl_nodes.size()), gl_nodes.data());
   glGetNamedBufferSubData(b.texels, 0, GLsizeiptr(gl_texels.size()), gl_texels.data());
-  EXPECT_EQ(std::memcmp(gl_nodes.data(), s2.nodes.data(), gl_nodes.size()), 0);
-  EXPECT_EQ(std::memcmp(gl_texels.data(), s2.texels.data(), gl_texels.size()), 0);
+  EXPECT_EQ(std::memcmp(gl_nodes.data(), s2.grey.nodes.data(), gl_nodes.size()), 0);
+  EXPECT_EQ(std::memcmp(gl_texels.data(), s2.grey.texels.data(), gl_texels.size()), 0);
 }
 
 // A mesh given through the application's buffers (interleaved, 16-bit
@@ -543,8 +543,9 @@ class InPlaceBackend final : public ShadowBackend {
       throw std::runtime_error("in-place test double: write failed");
     }
     const DsmStorage s = inner_->storage();
-    const void* src[kStorageArrays] = {s.texels.data(),    s.nodes.data(),      s.chunks.data(), s.rgb_texels.data(),
-                                       s.rgb_nodes.data(), s.rgb_chunks.data(), s.tags.data(),   s.rgb_tags.data()};
+    const void* src[kStorageArrays] = {s.grey.texels.data(), s.grey.nodes.data(), s.grey.chunks.data(),
+                                       s.rgb.texels.data(),  s.rgb.nodes.data(),  s.rgb.chunks.data(),
+                                       s.grey.tags.data(),   s.rgb.tags.data()};
     static_assert(kStorageArrays == 8, "one source per storage array");
     for (int i = 0; i < n; ++i) {
       const auto known = registered.find(w[i].gl_buffer);

@@ -99,8 +99,8 @@ struct MapComparison {
 // Whether `st` holds map `m`'s texels (headers, or fixed slots), so reading them stays inside it.
 inline bool holds_texels(const DsmStorage& st, const DsmMap& m) {
   const uint64_t texels = uint64_t(m.texel_offset) + uint64_t(m.res) * m.res;
-  if (st.layout == DsmLayout::Fixed) return (m.rgb ? st.rgb_nodes.size() : st.nodes.size()) >= texels * st.layers;
-  return (m.rgb ? st.rgb_texels.size() : st.texels.size()) >= texels;
+  if (st.layout == DsmLayout::Fixed) return (m.rgb ? st.rgb.nodes.size() : st.grey.nodes.size()) >= texels * st.layers;
+  return (m.rgb ? st.rgb.texels.size() : st.grey.texels.size()) >= texels;
 }
 
 // Texel by texel: identical node lists, and the largest |alpha_a - alpha_b|

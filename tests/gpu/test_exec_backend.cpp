@@ -329,8 +329,8 @@ std::vector<std::vector<unsigned char>> store_bytes(const DsmStorage& s) {
     const auto* p = reinterpret_cast<const unsigned char*>(span.data());
     return std::vector<unsigned char>(p, p + span.size() * sizeof(*span.data()));
   };
-  return {bytes(s.texels),    bytes(s.nodes),      bytes(s.chunks), bytes(s.rgb_texels),
-          bytes(s.rgb_nodes), bytes(s.rgb_chunks), bytes(s.tags),   bytes(s.rgb_tags)};
+  return {bytes(s.grey.texels), bytes(s.grey.nodes), bytes(s.grey.chunks), bytes(s.rgb.texels),
+          bytes(s.rgb.nodes),   bytes(s.rgb.chunks), bytes(s.grey.tags),   bytes(s.rgb.tags)};
 }
 
 // A build that fails at any of its steps (each allocation and each launch in

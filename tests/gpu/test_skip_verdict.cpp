@@ -48,8 +48,8 @@ struct SmallMap {
   DsmStorage storage() const {
     DsmStorage s;
     s.layout = DsmLayout::Packed;
-    s.texels = {texels.data(), texels.size()};
-    s.nodes = {nodes.data(), nodes.size()};
+    s.grey.texels = {texels.data(), texels.size()};
+    s.grey.nodes = {nodes.data(), nodes.size()};
     return s;
   }
 };

@@ -163,7 +163,7 @@ std::vector<float> probe_depths(const std::vector<DsmNode>& n) {
   return z;
 }
 
-uint32_t packed_count(const HostMaps& b, int tx, int ty) { return b.texels[size_t(ty) * kRes + tx].count; }
+uint32_t packed_count(const HostMaps& b, int tx, int ty) { return b.grey.texels[size_t(ty) * kRes + tx].count; }
 
 TEST(Layouts, SceneHasInterestingTexels) {
   HostMaps p;
@@ -171,7 +171,7 @@ TEST(Layouts, SceneHasInterestingTexels) {
   EXPECT_GT(st.max_nodes, 64u) << "the slab stack should need more than one chunk per texel";
   EXPECT_EQ(st.overflow_texels, 0u);
   uint64_t nonempty = 0;
-  for (const TexelRange& r : p.texels) nonempty += r.count > 0;
+  for (const TexelRange& r : p.grey.texels) nonempty += r.count > 0;
   EXPECT_GT(nonempty, uint64_t(kRes) * kRes / 8);
 }
 
@@ -228,17 +228,17 @@ TEST(Layouts, PackedHasNoSlack) {
   HostMaps p;
   DsmBuildStats st = fixture().build(packed(), p);
   uint64_t sum = 0;
-  for (const TexelRange& r : p.texels) sum += r.count;
+  for (const TexelRange& r : p.grey.texels) sum += r.count;
   EXPECT_EQ(st.nodes, sum);
-  EXPECT_EQ(p.nodes.size(), sum) << "the pool holds exactly the nodes";
+  EXPECT_EQ(p.grey.nodes.size(), sum) << "the pool holds exactly the nodes";
   EXPECT_EQ(st.index_bytes, uint64_t(kRes) * kRes * sizeof(TexelRange));
   EXPECT_EQ(st.node_bytes_used, sum * sizeof(DsmNode));
   EXPECT_EQ(st.node_bytes_allocated, st.node_bytes_used);
   EXPECT_EQ(st.slack_bytes, 0u);
-  EXPECT_EQ(p.tags.size(), sum) << "one surface tag per node";
+  EXPECT_EQ(p.grey.tags.size(), sum) << "one surface tag per node";
   EXPECT_EQ(st.tag_bytes, sum * sizeof(SurfaceTag));
   // Tiles reserve exactly: the headers tile the pool without gaps or overlaps.
-  std::vector<TexelRange> r(p.texels.begin(), p.texels.end());
+  std::vector<TexelRange> r(p.grey.texels.begin(), p.grey.texels.end());
   std::sort(r.begin(), r.end(), [](TexelRange a, TexelRange b) { return a.offset < b.offset; });
   uint64_t at = 0;
   for (TexelRange t : r) {
@@ -265,8 +265,8 @@ TEST(Layouts, FixedWasteMatchesHandCount) {
       for (const DsmNode& n : slots) pads += n.z == kFixedPadZ;
     }
   const uint64_t slots = uint64_t(kRes) * kRes * L;
-  EXPECT_EQ(x.nodes.size(), slots);
-  EXPECT_EQ(x.texels.size(), 0u) << "fixed has no per-texel header";
+  EXPECT_EQ(x.grey.nodes.size(), slots);
+  EXPECT_EQ(x.grey.texels.size(), 0u) << "fixed has no per-texel header";
   EXPECT_EQ(st.index_bytes, 0u);
   EXPECT_EQ(st.nodes, used);
   EXPECT_EQ(pads, slots - used);
@@ -274,7 +274,7 @@ TEST(Layouts, FixedWasteMatchesHandCount) {
   EXPECT_EQ(st.node_bytes_used, used * sizeof(DsmNode));
   EXPECT_EQ(st.slack_bytes, (slots - used) * sizeof(DsmNode));
   EXPECT_GT(st.slack_bytes, st.node_bytes_used) << "most of a fixed map is waste here";
-  EXPECT_EQ(x.tags.size(), slots) << "one surface tag per slot";
+  EXPECT_EQ(x.grey.tags.size(), slots) << "one surface tag per slot";
   EXPECT_EQ(st.tag_bytes, slots * sizeof(SurfaceTag));
 }
 
@@ -296,23 +296,23 @@ TEST(Layouts, ChunkedSlackMatchesHandCount) {
         used += t;
       }
     EXPECT_EQ(st.chunks, chunks) << "C = " << C;
-    EXPECT_EQ(c.chunks.size(), chunks * C);
+    EXPECT_EQ(c.grey.chunks.size(), chunks * C);
     EXPECT_EQ(st.nodes, used);
     EXPECT_EQ(st.index_bytes, uint64_t(kRes) * kRes * sizeof(TexelRange));
     EXPECT_EQ(st.node_bytes_allocated, chunks * C * sizeof(ChunkNode));
     EXPECT_EQ(st.node_bytes_used, used * sizeof(ChunkNode));
     EXPECT_EQ(st.slack_bytes, (chunks * C - used) * sizeof(ChunkNode));
-    EXPECT_EQ(c.tags.size(), chunks * C) << "one surface tag per slot";
+    EXPECT_EQ(c.grey.tags.size(), chunks * C) << "one surface tag per slot";
     EXPECT_EQ(st.tag_bytes, chunks * C * sizeof(SurfaceTag));
     // The slots no texel list reaches are exactly the slack.
-    std::vector<uint8_t> reached(c.chunks.size(), 0);
-    for (const TexelRange& h : c.texels) {
+    std::vector<uint8_t> reached(c.grey.chunks.size(), 0);
+    for (const TexelRange& h : c.grey.texels) {
       uint32_t slot = h.offset;
       for (uint32_t i = 0; i < h.count; ++i) {
-        ASSERT_LT(slot, c.chunks.size());
+        ASSERT_LT(slot, c.grey.chunks.size());
         ASSERT_EQ(reached[slot], 0) << "two lists share a slot";
         reached[slot] = 1;
-        slot = c.chunks[slot].next;
+        slot = c.grey.chunks[slot].next;
       }
       EXPECT_EQ(slot, kChunkEnd) << "a list ends with kChunkEnd";
     }
@@ -329,7 +329,7 @@ TEST(Layouts, ChunkedLinksLongTexelsAcrossChunks) {
   int long_texels = 0;
   for (int ty = 0; ty < kRes; ++ty)
     for (int tx = 0; tx < kRes; ++tx) {
-      const TexelRange h = c.texels[size_t(ty) * kRes + tx];
+      const TexelRange h = c.grey.texels[size_t(ty) * kRes + tx];
       if (h.count <= 64) continue;
       ++long_texels;
       std::set<uint32_t> chunks;
@@ -340,7 +340,7 @@ TEST(Layouts, ChunkedLinksLongTexelsAcrossChunks) {
         }
         chunks.insert(slot / 64);
         prev = slot;
-        slot = c.chunks[slot].next;
+        slot = c.grey.chunks[slot].next;
       }
       EXPECT_EQ(slot, kChunkEnd);
       EXPECT_GE(chunks.size(), 2u);
@@ -525,7 +525,7 @@ TEST(Layouts, FixedSmallLayersRecordOverflow) {
   const int L = 6;
   DsmBuildStats st = f.build(fixed(L), x);
   uint64_t over = 0;
-  for (const TexelRange& r : p.texels) over += r.count > uint32_t(L);
+  for (const TexelRange& r : p.grey.texels) over += r.count > uint32_t(L);
   ASSERT_GT(over, 0u);
   EXPECT_EQ(st.layout_overflow_texels, over);
   EXPECT_EQ(st.overflow_texels, over);
@@ -533,7 +533,7 @@ TEST(Layouts, FixedSmallLayersRecordOverflow) {
   EXPECT_LE(st.max_nodes, uint32_t(L));
   EXPECT_EQ(st.max_built_nodes, [&] {
     uint32_t m = 0;
-    for (const TexelRange& r : p.texels) m = std::max(m, r.count);
+    for (const TexelRange& r : p.grey.texels) m = std::max(m, r.count);
     return m;
   }());
   double worst = 0.0, worst_ratio = 0.0;

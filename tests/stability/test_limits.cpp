@@ -64,8 +64,8 @@ TEST(Overflow, RecompressesRecordsTheErrorAndKeepsItWithinTheBound) {
   EXPECT_GT(st.max_extra_error, 0.0f);
   EXPECT_LE(st.max_nodes, uint32_t(capacity));
   // The centre texel (the axis): within the recorded bound of 1 - exp(-sigma d).
-  const TexelRange& centre = out.texels[size_t(8) * 17 + 8];
-  std::vector<DsmNode> n(out.nodes.begin() + centre.offset, out.nodes.begin() + centre.offset + centre.count);
+  const TexelRange& centre = out.grey.texels[size_t(8) * 17 + 8];
+  std::vector<DsmNode> n(out.grey.nodes.begin() + centre.offset, out.grey.nodes.begin() + centre.offset + centre.count);
   ASSERT_TRUE(physical(n));
   Span<const DsmNode> sp{n.data(), n.size()};
   for (float y = 3.0f; y >= 0.9f; y -= 0.05f) {
@@ -73,9 +73,9 @@ TEST(Overflow, RecompressesRecordsTheErrorAndKeepsItWithinTheBound) {
     EXPECT_NEAR(lookup_alpha(sp, 5.0f - y), 1.0f - std::exp(-sigma * d), st.max_extra_error + 1e-4f) << "y " << y;
   }
   EXPECT_NEAR(lookup_alpha(sp, 4.5f), 1.0f - std::exp(-2.0f * sigma), 1e-4f) << "the slab's end is kept";
-  for (size_t t = 0; t < out.texels.size(); ++t) {
-    std::vector<DsmNode> m(out.nodes.begin() + out.texels[t].offset,
-                           out.nodes.begin() + out.texels[t].offset + out.texels[t].count);
+  for (size_t t = 0; t < out.grey.texels.size(); ++t) {
+    std::vector<DsmNode> m(out.grey.nodes.begin() + out.grey.texels[t].offset,
+                           out.grey.nodes.begin() + out.grey.texels[t].offset + out.grey.texels[t].count);
     ASSERT_TRUE(physical(m)) << "texel " << t;
   }
 }

@@ -129,8 +129,8 @@ struct HandMap {
   }
   DsmStorage storage() const {
     DsmStorage st;  // packed layout (the default)
-    st.texels = {texels.data(), texels.size()};
-    st.nodes = {nodes.data(), nodes.size()};
+    st.grey.texels = {texels.data(), texels.size()};
+    st.grey.nodes = {nodes.data(), nodes.size()};
     return st;
   }
 };
