@@ -82,18 +82,25 @@ TEST(Overflow, RecompressesRecordsTheErrorAndKeepsItWithinTheBound) {
 
 TEST(Overflow, FrameStatsReportIt) {
   Scene s = fog_slab(1100, 1.0f);  // 2,200 samples per ray: over the 1,024-node buffer
-  Renderer r;
-  RenderOptions o = cpu_options();
-  FrameStats st;
-  ASSERT_TRUE(finite_image(r.render(s, o, &st)));
+  // One system's frame, its maps built once (under ASan a build of these
+  // rays takes ~17 s): what its update reported, an image over its maps,
+  // and the maps against the reference through and under the slab.
+  Rig rig(s);
+  const FrameStats st = rig.snapshot().stats();
+  ASSERT_TRUE(finite_image(rig.system->render()));
   EXPECT_GT(st.memory.overflow_texels, 0u);
   EXPECT_GT(st.memory.max_extra_error, 0.0f);
   EXPECT_LE(st.memory.max_nodes_per_texel, uint32_t(kTexelNodeCapacity));
-  Rig rig(s);
   EXPECT_NEAR(rig.alpha({0.02f, 0.5f, 0.02f}), 1.0f - std::exp(-2.0f), st.memory.max_extra_error + 1e-3f);
-  TransmittanceError te = r.transmittance_error(s, o);
-  EXPECT_GT(te.points, 0u);
-  EXPECT_LT(te.max, double(st.memory.max_extra_error) + 0.01);
+  double worst = 0.0;
+  for (float x : {-0.6f, 0.02f, 0.6f})
+    for (float y = 2.95f; y > 0.0f; y -= 0.1f) {
+      const Vec3 p{x, y, 0.02f};
+      worst = std::max(worst, double(std::fabs(1.0f - rig.alpha(p) - rig.reference_T(p))));
+    }
+  std::printf("[ overflow ] worst |T - reference| %.5f, recorded extra error %.5f\n", worst,
+              double(st.memory.max_extra_error));
+  EXPECT_LT(worst, double(st.memory.max_extra_error) + 0.01);
 }
 
 TEST(Overflow, MoreStepsThanTheBufferHolds) {
