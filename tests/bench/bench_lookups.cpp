@@ -7,13 +7,22 @@
 // plane; volume samples: points in the smoke's box at their own depth. One
 // thread; counter per_lookup (seconds, with an SI prefix).
 //
+// BM_CameraPass: the camera pass of `cdsm render content/scenes/default.json
+// --backend cpu --fragments cpu` (its hard spot light, the smoke marched per
+// pixel) at 360 x 240 on one thread, in one process: ShadowSystem::render()
+// over maps built once, with its camera fragments and camera pass times
+// (FrameStats::times) as counters. Whole renders on a shared 2-core VM vary
+// by 15-25% run to run; this is the figure to A/B the per-pixel path with.
+//
 // BM_SeriesReconstruction: what the Fourier opacity maps' and the moments'
 // own lookup would cost in an engine that keeps their numbers per texel
 // (the maps here tabulate it into nodes, hd/baselines.h): one texel's
 // reconstruction at one depth (hd/series.h), six layers of random depth
 // and absorbance, 4096 depths. A bilinear lookup reconstructs four texels.
 #include <benchmark/benchmark.h>
+#include <tbb/global_control.h>
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -112,8 +121,29 @@ void BM_SeriesReconstruction(benchmark::State& state) {
   state.SetLabel(std::string(names[mode]) + ": one texel, one depth");
 }
 
+void BM_CameraPass(benchmark::State& state) {
+  const tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
+  Scene scene = Maps::load();
+  scene.camera.width = 360;
+  scene.camera.height = 240;
+  const std::unique_ptr<ShadowSystem> system = cdsm_test::updated_system(scene);
+  double fragments_ms = 0.0, pass_ms = 0.0;
+  for (auto _ : state) {
+    FrameStats st;
+    benchmark::DoNotOptimize(system->render(&st));
+    fragments_ms += st.times.camera_fragments_ms;
+    pass_ms += st.times.camera_ms;
+  }
+  const double n = double(state.iterations());
+  state.counters["camera_fragments_ms"] = fragments_ms / n;
+  state.counters["camera_pass_ms"] = pass_ms / n;
+  state.counters["per_pixel"] =
+      benchmark::Counter(n * 360.0 * 240.0, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
 }  // namespace
 
+BENCHMARK(BM_CameraPass)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_SeriesReconstruction)->DenseRange(0, 4)->Unit(benchmark::kMillisecond)->MinTime(0.5);
 BENCHMARK(BM_Lookup)->ArgsProduct({{0, 1, 2, 3}, {0, 1}})->Unit(benchmark::kMillisecond)->MinTime(0.5);
 BENCHMARK_MAIN();
