@@ -92,12 +92,14 @@ struct GlMapWrite {
 // `s` with every array's data pointer null (the sizes only): what
 // storage_extent() returns over memory the host cannot read.
 inline DsmStorage storage_sizes(DsmStorage s) {
-  for_each_kind(s, [](auto& a) {
+  const auto sizes_only = [](auto& a) {
     a.texels.ptr = nullptr;
     a.nodes.ptr = nullptr;
     a.chunks.ptr = nullptr;
     a.tags.ptr = nullptr;
-  });
+  };
+  sizes_only(s.grey);
+  sizes_only(s.rgb);
   return s;
 }
 

@@ -99,8 +99,6 @@ struct DsmStorage {
 
   template <int N>
   CDSM_HD inline const NodeArrays<N>& arrays() const;  // one node kind's arrays (N = 1 grey, 3 RGB)
-  template <int N>
-  CDSM_HD inline NodeArrays<N>& arrays();
 };
 template <>
 CDSM_HD inline const NodeArrays<1>& DsmStorage::arrays<1>() const {
@@ -109,21 +107,6 @@ CDSM_HD inline const NodeArrays<1>& DsmStorage::arrays<1>() const {
 template <>
 CDSM_HD inline const NodeArrays<3>& DsmStorage::arrays<3>() const {
   return rgb;
-}
-template <>
-CDSM_HD inline NodeArrays<1>& DsmStorage::arrays<1>() {
-  return grey;
-}
-template <>
-CDSM_HD inline NodeArrays<3>& DsmStorage::arrays<3>() {
-  return rgb;
-}
-
-// Calls f(kind's arrays) for the grey then the RGB arrays of `st`.
-template <class Storage, class F>
-inline void for_each_kind(Storage& st, F&& f) {
-  f(st.grey);
-  f(st.rgb);
 }
 
 // Slot i's tag (kNoSurface where the storage keeps none).

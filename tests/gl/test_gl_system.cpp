@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <string>
@@ -810,6 +811,25 @@ TEST_F(GlSystem, AFailedInPlaceWriteIsRepairedByTheNextUpdate) {
   sys.update(&st);
   EXPECT_TRUE(st.update.gl_map_full_upload);
   EXPECT_EQ(gl_maps_differ(sys.gl_buffers(), snap.backend().storage()), "");
+}
+
+// CDSM_SHADER_DIR (engine/gl/shaders.h): cdsm.glsl read from its parts on
+// disk (content/shaders/cdsm/) is the embedded copy byte for byte; a
+// directory without the parts is an error naming the part it lacks.
+TEST(GlslInclude, ShaderDirJoinsThePartsAsTheBuildDoes) {
+  struct Unset {
+    ~Unset() { unsetenv("CDSM_SHADER_DIR"); }
+  } unset;
+  const std::string embedded = glsl_include();
+  setenv("CDSM_SHADER_DIR", CDSM_CONTENT_DIR_TEST "/shaders", 1);
+  EXPECT_EQ(glsl_include(), embedded);
+  setenv("CDSM_SHADER_DIR", CDSM_TEST_OUTPUT_DIR, 1);
+  try {
+    glsl_include();
+    ADD_FAILURE() << "a shader directory without cdsm.glsl's parts was read";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cdsm/interface.glsl"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
