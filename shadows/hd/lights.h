@@ -232,10 +232,12 @@ CDSM_HD inline Vec3 map_alpha_in_colour(const ShadowView& sv, const LightData& L
 // A sphere light of radius r (or the sun's cone, tan of its half-angle r)
 // seen from a receiver at depth z: the shadow rays to its area cross depth
 // z_b inside a disk around the receiver's own light ray of radius
-//   rho(z_b) = r (z - z_b) / (z z_b)   window units (tangents) of a pinhole map,
+//   rho(z_b) = r (z - z_b) / (z z_b)   radians across the ray (a pinhole map's depths are radial),
 //   rho(z_b) = r (z - z_b)             world units of an orthographic one
-// (similar triangles). A blocker at z_b whose texel lies farther than
-// rho(z_b) from the receiver's ray casts nothing on it. The lookup
+// (similar triangles), placed in the map through the window's stretch off
+// its axis (PenumbraFrame below: an ellipse). A blocker at z_b whose texel
+// lies farther than rho(z_b) from the receiver's ray casts nothing on it.
+// The lookup
 //   1. searches the map around the receiver (a disk of radius rho at the
 //      map's near plane, at most kPenumbraSearchTexels texels): the texel
 //      under it and rings of 8 texels at 1, 2, 4, ... texels out to the
@@ -297,6 +299,47 @@ CDSM_HD CDSM_INLINE float penumbra_radius(const LightData& L, const DsmMap& m, f
   const float d = fmaxf(z - zb, 0.0f);
   return is_orthographic(m.view) ? L.size * d : L.size * d / (z * fmaxf(zb, 1e-6f));
 }
+
+// A penumbra's disk is a cone of angular radius rho around the receiver's
+// light ray (radial depths: rho in radians; orthographic maps: world units).
+// Off the map's axis the window stretches it: a pinhole maps the ray's
+// direction (w, 1) / L, L = sqrt(1 + |w|^2) = 1 / cos(angle off the axis),
+// to window coordinates w, so an angle g across the ray lands as L g
+// tangentially and L^2 g radially (away from the axis): the disk is an
+// ellipse in the map, wider the farther off the axis (45 degrees: 1.4 x 2,
+// a cube face's corner: 1.7 x 3). Lookups measure their offsets in angles
+// and place them through this frame (to_pixels, angle_of): J g =
+// L (g + (g . w) w / (L + 1)), J^-1 d = (d - (d . w) w / (L (L + 1))) / L.
+// Orthographic maps: L = 1, the identity.
+struct PenumbraFrame {
+  float to_u, to_v;  // pixels per window unit
+  Vec2 w;            // the receiver's window coordinates (tangents off the axis; 0 orthographic)
+  float l;           // sqrt(1 + |w|^2)
+  float texel;       // one texel across the ray: radians (the window's texel / L); world units orthographic
+};
+CDSM_HD CDSM_INLINE PenumbraFrame penumbra_frame(const DsmMap& m, const ViewProjection& pr) {
+  PenumbraFrame f;
+  f.to_u = float(m.res) / (2.0f * m.view.tan_half_x);
+  f.to_v = float(m.res) / (2.0f * m.view.tan_half_y);
+  f.w = is_orthographic(m.view) ? Vec2{0.0f, 0.0f} : window_at(m.view, pr.u, pr.v);
+  f.l = sqrtf(1.0f + f.w.x * f.w.x + f.w.y * f.w.y);
+  f.texel = 2.0f * fmaxf(m.view.tan_half_x, m.view.tan_half_y) / (float(m.res) * f.l);
+  return f;
+}
+// The pixel offset (du, dv) of angle g (right, up) across the receiver's ray.
+CDSM_HD CDSM_INLINE Vec2 to_pixels(const PenumbraFrame& f, float gx, float gy) {
+  const float k = (gx * f.w.x + gy * f.w.y) / (f.l + 1.0f);
+  return Vec2{f.l * (gx + k * f.w.x) * f.to_u, -f.l * (gy + k * f.w.y) * f.to_v};
+}
+// The angle across the receiver's ray of pixel offset (du, dv).
+CDSM_HD CDSM_INLINE float angle_of(const PenumbraFrame& f, float du, float dv) {
+  const float x = du / f.to_u, y = -dv / f.to_v;
+  const float k = (x * f.w.x + y * f.w.y) / (f.l * (f.l + 1.0f));
+  const float ax = x - k * f.w.x, ay = y - k * f.w.y;
+  return sqrtf(ax * ax + ay * ay) / f.l;
+}
+// The largest pixel length of an angle (the stretch along the radial: L^2).
+CDSM_HD CDSM_INLINE float max_pixels_per_angle(const PenumbraFrame& f) { return f.l * f.l * fmaxf(f.to_u, f.to_v); }
 
 // Grid point (i, j) of a side x side grid over [-1, 1]^2; false outside the unit disk.
 CDSM_HD CDSM_INLINE bool disk_grid_point(int i, int j, int side, float& x, float& y) {
@@ -368,15 +411,14 @@ CDSM_HD CDSM_INLINE float blocker_limit(const ShadowView& sv, const LightData& L
   return depth - receiver_read_at(sv, m, pr, r, depth).window;
 }
 
-// The filter radius (window units) of light L's penumbra at receiver r in
+// The filter radius (radians across the ray; world units orthographic) of light L's penumbra at receiver r in
 // map m (0: a hard lookup), step 1 above.
 CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightData& L, const DsmMap& m,
                                             const ViewProjection& pr, const Receiver& r) {
   const float z = pr.depth;
   if (sv.penumbra == Penumbra::FixedKernel) return penumbra_radius(L, m, z, 0.5f * z);
-  const float texel = 2.0f * fmaxf(m.view.tan_half_x, m.view.tan_half_y) / float(m.res);  // window units
-  const float search = fminf(penumbra_radius(L, m, z, fmaxf(m.view.near, 1e-6f)), kPenumbraSearchTexels * texel);
-  const float to_u = float(m.res) / (2.0f * m.view.tan_half_x), to_v = float(m.res) / (2.0f * m.view.tan_half_y);
+  const PenumbraFrame f = penumbra_frame(m, pr);
+  const float search = fminf(penumbra_radius(L, m, z, fmaxf(m.view.near, 1e-6f)), kPenumbraSearchTexels * f.texel);
   const int res = int(m.res);
   float weight = 0.0f, moment = 0.0f;
   // The texel under the receiver, then rings of 8 at 1, 2, 4, ... texels
@@ -385,20 +427,19 @@ CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightDat
   for (int k = 0; k < 2 + 8 * kPenumbraSearchRings; ++k) {
     if (k > 0 && (k - 1) % 8 == 0) {  // the next ring
       if (ring >= search) break;
-      ring = fminf(k == 1 ? texel : 2.0f * ring, search);
+      ring = fminf(k == 1 ? f.texel : 2.0f * ring, search);
     }
     const int d = k == 0 ? 0 : ((k - 1) % 8) * 2 + (((k - 1) / 8) & 1);
     const Vec2 dir = penumbra_direction(d);
-    const float x = k == 0 ? 0.0f : ring * dir.x;
-    const float y = k == 0 ? 0.0f : ring * dir.y;
-    const int tx = int(floorf(pr.u + x * to_u)), ty = int(floorf(pr.v + y * to_v));
+    const Vec2 at = k == 0 ? Vec2{0.0f, 0.0f} : to_pixels(f, ring * dir.x, ring * dir.y);
+    const int tx = int(floorf(pr.u + at.x)), ty = int(floorf(pr.v + at.y));
     if (tx < 0 || ty < 0 || tx >= res || ty >= res) continue;
     const TexelBlockers b = m.rgb ? texel_blockers<3>(sv.storage, m, tx, ty, blocker_limit(sv, L, m, pr, r, tx, ty))
                                   : texel_blockers<1>(sv.storage, m, tx, ty, blocker_limit(sv, L, m, pr, r, tx, ty));
     if (!(b.alpha > kPenumbraMinAlpha)) continue;
-    // Its texel centre's distance from the receiver's ray, window units.
-    const float dx = (float(tx) + 0.5f - pr.u) / to_u, dy = (float(ty) + 0.5f - pr.v) / to_v;
-    if (sqrtf(dx * dx + dy * dy) > 2.0f * penumbra_radius(L, m, z, b.depth) + texel) continue;
+    // Its texel centre's angle from the receiver's ray.
+    const float off = angle_of(f, float(tx) + 0.5f - pr.u, float(ty) + 0.5f - pr.v);
+    if (off > 2.0f * penumbra_radius(L, m, z, b.depth) + f.texel) continue;
     weight += b.alpha;
     moment += b.alpha * b.depth;
   }
@@ -411,16 +452,13 @@ CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightDat
 // (the body of a cup standing on the ground beside the receiver) casts only
 // within a texel or two of itself: the tap counts as lit.
 CDSM_HD inline bool blocks_receiver(const ShadowView& sv, const LightData& L, const DsmMap& m, const ViewProjection& pr,
-                                    const Receiver& r, const ViewProjection& at) {
+                                    const PenumbraFrame& f, const Receiver& r, const ViewProjection& at) {
   const int tx = int(floorf(at.u)), ty = int(floorf(at.v)), res = int(m.res);
   if (tx < 0 || ty < 0 || tx >= res || ty >= res) return true;
-  const float to_u = float(m.res) / (2.0f * m.view.tan_half_x), to_v = float(m.res) / (2.0f * m.view.tan_half_y);
-  const float texel = 2.0f * fmaxf(m.view.tan_half_x, m.view.tan_half_y) / float(m.res);
   const TexelBlockers b = m.rgb ? texel_blockers<3>(sv.storage, m, tx, ty, blocker_limit(sv, L, m, pr, r, tx, ty))
                                 : texel_blockers<1>(sv.storage, m, tx, ty, blocker_limit(sv, L, m, pr, r, tx, ty));
   if (!(b.alpha > kPenumbraMinAlpha)) return true;
-  const float dx = (at.u - pr.u) / to_u, dy = (at.v - pr.v) / to_v;
-  return sqrtf(dx * dx + dy * dy) <= penumbra_radius(L, m, pr.depth, b.depth) + texel;
+  return angle_of(f, at.u - pr.u, at.v - pr.v) <= penumbra_radius(L, m, pr.depth, b.depth) + f.texel;
 }
 
 // One map's opacity at receiver r from light L with a size: today's lookup
@@ -428,8 +466,8 @@ CDSM_HD inline bool blocks_receiver(const ShadowView& sv, const LightData& L, co
 CDSM_HD inline Vec3 soft_map_alpha_in_colour(const ShadowView& sv, const LightData& L, const DsmMap& m,
                                              const ViewProjection& pr, const Receiver& r) {
   const float radius = penumbra_filter_radius(sv, L, m, pr, r);
-  const float to_u = float(m.res) / (2.0f * m.view.tan_half_x), to_v = float(m.res) / (2.0f * m.view.tan_half_y);
-  const float texels = radius * fmaxf(to_u, to_v);
+  const PenumbraFrame f = penumbra_frame(m, pr);
+  const float texels = radius * max_pixels_per_angle(f);  // the ellipse's longer half-axis
   if (!(texels >= 0.5f)) return map_alpha_in_colour(sv, L, m, pr, r);
   const int side = int(fminf(ceilf(2.0f * texels), float(kPenumbraMaxSide)));
   Vec3 sum{0, 0, 0};
@@ -438,11 +476,12 @@ CDSM_HD inline Vec3 soft_map_alpha_in_colour(const ShadowView& sv, const LightDa
     for (int i = 0; i < side; ++i) {
       float x, y;
       if (!disk_grid_point(i, j, side, x, y)) continue;
+      const Vec2 off = to_pixels(f, x * radius, y * radius);
       ViewProjection at = pr;
-      at.u = pr.u + x * radius * to_u;
-      at.v = pr.v + y * radius * to_v;
+      at.u = pr.u + off.x;
+      at.v = pr.v + off.y;
       ++taps;
-      if (sv.penumbra == Penumbra::Estimated && !blocks_receiver(sv, L, m, pr, r, at)) continue;
+      if (sv.penumbra == Penumbra::Estimated && !blocks_receiver(sv, L, m, pr, f, r, at)) continue;
       sum += map_alpha_in_colour(sv, L, m, at, r);
     }
   return sum * (1.0f / float(taps));

@@ -331,7 +331,8 @@ TEST_F(GlLookup, SunGlassAndClusteredSunClouds) {
 
 // Lights with a size: the soft lookup (blockers searched in the map, the
 // filter over the penumbra's disk) and the fixed-kernel baseline, a spot
-// light (every layout: the blocker walk reads each) and the sun's cone.
+// light (every layout: the blocker walk reads each), the sun's cone and a
+// point light's cube faces.
 TEST_F(GlLookup, SoftSpotAndSun) {
   Scene scene = load_scene(scene_path("default.json"));
   scene.lights[0].radius = 0.15f;
@@ -349,6 +350,12 @@ TEST_F(GlLookup, SoftSpotAndSun) {
   sun.lights[0].angular_diameter_deg = 3.0f;
   sun.shadows.resolution = 512;
   expect_agreement(sun, 20000, 8000, 4000, "sun glass, angular diameter 3");
+  // Cube faces: the penumbra's ellipse off each face's axis (to a face's
+  // corners, 3 x along the radial).
+  Scene omni = load_scene(scene_path("teapot_omni.json"));
+  omni.lights[0].radius = 0.1f;
+  omni.shadows.resolution = 256;
+  expect_agreement(omni, 20000, 8000, 4000, "teapot omni, radius 0.1");
 }
 
 TEST_F(GlLookup, OmniCubeFacesAndSlopeBias) {

@@ -4,11 +4,46 @@
 
 float cdsm_grey(vec3 a) { return a.x == a.y && a.y == a.z ? a.x : (a.x + a.y + a.z) * (1.0 / 3.0); }
 
-// The radius (window units) within which shadow rays to the light's area
-// cross depth zb (hd/lights.h penumbra_radius).
+// The radius (radians across the receiver's ray; world units orthographic)
+// within which shadow rays to the light's area cross depth zb (hd/lights.h
+// penumbra_radius).
 float cdsm_penumbra_radius(CdsmLight L, CdsmMap m, float z, float zb) {
   float d = max(z - zb, 0.0);
   return m.view.projection == CDSM_PROJECTION_ORTHOGRAPHIC ? L.size * d : L.size * d / (z * max(zb, 1e-6));
+}
+
+// The map's window around the receiver's ray (hd/lights.h PenumbraFrame):
+// an angle g across the ray lands as L g tangentially and L^2 g radially,
+// L = sqrt(1 + |w|^2), w the ray's window coordinates (orthographic: L = 1).
+struct CdsmPenumbraFrame {
+  float to_u, to_v;
+  vec2 w;
+  float l;
+  float texel;
+};
+
+CdsmPenumbraFrame cdsm_penumbra_frame(CdsmMap m, CdsmProjection pr) {
+  CdsmPenumbraFrame f;
+  f.to_u = float(m.res) / (2.0 * m.view.tan_half_x);
+  f.to_v = float(m.res) / (2.0 * m.view.tan_half_y);
+  f.w = m.view.projection == CDSM_PROJECTION_ORTHOGRAPHIC ? vec2(0.0) : cdsm_window_at(m.view, pr.u, pr.v);
+  f.l = sqrt(1.0 + f.w.x * f.w.x + f.w.y * f.w.y);
+  f.texel = 2.0 * max(m.view.tan_half_x, m.view.tan_half_y) / (float(m.res) * f.l);
+  return f;
+}
+
+// The pixel offset of angle (gx, gy) across the ray (hd/lights.h to_pixels).
+vec2 cdsm_to_pixels(CdsmPenumbraFrame f, float gx, float gy) {
+  float k = (gx * f.w.x + gy * f.w.y) / (f.l + 1.0);
+  return vec2(f.l * (gx + k * f.w.x) * f.to_u, -f.l * (gy + k * f.w.y) * f.to_v);
+}
+
+// The angle across the ray of pixel offset (du, dv) (hd/lights.h angle_of).
+float cdsm_angle_of(CdsmPenumbraFrame f, float du, float dv) {
+  float x = du / f.to_u, y = -dv / f.to_v;
+  float k = (x * f.w.x + y * f.w.y) / (f.l * (f.l + 1.0));
+  float ax = x - k * f.w.x, ay = y - k * f.w.y;
+  return sqrt(ax * ax + ay * ay) / f.l;
 }
 
 bool cdsm_disk_grid_point(int i, int j, int side, out float x, out float y) {
@@ -63,9 +98,8 @@ float cdsm_blocker_limit(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3
 float cdsm_penumbra_filter_radius(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane) {
   float z = pr.depth;
   if (cdsm_penumbra == CDSM_PENUMBRA_FIXED_KERNEL) return cdsm_penumbra_radius(L, m, z, 0.5 * z);
-  float texel = 2.0 * max(m.view.tan_half_x, m.view.tan_half_y) / float(m.res);
-  float search = min(cdsm_penumbra_radius(L, m, z, max(m.view.near_z, 1e-6)), CDSM_PENUMBRA_SEARCH_TEXELS * texel);
-  float to_u = float(m.res) / (2.0 * m.view.tan_half_x), to_v = float(m.res) / (2.0 * m.view.tan_half_y);
+  CdsmPenumbraFrame f = cdsm_penumbra_frame(m, pr);
+  float search = min(cdsm_penumbra_radius(L, m, z, max(m.view.near_z, 1e-6)), CDSM_PENUMBRA_SEARCH_TEXELS * f.texel);
   int res = int(m.res);
   float weight = 0.0, moment = 0.0;
   // The texel under the receiver, then rings of 8 at 1, 2, 4, ... texels
@@ -74,18 +108,18 @@ float cdsm_penumbra_filter_radius(CdsmLight L, CdsmMap m, CdsmProjection pr, vec
   for (int k = 0; k < 2 + 8 * CDSM_PENUMBRA_SEARCH_RINGS; ++k) {
     if (k > 0 && (k - 1) % 8 == 0) {
       if (ring >= search) break;
-      ring = min(k == 1 ? texel : 2.0 * ring, search);
+      ring = min(k == 1 ? f.texel : 2.0 * ring, search);
     }
     int d = k == 0 ? 0 : ((k - 1) % 8) * 2 + (((k - 1) / 8) & 1);
-    float x = k == 0 ? 0.0 : ring * CDSM_PENUMBRA_DIRECTIONS[d].x;
-    float y = k == 0 ? 0.0 : ring * CDSM_PENUMBRA_DIRECTIONS[d].y;
-    int tx = int(floor(pr.u + x * to_u)), ty = int(floor(pr.v + y * to_v));
+    vec2 at = k == 0 ? vec2(0.0)
+                     : cdsm_to_pixels(f, ring * CDSM_PENUMBRA_DIRECTIONS[d].x, ring * CDSM_PENUMBRA_DIRECTIONS[d].y);
+    int tx = int(floor(pr.u + at.x)), ty = int(floor(pr.v + at.y));
     if (tx < 0 || ty < 0 || tx >= res || ty >= res) continue;
     vec2 b = cdsm_texel_blockers(m, m.texel_offset + uint(ty) * m.res + uint(tx),
                                  cdsm_blocker_limit(L, m, pr, p, plane, tx, ty));
     if (!(b.x > CDSM_PENUMBRA_MIN_ALPHA)) continue;
-    float dx = (float(tx) + 0.5 - pr.u) / to_u, dy = (float(ty) + 0.5 - pr.v) / to_v;
-    if (sqrt(dx * dx + dy * dy) > 2.0 * cdsm_penumbra_radius(L, m, z, b.y) + texel) continue;
+    float off = cdsm_angle_of(f, float(tx) + 0.5 - pr.u, float(ty) + 0.5 - pr.v);
+    if (off > 2.0 * cdsm_penumbra_radius(L, m, z, b.y) + f.texel) continue;
     weight += b.x;
     moment += b.x * b.y;
   }
@@ -95,16 +129,14 @@ float cdsm_penumbra_filter_radius(CdsmLight L, CdsmMap m, CdsmProjection pr, vec
 // Whether a filter tap at `at` may shadow the receiver (hd/lights.h
 // blocks_receiver): its texel's blockers within their own reach of it (plus
 // a texel), or none.
-bool cdsm_blocks_receiver(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, CdsmProjection at) {
+bool cdsm_blocks_receiver(CdsmLight L, CdsmMap m, CdsmProjection pr, CdsmPenumbraFrame f, vec3 p, vec3 plane,
+                          CdsmProjection at) {
   int tx = int(floor(at.u)), ty = int(floor(at.v)), res = int(m.res);
   if (tx < 0 || ty < 0 || tx >= res || ty >= res) return true;
-  float to_u = float(m.res) / (2.0 * m.view.tan_half_x), to_v = float(m.res) / (2.0 * m.view.tan_half_y);
-  float texel = 2.0 * max(m.view.tan_half_x, m.view.tan_half_y) / float(m.res);
   vec2 b = cdsm_texel_blockers(m, m.texel_offset + uint(ty) * m.res + uint(tx),
                                cdsm_blocker_limit(L, m, pr, p, plane, tx, ty));
   if (!(b.x > CDSM_PENUMBRA_MIN_ALPHA)) return true;
-  float dx = (at.u - pr.u) / to_u, dy = (at.v - pr.v) / to_v;
-  return sqrt(dx * dx + dy * dy) <= cdsm_penumbra_radius(L, m, pr.depth, b.y) + texel;
+  return cdsm_angle_of(f, at.u - pr.u, at.v - pr.v) <= cdsm_penumbra_radius(L, m, pr.depth, b.y) + f.texel;
 }
 
 // One map's α for a light with a size: the hard lookup filtered over the
@@ -112,8 +144,8 @@ bool cdsm_blocks_receiver(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec
 vec3 cdsm_light_map_alpha(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, uint object) {
   if (!(L.size > 0.0) || cdsm_penumbra == CDSM_PENUMBRA_HARD) return cdsm_map_alpha(L, m, pr, p, plane, object);
   float radius = cdsm_penumbra_filter_radius(L, m, pr, p, plane);
-  float to_u = float(m.res) / (2.0 * m.view.tan_half_x), to_v = float(m.res) / (2.0 * m.view.tan_half_y);
-  float texels = radius * max(to_u, to_v);
+  CdsmPenumbraFrame f = cdsm_penumbra_frame(m, pr);
+  float texels = radius * f.l * f.l * max(f.to_u, f.to_v);
   if (!(texels >= 0.5)) return cdsm_map_alpha(L, m, pr, p, plane, object);
   int side = int(min(ceil(2.0 * texels), float(CDSM_PENUMBRA_MAX_SIDE)));
   vec3 sum = vec3(0.0);
@@ -122,11 +154,12 @@ vec3 cdsm_light_map_alpha(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec
     for (int i = 0; i < side; ++i) {
       float x, y;
       if (!cdsm_disk_grid_point(i, j, side, x, y)) continue;
+      vec2 off = cdsm_to_pixels(f, x * radius, y * radius);
       CdsmProjection at = pr;
-      at.u = pr.u + x * radius * to_u;
-      at.v = pr.v + y * radius * to_v;
+      at.u = pr.u + off.x;
+      at.v = pr.v + off.y;
       ++taps;
-      if (cdsm_penumbra == CDSM_PENUMBRA_ESTIMATED && !cdsm_blocks_receiver(L, m, pr, p, plane, at)) continue;
+      if (cdsm_penumbra == CDSM_PENUMBRA_ESTIMATED && !cdsm_blocks_receiver(L, m, pr, f, p, plane, at)) continue;
       sum = sum + cdsm_map_alpha(L, m, at, p, plane, object);
     }
   return sum * (1.0 / float(taps));
