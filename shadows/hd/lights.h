@@ -252,9 +252,10 @@ CDSM_HD inline Vec3 map_alpha_in_colour(const ShadowView& sv, const LightData& L
 //      radius ~0, are the only ones read at a contact (contact hardening);
 //   2. takes the opacity-weighted mean depth z_b of what counted and filters
 //      today's lookup (bilinear taps, each at the receiver's plane) over the
-//      disk of radius rho(z_b): the grid points of a k x k grid inside the
-//      disk, k = ceil(2 x the radius in texels) (taps about a texel apart),
-//      at most kPenumbraMaxSide; a tap whose texel's blockers lie beyond
+//      disk of radius rho(z_b) (an ellipse in the map): the points of a
+//      lattice fixed in the map inside it, a texel apart, or 1 /
+//      kPenumbraMaxSide of the ellipse's longer axis for wide ones,
+//      weighted down across its rim (soft_map_alpha_in_colour); a tap whose texel's blockers lie beyond
 //      their own reach of the receiver counts as lit (blocks_receiver: the
 //      body of a cup beside a receiver on the ground, in the disk but too
 //      near the ground to shadow it). Averaging a step over a disk is
@@ -264,13 +265,13 @@ CDSM_HD inline Vec3 map_alpha_in_colour(const ShadowView& sv, const LightData& L
 // hard lookup. Penumbra::FixedKernel skips step 1 and filters with the
 // radius of a blocker halfway to the light (rho(z/2)): a fixed-kernel PCF
 // of the same taps, the baseline. Cost: up to 8 kPenumbraSearchRings + 1 node
-// walks plus up to kPenumbraMaxSide^2 bilinear taps per map (each with one
+// walks plus about (kPenumbraMaxSide + 1)^2 pi / 4 bilinear taps per map (each with one
 // more node walk, blocks_receiver), against one bilinear tap for a hard
 // lookup.
-inline constexpr int kPenumbraSearchRings = 7;         // blocker search: rings at 1, 2, 4, ... texels (<= 64)
-inline constexpr int kPenumbraMaxSide = 12;            // filter grid: at most 112 taps inside the disk
-inline constexpr float kPenumbraSearchTexels = 32.0f;  // blocker search radius cap
-inline constexpr float kPenumbraMinAlpha = 1.0e-3f;    // less opacity in front: no blocker
+inline constexpr int kPenumbraSearchRings = 8;          // blocker search: rings at 1, 2, 4, ... texels (<= 128)
+inline constexpr int kPenumbraMaxSide = 11;             // filter lattice: taps a texel or 1/11 of the ellipse apart
+inline constexpr float kPenumbraSearchTexels = 128.0f;  // blocker search radius cap
+inline constexpr float kPenumbraMinAlpha = 1.0e-3f;     // less opacity in front: no blocker
 // Unit direction d of 16, every 22.5 degrees (cos, sin): ring k's 8 use
 // the even ones, or the odd ones when k is odd.
 CDSM_HD CDSM_INLINE Vec2 penumbra_direction(int d) {
@@ -340,13 +341,6 @@ CDSM_HD CDSM_INLINE float angle_of(const PenumbraFrame& f, float du, float dv) {
 }
 // The largest pixel length of an angle (the stretch along the radial: L^2).
 CDSM_HD CDSM_INLINE float max_pixels_per_angle(const PenumbraFrame& f) { return f.l * f.l * fmaxf(f.to_u, f.to_v); }
-
-// Grid point (i, j) of a side x side grid over [-1, 1]^2; false outside the unit disk.
-CDSM_HD CDSM_INLINE bool disk_grid_point(int i, int j, int side, float& x, float& y) {
-  x = (2.0f * float(i) + 1.0f) / float(side) - 1.0f;
-  y = (2.0f * float(j) + 1.0f) / float(side) - 1.0f;
-  return x * x + y * y <= 1.0f;
-}
 
 // What texel (tx, ty) holds in front of depth z_lim: its opacity there (grey_of
 // per channel) and the opacity-weighted mean depth of it (steps at their
@@ -461,30 +455,56 @@ CDSM_HD inline bool blocks_receiver(const ShadowView& sv, const LightData& L, co
   return angle_of(f, at.u - pr.u, at.v - pr.v) <= penumbra_radius(L, m, pr.depth, b.depth) + f.texel;
 }
 
+// The weight of a filter tap `du, dv` pixels from the receiver, `angle`
+// across its ray (angle_of), in a penumbra of radius `radius` filtered on a
+// lattice of spacing `spacing` pixels: 1 inside, 0 outside, ramping over
+// one spacing across the ellipse's rim (along the tap's direction the rim
+// lies |d| radius / angle pixels out), so that the filter's sum changes
+// continuously as the receiver moves over the fixed lattice.
+CDSM_HD CDSM_INLINE float rim_weight(float du, float dv, float angle, float radius, float spacing) {
+  if (!(angle > 0.0f)) return 1.0f;
+  const float w = (radius / angle - 1.0f) * sqrtf(du * du + dv * dv) / spacing + 0.5f;
+  return fminf(fmaxf(w, 0.0f), 1.0f);
+}
+
 // One map's opacity at receiver r from light L with a size: today's lookup
-// filtered over the penumbra's disk (step 2 above).
+// filtered over the penumbra's ellipse (step 2 above). The taps lie on a
+// lattice fixed in the map (points k s, s = the ellipse's longer axis over
+// kPenumbraMaxSide, at least a texel), weighted by rim_weight: a tap grid
+// moving with the receiver would shift whole columns of taps across an
+// edge at once (a staircase of about 1 / kPenumbraMaxSide per column when
+// the taps are several texels apart); on a fixed lattice the taps enter and
+// leave one at a time at the rim, with their weights. Penumbrae of half a
+// texel to 1.5 blend from the hard lookup.
 CDSM_HD inline Vec3 soft_map_alpha_in_colour(const ShadowView& sv, const LightData& L, const DsmMap& m,
                                              const ViewProjection& pr, const Receiver& r) {
   const float radius = penumbra_filter_radius(sv, L, m, pr, r);
   const PenumbraFrame f = penumbra_frame(m, pr);
-  const float texels = radius * max_pixels_per_angle(f);  // the ellipse's longer half-axis
-  if (!(texels >= 0.5f)) return map_alpha_in_colour(sv, L, m, pr, r);
-  const int side = int(fminf(ceilf(2.0f * texels), float(kPenumbraMaxSide)));
+  const float reach = radius * max_pixels_per_angle(f);  // the ellipse's longer half-axis, pixels
+  if (!(reach >= 0.5f)) return map_alpha_in_colour(sv, L, m, pr, r);
+  const float spacing = fmaxf(1.0f, 2.0f * reach / float(kPenumbraMaxSide));
+  const float inv = 1.0f / spacing, out = reach + 0.5f * spacing;
+  const int i0 = int(ceilf((pr.u - out) * inv)), i1 = int(floorf((pr.u + out) * inv));
+  const int j0 = int(ceilf((pr.v - out) * inv)), j1 = int(floorf((pr.v + out) * inv));
   Vec3 sum{0, 0, 0};
-  int taps = 0;
-  for (int j = 0; j < side; ++j)
-    for (int i = 0; i < side; ++i) {
-      float x, y;
-      if (!disk_grid_point(i, j, side, x, y)) continue;
-      const Vec2 off = to_pixels(f, x * radius, y * radius);
+  float weight = 0.0f;
+  for (int j = j0; j <= j1; ++j)
+    for (int i = i0; i <= i1; ++i) {
       ViewProjection at = pr;
-      at.u = pr.u + off.x;
-      at.v = pr.v + off.y;
-      ++taps;
+      at.u = float(i) * spacing;
+      at.v = float(j) * spacing;
+      const float du = at.u - pr.u, dv = at.v - pr.v;
+      if (du * du + dv * dv > out * out) continue;  // past the rim's ramp along the longer axis too
+      const float w = rim_weight(du, dv, angle_of(f, du, dv), radius, spacing);
+      if (!(w > 0.0f)) continue;
+      weight += w;
       if (sv.penumbra == Penumbra::Estimated && !blocks_receiver(sv, L, m, pr, f, r, at)) continue;
-      sum += map_alpha_in_colour(sv, L, m, at, r);
+      sum += map_alpha_in_colour(sv, L, m, at, r) * w;
     }
-  return sum * (1.0f / float(taps));
+  const Vec3 soft = sum * (1.0f / weight);
+  if (reach >= 1.5f) return soft;
+  const float t = reach - 0.5f;
+  return map_alpha_in_colour(sv, L, m, pr, r) * (1.0f - t) + soft * t;
 }
 
 // One map's opacity at r: soft for a light with a size (unless the

@@ -46,12 +46,6 @@ float cdsm_angle_of(CdsmPenumbraFrame f, float du, float dv) {
   return sqrt(ax * ax + ay * ay) / f.l;
 }
 
-bool cdsm_disk_grid_point(int i, int j, int side, out float x, out float y) {
-  x = (2.0 * float(i) + 1.0) / float(side) - 1.0;
-  y = (2.0 * float(j) + 1.0) / float(side) - 1.0;
-  return x * x + y * y <= 1.0;
-}
-
 // Texel t's opacity in front of z_lim and its opacity-weighted mean depth
 // (hd/lights.h texel_blockers): vec2(alpha, depth), 0 for none.
 vec2 cdsm_texel_blockers(CdsmMap m, uint t, float z_lim) {
@@ -139,30 +133,45 @@ bool cdsm_blocks_receiver(CdsmLight L, CdsmMap m, CdsmProjection pr, CdsmPenumbr
   return cdsm_angle_of(f, at.u - pr.u, at.v - pr.v) <= cdsm_penumbra_radius(L, m, pr.depth, b.y) + f.texel;
 }
 
+// A lattice tap's weight across the ellipse's rim (hd/lights.h rim_weight).
+float cdsm_rim_weight(float du, float dv, float angle, float radius, float spacing) {
+  if (!(angle > 0.0)) return 1.0;
+  float w = (radius / angle - 1.0) * sqrt(du * du + dv * dv) / spacing + 0.5;
+  return min(max(w, 0.0), 1.0);
+}
+
 // One map's α for a light with a size: the hard lookup filtered over the
-// penumbra's disk (hd/lights.h soft_map_alpha_in_colour); else the hard one.
+// penumbra's ellipse on a lattice fixed in the map (hd/lights.h
+// soft_map_alpha_in_colour); else the hard one.
 vec3 cdsm_light_map_alpha(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, uint object) {
   if (!(L.size > 0.0) || cdsm_penumbra == CDSM_PENUMBRA_HARD) return cdsm_map_alpha(L, m, pr, p, plane, object);
   float radius = cdsm_penumbra_filter_radius(L, m, pr, p, plane);
   CdsmPenumbraFrame f = cdsm_penumbra_frame(m, pr);
-  float texels = radius * f.l * f.l * max(f.to_u, f.to_v);
-  if (!(texels >= 0.5)) return cdsm_map_alpha(L, m, pr, p, plane, object);
-  int side = int(min(ceil(2.0 * texels), float(CDSM_PENUMBRA_MAX_SIDE)));
+  float reach = radius * f.l * f.l * max(f.to_u, f.to_v);
+  if (!(reach >= 0.5)) return cdsm_map_alpha(L, m, pr, p, plane, object);
+  float spacing = max(1.0, 2.0 * reach / float(CDSM_PENUMBRA_MAX_SIDE));
+  float inv = 1.0 / spacing, out_r = reach + 0.5 * spacing;
+  int i0 = int(ceil((pr.u - out_r) * inv)), i1 = int(floor((pr.u + out_r) * inv));
+  int j0 = int(ceil((pr.v - out_r) * inv)), j1 = int(floor((pr.v + out_r) * inv));
   vec3 sum = vec3(0.0);
-  int taps = 0;
-  for (int j = 0; j < side; ++j)
-    for (int i = 0; i < side; ++i) {
-      float x, y;
-      if (!cdsm_disk_grid_point(i, j, side, x, y)) continue;
-      vec2 off = cdsm_to_pixels(f, x * radius, y * radius);
+  float weight = 0.0;
+  for (int j = j0; j <= j1; ++j)
+    for (int i = i0; i <= i1; ++i) {
       CdsmProjection at = pr;
-      at.u = pr.u + off.x;
-      at.v = pr.v + off.y;
-      ++taps;
+      at.u = float(i) * spacing;
+      at.v = float(j) * spacing;
+      float du = at.u - pr.u, dv = at.v - pr.v;
+      if (du * du + dv * dv > out_r * out_r) continue;
+      float w = cdsm_rim_weight(du, dv, cdsm_angle_of(f, du, dv), radius, spacing);
+      if (!(w > 0.0)) continue;
+      weight += w;
       if (cdsm_penumbra == CDSM_PENUMBRA_ESTIMATED && !cdsm_blocks_receiver(L, m, pr, f, p, plane, at)) continue;
-      sum = sum + cdsm_map_alpha(L, m, at, p, plane, object);
+      sum = sum + cdsm_map_alpha(L, m, at, p, plane, object) * w;
     }
-  return sum * (1.0 / float(taps));
+  vec3 soft = sum * (1.0 / weight);
+  if (reach >= 1.5) return soft;
+  float t = reach - 0.5;
+  return cdsm_map_alpha(L, m, pr, p, plane, object) * (1.0 - t) + soft * t;
 }
 
 int cdsm_cube_face(vec3 d) {
