@@ -268,10 +268,10 @@ CDSM_HD inline Vec3 map_alpha_in_colour(const ShadowView& sv, const LightData& L
 // walks plus about (kPenumbraMaxSide + 1)^2 pi / 4 bilinear taps per map (each with one
 // more node walk, blocks_receiver), against one bilinear tap for a hard
 // lookup.
-inline constexpr int kPenumbraSearchRings = 8;          // blocker search: rings at 1, 2, 4, ... texels (<= 128)
-inline constexpr int kPenumbraMaxSide = 11;             // filter lattice: taps a texel or 1/11 of the ellipse apart
-inline constexpr float kPenumbraSearchTexels = 128.0f;  // blocker search radius cap
-inline constexpr float kPenumbraMinAlpha = 1.0e-3f;     // less opacity in front: no blocker
+inline constexpr int kPenumbraSearchRings = 7;         // blocker search: rings at 1, 2, 4, ... texels (<= 64)
+inline constexpr int kPenumbraMaxSide = 11;            // filter lattice: taps a texel or 1/11 of the ellipse apart
+inline constexpr float kPenumbraSearchTexels = 64.0f;  // blocker search radius cap
+inline constexpr float kPenumbraMinAlpha = 1.0e-3f;    // less opacity in front: no blocker
 // Unit direction d of 16, every 22.5 degrees (cos, sin): ring k's 8 use
 // the even ones, or the odd ones when k is odd.
 CDSM_HD CDSM_INLINE Vec2 penumbra_direction(int d) {

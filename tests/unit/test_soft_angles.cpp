@@ -207,11 +207,14 @@ int check_cases(const std::vector<AngleCase>& cases) {
           w.ref > 0.0 && std::fabs(w.maps - w.ref) <= 0.1 * w.ref + w.texel && w.flat <= 0.1 && w.jump <= 0.1;
       off += !ok;
       std::printf(
-          "[ angles   ] %s, %2.0f deg off the axis, receiver %2.0f deg to the light, opacity %.1f, %s edge: 10-90%% "
+          "[ angles   ] %s%s, %2.0f deg off the axis, receiver %2.0f deg to the light %.0f m from it, opacity %.1f, %s "
+          "edge: 10-90%% "
           "width %.4f m from the maps, %.4f m reference (%+.1f%%), texel %.4f m; worst |dT| %.3f, largest step %.3f, "
           "standing %.0f%%%s\n",
-          source_name(c.source), c.theta, c.slope, c.opacity, far_edge ? "far " : "near", w.maps, w.ref,
-          100.0 * (w.maps / w.ref - 1.0), w.texel, w.worst, w.jump, 100.0 * w.flat, ok ? "" : "  <- off");
+          source_name(c.source), is_sun(c.source) ? (c.sun_deg < 1.0f ? " 0.53 deg" : " 2 deg") : "", c.theta, c.slope,
+          c.receiver_distance > 0.0f ? c.receiver_distance : kLightHeight / std::cos(c.theta * kPi / 180.0f), c.opacity,
+          far_edge ? "far " : "near", w.maps, w.ref, 100.0 * (w.maps / w.ref - 1.0), w.texel, w.worst, w.jump,
+          100.0 * w.flat, ok ? "" : "  <- off");
       EXPECT_GT(w.ref, 0.0);
       EXPECT_LE(std::fabs(w.maps - w.ref), 0.1 * w.ref + w.texel)
           << source_name(c.source) << ", " << c.theta << " degrees off the axis, receiver at " << c.slope

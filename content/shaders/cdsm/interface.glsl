@@ -185,9 +185,9 @@ const float CDSM_PLANE_REACH_TEXELS = 50.0;
 const float CDSM_RELATIVE_DEPTH_OFFSET = 2e-5;
 const float CDSM_SLOPE_BIAS_CONSTANT = 0.0005;
 const float CDSM_SLOPE_BIAS_TEXELS = 1.5;
-const int CDSM_PENUMBRA_SEARCH_RINGS = 8;
+const int CDSM_PENUMBRA_SEARCH_RINGS = 7;
 const int CDSM_PENUMBRA_MAX_SIDE = 11;
-const float CDSM_PENUMBRA_SEARCH_TEXELS = 128.0;
+const float CDSM_PENUMBRA_SEARCH_TEXELS = 64.0;
 const float CDSM_PENUMBRA_MIN_ALPHA = 1.0e-3;
 // hd/lights.h penumbra_direction: every 22.5 degrees.
 const vec2 CDSM_PENUMBRA_DIRECTIONS[16] = vec2[16](
