@@ -48,6 +48,7 @@ void cluster_light(const FrameInputs& in, size_t li, const LightClusters* previo
   cs.resolution = s.resolution;
   PinholeView cam = camera_view(in.camera);
   const cluster::LightShape light = light_shape(in.lights[li]);
+  cs.min_near = cluster::near_clamp(light, sb.bounds);
   if (previous && previous->clustered)
     lc.clustering = cluster::update_clusters(light, cam, sb.bounds, casters, cs, previous->clustering);
   else

@@ -93,12 +93,26 @@ PinholeView ortho_view(Vec3 direction, float cx, float cy, float hx, float hy, f
 
 }  // namespace
 
+float near_clamp(const LightShape& light, const Box3& scene) {
+  if (scene.empty()) return 1e-3f;
+  const float reach = length(scene.extent()) + (light.directional ? 0.0f : length(scene.center() - light.position));
+  return std::min(1e-3f, std::max(1e-6f * reach, 1e-30f));
+}
+
+// A length below which a window or a depth margin is float noise for
+// coordinates of this magnitude (at most the 1 mm floors of a scene a metre
+// across: smaller scenes get smaller floors, larger ones keep 1 mm).
+static float length_floor(float magnitude, float at_most) {
+  return std::min(at_most, std::max(1e-6f * magnitude, 1e-30f));
+}
+
 PinholeView directional_view(Vec3 direction, const Box3& box, int res) {
   const Vec3 c = box.center();
-  const float r = std::max(0.5f * length(box.extent()), 1e-3f);
+  const float scale = length(c) + length(box.extent());
+  const float r = std::max(0.5f * length(box.extent()), length_floor(scale, 1e-3f));
   const float half = widen_for_guard(r, res, 1.0f);
   const float texel = 2.0f * half / float(res);
-  const float margin = 0.05f * r + 1e-3f;
+  const float margin = 0.05f * r + length_floor(scale, 1e-3f);
   Vec3 f = normalize(direction), right, up;
   make_frame(f, vec3(0, 1, 0), right, up);
   const float cx = std::round(dot(c, right) / texel) * texel, cy = std::round(dot(c, up) / texel) * texel;
@@ -116,16 +130,18 @@ PinholeView directional_focus(Vec3 direction, const std::vector<Vec3>& points, i
     for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], c[k]), hi[k] = std::max(hi[k], c[k]);
   }
   if (points.empty()) lo[0] = lo[1] = lo[2] = hi[0] = hi[1] = hi[2] = 0.0f;
+  float scale = 0.0f;
+  for (int k = 0; k < 3; ++k) scale = std::max(scale, std::max(std::fabs(lo[k]), std::fabs(hi[k])));
   // Half sizes on a 2^(1/4) ladder, with the guard band and half a texel
   // more for the snapped centre.
   auto half_of = [&](int k) {
-    const float h = widen_for_guard(std::max(0.5f * (hi[k] - lo[k]), 1e-4f), res, guard + 0.5f);
+    const float h = widen_for_guard(std::max(0.5f * (hi[k] - lo[k]), length_floor(scale, 1e-4f)), res, guard + 0.5f);
     return std::exp2(std::ceil(4.0f * std::log2(h)) * 0.25f);
   };
   const float hx = half_of(0), hy = half_of(1);
   const float tx = 2.0f * hx / float(res), ty = 2.0f * hy / float(res);
   const float cx = std::round(0.5f * (lo[0] + hi[0]) / tx) * tx, cy = std::round(0.5f * (lo[1] + hi[1]) / ty) * ty;
-  const float margin = 0.01f * (hi[2] - lo[2]) + 1e-3f;
+  const float margin = 0.01f * (hi[2] - lo[2]) + length_floor(scale, 1e-3f);
   PinholeView v = ortho_view(f, cx, cy, hx, hy, lo[2] - margin, hi[2] - lo[2] + 2.0f * margin, res);
   v.near = 0.5f * margin;
   return v;

@@ -21,6 +21,13 @@ struct LightShape {
   float outer_cone_deg = 30.0f;  // spot: half-angle where the light ends
 };
 
+// The nearest a focused light frustum may begin, world units: a millionth
+// of the scene's reach from the light (its box's diagonal plus the light's
+// distance from it), at most 1 mm — a fixed 1 mm clipped the casters of a
+// scene modelled in micrometres (a light 0.1 mm over 1 um pebbles) while
+// any scene a metre across or more keeps 1 mm.
+float near_clamp(const LightShape& light, const Box3& scene);
+
 // Spot cones wider than this half-angle use cube faces with the cone mask
 // (a single frustum beyond ~120° wastes most of its texels).
 inline constexpr float kMaxSpotFrustumHalfAngleDeg = 60.0f;
