@@ -364,9 +364,19 @@ Command add_render(CLI::App& cdsm) {
 
 Command add_info(CLI::App& cdsm) {
   auto path = std::make_shared<std::string>();
+  auto fields = std::make_shared<bool>(false);
   CLI::App* app = cdsm.add_subcommand("info", "print what a scene holds (objects, triangles, volumes, lights)");
-  app->add_option("SCENE", *path, "a JSON scene, or a glTF / GLB file")->required();
-  return {app, [path] { return run_info(*path); }};
+  app->add_option("SCENE", *path, "a JSON scene, or a glTF / GLB file");
+  app->add_flag("--fields", *fields,
+                "print every scene-file field instead (Markdown: JSON key, the C++ member it sets, default, values)");
+  return {app, [path, fields] {
+            if (*fields) {
+              std::fputs(scene_field_reference().c_str(), stdout);
+              return 0;
+            }
+            if (path->empty()) throw Error("cdsm info", "SCENE is required (or --fields)");
+            return run_info(*path);
+          }};
 }
 
 }  // namespace cdsm::cli

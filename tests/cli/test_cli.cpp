@@ -19,6 +19,8 @@
 #include <vector>
 
 #include "cdsm/fields.h"
+#include "cdsm/scene_io.h"
+#include "cdsm/error.h"
 #include "common/cli_run.h"
 #if CDSM_HAVE_EDITOR
 #include "script_commands.h"
@@ -161,6 +163,83 @@ TEST(Cli, InfoOnAVolumeFileSaysHowASceneUsesIt) {
   EXPECT_EQ(raw.code, 0) << raw.err;
   EXPECT_NE(raw.out.find("a raw volume (32768 bytes), not a scene"), std::string::npos) << raw.out;
   EXPECT_NE(raw.out.find("\"type\": \"raw\""), std::string::npos) << raw.out;
+}
+
+// The scene-file fields, one table per struct (cdsm/fields.h): `cdsm info
+// --fields` prints them with the C++ member each key sets, the README holds
+// that print; the README's short table names only keys (or values) the
+// tables have; what the reference says a scene must have, the reader
+// refuses to go without.
+TEST(Cli, SceneFieldReferenceIsTheFieldTables) {
+  const CliRun fields = run_cdsm("info --fields");
+  EXPECT_EQ(fields.code, 0) << fields.err;
+  EXPECT_EQ(fields.out, cdsm::scene_field_reference());
+  EXPECT_NE(fields.out.find("| `outer_cone` | `outer_cone_deg` | 30 |"), std::string::npos) << fields.out;
+  EXPECT_NE(fields.out.find("| `angular_diameter` | `angular_diameter_deg` | 0 |"), std::string::npos);
+  EXPECT_NE(fields.out.find("| `clusters` | `max_clusters` | 1 |"), std::string::npos);
+  std::ifstream in(std::string(CDSM_SOURCE_DIR_TEST) + "/README.md");
+  const std::string readme((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string open = "<!-- scene-fields: the output of `cdsm info --fields` -->\n";
+  const size_t a = readme.find(open), b = readme.find("<!-- /scene-fields -->");
+  ASSERT_NE(a, std::string::npos) << "the README's field reference";
+  ASSERT_NE(b, std::string::npos);
+  EXPECT_EQ(readme.substr(a + open.size(), b - a - open.size()), fields.out)
+      << "README.md's field reference differs from cdsm info --fields";
+
+  // The short table's rows for structs with a field table: every
+  // `backticked` word a key of that table, one of its tags' names, or a
+  // key only the reader knows (a light's target).
+  auto known = [](auto* of, std::set<std::string> extra) {
+    using S = std::remove_pointer_t<decltype(of)>;
+    std::set<std::string> names = std::move(extra);
+    cdsm::for_each_field<S>([&](const auto& f) {
+      names.insert(f.key);
+      using T = std::remove_cv_t<std::remove_reference_t<decltype(S{}.*f.member)>>;
+      if constexpr (std::is_enum_v<T>)
+        for (uint32_t i = 0; i < cdsm::tag_count<T>(); ++i) names.insert(cdsm::tag_name(T(i)));
+    });
+    return names;
+  };
+  const std::map<std::string, std::set<std::string>> rows = {
+      {"| camera |", known(static_cast<cdsm::Camera*>(nullptr), {})},
+      {"| shadows |", known(static_cast<cdsm::ShadowSettings*>(nullptr), {})},
+      {"| lights[] |", known(static_cast<cdsm::Light*>(nullptr), {"target"})}};
+  for (const auto& [row, names] : rows) {
+    const size_t at = readme.find("\n" + row);
+    ASSERT_NE(at, std::string::npos) << row;
+    const std::string line = readme.substr(at + 1, readme.find('\n', at + 1) - at - 1);
+    for (size_t q = line.find('`'); q != std::string::npos; q = line.find('`', q + 1)) {
+      const size_t e = line.find('`', q + 1);
+      const std::string word = line.substr(q + 1, e - q - 1);
+      EXPECT_TRUE(names.count(word)) << "README's " << row << " row names `" << word << "`, no field of its table";
+      q = e;
+    }
+  }
+
+  // The required fields: a scene without one is refused, naming it.
+  const char* scene = R"({"camera": {"position": [0, 2, 6], "target": [0, 0, 0]},
+    "objects": [{"mesh": {"type": "box", "size": [1, 1, 1]}}],
+    "lights": [{"type": "point", "position": [0, 4, 0]}]})";
+  EXPECT_NO_THROW(cdsm::parse_scene(scene, "minimal", "."));
+  for (const auto& [pointer, message] : std::vector<std::pair<std::string, std::string>>{
+           {"/camera", "/camera: missing required field"},
+           {"/objects", "/objects: missing required field"},
+           {"/lights", "/lights: missing required field"},
+           {"/camera/position", "/camera/position: missing required field"},
+           {"/camera/target", "/camera/target: missing required field"},
+           {"/objects/0/mesh", "/objects/0/mesh: missing required field"},
+           {"/lights/0/type", "/lights/0/type: missing required field"},
+           {"/lights/0/position", "/lights/0/position: missing required field"}}) {
+    nlohmann::json j = nlohmann::json::parse(scene);
+    const nlohmann::json::json_pointer ptr(pointer);
+    j[ptr.parent_pointer()].erase(ptr.back());
+    try {
+      cdsm::parse_scene(j.dump(), "minimal", ".");
+      ADD_FAILURE() << "a scene without " << pointer << " was read";
+    } catch (const cdsm::Error& e) {
+      EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+    }
+  }
 }
 
 #if CDSM_HAVE_EDITOR

@@ -39,12 +39,19 @@ struct Field {
   double lo, hi;
   uint32_t affects;  // FieldEffect bits
   const char* help;
+  const char* cpp = nullptr;  // the member's C++ name (CDSM_FIELD writes it from the member itself)
 };
 
 template <class S, class T>
-constexpr Field<S, T> field(const char* key, T S::*member, double lo, double hi, uint32_t affects, const char* help) {
-  return {key, member, lo, hi, affects, help};
+constexpr Field<S, T> field(const char* key, T S::*member, double lo, double hi, uint32_t affects, const char* help,
+                            const char* cpp = nullptr) {
+  return {key, member, lo, hi, affects, help, cpp};
 }
+
+// A field of the table's struct S named by its member, whose C++ name the
+// field reference (cdsm/scene_io.h scene_field_reference) prints beside the
+// JSON key: the two cannot drift apart.
+#define CDSM_FIELD(key, member, lo, hi, affects, help) ::cdsm::field(key, &S::member, lo, hi, affects, help, #member)
 
 // Specialized per struct: `static constexpr auto fields = std::make_tuple(field(...), ...)`.
 template <class S>
@@ -127,31 +134,32 @@ struct FieldTable<ShadowSettings> {
   using S = ShadowSettings;
   static constexpr double kBig = 1e30;
   static constexpr auto fields = std::make_tuple(
-      field("epsilon", &S::epsilon, 0.0, 1.0, kAffectsMaps, "compression error bound of the visibility functions"),
-      field("resolution", &S::resolution, 4, 8192, kAffectsMaps | kAffectsClusters, "DSM texels per side"),
-      field("filtering", &S::filtering, 0, 1, kAffectsLookup, "bilinear lookup"),
-      field("receiver", &S::receiver, 0, 0, kAffectsLookup, "how surfaces look themselves up"),
-      field("penumbra", &S::penumbra, 0, 0, kAffectsLookup,
-            "lights with a size: estimated (blockers from the maps), fixed_kernel (PCF baseline) or hard"),
-      field("bias_constant", &S::bias_constant, 0.0, 10.0, kAffectsLookup,
-            "a caster's own surface: taps stop this far short of its plane (world units)"),
-      field("bias_slope", &S::bias_slope, 0.0, 100.0, kAffectsLookup, "... plus this many texel footprints"),
-      field("clusters", &S::max_clusters, 1, kMaxMapsPerLight, kAffectsClusters, "m: at most this many maps per light"),
-      field("parallel_splits", &S::parallel_splits, 0, kMaxMapsPerLight - 1, kAffectsPlan,
-            "baseline: parallel-split maps per spot light (0: off, else >= 2)"),
-      field("d0", &S::d0, 0.0, 4.0, kAffectsClusters, "clustering threshold, normalized map units"),
-      field("layout", &S::layout, 0, 0, kAffectsMaps, "DSM memory layout"),
-      field("fixed_layers", &S::fixed_layers, 2, 4096, kAffectsMaps, "fixed layout: node slots per texel"),
-      field("chunk_nodes", &S::chunk_nodes, 1, 4096, kAffectsMaps, "chunked layout: node slots per chunk"),
-      field("method", &S::method, 0, 0, kAffectsMaps, "what a texel stores: dsm, or a baseline"),
-      field("method_param", &S::method_param, -kBig, kBig, kAffectsMaps,
-            "the baseline's parameter (0: its default; ranges per method)"),
-      field("layer_thickness", &S::layer_thickness, 0.0, 1e6, kAffectsMaps,
-            "deep opacity maps: layer thickness along the ray (0: the casters' depth extent / N)"),
-      field("ambient", &S::ambient_light, 0.0, 100.0, kAffectsLookup, "ambient light, linear RGB"),
-      field("rgb_maps", &S::rgb_maps, 0, 1, kAffectsMaps, "RGB nodes where a caster is coloured"),
-      field("max_memory", &S::max_memory_mib, 0, double(int64_t(1) << 30), kAffectsNothing,
-            "MiB a frame may use (0: half the physical memory)"));
+      CDSM_FIELD("epsilon", epsilon, 0.0, 1.0, kAffectsMaps, "compression error bound of the visibility functions"),
+      CDSM_FIELD("resolution", resolution, 4, 8192, kAffectsMaps | kAffectsClusters, "DSM texels per side"),
+      CDSM_FIELD("filtering", filtering, 0, 1, kAffectsLookup, "bilinear lookup"),
+      CDSM_FIELD("receiver", receiver, 0, 0, kAffectsLookup, "how surfaces look themselves up"),
+      CDSM_FIELD("penumbra", penumbra, 0, 0, kAffectsLookup,
+                 "lights with a size: estimated (blockers from the maps), fixed_kernel (PCF baseline) or hard"),
+      CDSM_FIELD("bias_constant", bias_constant, 0.0, 10.0, kAffectsLookup,
+                 "a caster's own surface: taps stop this far short of its plane (world units)"),
+      CDSM_FIELD("bias_slope", bias_slope, 0.0, 100.0, kAffectsLookup, "... plus this many texel footprints"),
+      CDSM_FIELD("clusters", max_clusters, 1, kMaxMapsPerLight, kAffectsClusters,
+                 "m: at most this many maps per light"),
+      CDSM_FIELD("parallel_splits", parallel_splits, 0, kMaxMapsPerLight - 1, kAffectsPlan,
+                 "baseline: parallel-split maps per spot light (0: off, else >= 2)"),
+      CDSM_FIELD("d0", d0, 0.0, 4.0, kAffectsClusters, "clustering threshold, normalized map units"),
+      CDSM_FIELD("layout", layout, 0, 0, kAffectsMaps, "DSM memory layout"),
+      CDSM_FIELD("fixed_layers", fixed_layers, 2, 4096, kAffectsMaps, "fixed layout: node slots per texel"),
+      CDSM_FIELD("chunk_nodes", chunk_nodes, 1, 4096, kAffectsMaps, "chunked layout: node slots per chunk"),
+      CDSM_FIELD("method", method, 0, 0, kAffectsMaps, "what a texel stores: dsm, or a baseline"),
+      CDSM_FIELD("method_param", method_param, -kBig, kBig, kAffectsMaps,
+                 "the baseline's parameter (0: its default; ranges per method)"),
+      CDSM_FIELD("layer_thickness", layer_thickness, 0.0, 1e6, kAffectsMaps,
+                 "deep opacity maps: layer thickness along the ray (0: the casters' depth extent / N)"),
+      CDSM_FIELD("ambient", ambient_light, 0.0, 100.0, kAffectsLookup, "ambient light, linear RGB"),
+      CDSM_FIELD("rgb_maps", rgb_maps, 0, 1, kAffectsMaps, "RGB nodes where a caster is coloured"),
+      CDSM_FIELD("max_memory", max_memory_mib, 0, double(int64_t(1) << 30), kAffectsNothing,
+                 "MiB a frame may use (0: half the physical memory)"));
 };
 
 // Rules a range cannot say stay beside the tables, in the scene validator
@@ -164,34 +172,34 @@ struct FieldTable<Light> {
   static constexpr double kBig = 1e30;
   static constexpr uint32_t kShape = kAffectsPlan | kAffectsClusters | kAffectsMaps;  // where its maps are
   static constexpr auto fields = std::make_tuple(
-      field("name", &S::name, 0, 0, kAffectsNothing, "shown in the editor and in messages"),
-      field("type", &S::type, 0, 0, kShape, "spot, point or directional"),
-      field("position", &S::position, -kBig, kBig, kShape, "world position (directional: unused)"),
-      field("direction", &S::direction, -kBig, kBig, kShape,
-            "spot: the cone's axis; directional: the way the light travels (a file may give a target instead)"),
-      field("outer_cone", &S::outer_cone_deg, 0.0, 89.5, kShape, "spot: half-angle where the light ends, degrees"),
-      field("inner_cone", &S::inner_cone_deg, 0.0, 89.5, kAffectsLookup,
-            "spot: half-angle of full intensity, degrees (at most outer_cone)"),
-      field("color", &S::color, 0.0, 100.0, kAffectsLookup, "linear RGB"),
-      field("intensity", &S::intensity, 0.0, 1e9, kAffectsLookup, "scales the colour"),
-      field("radius", &S::radius, 0.0, 1e6, kAffectsLookup,
-            "spot, point: the sphere light's radius, world units (0: a point; the reference samples its area)"),
-      field("angular_diameter", &S::angular_diameter_deg, 0.0, 10.0, kAffectsLookup,
-            "directional: apparent size, degrees (the sun: 0.53; 0: a point; the reference samples its cone)"));
+      CDSM_FIELD("name", name, 0, 0, kAffectsNothing, "shown in the editor and in messages"),
+      CDSM_FIELD("type", type, 0, 0, kShape, "spot, point or directional"),
+      CDSM_FIELD("position", position, -kBig, kBig, kShape, "world position (directional: unused)"),
+      CDSM_FIELD("direction", direction, -kBig, kBig, kShape,
+                 "spot: the cone's axis; directional: the way the light travels (a file may give a target instead)"),
+      CDSM_FIELD("outer_cone", outer_cone_deg, 0.0, 89.5, kShape, "spot: half-angle where the light ends, degrees"),
+      CDSM_FIELD("inner_cone", inner_cone_deg, 0.0, 89.5, kAffectsLookup,
+                 "spot: half-angle of full intensity, degrees (at most outer_cone)"),
+      CDSM_FIELD("color", color, 0.0, 100.0, kAffectsLookup, "linear RGB"),
+      CDSM_FIELD("intensity", intensity, 0.0, 1e9, kAffectsLookup, "scales the colour"),
+      CDSM_FIELD("radius", radius, 0.0, 1e6, kAffectsLookup,
+                 "spot, point: the sphere light's radius, world units (0: a point; the reference samples its area)"),
+      CDSM_FIELD("angular_diameter", angular_diameter_deg, 0.0, 10.0, kAffectsLookup,
+                 "directional: apparent size, degrees (the sun: 0.53; 0: a point; the reference samples its cone)"));
 };
 
 template <>
 struct FieldTable<SurfaceMaterial> {
   using S = SurfaceMaterial;
   static constexpr auto fields = std::make_tuple(
-      field("color", &S::color, 0.0, 100.0, kAffectsLookup, "Phong colour, linear RGB"),
-      field("opacity", &S::opacity, 0.0, 1.0, kAffectsMaps, "coverage a at each crossing: 1 opaque, 0 a pure filter"),
-      field("transmission_color", &S::transmission_color, 0.0, 1.0, kAffectsMaps,
-            "filter of the uncovered part, linear RGB (one number: grey)"),
-      field("ambient", &S::ambient, 0.0, 100.0, kAffectsLookup, "k_a"),
-      field("diffuse", &S::diffuse, 0.0, 100.0, kAffectsLookup, "k_d"),
-      field("specular", &S::specular, 0.0, 100.0, kAffectsLookup, "k_s"),
-      field("shininess", &S::shininess, 0.0, 1e4, kAffectsLookup, "n_s"));
+      CDSM_FIELD("color", color, 0.0, 100.0, kAffectsLookup, "Phong colour, linear RGB"),
+      CDSM_FIELD("opacity", opacity, 0.0, 1.0, kAffectsMaps, "coverage a at each crossing: 1 opaque, 0 a pure filter"),
+      CDSM_FIELD("transmission_color", transmission_color, 0.0, 1.0, kAffectsMaps,
+                 "filter of the uncovered part, linear RGB (one number: grey)"),
+      CDSM_FIELD("ambient", ambient, 0.0, 100.0, kAffectsLookup, "k_a"),
+      CDSM_FIELD("diffuse", diffuse, 0.0, 100.0, kAffectsLookup, "k_d"),
+      CDSM_FIELD("specular", specular, 0.0, 100.0, kAffectsLookup, "k_s"),
+      CDSM_FIELD("shininess", shininess, 0.0, 1e4, kAffectsLookup, "n_s"));
 };
 
 // The plain fields of a volume and an object; what a range cannot say (a
@@ -202,20 +210,20 @@ template <>
 struct FieldTable<Volume> {
   using S = Volume;
   static constexpr auto fields = std::make_tuple(
-      field("name", &S::name, 0, 0, kAffectsNothing, "how objects name it, shown in the editor"),
-      field("shading", &S::shading, 0, 0, kAffectsLookup,
-            "scatter (lit by the maps) or phong (a surface at its gradient)"),
-      field("step_voxels", &S::step_voxels, 0.05, 8.0, kAffectsMaps, "march step, in voxels"),
-      field("gradient_scale", &S::gradient_scale, 0.0, 1e6, kAffectsLookup, "phong: the gradient's scale"));
+      CDSM_FIELD("name", name, 0, 0, kAffectsNothing, "how objects name it, shown in the editor"),
+      CDSM_FIELD("shading", shading, 0, 0, kAffectsLookup,
+                 "scatter (lit by the maps) or phong (a surface at its gradient)"),
+      CDSM_FIELD("step_voxels", step_voxels, 0.05, 8.0, kAffectsMaps, "march step, in voxels"),
+      CDSM_FIELD("gradient_scale", gradient_scale, 0.0, 1e6, kAffectsLookup, "phong: the gradient's scale"));
 };
 
 template <>
 struct FieldTable<Object> {
   using S = Object;
   static constexpr auto fields =
-      std::make_tuple(field("name", &S::name, 0, 0, kAffectsNothing, "shown in the editor and in messages"),
-                      field("casts_shadows", &S::casts_shadows, 0, 1, kAffectsPlan | kAffectsClusters | kAffectsMaps,
-                            "false: a receiver only (in no map; a large ground should be one)"));
+      std::make_tuple(CDSM_FIELD("name", name, 0, 0, kAffectsNothing, "shown in the editor and in messages"),
+                      CDSM_FIELD("casts_shadows", casts_shadows, 0, 1, kAffectsPlan | kAffectsClusters | kAffectsMaps,
+                                 "false: a receiver only (in no map; a large ground should be one)"));
 };
 
 template <>
@@ -224,14 +232,14 @@ struct FieldTable<Camera> {
   static constexpr double kBig = 1e30;
   static constexpr uint32_t kView = kAffectsLookup | kAffectsClusters;  // what is seen; maps focus on it
   static constexpr auto fields = std::make_tuple(
-      field("position", &S::position, -kBig, kBig, kView, "the eye"),
-      field("target", &S::target, -kBig, kBig, kView, "a point the eye looks at"),
-      field("up", &S::up, -kBig, kBig, kView, "the image's up (any vector off the view direction)"),
-      field("fov_y", &S::fov_y_deg, 0.0, 179.0, kView, "vertical field of view, degrees (0 and 179 excluded)"),
-      field("near", &S::near, 0.0, kBig, kView, "the nearest distance seen (> 0)"),
-      field("far", &S::far, 0.0, kBig, kView, "the farthest distance seen (> near)"),
-      field("width", &S::width, 1, 16384, kView, "image pixels across"),
-      field("height", &S::height, 1, 16384, kView, "image pixels down"));
+      CDSM_FIELD("position", position, -kBig, kBig, kView, "the eye"),
+      CDSM_FIELD("target", target, -kBig, kBig, kView, "a point the eye looks at"),
+      CDSM_FIELD("up", up, -kBig, kBig, kView, "the image's up (any vector off the view direction)"),
+      CDSM_FIELD("fov_y", fov_y_deg, 0.0, 179.0, kView, "vertical field of view, degrees (0 and 179 excluded)"),
+      CDSM_FIELD("near", near, 0.0, kBig, kView, "the nearest distance seen (> 0)"),
+      CDSM_FIELD("far", far, 0.0, kBig, kView, "the farthest distance seen (> near)"),
+      CDSM_FIELD("width", width, 1, 16384, kView, "image pixels across"),
+      CDSM_FIELD("height", height, 1, 16384, kView, "image pixels down"));
 };
 
 }  // namespace cdsm

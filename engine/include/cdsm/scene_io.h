@@ -39,6 +39,12 @@ void save_scene(const Scene& scene, const std::string& path);
 // Throws cdsm::Error naming `scene.source` and the field.
 std::string scene_to_json(const Scene& scene, const std::string& base_dir = "");
 
+// The scene file's fields as Markdown (README "Scene files"; `cdsm info
+// --fields` prints it): what a scene must have, then per object of the
+// file a table of its plain fields from the field tables (cdsm/fields.h):
+// JSON key, the C++ member it sets, default, range or values, meaning.
+std::string scene_field_reference();
+
 // Checks every numeric field of a scene (from a file or built in code)
 // against its documented range (README "Scene files"): a value outside
 // throws cdsm::Error("SOURCE: /json/pointer", "must be within [lo, hi], got
