@@ -356,6 +356,13 @@ TEST_F(GlLookup, SoftSpotAndSun) {
   omni.lights[0].radius = 0.1f;
   omni.shadows.resolution = 256;
   expect_agreement(omni, 20000, 8000, 4000, "teapot omni, radius 0.1");
+  // Focused cluster maps: off-centre windows (the ellipse from the window's
+  // absolute coordinates) and lattices of their own.
+  Scene clustered = load_scene(scene_path("default.json"));
+  clustered.lights[0].radius = 0.15f;
+  clustered.shadows.resolution = 256;
+  clustered.shadows.max_clusters = 3;
+  expect_agreement(clustered, 20000, 8000, 4000, "default, spot radius 0.15, 3 clusters");
 }
 
 TEST_F(GlLookup, OmniCubeFacesAndSlopeBias) {
