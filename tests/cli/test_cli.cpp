@@ -38,6 +38,17 @@ CliRun run_cdsm(const std::string& args) { return cdsm_test::run_program(CDSM_EX
 
 const std::string kScene = std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/default.json";
 
+// The README's text between the marker lines `open` (its end included) and
+// `close`; npos-free: a missing marker fails the calling test.
+std::string readme_between(const std::string& open, const std::string& close) {
+  const std::string readme = slurp(std::string(CDSM_SOURCE_DIR_TEST) + "/README.md");
+  const size_t a = readme.find(open), b = readme.find(close);
+  EXPECT_NE(a, std::string::npos) << "README.md has no " << open;
+  EXPECT_NE(b, std::string::npos) << "README.md has no " << close;
+  if (a == std::string::npos || b == std::string::npos || b < a + open.size()) return "<missing>";
+  return readme.substr(a + open.size(), b - a - open.size());
+}
+
 }  // namespace
 
 // Output paths that cannot be written are refused before the render: one
@@ -177,14 +188,10 @@ TEST(Cli, SceneFieldReferenceIsTheFieldTables) {
   EXPECT_NE(fields.out.find("| `outer_cone` | `outer_cone_deg` | 30 |"), std::string::npos) << fields.out;
   EXPECT_NE(fields.out.find("| `angular_diameter` | `angular_diameter_deg` | 0 |"), std::string::npos);
   EXPECT_NE(fields.out.find("| `clusters` | `max_clusters` | 1 |"), std::string::npos);
-  std::ifstream in(std::string(CDSM_SOURCE_DIR_TEST) + "/README.md");
-  const std::string readme((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const std::string open = "<!-- scene-fields: the output of `cdsm info --fields` -->\n";
-  const size_t a = readme.find(open), b = readme.find("<!-- /scene-fields -->");
-  ASSERT_NE(a, std::string::npos) << "the README's field reference";
-  ASSERT_NE(b, std::string::npos);
-  EXPECT_EQ(readme.substr(a + open.size(), b - a - open.size()), fields.out)
+  EXPECT_EQ(readme_between("<!-- scene-fields: the output of `cdsm info --fields` -->\n", "<!-- /scene-fields -->"),
+            fields.out)
       << "README.md's field reference differs from cdsm info --fields";
+  const std::string readme = slurp(std::string(CDSM_SOURCE_DIR_TEST) + "/README.md");
 
   // The short table's rows for structs with a field table: every
   // `backticked` word a key of that table, one of its tags' names, or a
@@ -250,19 +257,12 @@ TEST(Cli, ScriptCommandsAreOneTable) {
   const CliRun help = run_cdsm("edit --script-help");
   EXPECT_EQ(help.code, 0) << help.err;
   EXPECT_EQ(help.out, cdsm::editor::script_help());
-  auto text_of = [](const std::string& path) {
-    std::ifstream in(path);
-    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  };
-  const std::string readme = text_of(std::string(CDSM_SOURCE_DIR_TEST) + "/README.md");
-  const std::string open = "<!-- script-commands: the output of `cdsm edit --script-help` -->\n```text\n";
-  const size_t a = readme.find(open), b = readme.find("```\n<!-- /script-commands -->");
-  ASSERT_NE(a, std::string::npos) << "the README's script-command list";
-  ASSERT_NE(b, std::string::npos);
-  EXPECT_EQ(readme.substr(a + open.size(), b - a - open.size()), help.out)
+  EXPECT_EQ(readme_between("<!-- script-commands: the output of `cdsm edit --script-help` -->\n```text\n",
+                           "```\n<!-- /script-commands -->"),
+            help.out)
       << "README.md's list differs from cdsm edit --script-help";
   // Every `cmd == "NAME"` the parser tests is a table command, and back.
-  const std::string parser = text_of(std::string(CDSM_SOURCE_DIR_TEST) + "/editor/edit/script.cpp");
+  const std::string parser = slurp(std::string(CDSM_SOURCE_DIR_TEST) + "/editor/edit/script.cpp");
   std::set<std::string> handled, table;
   for (size_t at = parser.find("cmd == \""); at != std::string::npos; at = parser.find("cmd == \"", at + 1)) {
     const size_t from = at + 8, to = parser.find('"', from);

@@ -256,9 +256,7 @@ TEST(SoftShadows, DefaultSceneAgainstTheAreaReference) {
   opt.error_samples = CDSM_TEST_SANITIZED ? 5000 : 20000;
   const Image ref = r.render_reference(s, opt);
   ASSERT_EQ(ref.rgb.size(), img.rgb.size());
-  double se = 0.0;
-  for (size_t i = 0; i < img.rgb.size(); ++i) se += double(img.rgb[i] - ref.rgb[i]) * double(img.rgb[i] - ref.rgb[i]);
-  const double psnr = 10.0 * std::log10(1.0 / std::fmax(se / double(img.rgb.size()), 1e-20));
+  const double psnr = image_psnr(img, ref);
   const TransmittanceError e = r.transmittance_error(s, opt);
   std::printf(
       "[ soft     ] default, spot radius 0.15: PSNR %.2f dB; %llu points, interior %.1f%% mean %.5f p99 %.4f, edge "

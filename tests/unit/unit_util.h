@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "cdsm/image.h"
 #include "cdsm/procedural.h"
 #include "cdsm/scene.h"
 #include "common/builders.h"
@@ -115,6 +116,13 @@ struct ProbedFrame : SystemFrame {
   explicit ProbedFrame(const Scene& s) : SystemFrame(s), sv(view(s)), vis{sv}, ref(sb.view(), frame.setup.lights) {}
   ProbedFrame(const ProbedFrame&) = delete;
 };
+
+// PSNR in dB of image a against image b (values as rendered, peak 1).
+inline double image_psnr(const Image& a, const Image& b) {
+  double se = 0.0;
+  for (size_t i = 0; i < a.rgb.size(); ++i) se += double(a.rgb[i] - b.rgb[i]) * double(a.rgb[i] - b.rgb[i]);
+  return 10.0 * std::log10(1.0 / std::fmax(se / double(std::max<size_t>(a.rgb.size(), 1)), 1e-20));
+}
 
 // What the camera pass uses for a surface point of object `object` (a
 // caster's: its own step is left out; kNoObject: a receive-only surface) on
