@@ -128,7 +128,7 @@ struct Result {
     const int components = stored_components(config.method.method, config.method.param);
     if (components > 0) return double(stats.memory.texels) * components * kBytesPerComponent;
     return double(stats.memory.index_bytes + stats.memory.node_bytes + stats.memory.slack_bytes +
-                  stats.memory.tag_bytes);
+                  stats.memory.tag_bytes + stats.memory.pyramid_bytes);
   }
 };
 

@@ -168,9 +168,12 @@ void print_summary(const FrameStats& s, const Scene& scene, bool reference_backe
   std::printf("rebuilds     %u maps built, %u reused\n", s.maps_rebuilt, s.maps_reused);
   std::printf("transfers    host -> backend %.2f MiB, backend -> host %.2f MiB\n",
               double(s.update.host_to_backend_bytes) / 1048576.0, double(s.update.backend_to_host_bytes) / 1048576.0);
-  std::printf("DSM memory   %s layout, %llu maps, index %.2f MiB, nodes %.2f MiB, tags %.2f MiB, slack %.2f MiB\n",
-              tag_name(scene.shadows.layout), (unsigned long long)s.memory.maps, s.memory.index_bytes / 1048576.0,
-              s.memory.node_bytes / 1048576.0, s.memory.tag_bytes / 1048576.0, s.memory.slack_bytes / 1048576.0);
+  std::printf(
+      "DSM memory   %s layout, %llu maps, index %.2f MiB, nodes %.2f MiB, tags %.2f MiB, slack %.2f MiB, blocker "
+      "pyramids %.2f MiB\n",
+      tag_name(scene.shadows.layout), (unsigned long long)s.memory.maps, s.memory.index_bytes / 1048576.0,
+      s.memory.node_bytes / 1048576.0, s.memory.tag_bytes / 1048576.0, s.memory.slack_bytes / 1048576.0,
+      s.memory.pyramid_bytes / 1048576.0);
   std::printf("nodes/texel  avg %.2f, max %u (texels walked twice %llu, re-compressed %llu)\n",
               s.memory.avg_nodes_per_texel, s.memory.max_nodes_per_texel, (unsigned long long)s.memory.rewalked_texels,
               (unsigned long long)s.memory.overflow_texels);

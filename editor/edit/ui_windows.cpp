@@ -39,9 +39,10 @@ void stats_window(Session& s, UiState& ui, float x, float y, float h) {
   for (const MapRebuild& r : st.update.rebuilds)
     ImGui::BulletText("light %u map %u: %s", r.light, r.map, to_string(r.reason));
   ImGui::Text("nodes/texel avg %.2f, max %u", st.memory.avg_nodes_per_texel, st.memory.max_nodes_per_texel);
-  ImGui::Text("memory: index %.2f MiB, nodes %.2f MiB, tags %.2f MiB, slack %.2f MiB",
+  ImGui::Text("memory: index %.2f MiB, nodes %.2f MiB, tags %.2f MiB, slack %.2f MiB, blocker pyramids %.2f MiB",
               double(st.memory.index_bytes) / 1048576.0, double(st.memory.node_bytes) / 1048576.0,
-              double(st.memory.tag_bytes) / 1048576.0, double(st.memory.slack_bytes) / 1048576.0);
+              double(st.memory.tag_bytes) / 1048576.0, double(st.memory.slack_bytes) / 1048576.0,
+              double(st.memory.pyramid_bytes) / 1048576.0);
   if (ImGui::BeginTable("maps", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingStretchProp)) {
     ImGui::TableSetupColumn("map");
     ImGui::TableSetupColumn("nodes");

@@ -39,12 +39,19 @@ namespace {
 
 using Hasher = Fnv1a;
 
-uint64_t hash_light(const LightData& l) {
+// Whether light l's maps carry blocker pyramids (hd/blocker_pyramid.h):
+// its estimated penumbrae search them; a light without a size pays nothing.
+bool wants_pyramid(const LightData& l, const ShadowSettings& s) {
+  return l.size > 0.0f && s.penumbra == Penumbra::Estimated;
+}
+
+uint64_t hash_light(const LightData& l, const ShadowSettings& s) {
   Hasher h;
   h.pod(l.position);
   h.pod(l.type);
   h.pod(l.direction);
   h.pod(l.cos_outer);
+  h.pod(wants_pyramid(l, s));
   return h.h;
 }
 
@@ -61,10 +68,11 @@ uint64_t settings_hash(const ShadowSettings& s) {
 }
 
 // What a map is built from: its view, its members' identities and content
-// generations, the map settings.
-uint64_t map_key(const MapPlan& plan, const FrameInputs& in, uint64_t settings) {
+// generations, the map settings, whether it has a blocker pyramid.
+uint64_t map_key(const MapPlan& plan, const FrameInputs& in, uint64_t settings, bool pyramid) {
   Hasher h;
   h.pod(plan.view);
+  h.pod(pyramid);
   for (uint32_t o : plan.members) {
     h.pod(in.object_ids[o]);
     h.pod(in.object_generations[o]);
@@ -134,10 +142,10 @@ CacheMatch match_cache(const FrameInputs& in, const MapCache& cache, ShadowFrame
     const MapPlan& plan = frame.setup.maps[k];
     const LightData& ld = frame.setup.lights[plan.light];
     MapCache::Entry& e = m.next[k];
-    e.key = map_key(plan, in, settings);
+    e.key = map_key(plan, in, settings, wants_pyramid(ld, in.settings));
     e.light_id = in.light_ids[plan.light];
     e.slot = uint32_t(k - ld.first_map);
-    e.light_hash = hash_light(ld);
+    e.light_hash = hash_light(ld, in.settings);
     e.settings_hash = settings;
     e.view = plan.view;
     for (uint32_t o : plan.members) e.member_ids.push_back(in.object_ids[o]);
@@ -265,6 +273,7 @@ void build_missing(const FrameInputs& in, const FragmentProducer& produce, Shado
         lp.rgb = s.rgb_maps && s.method == ShadowMethod::Dsm &&
                  std::any_of(plan.members.begin(), plan.members.end(),
                              [&](uint32_t o) { return is_coloured(sv, sv.objects[o]); });
+        lp.blocker_pyramid = wants_pyramid(frame.setup.lights[plan.light], s);
         e.id = backend.build_map(lp, lists, layout, e.stats);
         built[k] = 1;
         reading.pop_back();

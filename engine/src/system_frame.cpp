@@ -228,11 +228,12 @@ void ShadowSystem::Impl::build_maps(FrameStats& st) {
     m.node_bytes += b.node_bytes_used;
     m.slack_bytes += b.slack_bytes;
     m.tag_bytes += b.tag_bytes;
+    m.pyramid_bytes += b.pyramid_bytes;
     m.max_nodes_per_texel = std::max(m.max_nodes_per_texel, b.max_nodes);
     m.overflow_texels += b.overflow_texels;
     m.rewalked_texels += b.rewalked_texels;
     m.max_extra_error = std::max(m.max_extra_error, b.max_extra_error);
-    const uint64_t bytes = b.index_bytes + b.node_bytes_allocated + b.tag_bytes;
+    const uint64_t bytes = b.index_bytes + b.node_bytes_allocated + b.tag_bytes + b.pyramid_bytes;
     if (b.rgb) {
       ++m.rgb_maps;
       m.rgb_bytes += bytes;

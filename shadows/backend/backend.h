@@ -97,6 +97,7 @@ inline DsmStorage storage_sizes(DsmStorage s) {
     a.nodes.ptr = nullptr;
     a.chunks.ptr = nullptr;
     a.tags.ptr = nullptr;
+    a.pyramid.ptr = nullptr;
   };
   sizes_only(s.grey);
   sizes_only(s.rgb);

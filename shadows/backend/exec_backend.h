@@ -350,7 +350,7 @@ class ExecBackend final : public ExecShadowBackend {
     m.texel_begin = store.texels.size();
     m.node_begin = store.nodes.size();
     m.chunk_begin = store.chunks.size();
-    const uint64_t tags = store.tags.size(), texel_count = store.texel_count;
+    const uint64_t tags = store.tags.size(), pyramid = store.pyramid.size(), texel_count = store.texel_count;
     try {
       stats = build_map_exec(ex_, scene_view(), p, f, layout, options_, store, m.map, scratch_);
     } catch (...) {
@@ -358,6 +358,7 @@ class ExecBackend final : public ExecShadowBackend {
       store.nodes.resize(m.node_begin);
       store.chunks.resize(m.chunk_begin);
       store.tags.resize(tags);
+      store.pyramid.resize(pyramid);
       store.texel_count = texel_count;
       throw;
     }
@@ -382,7 +383,8 @@ class ExecBackend final : public ExecShadowBackend {
   template <class Node>
   static uint64_t allocated_bytes(const KindStore<Node, Ex>& k) {
     return k.texels.capacity() * sizeof(TexelRange) + k.nodes.capacity() * sizeof(Node) +
-           k.chunks.capacity() * sizeof(typename KindStore<Node, Ex>::Chunk) + k.tags.capacity() * sizeof(SurfaceTag);
+           k.chunks.capacity() * sizeof(typename KindStore<Node, Ex>::Chunk) + k.tags.capacity() * sizeof(SurfaceTag) +
+           k.pyramid.capacity() * sizeof(float);
   }
 
   // The host mirror of one kind's arrays (a download each).
@@ -392,6 +394,7 @@ class ExecBackend final : public ExecShadowBackend {
     k.nodes.read(out.nodes);
     k.chunks.read(out.chunks);
     k.tags.read(out.tags);
+    k.pyramid.read(out.pyramid);
   }
 
   // Emptied, capacity kept: when every map was replaced (the usual rebuild
@@ -403,6 +406,7 @@ class ExecBackend final : public ExecShadowBackend {
     k.nodes.resize_discard(0);
     k.chunks.resize_discard(0);
     k.tags.resize_discard(0);
+    k.pyramid.resize_discard(0);
     k.texel_count = 0;
   }
 

@@ -16,18 +16,21 @@ struct HostArrays {
   std::vector<DsmNodeN<N>> nodes;
   std::vector<ChunkNodeN<N>> chunks;
   std::vector<SurfaceTag> tags;
+  std::vector<float> pyramid;
 
   void assign(const NodeArrays<N>& a) {
     texels.assign(a.texels.begin(), a.texels.end());
     nodes.assign(a.nodes.begin(), a.nodes.end());
     chunks.assign(a.chunks.begin(), a.chunks.end());
     tags.assign(a.tags.begin(), a.tags.end());
+    pyramid.assign(a.pyramid.begin(), a.pyramid.end());
   }
   NodeArrays<N> view() const {
     return {{texels.data(), texels.size()},
             {nodes.data(), nodes.size()},
             {chunks.data(), chunks.size()},
-            {tags.data(), tags.size()}};
+            {tags.data(), tags.size()},
+            {pyramid.data(), pyramid.size()}};
   }
 };
 

@@ -36,6 +36,7 @@
 
 #include "exec/exec.h"
 #include "exec/light_pass_options.h"
+#include "hd/blocker_pyramid.h"
 #include "hd/dsm_chunked.h"
 #include "hd/dsm_fixed.h"
 #include "hd/light_pass.h"
@@ -91,15 +92,18 @@ struct NodeKind {
 template <class Node, class Ex>
 struct KindStore {
   using Chunk = typename NodeKind<Node>::Chunk;
-  explicit KindStore(Ex& ex) : texels(ex), nodes(ex), chunks(ex), tags(ex) {}
+  explicit KindStore(Ex& ex) : texels(ex), nodes(ex), chunks(ex), tags(ex), pyramid(ex) {}
   ExecArray<TexelRange, Ex> texels;  // packed, chunked: headers, map by map
   ExecArray<Node, Ex> nodes;         // packed: exact pool; fixed: L slots per texel
   ExecArray<Chunk, Ex> chunks;       // chunked: the slot pool
   ExecArray<SurfaceTag, Ex> tags;    // per slot of `nodes` (packed, fixed) or of `chunks` (chunked)
+  ExecArray<float, Ex> pyramid;      // the maps' blocker pyramids (hd/blocker_pyramid.h); empty: no map has one
   uint64_t texel_count = 0;          // this kind's texels (fixed keeps no headers)
 
   // The arrays as the lookups read them (views of executor memory).
-  NodeArrays<Node::kChannels> arrays() const { return {texels.cspan(), nodes.cspan(), chunks.cspan(), tags.cspan()}; }
+  NodeArrays<Node::kChannels> arrays() const {
+    return {texels.cspan(), nodes.cspan(), chunks.cspan(), tags.cspan(), pyramid.cspan()};
+  }
 };
 
 // Working memory of the light pass, kept across builds (it only grows).
@@ -276,6 +280,48 @@ struct SecondWalk {
     }
   }
 };
+
+// The blocker pyramid of `map`, the last map of `out` (hd/blocker_pyramid.h),
+// when `wanted` and the map is large enough to have one; its bytes. The
+// kind's array covers every map once one has a pyramid: the slots it
+// grows by are marked unknown (-kNoOpacityDepth: every search goes on),
+// so a map without a pyramid reads as one. Launches of four levels each, a
+// thread per cell of the group's top level building the block under it:
+// levels 1-4 from the texels, 5-8 from level 4, ... (a 512^2 map: 3).
+template <class Node, class Ex>
+uint64_t build_blocker_pyramid(Ex& ex, KindStore<Node, Ex>& out, const DsmMap& map, DsmLayout layout, uint32_t layers,
+                               bool wanted) {
+  constexpr int N = Node::kChannels;
+  const uint32_t w = map.res, h = uint32_t(map.view.height);
+  const bool build = wanted && pyramid_cells(w, h) <= uint64_t(w) * h / 2u;
+  if (out.pyramid.size() == 0 && !build) return 0;
+  const uint64_t before = out.pyramid.size();
+  out.pyramid.resize(pyramid_array_size(out.texel_count));
+  float* cells = out.pyramid.data();
+  ex.parallel_for(
+      "light pass: blocker pyramid slots", out.pyramid.size() - before,
+      CDSM_LAMBDA(uint64_t i) { cells[before + i] = -kNoOpacityDepth; });
+  if (!build) return 0;
+  const int top = pyramid_top(w, h);
+  DsmStorage st;
+  st.layout = layout;
+  st.layers = layout == DsmLayout::Fixed ? layers : 0u;
+  if constexpr (N == 3)
+    st.rgb = out.arrays();
+  else
+    st.grey = out.arrays();
+  const DsmMap m = map;
+  for (int first = 1; first <= top; first += 4) {
+    const int last = first + 3 < top ? first + 3 : top;
+    const PyramidLevel l = pyramid_level(map, last);
+    const uint32_t lw = l.w;
+    ex.parallel_for(
+        "light pass: blocker pyramid", uint64_t(l.w) * l.h, CDSM_LAMBDA(uint64_t i) {
+          build_pyramid_block<N>(st, m, cells, first, last, uint32_t(i % lw), uint32_t(i / lw));
+        });
+  }
+  return pyramid_cells(w, h) * sizeof(float);
+}
 
 // Builds one map from its light-view fragment lists (exec memory; sorted in
 // place) into `out` in `layout`. `scene`, `params.inside` and `frags` are
@@ -567,6 +613,7 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
       stats.tag_bytes = total * sizeof(SurfaceTag);
   }
   stats.slack_bytes = stats.node_bytes_allocated - stats.node_bytes_used;
+  stats.pyramid_bytes = build_blocker_pyramid(ex, out, map, kind, L, params.blocker_pyramid);
   return stats;
 }
 

@@ -74,6 +74,14 @@ ExecStoredMap move_map_exec(Ex& ex, const ExecStoredMap& m, DsmLayout layout, co
         if (c.next != kChunkEnd) c.next = uint32_t((long long)c.next + chunk_shift);
         dst_c[i] = c;
       });
+  // The blocker pyramid's slot (hd/blocker_pyramid.h), where the kind has them.
+  if (from.pyramid.size() > 0) {
+    const uint64_t cells = uint64_t(m.map.res) * uint64_t(m.map.view.height) / 2u;
+    to.pyramid.resize(pyramid_array_size(to.texel_count));
+    if (cells)
+      ex.copy(to.pyramid.data() + n.map.texel_offset / 2u, from.pyramid.data() + m.map.texel_offset / 2u,
+              cells * sizeof(float));
+  }
   n.texel_end = to.texels.size();
   n.node_end = to.nodes.size();
   n.chunk_end = to.chunks.size();

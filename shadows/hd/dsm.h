@@ -87,6 +87,7 @@ struct NodeArrays {
   Span<const DsmNodeN<N>> nodes;     // packed: the exact pool; fixed: `layers` slots per texel
   Span<const ChunkNodeN<N>> chunks;  // chunked: the slot pool, chunk after chunk
   Span<const SurfaceTag> tags;       // per slot of nodes (packed, fixed) or chunks (chunked); empty: none
+  Span<const float> pyramid;         // the maps' blocker pyramids (hd/blocker_pyramid.h); empty: none
 };
 
 // All maps' texels and nodes in one layout (views; the owner is the backend):

@@ -18,6 +18,7 @@ struct LightPassParams {
   float method_param = 0.0f;                // the baseline's parameter (0: its default)
   float layer_thickness = 0.0f;             // deep opacity maps: along the ray (0: each texel's caster extent / N)
   bool rgb = false;                         // RGB nodes (a coloured caster among the map's members; DSM only)
+  bool blocker_pyramid = false;             // with its blocker pyramid (hd/blocker_pyramid.h): a light with a size
 };
 
 // One texel's walk in N colour channels (hd/channels.h; N from the sink's

@@ -2,6 +2,7 @@
 // DSM lookups combined over a light's maps (thesis eq. 3.12).
 #pragma once
 
+#include "hd/blocker_pyramid.h"
 #include "hd/dsm.h"
 
 namespace cdsm {
@@ -405,6 +406,97 @@ CDSM_HD CDSM_INLINE float blocker_limit(const ShadowView& sv, const LightData& L
   return depth - receiver_read_at(sv, m, pr, r, depth).window;
 }
 
+// The deepest depth a blocker search tap at texels [x0, x1] x [y0, y1] of
+// map m reads receiver r to (blocker_limit's largest there), or more. A
+// plane's depth along the rays of a rectangle of texels is largest at a
+// corner: linear in the texel orthographically; through a pinhole the
+// plane's distance over the cosine of the ray's angle to its normal, which
+// is largest at a corner of the rectangle's (convex) cone of rays when the
+// plane lies in front of all four — else at most the reach's cap.
+CDSM_HD inline float blocker_limit_bound(const ShadowView& sv, const LightData& L, const DsmMap& m,
+                                         const ViewProjection& pr, const Receiver& r, int x0, int x1, int y0, int y1) {
+  const bool surface = dot(r.plane, r.plane) > 0.0f;
+  if (sv.receiver == ReceiverLookup::SlopeBias) return pr.depth - slope_bias_offset(L, m, pr, r);
+  if (!surface) return pr.depth;
+  const float reach = kPlaneReachTexels * texel_footprint(m, pr.axial);
+  float t = pr.depth - reach;
+  bool in_front = true;
+  for (int c = 0; c < 4; ++c) {
+    const int tx = c & 1 ? x1 : x0, ty = c & 2 ? y1 : y0;
+    t = fmaxf(t, plane_depth_at_texel(m.view, tx, ty, r.p, r.plane, pr.depth, reach));
+    const float dn = dot(normalize(view_direction(m.view, float(tx) + 0.5f, float(ty) + 0.5f)), r.plane);
+    in_front = in_front && dn * dot(r.p - pixel_origin(m.view, tx, ty), r.plane) > 0.0f;
+  }
+  if (!in_front && !is_orthographic(m.view)) t = pr.depth + reach;
+  t += 4.0e-6f * fabsf(t);  // the taps' own rounding
+  return t - receiver_read_at(sv, m, pr, r, t).window;
+}
+
+// Whether the blocker search around receiver r (penumbra_filter_radius,
+// out to `search` across its ray) can count anything, from map m's blocker
+// pyramid (hd/blocker_pyramid.h). Squares of texels the search may read
+// (within its radius in pixels, search * max_pixels_per_angle) are
+// dismissed when none of their texels holds opacity in front of the
+// deepest depth the search reads there (blocker_limit_bound), or when they
+// lie farther from the receiver than their nearest blocker could reach
+// (the search's own test, 2 rho + a texel, with rho at the square's least
+// depth: rho shrinks with depth); the others are split, coarse to fine.
+// No: every square dismissed — the search counts nothing, the lookup is
+// hard. Yes: a square of 2 x 2 texels left, the visit budget spent, or the
+// map without a pyramid. Exact either way: the search decides.
+inline constexpr int kPyramidVisits = 48;
+template <int N>
+CDSM_HD inline bool blockers_within_reach(const ShadowView& sv, const LightData& L, const DsmMap& m,
+                                          const ViewProjection& pr, const Receiver& r, const PenumbraFrame& f,
+                                          float search) {
+  const NodeArrays<N> a = sv.storage.arrays<N>();
+  if (!has_pyramid(a, m)) return true;
+  const uint32_t w = m.res, h = uint32_t(m.view.height);
+  const int top = pyramid_top(w, h);
+  uint64_t offset[32];
+  uint64_t at = m.texel_offset / 2u;
+  for (int k = 1; k <= top; ++k) {
+    offset[k] = at;
+    at += uint64_t(((w - 1u) >> k) + 1u) * (((h - 1u) >> k) + 1u);
+  }
+  if (!(a.pyramid[offset[top]] > -kNoOpacityDepth)) return true;  // built without one
+  const float ppa = max_pixels_per_angle(f);
+  const float R = search * ppa + 1.0f;
+  const int bx0 = int(fmaxf(floorf(pr.u - R), 0.0f)), bx1 = int(fminf(floorf(pr.u + R), float(w) - 1.0f));
+  const int by0 = int(fmaxf(floorf(pr.v - R), 0.0f)), by1 = int(fminf(floorf(pr.v + R), float(h) - 1.0f));
+  if (bx0 > bx1 || by0 > by1) return false;
+  int k0 = 1;
+  while (k0 < top && float(1 << k0) < R) ++k0;
+  // Cells (level, x, y) to visit, depth first.
+  uint32_t stack[64];
+  int n = 0;
+  for (int y = by0 >> k0; y <= by1 >> k0; ++y)
+    for (int x = bx0 >> k0; x <= bx1 >> k0; ++x) stack[n++] = (uint32_t(k0) << 26) | (uint32_t(y) << 13) | uint32_t(x);
+  for (int visits = 0; n > 0; ++visits) {
+    if (visits == kPyramidVisits) return true;
+    const uint32_t c = stack[--n];
+    const int k = int(c >> 26), cy = int((c >> 13) & 0x1fffu), cx = int(c & 0x1fffu);
+    const float least = a.pyramid[offset[k] + uint64_t(cy) * ((((w - 1u) >> k) + 1u)) + uint64_t(cx)];
+    // The cell's texels the search may read.
+    const int x0 = cx << k > bx0 ? cx << k : bx0, x1 = ((cx + 1) << k) - 1 < bx1 ? ((cx + 1) << k) - 1 : bx1;
+    const int y0 = cy << k > by0 ? cy << k : by0, y1 = ((cy + 1) << k) - 1 < by1 ? ((cy + 1) << k) - 1 : by1;
+    if (!(least < kNoOpacityDepth)) continue;
+    const float dx = fmaxf(fmaxf(float(x0) + 0.5f - pr.u, pr.u - (float(x1) + 0.5f)), 0.0f);
+    const float dy = fmaxf(fmaxf(float(y0) + 0.5f - pr.v, pr.v - (float(y1) + 0.5f)), 0.0f);
+    const float nearest = sqrtf(dx * dx + dy * dy) / ppa;  // an angle no texel centre of it is nearer than
+    if (nearest * (1.0f - 1.0e-4f) > 2.0f * penumbra_radius(L, m, pr.depth, least) * (1.0f + 1.0e-4f) + f.texel)
+      continue;
+    if (least >= blocker_limit_bound(sv, L, m, pr, r, x0, x1, y0, y1)) continue;
+    if (k == 1 || n + 4 > 64) return true;
+    for (int y = 2 * cy; y <= 2 * cy + 1; ++y)
+      for (int x = 2 * cx; x <= 2 * cx + 1; ++x)
+        if ((x << (k - 1)) <= bx1 && ((x + 1) << (k - 1)) - 1 >= bx0 && (y << (k - 1)) <= by1 &&
+            ((y + 1) << (k - 1)) - 1 >= by0)
+          stack[n++] = (uint32_t(k - 1) << 26) | (uint32_t(y) << 13) | uint32_t(x);
+  }
+  return false;
+}
+
 // The filter radius (radians across the ray; world units orthographic) of light L's penumbra at receiver r in
 // map m (0: a hard lookup), step 1 above.
 CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightData& L, const DsmMap& m,
@@ -413,6 +505,9 @@ CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightDat
   if (sv.penumbra == Penumbra::FixedKernel) return penumbra_radius(L, m, z, 0.5f * z);
   const PenumbraFrame f = penumbra_frame(m, pr);
   const float search = fminf(penumbra_radius(L, m, z, fmaxf(m.view.near, 1e-6f)), kPenumbraSearchTexels * f.texel);
+  if (!(m.rgb ? blockers_within_reach<3>(sv, L, m, pr, r, f, search)
+              : blockers_within_reach<1>(sv, L, m, pr, r, f, search)))
+    return 0.0f;
   const int res = int(m.res);
   float weight = 0.0f, moment = 0.0f;
   // The texel under the receiver, then rings of 8 at 1, 2, 4, ... texels

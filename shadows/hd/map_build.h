@@ -45,7 +45,8 @@ struct DsmBuildStats {
   uint64_t node_bytes_used = 0;
   uint64_t slack_bytes = 0;
   uint64_t tag_bytes = 0;
-  uint64_t chunks = 0;  // chunked: chunks allocated
+  uint64_t pyramid_bytes = 0;  // its blocker pyramid (hd/blocker_pyramid.h; a light with a size)
+  uint64_t chunks = 0;         // chunked: chunks allocated
   WalkStats walk;
 };
 

@@ -215,8 +215,9 @@ TEST(RgbMaps, OnlyWhereAMapHoldsColour) {
   }
   EXPECT_GE(rgb, 1u);
   EXPECT_EQ(st.memory.rgb_maps, rgb);
-  EXPECT_EQ(st.memory.grey_bytes + st.memory.rgb_bytes,
-            st.memory.index_bytes + st.memory.node_bytes + st.memory.slack_bytes + st.memory.tag_bytes);
+  EXPECT_EQ(st.memory.grey_bytes + st.memory.rgb_bytes, st.memory.index_bytes + st.memory.node_bytes +
+                                                            st.memory.slack_bytes + st.memory.tag_bytes +
+                                                            st.memory.pyramid_bytes);
   s.shadows.rgb_maps = false;
   sync_scene(sys, s);
   sys.update(&st);

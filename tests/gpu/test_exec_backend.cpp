@@ -24,6 +24,7 @@
 #include "cdsm/shadow_system.h"
 #include "exec/host_exec.h"
 #include "exec/scan.h"
+#include "hd/blocker_pyramid.h"
 #include "parity.h"
 #include "frame_snapshot.h"
 #include "scene_sync.h"
@@ -296,8 +297,45 @@ TEST(ExecBackend, BaselinesEqualASerialWalk) {
     }
 }
 
-// Freed maps leave holes; compaction moves the rest (offsets, chunk links
-// and tags re-based) and they read as the serial walk, in every layout.
+// Map m's blocker pyramid in `st` (hd/blocker_pyramid.h): each cell the
+// least opacity depth of its texels; built without one, its top cell says
+// unknown.
+template <int N>
+void expect_pyramid(const DsmStorage& st, const DsmMap& m, bool built, const std::string& what) {
+  const NodeArrays<N> a = st.arrays<N>();
+  ASSERT_TRUE(has_pyramid(a, m)) << what;
+  const uint32_t w = m.res, h = uint32_t(m.view.height);
+  const int top = pyramid_top(w, h);
+  if (!built) {
+    EXPECT_EQ(a.pyramid[pyramid_level(m, top).offset], -kNoOpacityDepth) << what;
+    return;
+  }
+  int wrong = 0;
+  for (int k = 1; k <= top; ++k) {
+    const PyramidLevel l = pyramid_level(m, k);
+    for (uint32_t cy = 0; cy < l.h; ++cy)
+      for (uint32_t cx = 0; cx < l.w; ++cx) {
+        float least = kNoOpacityDepth;
+        for (uint32_t y = cy << k; y < ((cy + 1) << k) && y < h; ++y)
+          for (uint32_t x = cx << k; x < ((cx + 1) << k) && x < w; ++x)
+            least = std::min(least, texel_opacity_depth<N>(st, m, int(x), int(y)));
+        wrong += a.pyramid[l.offset + uint64_t(cy) * l.w + cx] != least;
+      }
+  }
+  EXPECT_EQ(wrong, 0) << what << ": pyramid cells that are not their texels' least opacity depth";
+}
+void expect_pyramid(const HostBackend& ex, MapId id, bool built, const std::string& what) {
+  const DsmStorage st = ex.storage();
+  const DsmMap m = ex.map_header(id);
+  if (m.rgb)
+    expect_pyramid<3>(st, m, built, what);
+  else
+    expect_pyramid<1>(st, m, built, what);
+}
+
+// Freed maps leave holes; compaction moves the rest (offsets, chunk links,
+// tags and blocker pyramids re-based) and they read as the serial walk, in
+// every layout.
 TEST(ExecBackend, FreeAndCompactKeepTheOtherMaps) {
   OneView v(parity::load("depth", 32, 32, 24), 0.005f);
   for (DsmLayout kind : {DsmLayout::Packed, DsmLayout::Fixed, DsmLayout::Chunked}) {
@@ -309,17 +347,21 @@ TEST(ExecBackend, FreeAndCompactKeepTheOtherMaps) {
       LightPassParams p = v.params;
       p.epsilon = 0.002f * float(i + 1);
       p.rgb = (i % 2) == 1;
+      p.blocker_pyramid = i != 2 && i != 3;
       DsmBuildStats st;
       FragmentBuffers f = v.frags;
       ids.push_back(build_map_from_host(ex, p, f, layout_params(kind), st));
+      EXPECT_EQ(st.pyramid_bytes > 0u, p.blocker_pyramid) << "map " << i;
       params.push_back(p);
     }
     for (int i : {0, 1, 3, 4}) ex.free_map(ids[size_t(i)]);
     EXPECT_GT(ex.map_store().compactions, 0u) << "kind " << tag_name(kind);
-    for (int i : {2, 5})
+    for (int i : {2, 5}) {
+      const std::string what = "kind " + std::string(tag_name(kind)) + " map " + std::to_string(i);
       expect_map_equals_serial(ex, ids[size_t(i)], serial_map(v.sb, params[size_t(i)], v.frags, kTexelNodeCapacity),
-                               layout_params(kind), params[size_t(i)].epsilon,
-                               "kind " + std::string(tag_name(kind)) + " map " + std::to_string(i));
+                               layout_params(kind), params[size_t(i)].epsilon, what);
+      expect_pyramid(ex, ids[size_t(i)], params[size_t(i)].blocker_pyramid, what);
+    }
   }
 }
 
@@ -329,8 +371,8 @@ std::vector<std::vector<unsigned char>> store_bytes(const DsmStorage& s) {
     const auto* p = reinterpret_cast<const unsigned char*>(span.data());
     return std::vector<unsigned char>(p, p + span.size() * sizeof(*span.data()));
   };
-  return {bytes(s.grey.texels), bytes(s.grey.nodes), bytes(s.grey.chunks), bytes(s.rgb.texels),
-          bytes(s.rgb.nodes),   bytes(s.rgb.chunks), bytes(s.grey.tags),   bytes(s.rgb.tags)};
+  return {bytes(s.grey.texels), bytes(s.grey.nodes), bytes(s.grey.chunks), bytes(s.rgb.texels),   bytes(s.rgb.nodes),
+          bytes(s.rgb.chunks),  bytes(s.grey.tags),  bytes(s.rgb.tags),    bytes(s.grey.pyramid), bytes(s.rgb.pyramid)};
 }
 
 // A build that fails at any of its steps (each allocation and each launch in
@@ -348,6 +390,7 @@ TEST(ExecBackend, AFailedBuildLeavesTheStoreAsItWas) {
       for (int i = 0; i < 2; ++i) {
         LightPassParams p = v.params;
         p.rgb = i == 1;
+        p.blocker_pyramid = i == 0;
         DsmBuildStats st;
         FragmentBuffers f = v.frags;
         ids.push_back(build_map_from_host(ex, p, f, layout_params(kind), st));
@@ -359,8 +402,10 @@ TEST(ExecBackend, AFailedBuildLeavesTheStoreAsItWas) {
       bool threw = false;
       DsmBuildStats st;
       try {
+        LightPassParams p = v.params;
+        p.blocker_pyramid = true;  // its launches fail too
         FragmentBuffers f = v.frags;
-        build_map_from_host(ex, v.params, f, layout_params(kind), st);
+        build_map_from_host(ex, p, f, layout_params(kind), st);
       } catch (const std::runtime_error&) {
         threw = true;
       }

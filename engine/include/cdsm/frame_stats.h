@@ -47,10 +47,11 @@ struct DsmMemory {
   uint64_t maps = 0;
   uint64_t texels = 0;
   uint64_t nodes = 0;
-  uint64_t index_bytes = 0;  // per-texel headers
-  uint64_t node_bytes = 0;   // nodes used
-  uint64_t slack_bytes = 0;  // allocated but unused node memory
-  uint64_t tag_bytes = 0;    // the node slots' surface tags (2 bytes each: which surface made a step)
+  uint64_t index_bytes = 0;    // per-texel headers
+  uint64_t node_bytes = 0;     // nodes used
+  uint64_t slack_bytes = 0;    // allocated but unused node memory
+  uint64_t tag_bytes = 0;      // the node slots' surface tags (2 bytes each: which surface made a step)
+  uint64_t pyramid_bytes = 0;  // blocker pyramids of the maps of lights with a size (about 1.3 bytes per texel)
   double avg_nodes_per_texel = 0.0;
   uint32_t max_nodes_per_texel = 0;
   uint64_t overflow_texels = 0;  // re-compressed to fit the per-texel buffer
@@ -59,7 +60,7 @@ struct DsmMemory {
   // Per map kind: grey maps store scalar nodes (8 bytes; chunked slots 12),
   // RGB maps (a coloured caster among their members) 16 bytes (chunked 20).
   uint64_t rgb_maps = 0;
-  uint64_t grey_bytes = 0;  // index + node + slack + tag bytes of the grey maps
+  uint64_t grey_bytes = 0;  // index + node + slack + tag + pyramid bytes of the grey maps
   uint64_t rgb_bytes = 0;   // the same of the RGB maps
   uint64_t rgb_nodes = 0;   // nodes in RGB maps (of `nodes`)
 };
@@ -241,6 +242,7 @@ void for_each_stat(const DsmMemory& m, F&& f) {
   f("node_bytes", m.node_bytes);
   f("slack_bytes", m.slack_bytes);
   f("tag_bytes", m.tag_bytes);
+  f("pyramid_bytes", m.pyramid_bytes);
   f("avg_nodes_per_texel", m.avg_nodes_per_texel);
   f("max_nodes_per_texel", m.max_nodes_per_texel);
   f("overflow_texels", m.overflow_texels);

@@ -1,0 +1,190 @@
+// The blocker pyramid (hd/blocker_pyramid.h; issue 46 item 2): every cell
+// the light pass built is the least opacity depth of its texels, computed
+// again here from the node lists; a soft lookup's blocker search reads the
+// same, to the bit, with the pyramid as without it (the pyramid only says
+// where the search would count nothing) while it skips the search for a
+// good share of the receivers; maps of lights without a size have none
+// (they pay nothing for soft shadows). The shipped scenes with their
+// lights given a size: the default scene's spot (RGB maps), the glass
+// under the sun (clustered orthographic maps), the teapot's point light
+// (cube faces), in every layout.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "cdsm/scene_io.h"
+#include "hd/blocker_pyramid.h"
+#include "hd/lights.h"
+#include "unit_util.h"
+
+using namespace cdsm;
+using namespace cdsm_test;
+
+namespace {
+
+Scene shipped(const std::string& name) { return load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/" + name); }
+
+// The scene's lights given a size (spots and points 0.15 m, the sun 2 degrees).
+Scene sized(Scene s) {
+  for (Light& l : s.lights) {
+    if (l.type == LightType::Directional)
+      l.angular_diameter_deg = 2.0f;
+    else
+      l.radius = 0.15f;
+  }
+  return s;
+}
+
+// Receivers over the scene's bounds and around each object (its box grown
+// by half): points on planes (surfaces looked up at their plane: level,
+// and tilted 45 and 70 degrees), and the same points as volume samples;
+// and the objects' own surfaces (up to 400 triangles' centres each, at the
+// triangle's plane, its own step left out), where blockers lie just in
+// front of the plane beside the receiver.
+std::vector<Receiver> receivers(const SceneBuffers& sb) {
+  std::vector<Box3> boxes{sb.bounds};
+  for (const Box3& b : sb.object_bounds) {
+    const Vec3 grow = (b.hi - b.lo) * 0.25f;
+    boxes.push_back(Box3{b.lo - grow, b.hi + grow});
+  }
+  std::vector<Receiver> out;
+  for (const Box3& b : boxes)
+    for (int k = 0; k < 4; ++k)
+      for (int j = 0; j < 12; ++j)
+        for (int i = 0; i < 12; ++i) {
+          const Vec3 t{(float(i) + 0.5f) / 12.0f, (float(k) + 0.02f) / 4.0f, (float(j) + 0.5f) / 12.0f};
+          const Vec3 p = b.lo + (b.hi - b.lo) * t;
+          out.push_back(Receiver{p, {0, 1, 0}, kNoObject});
+          out.push_back(Receiver{p, {0.70710678f, 0.70710678f, 0}, kNoObject});
+          out.push_back(Receiver{p, {0, 0.34202014f, 0.93969262f}, kNoObject});
+          out.push_back(Receiver{p, {0, 0, 0}, kNoObject});
+        }
+  const SceneView sv = sb.view();
+  for (uint32_t o = 0; o < sv.objects.size(); ++o) {
+    const ObjectData& od = sv.objects[o];
+    const uint32_t step = std::max(1u, od.tri_count / 400u);
+    for (uint32_t t = od.first_tri; t < od.first_tri + od.tri_count; t += step) {
+      const Vec3 a = sv.tri_vertices[3 * t], b = sv.tri_vertices[3 * t + 1], c = sv.tri_vertices[3 * t + 2];
+      const Vec3 n = cross(b - a, c - a);
+      if (!(length(n) > 0.0f)) continue;
+      out.push_back(Receiver{(a + b + c) * (1.0f / 3.0f), normalize(n), o});
+    }
+  }
+  return out;
+}
+
+// The storage without its pyramids (the GL lookup's view of it).
+ShadowView without_pyramid(ShadowView sv) {
+  sv.storage.grey.pyramid = {};
+  sv.storage.rgb.pyramid = {};
+  return sv;
+}
+
+template <int N>
+void expect_cells_are_least_depths(const ShadowView& sv, const DsmMap& m, const std::string& what) {
+  const NodeArrays<N> a = sv.storage.arrays<N>();
+  ASSERT_TRUE(has_pyramid(a, m)) << what;
+  const uint32_t w = m.res, h = uint32_t(m.view.height);
+  int wrong = 0;
+  for (int k = 1; k <= pyramid_top(w, h); ++k) {
+    const PyramidLevel l = pyramid_level(m, k);
+    for (uint32_t cy = 0; cy < l.h; ++cy)
+      for (uint32_t cx = 0; cx < l.w; ++cx) {
+        float least = kNoOpacityDepth;
+        for (uint32_t y = cy << k; y < ((cy + 1) << k) && y < h; ++y)
+          for (uint32_t x = cx << k; x < ((cx + 1) << k) && x < w; ++x)
+            least = std::min(least, texel_opacity_depth<N>(sv.storage, m, int(x), int(y)));
+        const float cell = a.pyramid[l.offset + uint64_t(cy) * l.w + cx];
+        if (cell != least && ++wrong < 5)
+          ADD_FAILURE() << what << ": level " << k << " cell (" << cx << ", " << cy << ") holds " << cell
+                        << ", its texels' least opacity depth is " << least;
+      }
+  }
+  EXPECT_EQ(wrong, 0) << what;
+}
+
+struct Case {
+  const char* scene;
+  DsmLayout layout;
+};
+
+class BlockerPyramid : public ::testing::TestWithParam<Case> {};
+
+TEST_P(BlockerPyramid, SearchReadsTheSameWithFewerWalks) {
+  const Case c = GetParam();
+  Scene s = sized(shipped(c.scene));
+  s.shadows.layout = c.layout;
+  s.shadows.resolution = 256;
+  const SystemFrame f(s);
+  const ShadowView sv = f.frame.view(s.shadows), bare = without_pyramid(sv);
+  const std::vector<Receiver> rs = receivers(f.sb);
+  int lookups = 0, skipped = 0, blocked = 0;
+  for (uint32_t li = 0; li < sv.lights.size(); ++li) {
+    const LightData& L = sv.lights[li];
+    ASSERT_GT(L.size, 0.0f);
+    for (uint32_t mi = L.first_map; mi < L.first_map + L.map_count; ++mi) {
+      const DsmMap& m = sv.maps[mi];
+      const std::string what = std::string(c.scene) + " light " + std::to_string(li) + " map " + std::to_string(mi);
+      if (m.rgb)
+        expect_cells_are_least_depths<3>(sv, m, what);
+      else
+        expect_cells_are_least_depths<1>(sv, m, what);
+      for (const Receiver& r : rs) {
+        const ViewProjection pr = project(m.view, r.p);
+        if (pr.axial <= 0.0f || pr.u < 0.0f || pr.v < 0.0f || pr.u >= float(m.res) || pr.v >= float(m.view.height))
+          continue;
+        const float with = penumbra_filter_radius(sv, L, m, pr, r), without = penumbra_filter_radius(bare, L, m, pr, r);
+        ASSERT_EQ(std::memcmp(&with, &without, sizeof with), 0)
+            << what << " at (" << r.p.x << ", " << r.p.y << ", " << r.p.z << "): " << with << " with the pyramid, "
+            << without << " without";
+        const PenumbraFrame pf = penumbra_frame(m, pr);
+        const float search =
+            std::min(penumbra_radius(L, m, pr.depth, std::max(m.view.near, 1e-6f)), kPenumbraSearchTexels * pf.texel);
+        const bool maybe = m.rgb ? blockers_within_reach<3>(sv, L, m, pr, r, pf, search)
+                                 : blockers_within_reach<1>(sv, L, m, pr, r, pf, search);
+        ++lookups;
+        skipped += !maybe;
+        blocked += with > 0.0f;
+      }
+    }
+  }
+  std::printf("[ pyramid  ] %s: %d lookups, %d with blockers, %d searches skipped\n", c.scene, lookups, blocked,
+              skipped);
+  ASSERT_GT(lookups, 500);
+  EXPECT_GT(blocked, lookups / 50) << "receivers in penumbrae, where the pyramid must say yes";
+  EXPECT_GT(skipped, lookups / 4) << "the pyramid skips the search for receivers with nothing in reach";
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, BlockerPyramid,
+                         ::testing::Values(Case{"default.json", DsmLayout::Packed},
+                                           Case{"default.json", DsmLayout::Chunked},
+                                           Case{"sun_glass.json", DsmLayout::Fixed},
+                                           Case{"teapot_omni.json", DsmLayout::Packed}),
+                         [](const ::testing::TestParamInfo<Case>& i) {
+                           std::string n = std::string(i.param.scene).substr(0, std::string(i.param.scene).find('.')) +
+                                           "_" + std::to_string(int(i.param.layout));
+                           return n;
+                         });
+
+// Hard lights build no pyramid: no memory, no launches for it.
+TEST(BlockerPyramidCost, HardLightsHaveNone) {
+  Scene s = shipped("default.json");
+  for (Light& l : s.lights) l.radius = 0.0f;
+  const SystemFrame hard(s);
+  EXPECT_EQ(hard.frame.view(s.shadows).storage.grey.pyramid.size(), 0u);
+  EXPECT_EQ(hard.frame.view(s.shadows).storage.rgb.pyramid.size(), 0u);
+  for (const DsmBuildStats& b : hard.frame.map_stats) EXPECT_EQ(b.pyramid_bytes, 0u);
+  s = sized(s);
+  const SystemFrame soft(s);
+  uint64_t bytes = 0, texels = 0;
+  for (const DsmBuildStats& b : soft.frame.map_stats) {
+    bytes += b.pyramid_bytes;
+    texels += b.texels;
+  }
+  EXPECT_GT(bytes, 0u);
+  EXPECT_LE(double(bytes) / double(texels), 4.0 / 3.0 + 0.05) << "a third of a float per texel";
+}
+
+}  // namespace
