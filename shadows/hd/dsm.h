@@ -417,6 +417,25 @@ CDSM_HD CDSM_INLINE Channels<N> texel_alpha(const DsmStorage& st, const DsmMap& 
   }
 }
 
+// The depth of texel (tx, ty)'s first node (kFixedPadZ when it has none):
+// every step of its alpha lies at or behind it.
+template <int N>
+CDSM_HD CDSM_INLINE float texel_first_depth(const DsmStorage& st, const DsmMap& m, int tx, int ty) {
+  const NodeArrays<N> a = st.arrays<N>();
+  const uint64_t t = texel_index(m, tx, ty);
+  switch (st.layout) {
+    case DsmLayout::Fixed: return a.nodes[t * st.layers].z;  // a pad when it has none
+    case DsmLayout::Chunked: {
+      const TexelRange h = a.texels[t];
+      return h.count ? a.chunks[h.offset].z : kFixedPadZ;
+    }
+    default: {
+      const TexelRange h = a.texels[t];
+      return h.count ? a.nodes[h.offset].z : kFixedPadZ;
+    }
+  }
+}
+
 // What receiver read `tr` gives from texel (tx, ty) of map m (of kind N).
 template <int N>
 CDSM_HD CDSM_INLINE Channels<N> texel_receive(const DsmStorage& st, const DsmMap& m, int tx, int ty,

@@ -523,11 +523,16 @@ CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightDat
     const Vec2 at = k == 0 ? Vec2{0.0f, 0.0f} : to_pixels(f, ring * dir.x, ring * dir.y);
     const int tx = int(floorf(pr.u + at.x)), ty = int(floorf(pr.v + at.y));
     if (tx < 0 || ty < 0 || tx >= res || ty >= res) continue;
+    // Its texel centre's angle from the receiver's ray. Its blockers lie at
+    // or behind its first node, and reach no farther than from there: a
+    // texel too far for that (or empty) is passed without its walk.
+    const float off = angle_of(f, float(tx) + 0.5f - pr.u, float(ty) + 0.5f - pr.v);
+    const float first =
+        m.rgb ? texel_first_depth<3>(sv.storage, m, tx, ty) : texel_first_depth<1>(sv.storage, m, tx, ty);
+    if (!(first < kFixedPadZ) || off > (2.0f * penumbra_radius(L, m, z, first) + f.texel) * (1.0f + 1.0e-5f)) continue;
     const TexelBlockers b = m.rgb ? texel_blockers<3>(sv.storage, m, tx, ty, blocker_limit(sv, L, m, pr, r, tx, ty))
                                   : texel_blockers<1>(sv.storage, m, tx, ty, blocker_limit(sv, L, m, pr, r, tx, ty));
     if (!(b.alpha > kPenumbraMinAlpha)) continue;
-    // Its texel centre's angle from the receiver's ray.
-    const float off = angle_of(f, float(tx) + 0.5f - pr.u, float(ty) + 0.5f - pr.v);
     if (off > 2.0f * penumbra_radius(L, m, z, b.depth) + f.texel) continue;
     weight += b.alpha;
     moment += b.alpha * b.depth;

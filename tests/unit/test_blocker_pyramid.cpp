@@ -1,9 +1,10 @@
 // The blocker pyramid (hd/blocker_pyramid.h; issue 46 item 2): every cell
 // the light pass built is the least opacity depth of its texels, computed
 // again here from the node lists; a soft lookup's blocker search reads the
-// same, to the bit, with the pyramid as without it (the pyramid only says
-// where the search would count nothing) while it skips the search for a
-// good share of the receivers; maps of lights without a size have none
+// same, to the bit, with the pyramid as without it and as a plain search
+// that walks every ring texel (the pyramid only says where the search
+// would count nothing, the first-node test which texels cannot reach)
+// while it skips the search for a good share of the receivers; maps of lights without a size have none
 // (they pay nothing for soft shadows). The shipped scenes with their
 // lights given a size: the default scene's spot (RGB maps), the glass
 // under the sun (clustered orthographic maps), the teapot's point light
@@ -75,6 +76,39 @@ std::vector<Receiver> receivers(const SceneBuffers& sb) {
   return out;
 }
 
+// The blocker search as hd/lights.h describes it, every ring texel walked:
+// no pyramid, no first-node shortcut (penumbra_filter_radius must read
+// the same).
+float plain_search(const ShadowView& sv, const LightData& L, const DsmMap& m, const ViewProjection& pr,
+                   const Receiver& r) {
+  const float z = pr.depth;
+  const PenumbraFrame f = penumbra_frame(m, pr);
+  const float search =
+      std::min(penumbra_radius(L, m, z, std::max(m.view.near, 1e-6f)), kPenumbraSearchTexels * f.texel);
+  const int res = int(m.res);
+  float weight = 0.0f, moment = 0.0f, ring = 0.0f;
+  for (int k = 0; k < 2 + 8 * kPenumbraSearchRings; ++k) {
+    if (k > 0 && (k - 1) % 8 == 0) {
+      if (ring >= search) break;
+      ring = std::min(k == 1 ? f.texel : 2.0f * ring, search);
+    }
+    const int d = k == 0 ? 0 : ((k - 1) % 8) * 2 + (((k - 1) / 8) & 1);
+    const Vec2 dir = penumbra_direction(d);
+    const Vec2 at = k == 0 ? Vec2{0.0f, 0.0f} : to_pixels(f, ring * dir.x, ring * dir.y);
+    const int tx = int(std::floor(pr.u + at.x)), ty = int(std::floor(pr.v + at.y));
+    if (tx < 0 || ty < 0 || tx >= res || ty >= res) continue;
+    const float lim = blocker_limit(sv, L, m, pr, r, tx, ty);
+    const TexelBlockers b =
+        m.rgb ? texel_blockers<3>(sv.storage, m, tx, ty, lim) : texel_blockers<1>(sv.storage, m, tx, ty, lim);
+    if (!(b.alpha > kPenumbraMinAlpha)) continue;
+    const float off = angle_of(f, float(tx) + 0.5f - pr.u, float(ty) + 0.5f - pr.v);
+    if (off > 2.0f * penumbra_radius(L, m, z, b.depth) + f.texel) continue;
+    weight += b.alpha;
+    moment += b.alpha * b.depth;
+  }
+  return weight > kPenumbraMinAlpha ? penumbra_radius(L, m, z, moment / weight) : 0.0f;
+}
+
 // The storage without its pyramids (the GL lookup's view of it).
 ShadowView without_pyramid(ShadowView sv) {
   sv.storage.grey.pyramid = {};
@@ -136,9 +170,13 @@ TEST_P(BlockerPyramid, SearchReadsTheSameWithFewerWalks) {
         if (pr.axial <= 0.0f || pr.u < 0.0f || pr.v < 0.0f || pr.u >= float(m.res) || pr.v >= float(m.view.height))
           continue;
         const float with = penumbra_filter_radius(sv, L, m, pr, r), without = penumbra_filter_radius(bare, L, m, pr, r);
+        const float plain = plain_search(sv, L, m, pr, r);
         ASSERT_EQ(std::memcmp(&with, &without, sizeof with), 0)
             << what << " at (" << r.p.x << ", " << r.p.y << ", " << r.p.z << "): " << with << " with the pyramid, "
             << without << " without";
+        ASSERT_EQ(std::memcmp(&with, &plain, sizeof with), 0)
+            << what << " at (" << r.p.x << ", " << r.p.y << ", " << r.p.z << "): " << with << ", every texel walked "
+            << plain;
         const PenumbraFrame pf = penumbra_frame(m, pr);
         const float search =
             std::min(penumbra_radius(L, m, pr.depth, std::max(m.view.near, 1e-6f)), kPenumbraSearchTexels * pf.texel);

@@ -77,6 +77,21 @@ vec2 cdsm_texel_blockers(CdsmMap m, uint t, float z_lim) {
   return pa > 0.0 ? vec2(pa, moment / pa) : vec2(0.0);
 }
 
+// The depth of texel t's first node (hd/dsm.h texel_first_depth): a
+// fixed layout's pad (3.4e38) when it has none.
+float cdsm_texel_first_depth(CdsmMap m, uint t) {
+  bool rgb = m.rgb != 0u;
+  uvec2 span = CDSM_LAYOUT_IS(CDSM_LAYOUT_FIXED) ? uvec2(t * cdsm_layers, cdsm_layers)
+               : rgb                            ? cdsm_rgb_texels[t]
+                                                : cdsm_texels[t];
+  if (span.y == 0u) return 3.402823466e+38;
+  float z;
+  vec3 a;
+  uint next;
+  cdsm_slot(rgb, span.x, z, a, next);
+  return z;
+}
+
 // The depth in front of which texel (tx, ty) holds the receiver's blockers.
 float cdsm_blocker_limit(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, int tx, int ty) {
   if (cdsm_receiver == CDSM_RECEIVER_SLOPE_BIAS) return pr.depth - cdsm_slope_bias_offset(L, m, pr, p, plane);
@@ -109,10 +124,15 @@ float cdsm_penumbra_filter_radius(CdsmLight L, CdsmMap m, CdsmProjection pr, vec
                      : cdsm_to_pixels(f, ring * CDSM_PENUMBRA_DIRECTIONS[d].x, ring * CDSM_PENUMBRA_DIRECTIONS[d].y);
     int tx = int(floor(pr.u + at.x)), ty = int(floor(pr.v + at.y));
     if (tx < 0 || ty < 0 || tx >= res || ty >= res) continue;
-    vec2 b = cdsm_texel_blockers(m, m.texel_offset + uint(ty) * m.res + uint(tx),
-                                 cdsm_blocker_limit(L, m, pr, p, plane, tx, ty));
-    if (!(b.x > CDSM_PENUMBRA_MIN_ALPHA)) continue;
+    // Blockers reach no farther than from the texel's first node: a texel
+    // too far for that (or empty) is passed without its walk.
+    uint t = m.texel_offset + uint(ty) * m.res + uint(tx);
     float off = cdsm_angle_of(f, float(tx) + 0.5 - pr.u, float(ty) + 0.5 - pr.v);
+    float first = cdsm_texel_first_depth(m, t);
+    if (!(first < 3.402823466e+38) || off > (2.0 * cdsm_penumbra_radius(L, m, z, first) + f.texel) * (1.0 + 1.0e-5))
+      continue;
+    vec2 b = cdsm_texel_blockers(m, t, cdsm_blocker_limit(L, m, pr, p, plane, tx, ty));
+    if (!(b.x > CDSM_PENUMBRA_MIN_ALPHA)) continue;
     if (off > 2.0 * cdsm_penumbra_radius(L, m, z, b.y) + f.texel) continue;
     weight += b.x;
     moment += b.x * b.y;
