@@ -174,6 +174,9 @@ void shadows_panel(Session& s) {
     ImGui::SetTooltip(
         "lights with a radius (or the sun's angular diameter): blockers estimated from the maps,\n"
         "a fixed-kernel PCF (baseline), or hard shadows");
+  changed |= field_slider("penumbra taps", next, &ShadowSettings::penumbra_taps, 5, 32);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("filter taps across a penumbra: the soft lookup costs about its square; fewer band wide ones");
   changed |= field_slider("bias constant", next, &ShadowSettings::bias_constant, 0.0f, 0.01f, "%.5f");
   changed |= field_slider("bias slope", next, &ShadowSettings::bias_slope, 0.0f, 2.0f, "%.3f");
   changed |= color_edit("ambient light", next.ambient_light);

@@ -182,6 +182,7 @@ MapUploadStats MapBuffers::sync(const ShadowView& view, uint64_t epoch, const De
   h.filtering = view.filtering ? 1u : 0u;
   h.receiver = view.receiver;
   h.penumbra = view.penumbra;
+  h.penumbra_taps = view.penumbra_taps;
   h.bias_constant = view.bias_constant;
   h.bias_slope = view.bias_slope;
   h.light_count = uint32_t(view.lights.size());

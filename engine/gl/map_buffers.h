@@ -45,8 +45,9 @@ struct FrameBlockHeader {
   float bias_slope;     // + texel footprints
   uint32_t light_count;
   uint32_t map_count;
-  Penumbra penumbra;  // lights with a size
-  uint32_t pad[3];
+  Penumbra penumbra;      // lights with a size
+  int32_t penumbra_taps;  // their filter's taps across a penumbra
+  uint32_t pad[2];
   LightData lights[kMaxLights];  // lights[i] owns maps [first_map, first_map + map_count)
 };
 static_assert(sizeof(FrameBlockHeader) == 48 + 64 * kMaxLights, "CdsmFrame header layout (cdsm.glsl)");

@@ -30,6 +30,7 @@ ShadowView ShadowFrame::view(const ShadowSettings& s, bool with_storage) const {
 void set_lookup(ShadowView& v, const ShadowSettings& s) {
   v.filtering = s.filtering;
   v.penumbra = s.penumbra;
+  v.penumbra_taps = s.penumbra_taps;
   v.bias_constant = s.bias_constant;
   v.bias_slope = s.bias_slope;
   v.receiver = s.receiver;

@@ -21,15 +21,20 @@ struct LightData {
 };
 static_assert(sizeof(LightData) == 64, "LightData is 64 bytes");
 
+// Filter taps across a penumbra's longer axis unless the settings say
+// otherwise (ShadowSettings::penumbra_taps; soft_map_alpha_in_colour).
+inline constexpr int kPenumbraTaps = 11;
+
 // Everything the camera pass needs to look up shadows.
 struct ShadowView {
   Span<const LightData> lights;
   Span<const DsmMap> maps;
   DsmStorage storage;
   bool filtering;
-  Penumbra penumbra;    // lights with a size (LightData::size > 0); the others are hard whatever it says
-  float bias_constant;  // a surface's own step is searched this far around its plane: world units
-  float bias_slope;     // + this many texel footprints at the point (+ kRelativeDepthOffset of the depth)
+  Penumbra penumbra;  // lights with a size (LightData::size > 0); the others are hard whatever it says
+  int32_t penumbra_taps = kPenumbraTaps;  // their filter's taps across a penumbra (>= 5)
+  float bias_constant;                    // a surface's own step is searched this far around its plane: world units
+  float bias_slope;  // + this many texel footprints at the point (+ kRelativeDepthOffset of the depth)
   ReceiverLookup receiver;
 };
 
@@ -255,7 +260,7 @@ CDSM_HD inline Vec3 map_alpha_in_colour(const ShadowView& sv, const LightData& L
 //      today's lookup (bilinear taps, each at the receiver's plane) over the
 //      disk of radius rho(z_b) (an ellipse in the map): the points of a
 //      lattice fixed in the map inside it, a texel apart, or 1 /
-//      kPenumbraMaxSide of the ellipse's longer axis for wide ones,
+//      ShadowView::penumbra_taps (kPenumbraTaps) of the ellipse's longer axis for wide ones,
 //      weighted down across its rim (soft_map_alpha_in_colour); a tap whose texel's blockers lie beyond
 //      their own reach of the receiver counts as lit (blocks_receiver: the
 //      body of a cup beside a receiver on the ground, in the disk but too
@@ -266,11 +271,10 @@ CDSM_HD inline Vec3 map_alpha_in_colour(const ShadowView& sv, const LightData& L
 // hard lookup. Penumbra::FixedKernel skips step 1 and filters with the
 // radius of a blocker halfway to the light (rho(z/2)): a fixed-kernel PCF
 // of the same taps, the baseline. Cost: up to 8 kPenumbraSearchRings + 1 node
-// walks plus about (kPenumbraMaxSide + 1)^2 pi / 4 bilinear taps per map (each with one
+// walks plus about (penumbra_taps + 1)^2 pi / 4 bilinear taps per map (each with one
 // more node walk, blocks_receiver), against one bilinear tap for a hard
 // lookup.
 inline constexpr int kPenumbraSearchRings = 7;         // blocker search: rings at 1, 2, 4, ... texels (<= 64)
-inline constexpr int kPenumbraMaxSide = 11;            // filter lattice: taps a texel or 1/11 of the ellipse apart
 inline constexpr float kPenumbraSearchTexels = 64.0f;  // blocker search radius cap
 inline constexpr float kPenumbraMinAlpha = 1.0e-3f;    // less opacity in front: no blocker
 // Unit direction d of 16, every 22.5 degrees (cos, sin): ring k's 8 use
@@ -570,9 +574,9 @@ CDSM_HD CDSM_INLINE float rim_weight(float du, float dv, float angle, float radi
 // One map's opacity at receiver r from light L with a size: today's lookup
 // filtered over the penumbra's ellipse (step 2 above). The taps lie on a
 // lattice fixed in the map (points k s, s = the ellipse's longer axis over
-// kPenumbraMaxSide, at least a texel), weighted by rim_weight: a tap grid
+// penumbra_taps, at least a texel), weighted by rim_weight: a tap grid
 // moving with the receiver would shift whole columns of taps across an
-// edge at once (a staircase of about 1 / kPenumbraMaxSide per column when
+// edge at once (a staircase of about 1 / penumbra_taps per column when
 // the taps are several texels apart); on a fixed lattice the taps enter and
 // leave one at a time at the rim, with their weights. Penumbrae of half a
 // texel to 1.5 blend from the hard lookup.
@@ -582,7 +586,7 @@ CDSM_HD inline Vec3 soft_map_alpha_in_colour(const ShadowView& sv, const LightDa
   const PenumbraFrame f = penumbra_frame(m, pr);
   const float reach = radius * max_pixels_per_angle(f);  // the ellipse's longer half-axis, pixels
   if (!(reach >= 0.5f)) return map_alpha_in_colour(sv, L, m, pr, r);
-  const float spacing = fmaxf(1.0f, 2.0f * reach / float(kPenumbraMaxSide));
+  const float spacing = fmaxf(1.0f, 2.0f * reach / float(sv.penumbra_taps));
   const float inv = 1.0f / spacing, out = reach + 0.5f * spacing;
   const int i0 = int(ceilf((pr.u - out) * inv)), i1 = int(floorf((pr.u + out) * inv));
   const int j0 = int(ceilf((pr.v - out) * inv)), j1 = int(floorf((pr.v + out) * inv));

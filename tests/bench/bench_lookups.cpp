@@ -62,13 +62,14 @@ struct Maps : cdsm_test::SystemFrame {
 };
 
 // arg 0: 0 hard (radius 0), 1 estimated (radius 0.15), 2 fixed kernel (radius 0.15), 3 the estimate's
-// blocker search alone (penumbra_filter_radius); arg 1: 0 surfaces, 1 samples.
+// blocker search alone (penumbra_filter_radius), 4 estimated with penumbra_taps 5; arg 1: 0 surfaces, 1 samples.
 void BM_Lookup(benchmark::State& state) {
   static Maps hard(0.0f), sized(0.15f);
   const int mode = int(state.range(0));
   Maps& m = mode == 0 ? hard : sized;
   ShadowView sv = m.frame.view(m.scene.shadows);
   if (mode == 2) sv.penumbra = Penumbra::FixedKernel;
+  if (mode == 4) sv.penumbra_taps = 5;
   const std::vector<Receiver>& pts = state.range(1) == 0 ? m.surfaces : m.samples;
   const DsmVisibility vis{sv};
   double sink = 0.0;
@@ -80,7 +81,8 @@ void BM_Lookup(benchmark::State& state) {
   benchmark::DoNotOptimize(sink);
   state.counters["per_lookup"] = benchmark::Counter(double(state.iterations()) * double(pts.size()),
                                                     benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
-  const char* names[] = {"hard", "estimated r=0.15", "fixed kernel r=0.15", "blocker search alone r=0.15"};
+  const char* names[] = {"hard", "estimated r=0.15", "fixed kernel r=0.15", "blocker search alone r=0.15",
+                         "estimated r=0.15, 5 taps across"};
   state.SetLabel(std::string(names[mode]) + (state.range(1) == 0 ? ", surfaces" : ", volume samples"));
 }
 
@@ -145,5 +147,5 @@ void BM_CameraPass(benchmark::State& state) {
 
 BENCHMARK(BM_CameraPass)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_SeriesReconstruction)->DenseRange(0, 4)->Unit(benchmark::kMillisecond)->MinTime(0.5);
-BENCHMARK(BM_Lookup)->ArgsProduct({{0, 1, 2, 3}, {0, 1}})->Unit(benchmark::kMillisecond)->MinTime(0.5);
+BENCHMARK(BM_Lookup)->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}})->Unit(benchmark::kMillisecond)->MinTime(0.5);
 BENCHMARK_MAIN();

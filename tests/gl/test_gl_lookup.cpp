@@ -346,6 +346,10 @@ TEST_F(GlLookup, SoftSpotAndSun) {
   scene.shadows.layout = DsmLayout::Packed;
   scene.shadows.penumbra = Penumbra::FixedKernel;
   expect_agreement(scene, 20000, 8000, 4000, "default, spot radius 0.15, fixed kernel");
+  scene.shadows.penumbra = Penumbra::Estimated;
+  scene.shadows.penumbra_taps = 5;  // the budget reaches the shader
+  expect_agreement(scene, 20000, 8000, 4000, "default, spot radius 0.15, 5 taps across");
+  scene.shadows.penumbra_taps = 11;
   Scene sun = load_scene(scene_path("sun_glass.json"));
   sun.lights[0].angular_diameter_deg = 3.0f;
   sun.shadows.resolution = 512;

@@ -101,7 +101,6 @@ TEST(Tags, TheShaderIncludeCopiesTheLookupConstants) {
                                                      {"CDSM_SLOPE_BIAS_CONSTANT", kSlopeBiasConstant},
                                                      {"CDSM_SLOPE_BIAS_TEXELS", kSlopeBiasTexels},
                                                      {"CDSM_PENUMBRA_SEARCH_RINGS", float(kPenumbraSearchRings)},
-                                                     {"CDSM_PENUMBRA_MAX_SIDE", float(kPenumbraMaxSide)},
                                                      {"CDSM_PENUMBRA_SEARCH_TEXELS", kPenumbraSearchTexels},
                                                      {"CDSM_PENUMBRA_MIN_ALPHA", kPenumbraMinAlpha}};
   for (const auto& [name, value] : constants) EXPECT_EQ(glsl_constant(glsl, name), value) << name;

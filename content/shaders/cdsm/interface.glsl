@@ -136,7 +136,8 @@ layout(std430, binding = CDSM_BINDING_BASE + 0) readonly buffer CdsmFrame {
   uint cdsm_light_total;
   uint cdsm_map_total;
   uint cdsm_penumbra;  // CDSM_PENUMBRA_ESTIMATED / _FIXED_KERNEL / _HARD (lights with a size)
-  uint cdsm_pad0, cdsm_pad1, cdsm_pad2;
+  int cdsm_penumbra_taps;  // their filter's taps across a penumbra (ShadowSettings::penumbra_taps)
+  uint cdsm_pad1, cdsm_pad2;
   CdsmLight cdsm_lights[8];
   CdsmMap cdsm_maps[];
 };
@@ -186,7 +187,6 @@ const float CDSM_RELATIVE_DEPTH_OFFSET = 2e-5;
 const float CDSM_SLOPE_BIAS_CONSTANT = 0.0005;
 const float CDSM_SLOPE_BIAS_TEXELS = 1.5;
 const int CDSM_PENUMBRA_SEARCH_RINGS = 7;
-const int CDSM_PENUMBRA_MAX_SIDE = 11;
 const float CDSM_PENUMBRA_SEARCH_TEXELS = 64.0;
 const float CDSM_PENUMBRA_MIN_ALPHA = 1.0e-3;
 // hd/lights.h penumbra_direction: every 22.5 degrees.

@@ -169,7 +169,7 @@ vec3 cdsm_light_map_alpha(CdsmLight L, CdsmMap m, CdsmProjection pr, vec3 p, vec
   CdsmPenumbraFrame f = cdsm_penumbra_frame(m, pr);
   float reach = radius * f.l * f.l * max(f.to_u, f.to_v);
   if (!(reach >= 0.5)) return cdsm_map_alpha(L, m, pr, p, plane, object);
-  float spacing = max(1.0, 2.0 * reach / float(CDSM_PENUMBRA_MAX_SIDE));
+  float spacing = max(1.0, 2.0 * reach / float(cdsm_penumbra_taps));
   float inv = 1.0 / spacing, out_r = reach + 0.5 * spacing;
   int i0 = int(ceil((pr.u - out_r) * inv)), i1 = int(floor((pr.u + out_r) * inv));
   int j0 = int(ceil((pr.v - out_r) * inv)), j1 = int(floor((pr.v + out_r) * inv));

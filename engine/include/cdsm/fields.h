@@ -140,6 +140,8 @@ struct FieldTable<ShadowSettings> {
       CDSM_FIELD("receiver", receiver, 0, 0, kAffectsLookup, "how surfaces look themselves up"),
       CDSM_FIELD("penumbra", penumbra, 0, 0, kAffectsLookup,
                  "lights with a size: estimated (blockers from the maps), fixed_kernel (PCF baseline) or hard"),
+      CDSM_FIELD("penumbra_taps", penumbra_taps, 5, 32, kAffectsLookup,
+                 "lights with a size: filter taps across a penumbra (the cost goes with its square)"),
       CDSM_FIELD("bias_constant", bias_constant, 0.0, 10.0, kAffectsLookup,
                  "a caster's own surface: taps stop this far short of its plane (world units)"),
       CDSM_FIELD("bias_slope", bias_slope, 0.0, 100.0, kAffectsLookup, "... plus this many texel footprints"),

@@ -210,6 +210,11 @@ struct ShadowSettings {
   // Lights with a size: penumbrae estimated from the maps' blockers (the
   // default), a fixed-kernel PCF (baseline), or hard shadows.
   Penumbra penumbra = Penumbra::Estimated;
+  // Lights with a size: filter taps across a penumbra's longer axis (a
+  // lattice a texel apart, or this many across a wider penumbra): the
+  // filter costs about its square of bilinear taps per map; fewer is
+  // cheaper and wide penumbrae step more (below 5 too much: refused).
+  int32_t penumbra_taps = 11;
   int32_t max_clusters = 1;  // m
   // Baseline arrangement: > 1 replaces a spot light's map (and any clusters)
   // by that many parallel-split maps along the camera's view (Zhang et al.
