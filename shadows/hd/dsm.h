@@ -437,11 +437,15 @@ CDSM_HD CDSM_INLINE float texel_first_depth(const DsmStorage& st, const DsmMap& 
 }
 
 // What receiver read `tr` gives from texel (tx, ty) of map m (of kind N).
+// A texel whose first node lies behind the band of surfaces touching the
+// receiver holds nothing for it: 0 without the read (ReceiverScan's first
+// visit).
 template <int N>
 CDSM_HD CDSM_INLINE Channels<N> texel_receive(const DsmStorage& st, const DsmMap& m, int tx, int ty,
                                               const TexelRead& tr) {
   const NodeArrays<N> a = st.arrays<N>();
   uint64_t t = texel_index(m, tx, ty);
+  if (texel_first_depth<N>(st, m, tx, ty) > tr.depth + tr.coplanar) return Channels<N>{};
   switch (st.layout) {
     case DsmLayout::Fixed: return receiver_read(fixed_slots(a, st, t), a.tags, t * st.layers, tr);
     case DsmLayout::Chunked: return receiver_read_chunked(a.chunks, a.tags, a.texels[t], tr);
