@@ -24,7 +24,7 @@
 #include "cdsm/shadow_system.h"
 #include "exec/host_exec.h"
 #include "exec/scan.h"
-#include "hd/blocker_pyramid.h"
+#include "common/pyramid_check.h"
 #include "parity.h"
 #include "frame_snapshot.h"
 #include "scene_sync.h"
@@ -297,40 +297,20 @@ TEST(ExecBackend, BaselinesEqualASerialWalk) {
     }
 }
 
-// Map m's blocker pyramid in `st` (hd/blocker_pyramid.h): each cell the
-// least opacity depth of its texels; built without one, its top cell says
+// Map `id`'s blocker pyramid (hd/blocker_pyramid.h): each cell the least
+// opacity depth of its texels; built without one, its top cell says
 // unknown.
-template <int N>
-void expect_pyramid(const DsmStorage& st, const DsmMap& m, bool built, const std::string& what) {
-  const NodeArrays<N> a = st.arrays<N>();
-  ASSERT_TRUE(has_pyramid(a, m)) << what;
-  const uint32_t w = m.res, h = uint32_t(m.view.height);
-  const int top = pyramid_top(w, h);
-  if (!built) {
-    EXPECT_EQ(a.pyramid[pyramid_level(m, top).offset], -kNoOpacityDepth) << what;
-    return;
-  }
-  int wrong = 0;
-  for (int k = 1; k <= top; ++k) {
-    const PyramidLevel l = pyramid_level(m, k);
-    for (uint32_t cy = 0; cy < l.h; ++cy)
-      for (uint32_t cx = 0; cx < l.w; ++cx) {
-        float least = kNoOpacityDepth;
-        for (uint32_t y = cy << k; y < ((cy + 1) << k) && y < h; ++y)
-          for (uint32_t x = cx << k; x < ((cx + 1) << k) && x < w; ++x)
-            least = std::min(least, texel_opacity_depth<N>(st, m, int(x), int(y)));
-        wrong += a.pyramid[l.offset + uint64_t(cy) * l.w + cx] != least;
-      }
-  }
-  EXPECT_EQ(wrong, 0) << what << ": pyramid cells that are not their texels' least opacity depth";
-}
 void expect_pyramid(const HostBackend& ex, MapId id, bool built, const std::string& what) {
   const DsmStorage st = ex.storage();
   const DsmMap m = ex.map_header(id);
-  if (m.rgb)
-    expect_pyramid<3>(st, m, built, what);
-  else
-    expect_pyramid<1>(st, m, built, what);
+  const Span<const float> cells = m.rgb ? st.rgb.pyramid : st.grey.pyramid;
+  ASSERT_TRUE(m.rgb ? has_pyramid(st.rgb, m) : has_pyramid(st.grey, m)) << what;
+  if (!built) {
+    EXPECT_EQ(cells[pyramid_level(m, pyramid_top(m.res, uint32_t(m.view.height))).offset], -kNoOpacityDepth) << what;
+    return;
+  }
+  const cdsm_test::PyramidMismatch p = cdsm_test::pyramid_mismatch(st, m);
+  EXPECT_EQ(p.wrong, 0) << what << ": first " << p.first;
 }
 
 // Freed maps leave holes; compaction moves the rest (offsets, chunk links,
