@@ -61,14 +61,27 @@ ReferenceRenderer::ReferenceRenderer(const SceneView& scene, std::vector<LightDa
 
 Vec3 ReferenceRenderer::light_origin(const LightData& L, Vec3 p) const {
   if (L.type != LightType::Directional) return L.position;
-  // Leave the scene's box along -direction (slab exit), then a margin.
-  const Vec3 u = L.direction * -1.0f;
-  float t_exit = 0.0f;
+  return outside_along(p, L.direction * -1.0f);
+}
+
+// Where the ray from p along unit u has left the scene's box (its nearest
+// slab exit), then a margin of a thousandth of the box. The far exit
+// instead put the origin of a point among 1 cm pebbles on a 3 km ground
+// 8 km away, where 2e-5 of the distance (surfaces that touch,
+// kRelativeDepthOffset) is 16 cm: the pebbles' own tops and the ground
+// under them touched their undersides; and a margin of 1 m put it 1 m away
+// in a scene 0.3 m across. Each ray of a sun with a size leaves along its
+// own direction: the central ray's length along a ray 1 degree below it
+// can end under a caster.
+Vec3 ReferenceRenderer::outside_along(Vec3 p, Vec3 u) const {
+  float t_exit = 3.0e38f;
   for (int k = 0; k < 3; ++k) {
-    if (u[k] > 0.0f) t_exit = std::max(t_exit, (scene_hi_[k] - p[k]) / u[k]);
-    if (u[k] < 0.0f) t_exit = std::max(t_exit, (scene_lo_[k] - p[k]) / u[k]);
+    if (u[k] > 0.0f) t_exit = std::min(t_exit, (scene_hi_[k] - p[k]) / u[k]);
+    if (u[k] < 0.0f) t_exit = std::min(t_exit, (scene_lo_[k] - p[k]) / u[k]);
   }
-  const float margin = 1.0f + 1e-3f * length(scene_hi_ - scene_lo_);
+  if (!(t_exit < 3.0e38f)) t_exit = 0.0f;  // u = 0 (no direction)
+  t_exit = std::max(t_exit, 0.0f);
+  const float margin = 1e-3f * length(scene_hi_ - scene_lo_);  // relative: the same origin at every scale
   return p + u * (t_exit + margin);
 }
 
@@ -277,7 +290,7 @@ Vec3 ReferenceRenderer::area_origin(const LightData& L, Vec3 p, int k, int n) co
   Vec3 e2 = cross(axis, e1);
   const Vec3 offset = e1 * (r * std::cos(phi)) + e2 * (r * std::sin(phi));
   if (L.type == LightType::Directional)  // a direction within the cone: tan(angle) = size at unit distance
-    return p + (axis + offset * L.size) * length(center - p);
+    return outside_along(p, normalize(axis + offset * L.size));
   return center + offset * L.size;  // the sphere's disk facing p
 }
 

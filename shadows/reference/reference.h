@@ -63,6 +63,7 @@ class ReferenceRenderer {
   // directional light the point up its beam (against `direction`) just
   // outside the scene's bounds (parallel shadow rays).
   Vec3 light_origin(const LightData& L, Vec3 p) const;
+  Vec3 outside_along(Vec3 p, Vec3 u) const;  // past the scene's box from p along unit u
 
   // Where shadow ray k of n (n a square number) to p starts on light L's
   // area: stratum k of a sqrt(n) x sqrt(n) grid, jittered by a hash of p
