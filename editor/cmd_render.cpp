@@ -49,7 +49,10 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
   j["image_width"] = scene.camera.width;
   j["image_height"] = scene.camera.height;
   j["epsilon"] = scene.shadows.epsilon;
-  j["dsm_resolution"] = scene.shadows.resolution;
+  if (scene.shadows.auto_resolution())
+    j["dsm_resolution"] = "auto";
+  else
+    j["dsm_resolution"] = scene.shadows.resolution;
   j["filtering"] = scene.shadows.filtering;
   j["lights"] = s.lights;
   j["clusters_max"] = scene.shadows.max_clusters;
@@ -67,6 +70,15 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
     e["objects_per_cluster"] = c.members;
     cl.push_back(e);
   }
+  auto& mr = j["map_resolutions"];
+  mr = nlohmann::json::array();
+  for (const MapResolutionStats& m : s.map_resolutions)
+    mr.push_back({{"light", m.light},
+                  {"resolution", m.resolution},
+                  {"limit", m.limit},
+                  {"receivers", m.receivers},
+                  {"texels_per_pixel_median", m.texels_per_pixel_median},
+                  {"texels_per_pixel_p5", m.texels_per_pixel_p5}});
   j["popping"] = {{"measured", s.popping.measured},
                   {"points", s.popping.points},
                   {"mean_abs_dT", s.popping.mean},
@@ -144,7 +156,12 @@ void print_summary(const FrameStats& s, const Scene& scene, bool reference_backe
     return;
   }
   std::printf("fragments    %s (%s)\n", s.fragment_source.c_str(), s.fragment_source_reason.c_str());
-  std::printf("settings     eps %.4g, DSM %d^2, filtering %s\n", scene.shadows.epsilon, scene.shadows.resolution,
+  const std::string dsm = scene.shadows.auto_resolution() ? std::string("auto (about ") +
+                                                                 format_number(scene.shadows.texels_per_pixel) +
+                                                                 " texels per pixel, at most " +
+                                                                 std::to_string(scene.shadows.max_resolution) + "^2)"
+                                                           : std::to_string(scene.shadows.resolution) + "^2";
+  std::printf("settings     eps %.4g, DSM %s, filtering %s\n", scene.shadows.epsilon, dsm.c_str(),
               scene.shadows.filtering ? "on" : "off");
   std::printf(
       "times [ms]   light fragments %.1f | DSM build %.1f | camera fragments %.1f | camera pass %.1f | frame %.1f\n",
@@ -165,6 +182,15 @@ void print_summary(const FrameStats& s, const Scene& scene, bool reference_backe
     }
     std::printf("\n");
   }
+  if (scene.shadows.auto_resolution())
+    for (size_t k = 0; k < s.map_resolutions.size(); ++k) {
+      const MapResolutionStats& m = s.map_resolutions[k];
+      std::printf("map %-2zu       light %u: %d^2, %s", k, m.light, m.resolution, m.limit.c_str());
+      if (m.receivers > 0)
+        std::printf(", %.2f texels per pixel (5th percentile %.2f) over %u receivers", m.texels_per_pixel_median,
+                    m.texels_per_pixel_p5, m.receivers);
+      std::printf("\n");
+    }
   std::printf("rebuilds     %u maps built, %u reused\n", s.maps_rebuilt, s.maps_reused);
   std::printf("transfers    host -> backend %.2f MiB, backend -> host %.2f MiB\n",
               double(s.update.host_to_backend_bytes) / 1048576.0, double(s.update.backend_to_host_bytes) / 1048576.0);
@@ -344,6 +370,8 @@ Command add_render(CLI::App& cdsm) {
   SceneOverrides& scene = a->frame.overrides;
   scene.add(*app, "--eps", &Scene::shadows, "epsilon");
   scene.add(*app, "--dsm-res", &Scene::shadows, "resolution");
+  scene.add(*app, "--texels-per-pixel", &Scene::shadows, "texels_per_pixel");
+  scene.add(*app, "--max-dsm-res", &Scene::shadows, "max_resolution");
   scene.add(*app, "--filtering", &Scene::shadows, "filtering");
   scene.add(*app, "--clusters", &Scene::shadows, "clusters", "1: unclustered");
   scene.add(*app, "--d0", &Scene::shadows, "d0");

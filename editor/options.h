@@ -124,8 +124,18 @@ CLI::Option* add_field_option(CLI::App& app, const std::string& name, const Fiel
     return add_choice_option(app, name, value, tag_choices_of<T>(), f.key, help);
   } else if constexpr (std::is_same_v<T, bool>) {
     return add_choice_option(app, name, value, Choices<bool>{{"on", true}, {"off", false}}, "value", help);
+  } else if constexpr (std::is_integral_v<T>) {
+    if (zero_is_auto(f))  // "auto" is 0 (the library chooses)
+      return app.add_option(name, value, help)
+          ->transform(CLI::Transformer(std::map<std::string, std::string>{{"auto", "0"}}).description(""))
+          ->check(CLI::Validator(
+              [lo = f.lo, hi = f.hi](std::string& s) {
+                return s == "0" ? std::string() : within(lo, hi, true)(s);
+              },
+              "[" + std::to_string(int64_t(f.lo)) + ", " + std::to_string(int64_t(f.hi)) + "] or auto"));
+    return app.add_option(name, value, help)->check(within(f.lo, f.hi, true));
   } else {
-    return app.add_option(name, value, help)->check(within(f.lo, f.hi, std::is_integral_v<T>));
+    return app.add_option(name, value, help)->check(within(f.lo, f.hi, false));
   }
 }
 

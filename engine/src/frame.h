@@ -114,6 +114,7 @@ struct MapCache {
   struct LightState {
     LightClusters clusters;
     uint64_t signature = 0;  // a change drops the hysteresis
+    std::vector<int> rungs;  // auto resolution: each map's ladder rung (its hysteresis)
   };
   std::unordered_map<uint64_t, LightState> lights;  // by light identity
   DsmLayoutParams layout;                           // of the stored maps
@@ -137,6 +138,7 @@ struct ShadowFrame {
   std::vector<DsmMap> headers;           // per map: its header (refreshed by refresh_headers)
   std::vector<DsmBuildStats> map_stats;  // per map (reused maps: their build's stats)
   std::vector<uint8_t> map_rebuilt;      // per map: built this frame
+  std::vector<MapResolutionStats> resolutions;  // per map: its resolution and why
   std::vector<MapRebuild> rebuilds;      // why each rebuilt map was rebuilt
   uint32_t rebuilt = 0, reused = 0, freed = 0;
   bool previous_kept = false;  // the last frame's maps are all still stored (popping probe)

@@ -74,10 +74,19 @@ class JsonNode {
     for_each_field<S>([&](const auto& f) {
       auto& v = s.*f.member;
       using T = std::remove_reference_t<decltype(v)>;
-      if constexpr (std::is_enum_v<T>)
+      if constexpr (std::is_enum_v<T>) {
         v = get_tag(f.key, v, f.key);
-      else
+      } else if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
+        if (zero_is_auto(f) && has(f.key) && at(f.key).is_string()) {
+          if (at(f.key).as_string() != "auto")
+            at(f.key).fail("expected an integer or \"auto\", got \"" + at(f.key).as_string() + "\"");
+          v = T(0);
+        } else {
+          v = get(f.key, v);
+        }
+      } else {
         v = get(f.key, v);
+      }
     });
   }
 

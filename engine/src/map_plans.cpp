@@ -4,6 +4,7 @@
 #include <cmath>
 #include <string>
 
+#include "auto_resolution.h"
 #include "cdsm/fields.h"
 #include "cluster/focus.h"
 #include "frame_steps.h"
@@ -12,6 +13,9 @@
 
 namespace cdsm {
 namespace {
+
+// Camera rays sampled for auto resolution (about one per 9 x 9 pixels at 720 x 480).
+constexpr int kAutoSamples = 4096;
 
 // Light li's maps become `mine` (read with `mode`); the other lights' maps
 // keep their order, every light's first_map follows.
@@ -45,7 +49,7 @@ void cluster_light(const FrameInputs& in, size_t li, const LightClusters* previo
   cluster::ClusterSettings cs;
   cs.d0 = s.d0;
   cs.max_clusters = s.max_clusters;
-  cs.resolution = s.resolution;
+  cs.resolution = s.planned_resolution();
   PinholeView cam = camera_view(in.camera);
   const cluster::LightShape light = light_shape(in.lights[li]);
   cs.min_near = cluster::near_clamp(light, sb.bounds);
@@ -91,7 +95,7 @@ void split_light(const FrameInputs& in, size_t li, LightSetup& ls) {
   if (!(far > near)) return;
   const MapPlan base = ls.maps[ls.lights[li].first_map];
   cluster::FocusParams fp;
-  fp.resolution = in.settings.resolution;
+  fp.resolution = in.settings.planned_resolution();
   std::vector<MapPlan> mine;
   for (int i = 0; i < m; ++i) {
     auto split_at = [&](int k) {
@@ -141,7 +145,7 @@ uint64_t light_signature(const Light& l, const ShadowSettings& s) {
 std::unordered_map<uint64_t, MapCache::LightState> plan_maps(const FrameInputs& in, ShadowBackend& backend,
                                                              MapCache& cache, ShadowFrame& frame) {
   const ShadowSettings& s = in.settings;
-  frame.setup = setup_lights(in.lights, *in.scene, s.resolution);
+  frame.setup = setup_lights(in.lights, *in.scene, s.planned_resolution());
   frame.clusters.resize(in.lights.size());
   // Last frame's replaced maps (kept for the popping probe) go now.
   backend.free_maps(cache.retired);
@@ -160,10 +164,26 @@ std::unordered_map<uint64_t, MapCache::LightState> plan_maps(const FrameInputs& 
     }
     frame.cluster_ms = ms_since(t0);
   }
+  std::vector<std::vector<int>> rungs(in.lights.size());
+  if (s.auto_resolution()) {
+    std::vector<std::vector<int>> previous(in.lights.size());
+    for (size_t li = 0; li < in.lights.size(); ++li) {
+      auto it = cache.lights.find(in.light_ids[li]);
+      if (it != cache.lights.end()) previous[li] = it->second.rungs;
+    }
+    const std::vector<CameraReceiver> receivers = sample_camera_receivers(*in.scene, in.camera, kAutoSamples);
+    choose_map_resolutions(s, receivers, previous, frame.setup, rungs, frame.resolutions);
+  } else {
+    frame.resolutions.assign(frame.setup.maps.size(), MapResolutionStats{});
+    for (size_t k = 0; k < frame.setup.maps.size(); ++k) {
+      frame.resolutions[k].light = frame.setup.maps[k].light;
+      frame.resolutions[k].resolution = frame.setup.maps[k].view.width;
+    }
+  }
   warn_subtexel_casters(in, frame);
   std::unordered_map<uint64_t, MapCache::LightState> lights;
   for (size_t li = 0; li < in.lights.size(); ++li)
-    lights[in.light_ids[li]] = {frame.clusters[li], light_signature(in.lights[li], s)};
+    lights[in.light_ids[li]] = {frame.clusters[li], light_signature(in.lights[li], s), rungs[li]};
   return lights;
 }
 

@@ -59,7 +59,7 @@ void table(std::string& out, const char* json, const char* cpp) {
   for_each_field<S>([&](const auto& f) {
     using T = std::remove_cv_t<std::remove_reference_t<decltype(defaults.*f.member)>>;
     out += "| `" + std::string(f.key) + "` | `" + (f.cpp ? f.cpp : "?") + "` | " + value_text(defaults.*f.member) +
-           " | " + range_text<T>(f.lo, f.hi) + " | " + f.help + " |\n";
+           " | " + range_text<T>(f.lo, f.hi) + (zero_is_auto(f) ? " or `auto`" : "") + " | " + f.help + " |\n";
   });
 }
 

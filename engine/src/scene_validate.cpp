@@ -87,7 +87,7 @@ struct Checker {
         finite(path, v);
         for (int a = 0; a < 3; ++a) number(path + "/" + std::to_string(a), v[a], f.lo, f.hi);
       } else if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
-        integer(path, int64_t(v), int64_t(f.lo), int64_t(f.hi));
+        if (!(zero_is_auto(f) && v == 0)) integer(path, int64_t(v), int64_t(f.lo), int64_t(f.hi));
       }
     });
   }

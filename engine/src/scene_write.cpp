@@ -352,6 +352,8 @@ struct Writer {
         f.add(field.key, vec(v, path));
       else if constexpr (std::is_same_v<T, std::string>)
         f.add(field.key, str(v, path));
+      else if (zero_is_auto(field) && v == 0)
+        f.add(field.key, "\"auto\"");
       else
         f.add(field.key, std::to_string(v));
     });

@@ -213,6 +213,7 @@ void ShadowSystem::Impl::build_maps(FrameStats& st) {
     cs.warped_directions = lc.clustering.perspective_directions;
     st.clusters.push_back(std::move(cs));
   }
+  st.map_resolutions = frame.resolutions;
   st.times.fragments_ms = frame.fragments_ms;
   st.times.dsm_build_ms = frame.build_ms;
   take_kernel_times(*backend, st.times, st.times.kernel_fragments_ms, st.times.kernel_dsm_build_ms);

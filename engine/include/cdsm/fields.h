@@ -26,7 +26,14 @@ enum FieldEffect : uint32_t {
   kAffectsPlan = 2,      // which maps a light has (their views; keys find what is reusable)
   kAffectsClusters = 4,  // the clustering of a light's casters (its hysteresis restarts)
   kAffectsMaps = 8,      // the content of every map (part of every map's key)
+  // A spelling, not an effect: the integer 0 is read and written as "auto"
+  // (the library chooses; its range is that of the other values).
+  kZeroIsAuto = 1u << 16,
 };
+template <class F>
+constexpr bool zero_is_auto(const F& f) {
+  return (f.affects & kZeroIsAuto) != 0u;
+}
 
 // One field of struct S, of type T. Numbers and integers lie within
 // [lo, hi]; a vector is finite and each of its components within [lo, hi];
@@ -135,7 +142,12 @@ struct FieldTable<ShadowSettings> {
   static constexpr double kBig = 1e30;
   static constexpr auto fields = std::make_tuple(
       CDSM_FIELD("epsilon", epsilon, 0.0, 1.0, kAffectsMaps, "compression error bound of the visibility functions"),
-      CDSM_FIELD("resolution", resolution, 4, 8192, kAffectsMaps | kAffectsClusters, "DSM texels per side"),
+      CDSM_FIELD("resolution", resolution, 4, 8192, kAffectsMaps | kAffectsClusters | kZeroIsAuto,
+                 "DSM texels per side, or auto: each map's from the screen (texels_per_pixel, max_resolution)"),
+      CDSM_FIELD("texels_per_pixel", texels_per_pixel, 0.0625, 16.0, kAffectsPlan,
+                 "auto resolution: map texels across one image pixel where the map's receivers are seen"),
+      CDSM_FIELD("max_resolution", max_resolution, 16, 8192, kAffectsPlan,
+                 "auto resolution: the ladder's top (texels per side)"),
       CDSM_FIELD("filtering", filtering, 0, 1, kAffectsLookup, "bilinear lookup"),
       CDSM_FIELD("receiver", receiver, 0, 0, kAffectsLookup, "how surfaces look themselves up"),
       CDSM_FIELD("penumbra", penumbra, 0, 0, kAffectsLookup,

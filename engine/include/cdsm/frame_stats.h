@@ -118,6 +118,22 @@ struct LightClusterStats {
                                           // space, where the view is parallel to the light)
 };
 
+// One map's resolution (ShadowSettings::resolution; auto: chosen from the
+// screen, engine/src/auto_resolution.h).
+struct MapResolutionStats {
+  uint32_t light = 0;      // light index of the frame
+  int32_t resolution = 0;  // texels per side
+  // Auto resolution only: the camera's sampled receivers this map serves,
+  // and the texels across one image pixel there (median, 5th percentile).
+  uint32_t receivers = 0;
+  double texels_per_pixel_median = 0.0;
+  double texels_per_pixel_p5 = 0.0;
+  // Why this resolution: "fixed" (the setting), "target" (about
+  // texels_per_pixel at the median receiver), "ladder top" (max_resolution),
+  // "ladder bottom", "not seen" (no sampled receiver: the smallest useful).
+  std::string limit = "fixed";
+};
+
 // Change of shadowing at static receivers when a light's maps changed
 // (re-clustering makes shadows "pop", thesis §6.1): |T_new - T_old| at the
 // previous frame's sampled surface points.
@@ -210,6 +226,7 @@ struct FrameStats {
   UpdateStats update;
   double cluster_ms = 0.0;
   std::vector<LightClusterStats> clusters;  // per light
+  std::vector<MapResolutionStats> map_resolutions;  // per map, in the frame's map order
   PoppingStats popping;
   uint64_t light_fragments = 0;
   uint64_t camera_fragments = 0;

@@ -3,6 +3,7 @@
 // Units are world units (metres in the shipped scenes); angles in degrees.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -196,9 +197,19 @@ struct Camera {
   static constexpr float kMaxFar = 1e7f;
 };
 
+// ShadowSettings::resolution (and the scene file's "resolution": "auto"):
+// each map's resolution chosen from the screen.
+inline constexpr int32_t kAutoResolution = 0;
+
 struct ShadowSettings {
   float epsilon = 0.01f;     // compression error bound of the visibility functions
-  int32_t resolution = 512;  // DSM texels per side
+  int32_t resolution = 512;  // DSM texels per side; kAutoResolution: per map, from the screen
+  // Auto resolution (resolution == kAutoResolution): each map sized so that
+  // about this many texels cross one image pixel where the camera sees its
+  // receivers (the median over them), on a ladder of powers of 2^(1/2) up
+  // to max_resolution (engine/src/auto_resolution.h).
+  float texels_per_pixel = 1.0f;
+  int32_t max_resolution = 2048;
   bool filtering = true;     // bilinear lookup (thesis eq. 4.18-4.19)
   // Casters' own surfaces: each lookup tap stops this far short of the
   // surface's plane along its ray (hd/lights.h Receiver): world units, plus
@@ -236,6 +247,10 @@ struct ShadowSettings {
   // Memory a frame may use, MiB: scenes and settings estimated to need more
   // are refused before anything is allocated. 0: half the physical memory.
   int64_t max_memory_mib = 0;
+
+  bool auto_resolution() const { return resolution == kAutoResolution; }
+  // The resolution maps are planned at (auto: the ladder's start, 512 or its top).
+  int32_t planned_resolution() const { return auto_resolution() ? std::min(512, max_resolution) : resolution; }
 };
 
 struct Scene {

@@ -1,0 +1,156 @@
+// Auto resolution: each map's texels per side from the screen (auto_resolution.h).
+#include "auto_resolution.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "hd/bvh.h"
+#include "hd/lights.h"
+#include "scene/scene_buffers.h"
+
+namespace cdsm {
+namespace {
+
+constexpr float kSeenWeight = 0.05f;  // surfaces the eye sees with less weight are not receivers
+constexpr int kUnseenRung = 8;        // 64 texels: a map no sampled receiver lies in
+constexpr double kHysteresis = 0.75;  // rungs a wanted resolution moves past the kept one before it changes
+
+// The map's content half-widths (its window less the one-texel guard band
+// on each side, at its planned resolution).
+float content_half(float half, int res) { return half * float(res - 2) / float(res); }
+
+// The world size of one texel of `v` at resolution `res` (guard band kept)
+// at axial distance `axial`.
+float texel_size(const PinholeView& v, int res, float axial) {
+  const float half = content_half(v.tan_half_x, v.width);
+  return 2.0f * half * (is_orthographic(v) ? 1.0f : axial) / float(res - 2);
+}
+
+// The resolution (guard band included) at which a texel of `v` at `axial`
+// is `pixel / tpp` across.
+double wanted_texels(const PinholeView& v, float axial, float pixel, float tpp) {
+  const double half = content_half(v.tan_half_x, v.width);
+  return double(tpp) * 2.0 * half * (is_orthographic(v) ? 1.0 : double(axial)) / double(pixel) + 2.0;
+}
+
+// Whether map k of light L serves the receiver at p (its lookups read it):
+// inside the window, beyond the near plane (a receiver in front of every
+// caster of a focused map needs none of its texels), and for cube faces the
+// face the lookup picks.
+bool serves(const LightData& L, uint32_t k, const PinholeView& v, Vec3 p) {
+  if (L.map_mode == MapMode::CubeFaces && L.map_count == 6 && uint32_t(cube_face_of(p - L.position)) != k)
+    return false;
+  const ViewProjection pr = project(v, p);
+  if (!(pr.axial > 0.0f) || !(pr.depth > v.near)) return false;
+  return pr.u >= 1.0f && pr.v >= 1.0f && pr.u <= float(v.width) - 1.0f && pr.v <= float(v.height) - 1.0f;
+}
+
+double quantile(std::vector<double>& v, double q) {
+  if (v.empty()) return 0.0;
+  const size_t i = std::min(v.size() - 1, size_t(q * double(v.size())));
+  std::nth_element(v.begin(), v.begin() + ptrdiff_t(i), v.end());
+  return v[i];
+}
+
+}  // namespace
+
+int32_t resolution_rung(int k) { return int32_t(std::lround(16.0 * std::pow(2.0, 0.5 * double(k)))); }
+
+double rung_position(double texels) { return 2.0 * std::log2(std::max(texels, 1.0) / 16.0); }
+
+std::vector<CameraReceiver> sample_camera_receivers(const SceneBuffers& sb, const Camera& camera, int samples) {
+  const PinholeView cam = camera_view(camera);
+  const SceneView s = sb.view();
+  const int w = cam.width, h = cam.height;
+  const double cell = std::max(1.0, std::sqrt(double(w) * double(h) / double(std::max(samples, 1))));
+  const int gx = std::max(1, int(std::lround(w / cell))), gy = std::max(1, int(std::lround(h / cell)));
+  // The world size of a pixel per unit of axial distance (orthographic: the size).
+  const float pixel_per_axial = 2.0f * cam.tan_half_y / float(h);
+  std::vector<std::vector<CameraReceiver>> rows(static_cast<size_t>(gy));
+  tbb::parallel_for(0, gy, [&](int y) {
+    struct Hit {
+      float t;
+      uint32_t tri;
+    };
+    std::vector<Hit> hits;
+    for (int x = 0; x < gx; ++x) {
+      const float u = (float(x) + 0.5f) * float(w) / float(gx), v = (float(y) + 0.5f) * float(h) / float(gy);
+      const Vec3 dir = normalize(view_direction(cam, u, v)), org = view_origin(cam, u, v);
+      const float c = dot(dir, cam.forward);
+      if (!(c > 0.0f)) continue;
+      hits.clear();
+      for_each_hit(s, ObjectMask{}, org, dir, cam.near / c, cam.far / c,
+                   [&](uint32_t tri, const TriHit& th) { hits.push_back({th.t, tri}); });
+      std::sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) { return a.t < b.t; });
+      float seen = 1.0f;  // what the surfaces so far let through to the eye
+      for (const Hit& hit : hits) {
+        const ObjectData& o = s.objects[s.tri_object[hit.tri]];
+        if (passes_all(o)) continue;
+        if (seen * o.opacity >= kSeenWeight) {
+          const float axial = hit.t * c;
+          rows[size_t(y)].push_back({org + dir * hit.t, pixel_per_axial * (is_orthographic(cam) ? 1.0f : axial)});
+        }
+        seen *= 1.0f - max_channel(o.absorb);
+        if (seen < kSeenWeight) break;
+      }
+    }
+  });
+  std::vector<CameraReceiver> out;
+  for (const auto& r : rows) out.insert(out.end(), r.begin(), r.end());
+  return out;
+}
+
+void choose_map_resolutions(const ShadowSettings& s, const std::vector<CameraReceiver>& receivers,
+                            const std::vector<std::vector<int>>& previous, LightSetup& setup,
+                            std::vector<std::vector<int>>& rungs, std::vector<MapResolutionStats>& stats) {
+  int top = 0;  // the highest rung within max_resolution
+  while (resolution_rung(top + 1) <= s.max_resolution) ++top;
+  rungs.assign(setup.lights.size(), {});
+  stats.assign(setup.maps.size(), MapResolutionStats{});
+  std::vector<double> wanted, density;
+  for (uint32_t li = 0; li < setup.lights.size(); ++li) {
+    const LightData& L = setup.lights[li];
+    rungs[li].assign(L.map_count, 0);
+    const bool kept = li < previous.size() && previous[li].size() == L.map_count;
+    for (uint32_t k = 0; k < L.map_count; ++k) {
+      MapPlan& plan = setup.maps[L.first_map + k];
+      MapResolutionStats& st = stats[L.first_map + k];
+      st.light = li;
+      wanted.clear();
+      for (const CameraReceiver& r : receivers)
+        if (serves(L, k, plan.view, r.p))
+          wanted.push_back(wanted_texels(plan.view, project(plan.view, r.p).axial, r.pixel, s.texels_per_pixel));
+      st.receivers = uint32_t(wanted.size());
+      int rung = kUnseenRung;
+      st.limit = "not seen";
+      if (!wanted.empty()) {
+        const double pos = rung_position(quantile(wanted, 0.5));
+        rung = int(std::lround(pos));
+        if (kept && previous[li][k] >= 0 && std::fabs(pos - double(previous[li][k])) <= kHysteresis)
+          rung = previous[li][k];
+        st.limit = "target";
+        if (rung >= top && pos > double(top)) st.limit = "ladder top";
+        if (rung <= 0 && pos < 0.0) st.limit = "ladder bottom";
+      }
+      rung = std::clamp(rung, 0, top);
+      rungs[li][k] = rung;
+      const int res = resolution_rung(rung);
+      // The window widened so that its guard band stays one texel.
+      PinholeView& v = plan.view;
+      const float grow = float(res) / float(res - 2) * float(v.width - 2) / float(v.width);
+      v.tan_half_x *= grow;
+      v.tan_half_y *= grow;
+      v.width = v.height = res;
+      st.resolution = res;
+      density.clear();
+      for (const CameraReceiver& r : receivers)
+        if (serves(L, k, v, r.p)) density.push_back(double(r.pixel) / texel_size(v, res, project(v, r.p).axial));
+      st.texels_per_pixel_median = quantile(density, 0.5);
+      st.texels_per_pixel_p5 = quantile(density, 0.05);
+    }
+  }
+}
+
+}  // namespace cdsm

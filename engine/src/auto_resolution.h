@@ -1,0 +1,49 @@
+// Auto resolution (ShadowSettings::resolution == kAutoResolution, the scene
+// file's "resolution": "auto"): each map's texels per side chosen from the
+// screen. The camera's receivers are sampled (a grid of camera rays through
+// the scene's BVH, every surface the eye sees with weight); at each, the
+// world size of an image pixel and of a map texel are compared, and a map
+// gets the resolution at which its receivers' median sees
+// `texels_per_pixel` texels across a pixel, rounded to a ladder of powers
+// of 2^(1/2) below `max_resolution`, with hysteresis: a moving camera
+// changes a map's rung only when the wanted resolution moved three quarters
+// of a step past it.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "cdsm/frame_stats.h"
+#include "cdsm/scene.h"
+#include "frame.h"
+
+namespace cdsm {
+
+// A surface point the camera sees and the world size of one image pixel
+// there (across the view ray).
+struct CameraReceiver {
+  Vec3 p;
+  float pixel;
+};
+
+// About `samples` camera rays on a regular grid of pixel centres; along each,
+// the surfaces in front of the eye until what they let through falls below
+// 5% (those it sees with a weight of at least 5%).
+std::vector<CameraReceiver> sample_camera_receivers(const SceneBuffers& sb, const Camera& camera, int samples);
+
+// The ladder: 16 * 2^(k/2) texels per side, rounded (16, 23, 32, 45, 64, ...).
+int32_t resolution_rung(int k);
+// The rung nearest to `texels` (in log scale), and that position unrounded.
+double rung_position(double texels);
+
+// Sets each map of `setup` to its resolution (the view's width and height,
+// its window widened so that its one-texel guard band stays a texel),
+// keeping a map's previous rung (`previous[light][map]`, -1: none) within
+// the hysteresis; writes the rungs chosen to `rungs` and the figures to
+// `stats` (one per map, in map order).
+void choose_map_resolutions(const ShadowSettings& s, const std::vector<CameraReceiver>& receivers,
+                            const std::vector<std::vector<int>>& previous, LightSetup& setup,
+                            std::vector<std::vector<int>>& rungs, std::vector<MapResolutionStats>& stats);
+
+}  // namespace cdsm
