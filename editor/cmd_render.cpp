@@ -156,11 +156,10 @@ void print_summary(const FrameStats& s, const Scene& scene, bool reference_backe
     return;
   }
   std::printf("fragments    %s (%s)\n", s.fragment_source.c_str(), s.fragment_source_reason.c_str());
-  const std::string dsm = scene.shadows.auto_resolution() ? std::string("auto (about ") +
-                                                                 format_number(scene.shadows.texels_per_pixel) +
-                                                                 " texels per pixel, at most " +
-                                                                 std::to_string(scene.shadows.max_resolution) + "^2)"
-                                                           : std::to_string(scene.shadows.resolution) + "^2";
+  const std::string dsm = scene.shadows.auto_resolution()
+                              ? std::string("auto (about ") + format_number(scene.shadows.texels_per_pixel) +
+                                    " texels per pixel, at most " + std::to_string(scene.shadows.max_resolution) + "^2)"
+                              : std::to_string(scene.shadows.resolution) + "^2";
   std::printf("settings     eps %.4g, DSM %s, filtering %s\n", scene.shadows.epsilon, dsm.c_str(),
               scene.shadows.filtering ? "on" : "off");
   std::printf(

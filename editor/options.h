@@ -125,12 +125,13 @@ CLI::Option* add_field_option(CLI::App& app, const std::string& name, const Fiel
   } else if constexpr (std::is_same_v<T, bool>) {
     return add_choice_option(app, name, value, Choices<bool>{{"on", true}, {"off", false}}, "value", help);
   } else if constexpr (std::is_integral_v<T>) {
-    if (zero_is_auto(f))  // "auto" is 0 (the library chooses)
+    if (zero_is_auto(f))  // "auto" is 0 (the library chooses); a 0 typed is out of range
       return app.add_option(name, value, help)
-          ->transform(CLI::Transformer(std::map<std::string, std::string>{{"auto", "0"}}).description(""))
-          ->check(CLI::Validator(
+          ->transform(CLI::Validator(
               [lo = f.lo, hi = f.hi](std::string& s) {
-                return s == "0" ? std::string() : within(lo, hi, true)(s);
+                if (s != "auto") return within(lo, hi, true)(s);
+                s = "0";
+                return std::string();
               },
               "[" + std::to_string(int64_t(f.lo)) + ", " + std::to_string(int64_t(f.hi)) + "] or auto"));
     return app.add_option(name, value, help)->check(within(f.lo, f.hi, true));

@@ -14,7 +14,7 @@ namespace cdsm {
 namespace {
 
 constexpr float kSeenWeight = 0.05f;  // surfaces the eye sees with less weight are not receivers
-constexpr int kUnseenRung = 8;        // 64 texels: a map no sampled receiver lies in
+constexpr int kUnseenRung = 4;        // 64 texels: a map no sampled receiver lies in
 constexpr double kHysteresis = 0.75;  // rungs a wanted resolution moves past the kept one before it changes
 
 // The map's content half-widths (its window less the one-texel guard band
@@ -40,8 +40,7 @@ double wanted_texels(const PinholeView& v, float axial, float pixel, float tpp) 
 // caster of a focused map needs none of its texels), and for cube faces the
 // face the lookup picks.
 bool serves(const LightData& L, uint32_t k, const PinholeView& v, Vec3 p) {
-  if (L.map_mode == MapMode::CubeFaces && L.map_count == 6 && uint32_t(cube_face_of(p - L.position)) != k)
-    return false;
+  if (L.map_mode == MapMode::CubeFaces && L.map_count == 6 && uint32_t(cube_face_of(p - L.position)) != k) return false;
   const ViewProjection pr = project(v, p);
   if (!(pr.axial > 0.0f) || !(pr.depth > v.near)) return false;
   return pr.u >= 1.0f && pr.v >= 1.0f && pr.u <= float(v.width) - 1.0f && pr.v <= float(v.height) - 1.0f;
@@ -81,8 +80,9 @@ std::vector<CameraReceiver> sample_camera_receivers(const SceneBuffers& sb, cons
       const float c = dot(dir, cam.forward);
       if (!(c > 0.0f)) continue;
       hits.clear();
-      for_each_hit(s, ObjectMask{}, org, dir, cam.near / c, cam.far / c,
-                   [&](uint32_t tri, const TriHit& th) { hits.push_back({th.t, tri}); });
+      for_each_hit(s, ObjectMask{}, org, dir, cam.near / c, cam.far / c, [&](uint32_t tri, const TriHit& th) {
+        hits.push_back({th.t, tri});
+      });
       std::sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) { return a.t < b.t; });
       float seen = 1.0f;  // what the surfaces so far let through to the eye
       for (const Hit& hit : hits) {

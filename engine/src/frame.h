@@ -133,13 +133,13 @@ struct MapCache {
 
 struct ShadowFrame {
   LightSetup setup;
-  std::vector<LightClusters> clusters;   // per light
-  std::vector<MapId> maps;               // per map: the backend's map
-  std::vector<DsmMap> headers;           // per map: its header (refreshed by refresh_headers)
-  std::vector<DsmBuildStats> map_stats;  // per map (reused maps: their build's stats)
-  std::vector<uint8_t> map_rebuilt;      // per map: built this frame
+  std::vector<LightClusters> clusters;          // per light
+  std::vector<MapId> maps;                      // per map: the backend's map
+  std::vector<DsmMap> headers;                  // per map: its header (refreshed by refresh_headers)
+  std::vector<DsmBuildStats> map_stats;         // per map (reused maps: their build's stats)
+  std::vector<uint8_t> map_rebuilt;             // per map: built this frame
   std::vector<MapResolutionStats> resolutions;  // per map: its resolution and why
-  std::vector<MapRebuild> rebuilds;      // why each rebuilt map was rebuilt
+  std::vector<MapRebuild> rebuilds;             // why each rebuilt map was rebuilt
   uint32_t rebuilt = 0, reused = 0, freed = 0;
   bool previous_kept = false;  // the last frame's maps are all still stored (popping probe)
   double fragments_ms = 0.0;

@@ -83,6 +83,9 @@ class JsonNode {
           v = T(0);
         } else {
           v = get(f.key, v);
+          if (zero_is_auto(f) && has(f.key) && v == T(0))  // 0 is how "auto" is held, not a value to write
+            at(f.key).fail("must be within [" + std::to_string(int64_t(f.lo)) + ", " + std::to_string(int64_t(f.hi)) +
+                           "] or \"auto\", got 0");
         }
       } else {
         v = get(f.key, v);

@@ -88,15 +88,15 @@ std::vector<MemoryItem> estimate_frame_memory(const Scene& scene, const RenderOp
     default: per_texel = 2.0 * (8.0 + 4.0 * 10.0);
   }
   const std::string map_setting = sh.layout == DsmLayout::Fixed ? "/shadows/fixed_layers"
-                                  : sh.auto_resolution()         ? "/shadows/max_resolution"
-                                                                 : "/shadows/resolution";
+                                  : sh.auto_resolution()        ? "/shadows/max_resolution"
+                                                                : "/shadows/resolution";
   items.push_back({format_number(maps) + " shadow maps of " + (sh.auto_resolution() ? "up to " : "") +
                        std::to_string(res) + "^2 texels" +
                        (sh.layout == DsmLayout::Fixed ? " x " + std::to_string(sh.fixed_layers) + " layers" : ""),
                    map_setting, texels * per_texel});
-  items.push_back(
-      {"light-view fragment lists", map_setting == "/shadows/fixed_layers" ? "/shadows/resolution" : map_setting,
-       double(res) * double(res) * 24.0});
+  items.push_back({"light-view fragment lists",
+                   map_setting == "/shadows/fixed_layers" ? "/shadows/resolution" : map_setting,
+                   double(res) * double(res) * 24.0});
   // Per-thread node buffers of the light pass (K = 1024 nodes per texel of a tile).
   const double threads = std::max(1u, std::thread::hardware_concurrency());
   items.push_back({"per-thread texel buffers", "/shadows/resolution", threads * 64.0 * 1024.0 * 30.0});

@@ -148,7 +148,9 @@ TEST(SoftShadows, TapBudgetTradesTapsForSteps) {
     std::printf("[ soft     ] %2d taps across: worst |T - analytic| %.4f, most from 11 taps %.4f\n", taps, worst,
                 differs);
     EXPECT_LE(worst, taps == 11 ? 0.03 : taps == 7 ? 0.07 : 0.12) << taps << " taps";
-    if (taps != 11) EXPECT_GT(differs, 0.005) << taps << " taps: the budget reaches the lookup";
+    if (taps != 11) {
+      EXPECT_GT(differs, 0.005) << taps << " taps: the budget reaches the lookup";
+    }
   }
 }
 

@@ -119,7 +119,7 @@ struct LightClusterStats {
 };
 
 // One map's resolution (ShadowSettings::resolution; auto: chosen from the
-// screen, engine/src/auto_resolution.h).
+// screen: about texels_per_pixel texels across a pixel at its median receiver).
 struct MapResolutionStats {
   uint32_t light = 0;      // light index of the frame
   int32_t resolution = 0;  // texels per side
@@ -225,7 +225,7 @@ struct FrameStats {
   uint32_t maps_reused = 0;   // DSMs whose inputs did not change (kept from an earlier frame)
   UpdateStats update;
   double cluster_ms = 0.0;
-  std::vector<LightClusterStats> clusters;  // per light
+  std::vector<LightClusterStats> clusters;          // per light
   std::vector<MapResolutionStats> map_resolutions;  // per map, in the frame's map order
   PoppingStats popping;
   uint64_t light_fragments = 0;

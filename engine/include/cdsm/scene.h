@@ -207,10 +207,10 @@ struct ShadowSettings {
   // Auto resolution (resolution == kAutoResolution): each map sized so that
   // about this many texels cross one image pixel where the camera sees its
   // receivers (the median over them), on a ladder of powers of 2^(1/2) up
-  // to max_resolution (engine/src/auto_resolution.h).
+  // to max_resolution, a rung kept until the wanted one is 3/4 of a step away.
   float texels_per_pixel = 1.0f;
   int32_t max_resolution = 2048;
-  bool filtering = true;     // bilinear lookup (thesis eq. 4.18-4.19)
+  bool filtering = true;  // bilinear lookup (thesis eq. 4.18-4.19)
   // Casters' own surfaces: each lookup tap stops this far short of the
   // surface's plane along its ray (hd/lights.h Receiver): world units, plus
   // bias_slope texel footprints, plus 2e-5 of the depth. Receive-only

@@ -1,0 +1,201 @@
+// Auto resolution (issue 48): each map sized from the screen so that about
+// `texels_per_pixel` texels cross an image pixel where its receivers are
+// seen. A receive-only ground strip under the sun with two boards, one 4 m
+// from the camera and one 32 m away, two clusters (d0 0): one focused map
+// per board, its receivers seen at distances eight times apart; each map's
+// median density must be within one ladder step of the target, for two
+// targets. A camera moving a little keeps the rungs (hysteresis); one
+// moving twice as close to the near board raises its map by about two rungs.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <tuple>
+
+#include "auto_resolution.h"
+#include "cdsm/renderer.h"
+#include "cdsm/scene_io.h"
+#include "unit_util.h"
+
+using namespace cdsm;
+using namespace cdsm_test;
+
+namespace {
+
+constexpr double kStep = 1.41421356;  // one ladder step
+
+Scene two_boards(Vec3 eye) {
+  Scene sc;
+  sc.source = "two boards at 4 and 32 m";
+  sc.objects.push_back(surface_object("ground", make_ground(8.0f, 80.0f, 0.1f), Mat4{}, 1.0f, /*casts=*/false));
+  for (float z : {-4.0f, -32.0f})
+    sc.objects.push_back(surface_object("board", make_box({1.5f, 0.05f, 1.5f}),
+                                        make_transform({0.3f, 0.8f, z}, {0, 0, 0}, {1, 1, 1}), 1.0f));
+  sc.lights.push_back(sun_light({0.3f, -1.0f, 0.2f}));
+  sc.camera = camera_at(eye, {0.0f, 0.0f, -16.0f}, 320, 240);
+  sc.camera.far = 200.0f;
+  sc.shadows.resolution = kAutoResolution;
+  sc.shadows.max_clusters = 2;
+  sc.shadows.d0 = 0.0f;
+  return sc;
+}
+
+RenderOptions cpu() {
+  RenderOptions o;
+  o.backend = Backend::Cpu;
+  o.fragments = FragmentSource::Cpu;
+  return o;
+}
+
+TEST(AutoResolution, TheLadder) {
+  const int expect[] = {16, 23, 32, 45, 64, 91, 128, 181, 256, 362, 512, 724, 1024, 1448, 2048, 2896, 4096};
+  for (int k = 0; k < int(std::size(expect)); ++k) {
+    EXPECT_EQ(resolution_rung(k), expect[k]) << k << ": " << resolution_rung(k);
+    EXPECT_NEAR(rung_position(resolution_rung(k)), k, 0.05) << k;  // 23 is 22.6 rounded
+  }
+}
+
+// Each map's texels per pixel at its median receiver within one ladder step
+// of the target, for receivers 4 and 32 m from the camera.
+TEST(AutoResolution, AReceiverSeenAtTwoDistancesGetsTheTargetDensityAtBoth) {
+  for (float target : {1.0f, 2.0f}) {
+    Scene sc = two_boards({0.0f, 4.0f, 0.0f});
+    sc.shadows.texels_per_pixel = target;
+    Renderer r;
+    FrameStats st;
+    r.render(sc, cpu(), &st);
+    ASSERT_EQ(st.clusters.size(), 1u);
+    ASSERT_TRUE(st.clusters[0].clustered);
+    ASSERT_EQ(st.map_resolutions.size(), 2u);
+    int near_res = 0, far_res = 0;
+    for (const MapResolutionStats& m : st.map_resolutions) {
+      std::printf("[ auto     ] target %.1f: %d^2, %s, %u receivers, texels per pixel median %.3f, p5 %.3f\n",
+                  double(target), m.resolution, m.limit.c_str(), m.receivers, m.texels_per_pixel_median,
+                  m.texels_per_pixel_p5);
+      EXPECT_EQ(m.limit, "target");
+      EXPECT_GE(m.receivers, 5u);
+      EXPECT_GE(m.texels_per_pixel_median, target / kStep);
+      EXPECT_LE(m.texels_per_pixel_median, target * kStep);
+      (near_res == 0 ? near_res : far_res) = m.resolution;
+    }
+    // The same boards seen eight times farther: their maps differ by about
+    // six rungs (2^3 per side), in either order of the clusters.
+    EXPECT_GE(std::fabs(rung_position(near_res) - rung_position(far_res)), 4.0) << near_res << " vs " << far_res;
+  }
+}
+
+TEST(AutoResolution, AMovingCameraKeepsItsRungsUntilAStepIsPassed) {
+  Renderer r;
+  FrameStats a, b, c;
+  r.render(two_boards({0.0f, 4.0f, 0.0f}), cpu(), &a);
+  r.render(two_boards({0.0f, 3.9f, -0.2f}), cpu(), &b);  // 4% closer to the near board
+  ASSERT_EQ(a.map_resolutions.size(), 2u);
+  ASSERT_EQ(b.map_resolutions.size(), 2u);
+  for (size_t k = 0; k < 2; ++k) EXPECT_EQ(a.map_resolutions[k].resolution, b.map_resolutions[k].resolution) << k;
+  EXPECT_EQ(b.update.rebuilt_by_reason[int(RebuildReason::Settings)], 0u);
+  r.render(two_boards({0.0f, 2.0f, -2.0f}), cpu(), &c);  // about twice as close to the near board
+  ASSERT_EQ(c.map_resolutions.size(), 2u);
+  int risen = 0;
+  for (size_t k = 0; k < 2; ++k)
+    risen = std::max(risen, int(std::lround(rung_position(c.map_resolutions[k].resolution) -
+                                            rung_position(a.map_resolutions[k].resolution))));
+  EXPECT_GE(risen, 1);
+}
+
+// The hysteresis band: a map wanting 0.6 rungs above the one it has keeps
+// it; 0.8 rungs above, it moves; with no rung before, it takes the nearest.
+TEST(AutoResolution, HysteresisKeepsARungWithinThreeQuartersOfAStep) {
+  auto setup = [] {
+    LightSetup ls;
+    LightData L{};
+    L.type = LightType::Directional;
+    L.map_count = 1;
+    L.map_mode = MapMode::Combine;
+    ls.lights.push_back(L);
+    MapPlan p;
+    p.view.eye = {0, 10, 0};
+    p.view.forward = {0, -1, 0};
+    p.view.right = {1, 0, 0};
+    p.view.up = {0, 0, -1};
+    p.view.tan_half_x = p.view.tan_half_y = 5.0f;  // 10 m across, guard band included
+    p.view.width = p.view.height = 512;
+    p.view.projection = Projection::Orthographic;
+    p.view.near = 0.1f;
+    p.view.far = 100.0f;
+    ls.maps.push_back(p);
+    return ls;
+  };
+  // Receivers on the ground whose pixel makes the map want rung `at`.
+  auto receivers_wanting = [](double at) {
+    const double content = 2.0 * 5.0 * 510.0 / 512.0, wanted = 16.0 * std::pow(2.0, at / 2.0);
+    std::vector<CameraReceiver> r;
+    for (int i = 0; i < 9; ++i) r.push_back({{float(i - 4), 0.0f, 1.0f}, float(content / (wanted - 2.0))});
+    return r;
+  };
+  ShadowSettings s;
+  s.resolution = kAutoResolution;
+  for (auto [at, before, expect] : {std::tuple{10.6, -1, 11}, std::tuple{10.6, 10, 10}, std::tuple{10.8, 10, 11},
+                                    std::tuple{9.3, 10, 10}, std::tuple{9.2, 10, 9}}) {
+    LightSetup ls = setup();
+    std::vector<std::vector<int>> rungs;
+    std::vector<MapResolutionStats> st;
+    choose_map_resolutions(s, receivers_wanting(at), {{before}}, ls, rungs, st);
+    EXPECT_EQ(rungs[0][0], expect) << "wanting rung " << at << " after rung " << before;
+    EXPECT_EQ(st[0].resolution, resolution_rung(expect));
+    EXPECT_EQ(ls.maps[0].view.width, resolution_rung(expect));
+    // The window keeps its content (a one-texel guard band at the new resolution).
+    EXPECT_NEAR(ls.maps[0].view.tan_half_x * float(st[0].resolution - 2) / float(st[0].resolution),
+                5.0f * 510.0f / 512.0f, 1e-4f);
+  }
+}
+
+TEST(AutoResolution, TheLadderTopAndTheScreenSayWhy) {
+  Scene sc = two_boards({0.0f, 4.0f, 0.0f});
+  sc.shadows.max_resolution = 64;
+  Renderer r;
+  FrameStats st;
+  r.render(sc, cpu(), &st);
+  ASSERT_EQ(st.map_resolutions.size(), 2u);
+  int tops = 0;  // the near board's map wants 128 (above), the far one's 23
+  for (const MapResolutionStats& m : st.map_resolutions) {
+    EXPECT_LE(m.resolution, 64);
+    if (m.limit == "ladder top") {
+      EXPECT_EQ(m.resolution, 64);
+      EXPECT_LT(m.texels_per_pixel_median, 1.0 / kStep);
+      ++tops;
+    }
+  }
+  EXPECT_EQ(tops, 1);
+  // A fixed resolution says so, and every map has it.
+  sc.shadows.resolution = 256;
+  r.render(sc, cpu(), &st);
+  for (const MapResolutionStats& m : st.map_resolutions) {
+    EXPECT_EQ(m.resolution, 256);
+    EXPECT_EQ(m.limit, "fixed");
+  }
+}
+
+TEST(AutoResolution, SceneFilesSayAuto) {
+  const std::string text = R"({"camera": {"position": [0, 2, 4], "target": [0, 0, 0]},
+    "shadows": {"resolution": "auto", "texels_per_pixel": 1.5, "max_resolution": 1024},
+    "objects": [{"mesh": {"type": "box"}}], "lights": [{"type": "directional", "direction": [0, -1, 0]}]})";
+  const Scene sc = parse_scene(text, "auto.json", ".");
+  EXPECT_TRUE(sc.shadows.auto_resolution());
+  EXPECT_EQ(sc.shadows.max_resolution, 1024);
+  EXPECT_FLOAT_EQ(sc.shadows.texels_per_pixel, 1.5f);
+  const std::string written = scene_to_json(sc);
+  EXPECT_NE(written.find("\"resolution\": \"auto\""), std::string::npos) << written;
+  EXPECT_TRUE(parse_scene(written, "again.json", ".").shadows.auto_resolution());
+  // Anything else spelled as a string names itself.
+  std::string bad = text;
+  bad.replace(bad.find("\"auto\""), 6, "\"automatic\"");
+  try {
+    parse_scene(bad, "bad.json", ".");
+    ADD_FAILURE() << "\"automatic\" was read";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/shadows/resolution"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("\"auto\""), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
