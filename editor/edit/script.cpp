@@ -67,6 +67,21 @@ bool read_field(S& s, const std::string& key, std::istream& in, const std::strin
     } else if constexpr (std::is_same_v<T, std::string>) {
       if (!(in >> out)) throw Error(where, key + ": expected a name");
     } else if constexpr (std::is_integral_v<T>) {
+      if (zero_is_auto(f)) {  // `auto`, or a number
+        std::string w;
+        if (!(in >> w)) throw Error(where, key + ": expected an integer or auto");
+        if (w == "auto") {
+          out = T(0);
+          return;
+        }
+        std::istringstream again(w);
+        double v;
+        if (!(again >> v) || !(v >= f.lo && v <= f.hi) || v != std::floor(v))
+          throw Error(where, key + " must be an integer within [" + format_number(f.lo) + ", " + format_number(f.hi) +
+                                 "] or auto, got '" + w + "'");
+        out = T(v);
+        return;
+      }
       const double v = number();
       if (v != std::floor(v)) throw Error(where, key + " takes an integer");
       out = T(v);

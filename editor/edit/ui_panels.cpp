@@ -143,14 +143,21 @@ void shadows_panel(Session& s) {
     changed = true;
   }
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("epsilon exactly 0: every sample a node");
-  static const int resolutions[] = {64, 128, 256, 512, 1024, 2048};
-  int ri = 3;
-  for (int i = 0; i < 6; ++i)
+  static const int resolutions[] = {kAutoResolution, 64, 128, 256, 512, 1024, 2048};
+  int ri = 4;
+  for (int i = 0; i < 7; ++i)
     if (resolutions[i] == next.resolution) ri = i;
-  const char* res_names[] = {"64", "128", "256", "512", "1024", "2048"};
-  if (ImGui::Combo("resolution", &ri, res_names, 6)) {
+  const char* res_names[] = {"auto", "64", "128", "256", "512", "1024", "2048"};
+  if (ImGui::Combo("resolution", &ri, res_names, 7)) {
     next.resolution = resolutions[ri];
     changed = true;
+  }
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("auto: each map sized from the screen (the Stats window's map list shows what it chose)");
+  if (next.auto_resolution()) {
+    changed |= field_slider("texels per pixel", next, &ShadowSettings::texels_per_pixel, 0.25f, 4.0f, "%.2f",
+                            ImGuiSliderFlags_Logarithmic);
+    changed |= field_slider("max resolution", next, &ShadowSettings::max_resolution, 64, 4096);
   }
   changed |= field_slider("clusters m", next, &ShadowSettings::max_clusters, 1, 8);
   changed |= field_slider("d0", next, &ShadowSettings::d0, 0.0f, 1.0f, "%.3f");

@@ -43,8 +43,9 @@ void stats_window(Session& s, UiState& ui, float x, float y, float h) {
               double(st.memory.index_bytes) / 1048576.0, double(st.memory.node_bytes) / 1048576.0,
               double(st.memory.tag_bytes) / 1048576.0, double(st.memory.slack_bytes) / 1048576.0,
               double(st.memory.pyramid_bytes) / 1048576.0);
-  if (ImGui::BeginTable("maps", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingStretchProp)) {
+  if (ImGui::BeginTable("maps", 5, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingStretchProp)) {
     ImGui::TableSetupColumn("map");
+    ImGui::TableSetupColumn("texels");
     ImGui::TableSetupColumn("nodes");
     ImGui::TableSetupColumn("KiB idx/nod/slk");
     ImGui::TableSetupColumn("objects");
@@ -56,6 +57,14 @@ void stats_window(Session& s, UiState& ui, float x, float y, float h) {
       ImGui::TextColored(ImVec4(Session::cluster_color(m.slot).x, Session::cluster_color(m.slot).y,
                                 Session::cluster_color(m.slot).z, 1.0f),
                          "L%d/%d%s", m.light, m.slot, m.rgb ? " rgb" : "");
+      ImGui::TableNextColumn();
+      // Its resolution, and with auto resolution why and the density reached.
+      ImGui::Text("%d^2", m.res);
+      if (k < st.map_resolutions.size() && st.map_resolutions[k].limit != "fixed" && ImGui::IsItemHovered()) {
+        const MapResolutionStats& r = st.map_resolutions[k];
+        ImGui::SetTooltip("auto: %s; %.2f texels per pixel (5th percentile %.2f) over %u sampled receivers",
+                          r.limit.c_str(), r.texels_per_pixel_median, r.texels_per_pixel_p5, r.receivers);
+      }
       ImGui::TableNextColumn();
       ImGui::Text("%llu (max %u)", (unsigned long long)m.nodes, m.max_nodes);
       ImGui::TableNextColumn();

@@ -119,6 +119,7 @@ TEST(EditScript, ParametersChangeTheViewportAndItMatchesTheLibrary) {
          << "view plot on\nwait\n"
          << "screenshot " << s << "plot.png\n"
          << "view error 64\n"
+         << "set resolution auto\nset texels_per_pixel 1.5\nwait\n"
          << "save " << s << "edited.json\n"
          << "save " << kScene << "\n"  // the opened file: refused without overwrite
          << "quit\n";
@@ -202,11 +203,13 @@ TEST(EditScript, ParametersChangeTheViewportAndItMatchesTheLibrary) {
   EXPECT_GE(refined, 6u);
 
   // The saved scene reloads to the edited one: the opened scene with the
-  // script's three settings, field by field.
+  // script's settings, field by field (auto resolution written as "auto").
   cdsm::Scene expected = cdsm::load_scene(kScene);
   expected.shadows.epsilon = 0.2f;
   expected.shadows.max_clusters = 4;
   expected.shadows.d0 = 0.3f;
+  expected.shadows.resolution = cdsm::kAutoResolution;
+  expected.shadows.texels_per_pixel = 1.5f;
   const cdsm::Scene saved = cdsm::load_scene(s + "edited.json");
   std::string why;
   EXPECT_TRUE(cdsm_test::equal_scenes(expected, saved, &why)) << why;
@@ -263,7 +266,9 @@ TEST(EditScript, BadScriptLineIsAClearError) {
   const std::pair<const char*, const char*> bad_values[] = {
       {"set epsilon 3", "epsilon must lie within [0, 1]"},
       {"set layout diagonal", "layout: expected packed, fixed or chunked"},
-      {"set resolution 100.5", "resolution takes an integer"},
+      {"set resolution 100.5", "resolution must be an integer within [4, 8192] or auto, got '100.5'"},
+      {"set resolution automatic", "resolution must be an integer within [4, 8192] or auto, got 'automatic'"},
+      {"set max_resolution 100.5", "max_resolution takes an integer"},
       {"light 0 flux 3", "unknown light field 'flux'"}};
   for (const auto& [line, says] : bad_values) {
     std::ofstream(kDir + "/bad_value.txt") << "set d0 0.2\n" << line << "\n";
