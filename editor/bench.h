@@ -27,7 +27,8 @@ struct MethodSpec {
 // The sweep axes; every combination is one configuration (baselines ignore eps).
 struct Sweep {
   std::vector<float> eps;     // empty: the scene's epsilon
-  std::vector<int> res;       // empty: the scene's resolution
+  std::vector<int> res;       // empty: the scene's resolution; kAutoResolution: auto
+  std::vector<float> tpp;     // auto resolution's texels per pixel; empty: the scene's
   std::vector<int> clusters;  // empty: the scene's max_clusters
   std::vector<MethodSpec> methods;
   std::vector<std::string> layouts;
@@ -64,13 +65,15 @@ std::string capabilities_text();
 // One configuration to measure.
 struct Config {
   MethodSpec method;
-  float eps = 0.0f;  // DSM only
-  int res = 0;
+  float eps = 0.0f;   // DSM only
+  int res = 0;        // kAutoResolution: auto
+  float tpp = -1.0f;  // auto resolution's texels per pixel (negative: the scene's)
   int clusters = 1;
   std::string layout;
   std::string backend;
   Penumbra penumbra = Penumbra::Estimated;
-  std::string label() const;  // e.g. "dsm eps=0.01 res=512", "osm32 res=512"
+  std::string label() const;     // e.g. "dsm eps=0.01 res=512", "osm32 res=512", "dsm eps=0.01 res=auto tpp=2"
+  std::string res_text() const;  // "512", "auto" or "auto x2"
 };
 
 // Every configuration of `sweep` on a scene (its own settings fill empty axes).

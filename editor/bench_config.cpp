@@ -151,7 +151,14 @@ void parse_sweep(const std::string& spec, Sweep& sweep) {
   } else if (name == "res") {
     const auto [lo, hi] = settings_range("resolution");
     sweep.res.clear();
-    for (const std::string& v : split(values, opt)) sweep.res.push_back(int(parse_number(opt, v, lo, hi, true)));
+    for (const std::string& v : split(values, opt))
+      sweep.res.push_back(v == "auto" ? kAutoResolution : int(parse_number(opt, v, lo, hi, true)));
+  } else if (name == "tpp") {
+    with_field<ShadowSettings>("texels_per_pixel", [&](const auto& f) {
+      sweep.tpp.clear();
+      for (const std::string& v : split(values, opt))
+        sweep.tpp.push_back(float(parse_number(opt, v, f.lo, f.hi, false)));
+    });
   } else if (name == "clusters") {
     const auto [lo, hi] = settings_range("clusters");
     sweep.clusters.clear();
@@ -198,10 +205,11 @@ std::string sweep_help() {
          range("epsilon", false) +
          " (default: the\n"
          "                        scene's); baselines are measured once per resolution, not per eps\n"
-         "  res=256,512,1024      shadow-map texels per side, each within " +
+         "  res=256,512,1024,auto shadow-map texels per side, each within " +
          range("resolution", true) +
          "\n"
-         "                        (default: the scene's)\n"
+         "                        or auto: each map's from the screen (default: the scene's)\n"
+         "  tpp=1,2               auto resolution: texels per image pixel (default: the scene's)\n"
          "  clusters=1,2,4,8      at most m clustered maps per light, each within " +
          range("clusters", true) +
          "\n"
@@ -226,12 +234,17 @@ std::string capabilities_text() {
 std::string Config::label() const {
   std::string s = method.label;
   if (method.method == ShadowMethod::Dsm) s += " eps=" + fmt(eps);
-  s += " res=" + std::to_string(res);
+  s += " res=" + res_text();
   if (clusters > 1) s += " m=" + std::to_string(clusters);
   if (layout != "packed") s += " " + layout;
   if (backend != "cpu") s += " " + backend;
   if (penumbra != Penumbra::Estimated) s += std::string(" ") + tag_name(penumbra);
   return s;
+}
+
+std::string Config::res_text() const {
+  if (res != kAutoResolution) return std::to_string(res);
+  return tpp > 0.0f ? "auto x" + fmt(tpp) : "auto";
 }
 
 std::vector<SizeVariant> size_variants(const Sweep& sw) {
@@ -260,6 +273,7 @@ std::vector<Config> expand(const Sweep& sw, const Scene& scene) {
   std::vector<float> eps = sw.eps.empty() ? std::vector<float>{scene.shadows.epsilon} : sw.eps;
   std::vector<int> res = sw.res.empty() ? std::vector<int>{scene.shadows.resolution} : sw.res;
   std::vector<int> clusters = sw.clusters.empty() ? std::vector<int>{scene.shadows.max_clusters} : sw.clusters;
+  std::vector<float> tpps = sw.tpp.empty() ? std::vector<float>{-1.0f} : sw.tpp;
   std::vector<MethodSpec> methods = sw.methods.empty() ? default_methods() : sw.methods;
   std::vector<std::string> layouts = sw.layouts.empty() ? std::vector<std::string>{"packed"} : sw.layouts;
   std::vector<std::string> backends = sw.backends.empty() ? std::vector<std::string>{"cpu"} : sw.backends;
@@ -270,20 +284,22 @@ std::vector<Config> expand(const Sweep& sw, const Scene& scene) {
       for (const std::string& layout : layouts)
         for (int m : clusters)
           for (int r : res)
-            for (const MethodSpec& method : methods) {
-              bool dsm = method.method == ShadowMethod::Dsm && method.splits == 0;
-              for (size_t e = 0; e < (dsm ? eps.size() : 1); ++e) {
-                Config c;
-                c.method = method;
-                c.eps = dsm ? eps[e] : scene.shadows.epsilon;
-                c.res = r;
-                c.clusters = m;
-                c.layout = layout;
-                c.backend = backend;
-                c.penumbra = pen;
-                out.push_back(c);
+            for (size_t t = 0; t < (r == kAutoResolution ? tpps.size() : 1); ++t)
+              for (const MethodSpec& method : methods) {
+                bool dsm = method.method == ShadowMethod::Dsm && method.splits == 0;
+                for (size_t e = 0; e < (dsm ? eps.size() : 1); ++e) {
+                  Config c;
+                  c.method = method;
+                  c.eps = dsm ? eps[e] : scene.shadows.epsilon;
+                  c.res = r;
+                  c.tpp = r == kAutoResolution ? tpps[t] : -1.0f;
+                  c.clusters = m;
+                  c.layout = layout;
+                  c.backend = backend;
+                  c.penumbra = pen;
+                  out.push_back(c);
+                }
               }
-            }
   return out;
 }
 
@@ -294,6 +310,7 @@ void apply(const Config& c, Scene& scene, RenderOptions& opt) {
   s.layer_thickness = c.method.layer_thickness;
   s.epsilon = c.eps;
   s.resolution = c.res;
+  if (c.tpp > 0.0f) s.texels_per_pixel = c.tpp;
   s.max_clusters = c.method.splits > 0 ? 1 : c.clusters;
   s.parallel_splits = c.method.splits;
   s.rgb_maps = !c.method.grey_maps;

@@ -172,7 +172,7 @@ void write_csv(const std::vector<Result>& results, const std::string& path) {
       v["method"] = c.method.label;
       v["method_param"] = dsm ? "" : num(c.method.param);
       v["epsilon"] = dsm ? num(c.eps) : "";
-      v["resolution"] = std::to_string(c.res);
+      v["resolution"] = c.res_text();
       v["clusters"] = std::to_string(c.clusters);
       v["layout"] = c.layout;
       v["backend"] = c.backend;
@@ -275,8 +275,8 @@ void write_markdown(const std::vector<Result>& results, const RunInfo& info, con
       };
       std::string p = std::string(r.pareto_time ? "t" : "") + (r.pareto_memory ? "m" : "");
       f << "| " << c.method.label << (c.penumbra != Penumbra::Estimated ? std::string(" ") + tag_name(c.penumbra) : "")
-        << " | " << (dsm ? num(c.eps, "%g") : "") << " | " << c.res << " | " << c.clusters << " | " << c.layout << " | "
-        << (other_backend ? c.backend + " | " : "") << ms(r.build_ms) << " | " << ms(r.camera_ms) << " | "
+        << " | " << (dsm ? num(c.eps, "%g") : "") << " | " << c.res_text() << " | " << c.clusters << " | " << c.layout
+        << " | " << (other_backend ? c.backend + " | " : "") << ms(r.build_ms) << " | " << ms(r.camera_ms) << " | "
         << num(r.memory_bytes() / 1024.0, "%.0f") << " | " << num(r.stats.memory.avg_nodes_per_texel, "%.2f") << " / "
         << r.stats.memory.max_nodes_per_texel << " | " << num(r.transmittance.mean, "%.4f") << " | "
         << num(r.transmittance.p99, "%.3f") << " | " << num(r.transmittance.max, "%.3f") << " | "
