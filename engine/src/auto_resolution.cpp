@@ -55,9 +55,11 @@ double quantile(std::vector<double>& v, double q) {
 
 }  // namespace
 
-int32_t resolution_rung(int k) { return int32_t(std::lround(16.0 * std::pow(2.0, 0.5 * double(k)))); }
+int32_t resolution_rung(int k) {
+  return int32_t(std::lround(double(kSmallestAutoResolution) * std::pow(2.0, 0.5 * double(k))));
+}
 
-double rung_position(double texels) { return 2.0 * std::log2(std::max(texels, 1.0) / 16.0); }
+double rung_position(double texels) { return 2.0 * std::log2(std::max(texels, 1.0) / double(kSmallestAutoResolution)); }
 
 std::vector<CameraReceiver> sample_camera_receivers(const SceneBuffers& sb, const Camera& camera, int samples) {
   const PinholeView cam = camera_view(camera);
@@ -103,46 +105,74 @@ std::vector<CameraReceiver> sample_camera_receivers(const SceneBuffers& sb, cons
 }
 
 void choose_map_resolutions(const ShadowSettings& s, const std::vector<CameraReceiver>& receivers,
-                            const std::vector<std::vector<int>>& previous, LightSetup& setup,
-                            std::vector<std::vector<int>>& rungs, std::vector<MapResolutionStats>& stats) {
+                            const std::vector<std::vector<int>>& previous, double budget_bytes, double bytes_per_texel,
+                            LightSetup& setup, std::vector<std::vector<int>>& rungs,
+                            std::vector<MapResolutionStats>& stats) {
   int top = 0;  // the highest rung within max_resolution
   while (resolution_rung(top + 1) <= s.max_resolution) ++top;
   rungs.assign(setup.lights.size(), {});
   stats.assign(setup.maps.size(), MapResolutionStats{});
-  std::vector<double> wanted, density;
+  std::vector<int> rung(setup.maps.size(), kUnseenRung);
+  std::vector<double> wanted;
+  // Each map's rung from its receivers (hysteresis: the rung it had).
   for (uint32_t li = 0; li < setup.lights.size(); ++li) {
     const LightData& L = setup.lights[li];
-    rungs[li].assign(L.map_count, 0);
     const bool kept = li < previous.size() && previous[li].size() == L.map_count;
     for (uint32_t k = 0; k < L.map_count; ++k) {
-      MapPlan& plan = setup.maps[L.first_map + k];
-      MapResolutionStats& st = stats[L.first_map + k];
+      const uint32_t m = L.first_map + k;
+      const MapPlan& plan = setup.maps[m];
+      MapResolutionStats& st = stats[m];
       st.light = li;
       wanted.clear();
       for (const CameraReceiver& r : receivers)
         if (serves(L, k, plan.view, r.p))
           wanted.push_back(wanted_texels(plan.view, project(plan.view, r.p).axial, r.pixel, s.texels_per_pixel));
       st.receivers = uint32_t(wanted.size());
-      int rung = kUnseenRung;
       st.limit = "not seen";
-      if (!wanted.empty()) {
-        const double pos = rung_position(quantile(wanted, 0.5));
-        rung = int(std::lround(pos));
-        if (kept && previous[li][k] >= 0 && std::fabs(pos - double(previous[li][k])) <= kHysteresis)
-          rung = previous[li][k];
-        st.limit = "target";
-        if (rung >= top && pos > double(top)) st.limit = "ladder top";
-        if (rung <= 0 && pos < 0.0) st.limit = "ladder bottom";
-      }
-      rung = std::clamp(rung, 0, top);
-      rungs[li][k] = rung;
-      const int res = resolution_rung(rung);
-      // The window widened so that its guard band stays one texel.
-      PinholeView& v = plan.view;
+      if (wanted.empty()) continue;
+      const double pos = rung_position(quantile(wanted, 0.5));
+      rung[m] = int(std::lround(pos));
+      if (kept && previous[li][k] >= 0 && std::fabs(pos - double(previous[li][k])) <= kHysteresis)
+        rung[m] = previous[li][k];
+      st.limit = "target";
+      if (rung[m] >= top && pos > double(top)) st.limit = "ladder top";
+      if (rung[m] <= 0 && pos < 0.0) st.limit = "ladder bottom";
+    }
+  }
+  for (int& r : rung) r = std::clamp(r, 0, top);
+  // The memory budget: the maps serving the fewest receivers (covering the
+  // fewest pixels) step down first, one rung at a time.
+  auto bytes = [&] {
+    double b = 0.0;
+    for (int r : rung) b += double(resolution_rung(r)) * double(resolution_rung(r)) * bytes_per_texel;
+    return b;
+  };
+  while (bytes() > budget_bytes) {
+    int pick = -1;
+    for (size_t m = 0; m < rung.size(); ++m)
+      if (rung[m] > 0 && (pick < 0 || stats[m].receivers < stats[size_t(pick)].receivers ||
+                          (stats[m].receivers == stats[size_t(pick)].receivers && rung[m] > rung[size_t(pick)])))
+        pick = int(m);
+    if (pick < 0) break;  // every map at the ladder's bottom
+    --rung[size_t(pick)];
+    stats[size_t(pick)].limit = "budget";
+  }
+  // Each view at its resolution, the window widened so that its guard band
+  // stays one texel; the density its receivers see.
+  std::vector<double> density;
+  for (uint32_t li = 0; li < setup.lights.size(); ++li) {
+    const LightData& L = setup.lights[li];
+    rungs[li].assign(L.map_count, 0);
+    for (uint32_t k = 0; k < L.map_count; ++k) {
+      const uint32_t m = L.first_map + k;
+      const int res = resolution_rung(rung[m]);
+      rungs[li][k] = rung[m];
+      PinholeView& v = setup.maps[m].view;
       const float grow = float(res) / float(res - 2) * float(v.width - 2) / float(v.width);
       v.tan_half_x *= grow;
       v.tan_half_y *= grow;
       v.width = v.height = res;
+      MapResolutionStats& st = stats[m];
       st.resolution = res;
       density.clear();
       for (const CameraReceiver& r : receivers)

@@ -32,6 +32,8 @@ struct CameraReceiver {
 // 5% (those it sees with a weight of at least 5%).
 std::vector<CameraReceiver> sample_camera_receivers(const SceneBuffers& sb, const Camera& camera, int samples);
 
+inline constexpr int32_t kSmallestAutoResolution = 16;  // the ladder's bottom (rung 0)
+
 // The ladder: 16 * 2^(k/2) texels per side, rounded (16, 23, 32, 45, 64, ...).
 int32_t resolution_rung(int k);
 // The rung nearest to `texels` (in log scale), and that position unrounded.
@@ -40,10 +42,13 @@ double rung_position(double texels);
 // Sets each map of `setup` to its resolution (the view's width and height,
 // its window widened so that its one-texel guard band stays a texel),
 // keeping a map's previous rung (`previous[light][map]`, -1: none) within
-// the hysteresis; writes the rungs chosen to `rungs` and the figures to
-// `stats` (one per map, in map order).
+// the hysteresis; while the maps' texels (at `bytes_per_texel`) exceed
+// `budget_bytes`, the map serving the fewest receivers steps down a rung.
+// Writes the rungs chosen to `rungs` and the figures to `stats` (one per
+// map, in map order).
 void choose_map_resolutions(const ShadowSettings& s, const std::vector<CameraReceiver>& receivers,
-                            const std::vector<std::vector<int>>& previous, LightSetup& setup,
-                            std::vector<std::vector<int>>& rungs, std::vector<MapResolutionStats>& stats);
+                            const std::vector<std::vector<int>>& previous, double budget_bytes, double bytes_per_texel,
+                            LightSetup& setup, std::vector<std::vector<int>>& rungs,
+                            std::vector<MapResolutionStats>& stats);
 
 }  // namespace cdsm

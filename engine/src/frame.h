@@ -81,6 +81,9 @@ struct FrameInputs {
   std::vector<uint64_t> object_generations;  // per compiled object: its content generation
   Camera camera;
   ShadowSettings settings;
+  // Auto resolution: bytes the maps' texels may take (memory_budget.h
+  // map_texel_budget: the limit less everything else the frame needs).
+  double map_texel_budget = 1e300;
   bool keep_previous = false;  // keep the last frame's replaced maps alive one frame (popping probe)
   // Keep the light-view fragment lists of this frame's maps for the next
   // frame: a map rebuilt from the same view, members and geometry (an ε or

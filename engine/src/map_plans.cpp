@@ -7,6 +7,7 @@
 #include "auto_resolution.h"
 #include "cdsm/fields.h"
 #include "cluster/focus.h"
+#include "memory_budget.h"
 #include "frame_steps.h"
 #include "scene_compile.h"
 #include "stopwatch.h"
@@ -172,7 +173,8 @@ std::unordered_map<uint64_t, MapCache::LightState> plan_maps(const FrameInputs& 
       if (it != cache.lights.end()) previous[li] = it->second.rungs;
     }
     const std::vector<CameraReceiver> receivers = sample_camera_receivers(*in.scene, in.camera, kAutoSamples);
-    choose_map_resolutions(s, receivers, previous, frame.setup, rungs, frame.resolutions);
+    choose_map_resolutions(s, receivers, previous, in.map_texel_budget, map_bytes_per_texel(s), frame.setup, rungs,
+                           frame.resolutions);
   } else {
     frame.resolutions.assign(frame.setup.maps.size(), MapResolutionStats{});
     for (size_t k = 0; k < frame.setup.maps.size(); ++k) {

@@ -1,5 +1,7 @@
 #include "memory_budget.h"
 
+#include "auto_resolution.h"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -11,6 +13,8 @@
 
 namespace cdsm {
 namespace {
+
+constexpr double kFragmentBytesPerTexel = 24.0;  // a light view's fragment lists per texel (estimate)
 
 std::atomic<int64_t> g_limit_mib{0};  // 0: half the physical memory
 
@@ -41,6 +45,23 @@ std::string memory_limit_origin(const ShadowSettings& s) {
   if (g_limit_mib > 0) return "--max-memory";
   return "half of the " + format_bytes(double(physical_memory_bytes())) +
          " of physical memory; raise it with --max-memory or /shadows/max_memory";
+}
+
+double map_texel_budget(const ShadowSettings& s, const std::vector<MemoryItem>& items) {
+  double others = 0.0;
+  for (const MemoryItem& i : items)
+    if (!i.per_map_texel) others += i.bytes;
+  return double(memory_limit_bytes(s)) - others;
+}
+
+double map_bytes_per_texel(const ShadowSettings& sh) {
+  // The map's own buffers and the frame's copy of them (nodes with their
+  // 2-byte tags; the node pools start at 4 nodes per texel).
+  switch (sh.layout) {
+    case DsmLayout::Fixed: return 2.0 * double(sh.fixed_layers) * 10.0;
+    case DsmLayout::Chunked: return 2.0 * (8.0 + 4.0 * 14.0);
+    default: return 2.0 * (8.0 + 4.0 * 10.0);
+  }
 }
 
 std::vector<MemoryItem> estimate_frame_memory(const Scene& scene, const RenderOptions& options) {
@@ -78,25 +99,18 @@ std::vector<MemoryItem> estimate_frame_memory(const Scene& scene, const RenderOp
     else
       maps += double(std::max(1, sh.max_clusters));
   }
-  // Auto resolution: every map may climb the ladder to its top.
-  const int res = sh.auto_resolution() ? sh.max_resolution : sh.resolution;
+  // Auto resolution: the maps at the ladder's bottom; the chooser gives
+  // them what the limit leaves (map_texel_budget, auto_resolution.h).
+  const int res = sh.auto_resolution() ? kSmallestAutoResolution : sh.resolution;
   const double texels = double(res) * double(res) * maps;
-  double per_texel = 0.0;  // the map's own buffers, and the frame's copy of them (nodes with their 2-byte tags)
-  switch (sh.layout) {
-    case DsmLayout::Fixed: per_texel = 2.0 * double(sh.fixed_layers) * 10.0; break;
-    case DsmLayout::Chunked: per_texel = 2.0 * (8.0 + 4.0 * 14.0); break;
-    default: per_texel = 2.0 * (8.0 + 4.0 * 10.0);
-  }
-  const std::string map_setting = sh.layout == DsmLayout::Fixed ? "/shadows/fixed_layers"
-                                  : sh.auto_resolution()        ? "/shadows/max_resolution"
-                                                                : "/shadows/resolution";
-  items.push_back({format_number(maps) + " shadow maps of " + (sh.auto_resolution() ? "up to " : "") +
+  const double per_texel = map_bytes_per_texel(sh);
+  const std::string map_setting = sh.layout == DsmLayout::Fixed ? "/shadows/fixed_layers" : "/shadows/resolution";
+  items.push_back({format_number(maps) + " shadow maps of " + (sh.auto_resolution() ? "at least " : "") +
                        std::to_string(res) + "^2 texels" +
                        (sh.layout == DsmLayout::Fixed ? " x " + std::to_string(sh.fixed_layers) + " layers" : ""),
-                   map_setting, texels * per_texel});
-  items.push_back({"light-view fragment lists",
-                   map_setting == "/shadows/fixed_layers" ? "/shadows/resolution" : map_setting,
-                   double(res) * double(res) * 24.0});
+                   map_setting, texels * per_texel, true});
+  const double list_res = sh.auto_resolution() ? sh.max_resolution : sh.resolution;  // one map's at a time
+  items.push_back({"light-view fragment lists", "/shadows/resolution", list_res * list_res * kFragmentBytesPerTexel});
   // Per-thread node buffers of the light pass (K = 1024 nodes per texel of a tile).
   const double threads = std::max(1u, std::thread::hardware_concurrency());
   items.push_back({"per-thread texel buffers", "/shadows/resolution", threads * 64.0 * 1024.0 * 30.0});

@@ -25,11 +25,19 @@ std::string memory_limit_origin(const ShadowSettings& s);
 // "1.5 GiB", "340 MiB".
 std::string format_bytes(double bytes);
 
+// What one texel of a map is estimated to take (its buffers and the frame's
+// copy; upper estimates: node pools start at 4 nodes per texel).
+double map_bytes_per_texel(const ShadowSettings& s);
+
 struct MemoryItem {
   std::string what;     // "DSM node pools of 6 maps of 8192^2 texels"
   std::string setting;  // the JSON pointer that drives it: "/shadows/resolution"
   double bytes = 0.0;
+  bool per_map_texel = false;  // grows with the maps' texels (what auto resolution budgets)
 };
+
+// The bytes the maps' texels may take: the limit less every other item.
+double map_texel_budget(const ShadowSettings& s, const std::vector<MemoryItem>& items);
 
 // What a frame of `scene` with `options` will allocate, item by item
 // (upper estimates where the true figure is known only later, e.g. the

@@ -146,9 +146,11 @@ void ShadowSystem::Impl::build_maps(FrameStats& st) {
   }
   if (changed) {
     validate_scene(scene, &st.warnings);
-    check_memory(scene, estimate_frame_memory(scene, RenderOptions{}));
+    const std::vector<MemoryItem> memory = estimate_frame_memory(scene, RenderOptions{});
+    check_memory(scene, memory);
     compile(st);
     FrameInputs in;
+    in.map_texel_budget = map_texel_budget(scene.shadows, memory);
     in.scene = &sb;
     in.lights = scene.lights;
     in.light_ids = lights;

@@ -15,6 +15,7 @@
 #include "auto_resolution.h"
 #include "cdsm/renderer.h"
 #include "cdsm/scene_io.h"
+#include "memory_budget.h"
 #include "unit_util.h"
 
 using namespace cdsm;
@@ -139,7 +140,7 @@ TEST(AutoResolution, HysteresisKeepsARungWithinThreeQuartersOfAStep) {
     LightSetup ls = setup();
     std::vector<std::vector<int>> rungs;
     std::vector<MapResolutionStats> st;
-    choose_map_resolutions(s, receivers_wanting(at), {{before}}, ls, rungs, st);
+    choose_map_resolutions(s, receivers_wanting(at), {{before}}, 1e30, 96.0, ls, rungs, st);
     EXPECT_EQ(rungs[0][0], expect) << "wanting rung " << at << " after rung " << before;
     EXPECT_EQ(st[0].resolution, resolution_rung(expect));
     EXPECT_EQ(ls.maps[0].view.width, resolution_rung(expect));
@@ -147,6 +148,50 @@ TEST(AutoResolution, HysteresisKeepsARungWithinThreeQuartersOfAStep) {
     EXPECT_NEAR(ls.maps[0].view.tan_half_x * float(st[0].resolution - 2) / float(st[0].resolution),
                 5.0f * 510.0f / 512.0f, 1e-4f);
   }
+}
+
+// The budget: the maps' texels within shadows.max_memory (less what the
+// rest of the frame takes), the map serving the fewest receivers stepped
+// down first. At 4 texels per pixel the near board's map wants 512^2
+// (25 MiB), the far one's 91^2; a limit that leaves 80% of that takes the
+// far map to the ladder's bottom, then the near one a rung down.
+TEST(AutoResolution, TheBudgetLowersTheLeastSeenMapFirst) {
+  Scene sc = two_boards({0.0f, 4.0f, 0.0f});
+  sc.shadows.texels_per_pixel = 4.0f;
+  Renderer r;
+  FrameStats free_run, tight;
+  r.render(sc, cpu(), &free_run);
+  ASSERT_EQ(free_run.map_resolutions.size(), 2u);
+  const double per_texel = map_bytes_per_texel(sc.shadows);
+  auto texel_bytes = [&](const FrameStats& st) {
+    double b = 0.0;
+    for (const MapResolutionStats& m : st.map_resolutions) b += double(m.resolution) * m.resolution * per_texel;
+    return b;
+  };
+  const double wanted = texel_bytes(free_run);
+  std::vector<MemoryItem> items = estimate_frame_memory(sc, RenderOptions{});
+  double others = 0.0;
+  for (const MemoryItem& i : items)
+    if (!i.per_map_texel) others += i.bytes;
+  sc.shadows.max_memory_mib = int64_t(std::ceil((others + 0.8 * wanted) / 1048576.0));
+  const double budget = map_texel_budget(sc.shadows, estimate_frame_memory(sc, RenderOptions{}));
+  r.render(sc, cpu(), &tight);
+  ASSERT_EQ(tight.map_resolutions.size(), 2u);
+  const size_t near = free_run.map_resolutions[0].receivers > free_run.map_resolutions[1].receivers ? 0 : 1,
+               far = 1 - near;
+  std::printf("[ auto     ] budget %.1f MiB of %.1f wanted: near map %d^2 -> %d^2 (%s), far map %d^2 -> %d^2 (%s)\n",
+              budget / 1048576.0, wanted / 1048576.0, free_run.map_resolutions[near].resolution,
+              tight.map_resolutions[near].resolution, tight.map_resolutions[near].limit.c_str(),
+              free_run.map_resolutions[far].resolution, tight.map_resolutions[far].resolution,
+              tight.map_resolutions[far].limit.c_str());
+  EXPECT_LE(texel_bytes(tight), budget);
+  EXPECT_EQ(tight.map_resolutions[far].resolution, kSmallestAutoResolution);
+  EXPECT_EQ(tight.map_resolutions[far].limit, "budget");
+  EXPECT_EQ(tight.map_resolutions[near].limit, "budget");
+  EXPECT_NEAR(rung_position(tight.map_resolutions[near].resolution),
+              rung_position(free_run.map_resolutions[near].resolution) - 1.0, 0.05);
+  // The default limit (half the machine's memory) leaves both at their target.
+  for (const MapResolutionStats& m : free_run.map_resolutions) EXPECT_EQ(m.limit, "target");
 }
 
 TEST(AutoResolution, TheLadderTopAndTheScreenSayWhy) {

@@ -130,7 +130,9 @@ struct MapResolutionStats {
   double texels_per_pixel_p5 = 0.0;
   // Why this resolution: "fixed" (the setting), "target" (about
   // texels_per_pixel at the median receiver), "ladder top" (max_resolution),
-  // "ladder bottom", "not seen" (no sampled receiver: the smallest useful).
+  // "ladder bottom", "not seen" (no sampled receiver: the smallest useful),
+  // "budget" (stepped down to keep the maps within shadows.max_memory, the
+  // maps serving the fewest receivers first).
   std::string limit = "fixed";
 };
 
