@@ -89,7 +89,12 @@ std::vector<CameraReceiver> sample_camera_receivers(const SceneBuffers& sb, cons
       float seen = 1.0f;  // what the surfaces so far let through to the eye
       for (const Hit& hit : hits) {
         const ObjectData& o = s.objects[s.tri_object[hit.tri]];
-        if (passes_all(o)) continue;
+        if (passes_all(o)) {
+          // A medium's boundary: where the samples its march shades begin.
+          if (o.interior != InteriorKind::None)
+            rows[size_t(y)].push_back({org + dir * hit.t, pixel_per_axial * (is_orthographic(cam) ? 1.0f : hit.t * c)});
+          continue;
+        }
         if (seen * o.opacity >= kSeenWeight) {
           const float axial = hit.t * c;
           rows[size_t(y)].push_back({org + dir * hit.t, pixel_per_axial * (is_orthographic(cam) ? 1.0f : axial)});

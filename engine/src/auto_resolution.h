@@ -29,7 +29,8 @@ struct CameraReceiver {
 
 // About `samples` camera rays on a regular grid of pixel centres; along each,
 // the surfaces in front of the eye until what they let through falls below
-// 5% (those it sees with a weight of at least 5%).
+// 5% (those it sees with a weight of at least 5%), and where it enters or
+// leaves a medium (the volume samples its march shades lie between).
 std::vector<CameraReceiver> sample_camera_receivers(const SceneBuffers& sb, const Camera& camera, int samples);
 
 inline constexpr int32_t kSmallestAutoResolution = 16;  // the ladder's bottom (rung 0)

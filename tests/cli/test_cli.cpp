@@ -204,6 +204,7 @@ TEST(Cli, SceneFieldReferenceIsTheFieldTables) {
       using T = std::remove_cv_t<std::remove_reference_t<decltype(S{}.*f.member)>>;
       if constexpr (std::is_enum_v<T>)
         for (uint32_t i = 0; i < cdsm::tag_count<T>(); ++i) names.insert(cdsm::tag_name(T(i)));
+      if (cdsm::zero_is_auto(f)) names.insert("auto");
     });
     return names;
   };
