@@ -16,6 +16,7 @@
 #include "cdsm/error.h"
 #include "cdsm/renderer.h"
 #include "cdsm/scene_io.h"
+#include "common/camera_path.h"
 #include "cdsm/shadow_system.h"
 #include "reference/reference.h"
 #include "frame_snapshot.h"
@@ -232,51 +233,6 @@ TEST(Directional, SceneFilesNeedADirectionNotAPosition) {
 // cluster's window depends on its members only (snapped, sizes on a
 // 2^(1/4) ladder), so a map is rebuilt only when the clustering changes.
 // One map over every caster (m = 1) is never rebuilt.
-struct PathFigures {
-  uint32_t frames_with_rebuilds = 0, maps_rebuilt = 0;
-  double worst_p99 = 0.0, worst_max = 0.0;
-  // Auto resolution: frames where a map's resolution moved a rung, and
-  // frames with rebuilds that neither that nor a new clustering explains.
-  uint32_t frames_with_new_rungs = 0, unexplained_rebuild_frames = 0;
-};
-
-PathFigures walk_sun_path(Scene s, int frames) {
-  RenderOptions opt;
-  opt.fragments = FragmentSource::Cpu;
-  opt.measure_popping = true;
-  Renderer r;
-  FrameStats st;
-  r.render(s, opt, &st);
-  EXPECT_EQ(st.maps_rebuilt, uint32_t(s.shadows.max_clusters > 1 ? s.shadows.max_clusters : 1));
-  const Vec3 p0 = s.camera.position, t0 = s.camera.target;
-  PathFigures fig;
-  std::vector<MapResolutionStats> rungs = st.map_resolutions;
-  for (int f = 1; f <= frames; ++f) {
-    const float a = float(f) / float(frames);
-    s.camera.position = p0 + Vec3{10.0f * a, 0, 0};  // 10 m sideways
-    const float turn = 30.0f * a * kDeg;             // and 30 degrees about the vertical
-    const Vec3 d = t0 - p0;
-    s.camera.target = s.camera.position + Vec3{d.x * std::cos(turn) - d.z * std::sin(turn), d.y,
-                                               d.x * std::sin(turn) + d.z * std::cos(turn)};
-    r.render(s, opt, &st);
-    fig.maps_rebuilt += st.maps_rebuilt;
-    fig.frames_with_rebuilds += st.maps_rebuilt > 0;
-    bool new_rung = st.map_resolutions.size() != rungs.size(), reclustered = false;
-    for (size_t k = 0; !new_rung && k < rungs.size(); ++k)
-      new_rung = st.map_resolutions[k].resolution != rungs[k].resolution;
-    for (const LightClusterStats& c : st.clusters)
-      for (uint8_t changed : c.changed) reclustered = reclustered || changed != 0;
-    rungs = st.map_resolutions;
-    fig.frames_with_new_rungs += new_rung;
-    fig.unexplained_rebuild_frames += st.maps_rebuilt > 0 && !new_rung && !reclustered;
-    if (st.popping.measured) {
-      fig.worst_p99 = std::max(fig.worst_p99, st.popping.p99);
-      fig.worst_max = std::max(fig.worst_max, st.popping.max);
-    }
-  }
-  return fig;
-}
-
 TEST(Directional, SunCloudsCameraPathHoldsStill) {
   Scene s = load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/sun_clouds.json");
   // CDSM_SUN_PATH_FULL=1: the shipped image size, maps of the shipped 512^2
@@ -290,7 +246,7 @@ TEST(Directional, SunCloudsCameraPathHoldsStill) {
     s.shadows.resolution = 384;
   }
   ASSERT_GT(s.shadows.max_clusters, 1);
-  const PathFigures c = walk_sun_path(s, frames);
+  const PathFigures c = cdsm_test::walk_camera_path(s, frames);
   std::printf("[ sun path ] %d frames, %d clusters: %u frames with rebuilds (%u maps), popping p99 %.4f max %.4f\n",
               frames, s.shadows.max_clusters, c.frames_with_rebuilds, c.maps_rebuilt, c.worst_p99, c.worst_max);
   EXPECT_LT(c.frames_with_rebuilds * 10, uint32_t(frames));
@@ -301,7 +257,7 @@ TEST(Directional, SunCloudsCameraPathHoldsStill) {
   // region flipping.
   EXPECT_LE(c.worst_max, 0.5);
   s.shadows.max_clusters = 1;
-  const PathFigures one = walk_sun_path(s, frames);
+  const PathFigures one = cdsm_test::walk_camera_path(s, frames);
   std::printf("[ sun path ] %d frames, one map: %u frames with rebuilds\n", frames, one.frames_with_rebuilds);
   EXPECT_EQ(one.maps_rebuilt, 0u) << "one map over every caster does not depend on the camera";
 }
@@ -320,7 +276,7 @@ TEST(Directional, SunCloudsCameraPathWithAutoResolution) {
     s.shadows.texels_per_pixel = 4.0f;
   }
   s.shadows.resolution = kAutoResolution;
-  const PathFigures c = walk_sun_path(s, frames);
+  const PathFigures c = cdsm_test::walk_camera_path(s, frames);
   std::printf(
       "[ sun path ] auto resolution, %d frames: %u frames with rebuilds (%u maps), %u with a map on a new rung, %u "
       "unexplained; popping p99 %.4f max %.4f\n",
