@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include "cdsm/renderer.h"
@@ -57,6 +58,21 @@ inline PathFigures walk_camera_path(cdsm::Scene s, int frames) {
     }
   }
   return fig;
+}
+
+// Auto resolution along a path: prints the figures (`what` names it),
+// expects every rebuild frame explained by a map on a new rung or a new
+// clustering, at most `new_rung_share` of the frames with a new rung, and
+// the popping probe's p99 within 0.01.
+inline void expect_auto_path(const char* what, const PathFigures& c, int frames, double new_rung_share) {
+  std::printf(
+      "[ auto path] %s, %d frames: %u with rebuilds (%u maps), %u with a map on a new rung, %u unexplained; "
+      "popping p99 %.4f max %.4f\n",
+      what, frames, c.frames_with_rebuilds, c.maps_rebuilt, c.frames_with_new_rungs, c.unexplained_rebuild_frames,
+      c.worst_p99, c.worst_max);
+  EXPECT_EQ(c.unexplained_rebuild_frames, 0u) << what;
+  EXPECT_LT(double(c.frames_with_new_rungs), new_rung_share * frames) << what;
+  EXPECT_LE(c.worst_p99, 0.01) << what;
 }
 
 }  // namespace cdsm_test
