@@ -242,11 +242,17 @@ int check_cases(const std::vector<AngleCase>& cases) {
 // a point light's (cube faces: at 45 degrees the shadow lies across the
 // seam of two faces, each edge in another face).
 TEST(SoftAngles, PenumbraWidthOffTheAxis) {
+  // Under a sanitizer (12x slower) the angles between 0 and 45 are left to
+  // the Release run: the same code at other numbers.
+  const std::vector<float> spot =
+      CDSM_TEST_SANITIZED ? std::vector<float>{0.0f, 45.0f} : std::vector<float>{0.0f, 20.0f, 35.0f, 45.0f};
+  const std::vector<float> point = CDSM_TEST_SANITIZED ? std::vector<float>{0.0f, 45.0f, 60.0f}
+                                                       : std::vector<float>{0.0f, 20.0f, 35.0f, 45.0f, 60.0f};
   std::vector<AngleCase> cases;
-  for (float theta : {0.0f, 20.0f, 35.0f, 45.0f}) cases.push_back({Source::Spot, theta, theta});
+  for (float theta : spot) cases.push_back({Source::Spot, theta, theta});
   cases.push_back({Source::SpotClusters, 45.0f, 45.0f});
   cases.push_back({Source::WideSpot, 60.0f, 60.0f});
-  for (float theta : {0.0f, 20.0f, 35.0f, 45.0f, 60.0f}) cases.push_back({Source::Point, theta, theta});
+  for (float theta : point) cases.push_back({Source::Point, theta, theta});
   EXPECT_EQ(check_cases(cases), 0);
 }
 
