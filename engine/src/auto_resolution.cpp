@@ -21,13 +21,6 @@ constexpr double kHysteresis = 0.75;  // rungs a wanted resolution moves past th
 // on each side, at its planned resolution).
 float content_half(float half, int res) { return half * float(res - 2) / float(res); }
 
-// The world size of one texel of `v` at resolution `res` (guard band kept)
-// at axial distance `axial`.
-float texel_size(const PinholeView& v, int res, float axial) {
-  const float half = content_half(v.tan_half_x, v.width);
-  return 2.0f * half * (is_orthographic(v) ? 1.0f : axial) / float(res - 2);
-}
-
 // The resolution (guard band included) at which a texel of `v` at `axial`
 // is `pixel / tpp` across.
 double wanted_texels(const PinholeView& v, float axial, float pixel, float tpp) {
@@ -118,7 +111,7 @@ void choose_map_resolutions(const ShadowSettings& s, const std::vector<CameraRec
   rungs.assign(setup.lights.size(), {});
   stats.assign(setup.maps.size(), MapResolutionStats{});
   std::vector<int> rung(setup.maps.size(), kUnseenRung);
-  std::vector<double> wanted;
+  std::vector<std::vector<double>> wanted(setup.maps.size());  // per map: per receiver it serves
   // Each map's rung from its receivers (hysteresis: the rung it had).
   for (uint32_t li = 0; li < setup.lights.size(); ++li) {
     const LightData& L = setup.lights[li];
@@ -128,14 +121,16 @@ void choose_map_resolutions(const ShadowSettings& s, const std::vector<CameraRec
       const MapPlan& plan = setup.maps[m];
       MapResolutionStats& st = stats[m];
       st.light = li;
-      wanted.clear();
       for (const CameraReceiver& r : receivers)
         if (serves(L, k, plan.view, r.p))
-          wanted.push_back(wanted_texels(plan.view, project(plan.view, r.p).axial, r.pixel, s.texels_per_pixel));
-      st.receivers = uint32_t(wanted.size());
+          wanted[m].push_back(wanted_texels(plan.view, project(plan.view, r.p).axial, r.pixel, s.texels_per_pixel));
+      st.receivers = uint32_t(wanted[m].size());
       st.limit = "not seen";
-      if (wanted.empty()) continue;
-      const double pos = rung_position(quantile(wanted, 0.5));
+      if (wanted[m].empty()) continue;
+      // Kept finite and within a step of the ladder (a degenerate receiver).
+      double pos = rung_position(quantile(wanted[m], 0.5));
+      if (!(pos > -1.0)) pos = -1.0;
+      if (!(pos < double(top) + 1.0)) pos = double(top) + 1.0;
       rung[m] = int(std::lround(pos));
       if (kept && previous[li][k] >= 0 && std::fabs(pos - double(previous[li][k])) <= kHysteresis)
         rung[m] = previous[li][k];
@@ -163,8 +158,8 @@ void choose_map_resolutions(const ShadowSettings& s, const std::vector<CameraRec
     stats[size_t(pick)].limit = "budget";
   }
   // Each view at its resolution, the window widened so that its guard band
-  // stays one texel; the density its receivers see.
-  std::vector<double> density;
+  // stays one texel; the density its receivers see: a texel of `res` is
+  // (wanted - 2) / (res - 2) times the one they want (pixel / tpp).
   for (uint32_t li = 0; li < setup.lights.size(); ++li) {
     const LightData& L = setup.lights[li];
     rungs[li].assign(L.map_count, 0);
@@ -179,11 +174,9 @@ void choose_map_resolutions(const ShadowSettings& s, const std::vector<CameraRec
       v.width = v.height = res;
       MapResolutionStats& st = stats[m];
       st.resolution = res;
-      density.clear();
-      for (const CameraReceiver& r : receivers)
-        if (serves(L, k, v, r.p)) density.push_back(double(r.pixel) / texel_size(v, res, project(v, r.p).axial));
-      st.texels_per_pixel_median = quantile(density, 0.5);
-      st.texels_per_pixel_p5 = quantile(density, 0.05);
+      for (double& w : wanted[m]) w = double(s.texels_per_pixel) * double(res - 2) / (w - 2.0);
+      st.texels_per_pixel_median = quantile(wanted[m], 0.5);
+      st.texels_per_pixel_p5 = quantile(wanted[m], 0.05);
     }
   }
 }

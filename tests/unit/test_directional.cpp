@@ -234,18 +234,30 @@ TEST(Directional, SceneFilesNeedADirectionNotAPosition) {
 // cluster's window depends on its members only (snapped, sizes on a
 // 2^(1/4) ladder), so a map is rebuilt only when the clustering changes.
 // One map over every caster (m = 1) is never rebuilt.
-TEST(Directional, SunCloudsCameraPathHoldsStill) {
-  Scene s = load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/sun_clouds.json");
-  // CDSM_SUN_PATH_FULL=1: the shipped image size, maps of the shipped 512^2
-  // and the 200-frame path. Otherwise 384^2 maps: the same 4 rebuild frames
-  // (14 maps) and p99 as at 512^2, in 3.2 s instead of 7.9 (Release).
-  const bool full = std::getenv("CDSM_SUN_PATH_FULL") != nullptr;
-  const int frames = full ? 200 : 60;
-  if (!full) {
-    s.camera.width = 96;
-    s.camera.height = 64;
-    s.shadows.resolution = 384;
+// sun_clouds.json for its camera path: CDSM_SUN_PATH_FULL=1 the shipped
+// image size and the 200-frame path, else 60 frames at 96 x 64.
+struct SunPath {
+  Scene scene;
+  int frames;
+  bool full;
+};
+SunPath sun_clouds_path() {
+  SunPath p{load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/sun_clouds.json"), 60,
+            std::getenv("CDSM_SUN_PATH_FULL") != nullptr};
+  if (p.full) {
+    p.frames = 200;
+  } else {
+    p.scene.camera.width = 96;
+    p.scene.camera.height = 64;
   }
+  return p;
+}
+
+TEST(Directional, SunCloudsCameraPathHoldsStill) {
+  // Small: 384^2 maps, the same 4 rebuild frames (14 maps) and p99 as the
+  // shipped 512^2, in 3.2 s instead of 7.9 (Release).
+  auto [s, frames, full] = sun_clouds_path();
+  if (!full) s.shadows.resolution = 384;
   ASSERT_GT(s.shadows.max_clusters, 1);
   const PathFigures c = cdsm_test::walk_camera_path(s, frames);
   std::printf("[ sun path ] %d frames, %d clusters: %u frames with rebuilds (%u maps), popping p99 %.4f max %.4f\n",
@@ -271,14 +283,8 @@ TEST(Directional, SunCloudsCameraPathWithAutoResolution) {
   // Under a sanitizer this path costs 40 s for nothing the sanitizer sees
   // beyond unit_auto_resolution (the same choice, a spot path): Release only.
   if (CDSM_TEST_SANITIZED) GTEST_SKIP() << "Release only (40 s under ASan; unit_auto_resolution runs the code)";
-  Scene s = load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/sun_clouds.json");
-  const bool full = std::getenv("CDSM_SUN_PATH_FULL") != nullptr;
-  const int frames = full ? 200 : 60;
-  if (!full) {
-    s.camera.width = 96;
-    s.camera.height = 64;
-    s.shadows.texels_per_pixel = 4.0f;
-  }
+  auto [s, frames, full] = sun_clouds_path();
+  if (!full) s.shadows.texels_per_pixel = 4.0f;
   s.shadows.resolution = kAutoResolution;
   const cdsm_test::PathFigures c = cdsm_test::walk_camera_path(s, frames);
   cdsm_test::expect_auto_path("sun_clouds.json", c, frames, 0.1);
