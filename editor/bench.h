@@ -68,12 +68,13 @@ struct Config {
   float eps = 0.0f;   // DSM only
   int res = 0;        // kAutoResolution: auto
   float tpp = -1.0f;  // auto resolution's texels per pixel (negative: the scene's)
-  int clusters = 1;
+  int clusters = 1;   // kAutoClusters: auto
   std::string layout;
   std::string backend;
   Penumbra penumbra = Penumbra::Estimated;
-  std::string label() const;     // e.g. "dsm eps=0.01 res=512", "osm32 res=512", "dsm eps=0.01 res=auto tpp=2"
-  std::string res_text() const;  // "512", "auto" or "auto x2"
+  std::string label() const;          // e.g. "dsm eps=0.01 res=512", "osm32 res=512", "dsm eps=0.01 res=auto tpp=2"
+  std::string res_text() const;       // "512", "auto" or "auto x2"
+  std::string clusters_text() const;  // "4" or "auto"
 };
 
 // Every configuration of `sweep` on a scene (its own settings fill empty axes).

@@ -163,7 +163,7 @@ void parse_sweep(const std::string& spec, Sweep& sweep) {
     const auto [lo, hi] = settings_range("clusters");
     sweep.clusters.clear();
     for (const std::string& v : split(values, opt)) {
-      const int m = int(parse_number(opt, v, lo, hi, true));
+      const int m = v == "auto" ? kAutoClusters : int(parse_number(opt, v, lo, hi, true));
       if (m > kMaxClustersAvailable)
         throw Error(opt,
                     "clusters=" + v + " is not available yet (at most " + std::to_string(kMaxClustersAvailable) + ")");
@@ -210,10 +210,10 @@ std::string sweep_help() {
          "\n"
          "                        or auto: each map's from the screen (default: the scene's)\n"
          "  tpp=1,2               auto resolution: texels per image pixel (default: the scene's)\n"
-         "  clusters=1,2,4,8      at most m clustered maps per light, each within " +
+         "  clusters=1,2,4,auto   at most m clustered maps per light, each within " +
          range("clusters", true) +
          "\n"
-         "                        (default: the scene's)\n"
+         "                        or auto: per light from the screen (default: the scene's)\n"
          "  radius=0,0.05,0.15    every spot and point light's radius, world units (a variant of the\n"
          "                        scene with its own area-sampled reference per value)\n"
          "  angular_diameter=0.53 every directional light's apparent size, degrees (variants as radius)\n"
@@ -235,12 +235,14 @@ std::string Config::label() const {
   std::string s = method.label;
   if (method.method == ShadowMethod::Dsm) s += " eps=" + fmt(eps);
   s += " res=" + res_text();
-  if (clusters > 1) s += " m=" + std::to_string(clusters);
+  if (clusters != 1) s += " m=" + clusters_text();
   if (layout != "packed") s += " " + layout;
   if (backend != "cpu") s += " " + backend;
   if (penumbra != Penumbra::Estimated) s += std::string(" ") + tag_name(penumbra);
   return s;
 }
+
+std::string Config::clusters_text() const { return clusters == kAutoClusters ? "auto" : std::to_string(clusters); }
 
 std::string Config::res_text() const {
   if (res != kAutoResolution) return std::to_string(res);

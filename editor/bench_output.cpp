@@ -173,7 +173,7 @@ void write_csv(const std::vector<Result>& results, const std::string& path) {
       v["method_param"] = dsm ? "" : num(c.method.param);
       v["epsilon"] = dsm ? num(c.eps) : "";
       v["resolution"] = c.res_text();
-      v["clusters"] = std::to_string(c.clusters);
+      v["clusters"] = c.clusters_text();
       v["layout"] = c.layout;
       v["backend"] = c.backend;
       v["penumbra"] = tag_name(c.penumbra);
@@ -275,10 +275,10 @@ void write_markdown(const std::vector<Result>& results, const RunInfo& info, con
       };
       std::string p = std::string(r.pareto_time ? "t" : "") + (r.pareto_memory ? "m" : "");
       f << "| " << c.method.label << (c.penumbra != Penumbra::Estimated ? std::string(" ") + tag_name(c.penumbra) : "")
-        << " | " << (dsm ? num(c.eps, "%g") : "") << " | " << c.res_text() << " | " << c.clusters << " | " << c.layout
-        << " | " << (other_backend ? c.backend + " | " : "") << ms(r.build_ms) << " | " << ms(r.camera_ms) << " | "
-        << num(r.memory_bytes() / 1024.0, "%.0f") << " | " << num(r.stats.memory.avg_nodes_per_texel, "%.2f") << " / "
-        << r.stats.memory.max_nodes_per_texel << " | " << num(r.transmittance.mean, "%.4f") << " | "
+        << " | " << (dsm ? num(c.eps, "%g") : "") << " | " << c.res_text() << " | " << c.clusters_text() << " | "
+        << c.layout << " | " << (other_backend ? c.backend + " | " : "") << ms(r.build_ms) << " | " << ms(r.camera_ms)
+        << " | " << num(r.memory_bytes() / 1024.0, "%.0f") << " | " << num(r.stats.memory.avg_nodes_per_texel, "%.2f")
+        << " / " << r.stats.memory.max_nodes_per_texel << " | " << num(r.transmittance.mean, "%.4f") << " | "
         << num(r.transmittance.p99, "%.3f") << " | " << num(r.transmittance.max, "%.3f") << " | "
         << num(r.transmittance.rmse, "%.4f") << " | " << num(r.transmittance.map.p99, "%.4f") << " | "
         << num(r.transmittance.resolution.p99, "%.4f") << " | " << num(r.transmittance.interior.total.p99, "%.4f")

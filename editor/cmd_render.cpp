@@ -55,7 +55,10 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
     j["dsm_resolution"] = scene.shadows.resolution;
   j["filtering"] = scene.shadows.filtering;
   j["lights"] = s.lights;
-  j["clusters_max"] = scene.shadows.max_clusters;
+  if (scene.shadows.auto_clusters())
+    j["clusters_max"] = "auto";
+  else
+    j["clusters_max"] = scene.shadows.max_clusters;
   j["d0"] = scene.shadows.d0;
   j["maps_rebuilt"] = s.maps_rebuilt;
   j["maps_reused"] = s.maps_reused;
@@ -68,6 +71,15 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
     e["reclustered"] = c.reclustered;
     e["maps"] = c.maps;
     e["objects_per_cluster"] = c.members;
+    if (c.chosen_clusters > 0) {
+      e["auto_clusters"] = c.chosen_clusters;
+      e["auto_clusters_reason"] = c.count_reason;
+      auto& tried = e["auto_clusters_tried"];
+      tried = nlohmann::json::array();
+      for (const LightClusterStats::CountTrial& t : c.count_trials)
+        tried.push_back(
+            {{"clusters", t.clusters}, {"maps", t.maps}, {"wanted_texels", t.wanted_texels}, {"reaches", t.reaches}});
+    }
     cl.push_back(e);
   }
   auto& mr = j["map_resolutions"];
@@ -179,6 +191,7 @@ void print_summary(const FrameStats& s, const Scene& scene, bool reference_backe
     } else if (!c.fallback_reason.empty()) {
       std::printf(", unclustered: %s", c.fallback_reason.c_str());
     }
+    if (c.chosen_clusters > 0) std::printf("; %s", cluster_count_text(c).c_str());
     std::printf("\n");
   }
   if (scene.shadows.auto_resolution())
@@ -373,6 +386,7 @@ Command add_render(CLI::App& cdsm) {
   scene.add(*app, "--max-dsm-res", &Scene::shadows, "max_resolution");
   scene.add(*app, "--filtering", &Scene::shadows, "filtering");
   scene.add(*app, "--clusters", &Scene::shadows, "clusters", "1: unclustered");
+  scene.add(*app, "--max-clusters", &Scene::shadows, "max_clusters");
   scene.add(*app, "--d0", &Scene::shadows, "d0");
   scene.add(*app, "--splits", &Scene::shadows, "parallel_splits", "instead of clusters")
       ->check(CLI::Validator(  // what the range cannot say (as the scene's validator)

@@ -159,7 +159,19 @@ void shadows_panel(Session& s) {
                             ImGuiSliderFlags_Logarithmic);
     changed |= field_slider("max resolution", next, &ShadowSettings::max_resolution, 64, 4096);
   }
-  changed |= field_slider("clusters m", next, &ShadowSettings::max_clusters, 1, 8);
+  bool auto_m = next.auto_clusters();
+  if (ImGui::Checkbox("auto clusters", &auto_m)) {
+    next.max_clusters = auto_m ? kAutoClusters : 1;
+    changed = true;
+  }
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "per light, the fewest clusters whose maps reach the density (the Stats window shows the counts "
+        "tried)");
+  if (auto_m)
+    changed |= field_slider("max clusters", next, &ShadowSettings::cluster_limit, 1, kMaxMapsPerLight);
+  else
+    changed |= field_slider("clusters m", next, &ShadowSettings::max_clusters, 1, kMaxMapsPerLight);
   changed |= field_slider("d0", next, &ShadowSettings::d0, 0.0f, 1.0f, "%.3f");
   int layout = int(next.layout);
   if (ImGui::Combo("layout", &layout, TagNames<DsmLayout>::names, int(tag_count<DsmLayout>()))) {

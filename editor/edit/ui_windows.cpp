@@ -80,9 +80,12 @@ void stats_window(Session& s, UiState& ui, float x, float y, float h) {
     }
     ImGui::EndTable();
   }
-  for (size_t li = 0; li < st.clusters.size(); ++li)
+  for (size_t li = 0; li < st.clusters.size(); ++li) {
     if (!st.clusters[li].clustered && !st.clusters[li].fallback_reason.empty())
       ImGui::TextWrapped("light %zu unclustered: %s", li, st.clusters[li].fallback_reason.c_str());
+    const std::string count = cluster_count_text(st.clusters[li]);
+    if (!count.empty()) ImGui::TextWrapped("light %zu %s", li, count.c_str());
+  }
   for (const std::string& n : s.notes()) ImGui::TextWrapped("note: %s", n.c_str());
   ImGui::End();
 }

@@ -102,7 +102,7 @@ Edit set_settings(const Document& doc, const ShadowSettings& next) {
 Edit set_camera(const Document& doc, const Camera& next) {
   Edit e;
   const ShadowSettings& s = doc.scene.shadows;
-  e.what = change::Camera{doc.scene.camera, next, s.max_clusters > 1 || s.parallel_splits > 1};
+  e.what = change::Camera{doc.scene.camera, next, s.clustering() || s.parallel_splits > 1};
   e.key = "camera";
   return e;
 }
@@ -321,9 +321,12 @@ std::string Edit::describe() const {
           if (d.fields == "epsilon")
             return "shadows/epsilon " + number(c.before.epsilon) + " -> " + number(c.after.epsilon);
           if (d.fields == "d0") return "shadows/d0 " + number(c.before.d0) + " -> " + number(c.after.d0);
-          if (d.fields == "clusters")
-            return "shadows/clusters " + std::to_string(c.before.max_clusters) + " -> " +
-                   std::to_string(c.after.max_clusters);
+          if (d.fields == "clusters") {
+            auto m = [](const ShadowSettings& s) {
+              return s.auto_clusters() ? "auto" : std::to_string(s.max_clusters);
+            };
+            return "shadows/clusters " + m(c.before) + " -> " + m(c.after);
+          }
           return key;
         } else {
           return key;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "hd/bvh.h"
 #include "hd/lights.h"
@@ -16,6 +17,9 @@ namespace {
 constexpr float kSeenWeight = 0.05f;  // surfaces the eye sees with less weight are not receivers
 constexpr int kUnseenRung = 4;        // 64 texels: a map no sampled receiver lies in
 constexpr double kHysteresis = 0.75;  // rungs a wanted resolution moves past the kept one before it changes
+// Auto clusters: maps serving fewer of the sampled receivers than this share
+// do not decide a light's cluster count.
+constexpr double kDecidingShare = 0.005;
 
 // The map's content half-widths (its window less the one-texel guard band
 // on each side, at its planned resolution).
@@ -37,6 +41,21 @@ bool serves(const LightData& L, uint32_t k, const PinholeView& v, Vec3 p) {
   const ViewProjection pr = project(v, p);
   if (!(pr.axial > 0.0f) || !(pr.depth > v.near)) return false;
   return pr.u >= 1.0f && pr.v >= 1.0f && pr.u <= float(v.width) - 1.0f && pr.v <= float(v.height) - 1.0f;
+}
+
+// The resolution each receiver map k of light L serves wants (wanted_texels).
+std::vector<double> wanted_by_receivers(const ShadowSettings& s, const std::vector<CameraReceiver>& receivers,
+                                        const LightData& L, uint32_t k, const PinholeView& v) {
+  std::vector<double> out;
+  for (const CameraReceiver& r : receivers)
+    if (serves(L, k, v, r.p)) out.push_back(wanted_texels(v, project(v, r.p).axial, r.pixel, s.texels_per_pixel));
+  return out;
+}
+
+int top_rung(const ShadowSettings& s) {
+  int top = 0;  // the highest rung within max_resolution
+  while (resolution_rung(top + 1) <= s.max_resolution) ++top;
+  return top;
 }
 
 double quantile(std::vector<double>& v, double q) {
@@ -102,12 +121,45 @@ std::vector<CameraReceiver> sample_camera_receivers(const SceneBuffers& sb, cons
   return out;
 }
 
+double reachable_rung(const ShadowSettings& s) {
+  return s.auto_resolution() ? double(top_rung(s)) : rung_position(double(s.resolution));
+}
+
+double light_wanted_texels(const ShadowSettings& s, const std::vector<CameraReceiver>& receivers,
+                           const LightSetup& setup, uint32_t li) {
+  const LightData& L = setup.lights[li];
+  const double deciding = kDecidingShare * double(receivers.size());
+  double most = 0.0;
+  for (uint32_t k = 0; k < L.map_count; ++k) {
+    std::vector<double> w = wanted_by_receivers(s, receivers, L, k, setup.maps[L.first_map + k].view);
+    if (w.empty() || double(w.size()) < deciding) continue;
+    const double median = quantile(w, 0.5);
+    most = std::max(most, std::isfinite(median) ? median : std::numeric_limits<double>::max());
+  }
+  return most;
+}
+
+CountChoice pick_cluster_count(const std::vector<double>& need, double reach, int kept) {
+  CountChoice c;
+  if (need.empty()) return c;
+  const double best = *std::min_element(need.begin(), need.end());
+  const double good = best <= reach ? reach : best + 1.0;  // good enough
+  while (need[c.pick] > good) ++c.pick;
+  c.reason = best <= reach ? "the fewest that reach the density"
+                           : "none reaches the density: the fewest within a ladder step of the best";
+  if (kept >= 0 && size_t(kept) < need.size() && size_t(kept) != c.pick && need[size_t(kept)] <= good + kHysteresis &&
+      (size_t(kept) < c.pick || need[c.pick] > good - kHysteresis)) {
+    c.pick = size_t(kept);
+    c.reason = "kept from the last frame (within 3/4 of a ladder step)";
+  }
+  return c;
+}
+
 void choose_map_resolutions(const ShadowSettings& s, const std::vector<CameraReceiver>& receivers,
                             const std::vector<std::vector<int>>& previous, double budget_bytes, double bytes_per_texel,
                             LightSetup& setup, std::vector<std::vector<int>>& rungs,
                             std::vector<MapResolutionStats>& stats) {
-  int top = 0;  // the highest rung within max_resolution
-  while (resolution_rung(top + 1) <= s.max_resolution) ++top;
+  const int top = top_rung(s);
   rungs.assign(setup.lights.size(), {});
   stats.assign(setup.maps.size(), MapResolutionStats{});
   std::vector<int> rung(setup.maps.size(), kUnseenRung);
@@ -121,9 +173,7 @@ void choose_map_resolutions(const ShadowSettings& s, const std::vector<CameraRec
       const MapPlan& plan = setup.maps[m];
       MapResolutionStats& st = stats[m];
       st.light = li;
-      for (const CameraReceiver& r : receivers)
-        if (serves(L, k, plan.view, r.p))
-          wanted[m].push_back(wanted_texels(plan.view, project(plan.view, r.p).axial, r.pixel, s.texels_per_pixel));
+      wanted[m] = wanted_by_receivers(s, receivers, L, k, plan.view);
       st.receivers = uint32_t(wanted[m].size());
       st.limit = "not seen";
       if (wanted[m].empty()) continue;

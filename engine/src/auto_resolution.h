@@ -40,6 +40,29 @@ int32_t resolution_rung(int k);
 // The rung nearest to `texels` (in log scale), and that position unrounded.
 double rung_position(double texels);
 
+// Auto clusters: the rung position (rung_position) a map can reach — the
+// ladder's top within max_resolution (auto resolution), or the fixed
+// resolution's.
+double reachable_rung(const ShadowSettings& s);
+// The texels per side the neediest map of light `li` wants at the median of
+// the receivers it serves (at s.texels_per_pixel), over the maps that serve
+// at least 0.5% of `receivers`; 0 when none does.
+double light_wanted_texels(const ShadowSettings& s, const std::vector<CameraReceiver>& receivers,
+                           const LightSetup& setup, uint32_t li);
+
+// Auto clusters: which of the cluster counts tried (in increasing order;
+// need[k]: the rung position the neediest map of count k wants, -inf when
+// no map is seen) a light takes: the fewest whose need is within `reach`
+// (the reachable rung plus half a step), or where none is, the fewest within
+// a step of the best. `kept` (the index of the last frame's count, -1: none)
+// stays while its need is within 3/4 of a step of that bound and the count
+// picked is not 3/4 of a step inside it.
+struct CountChoice {
+  size_t pick = 0;
+  const char* reason = "";
+};
+CountChoice pick_cluster_count(const std::vector<double>& need, double reach, int kept);
+
 // Sets each map of `setup` to its resolution (the view's width and height,
 // its window widened so that its one-texel guard band stays a texel),
 // keeping a map's previous rung (`previous[light][map]`, -1: none) within

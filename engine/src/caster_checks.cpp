@@ -111,8 +111,9 @@ void warn_subtexel_casters(const FrameInputs& in, ShadowFrame& frame) {
         text, sizeof text,
         "%s: every shadow caster in %s is smaller than a texel (%dx%d texels; a texel is %.3g world units wide at "
         "the casters, the largest caster covers %.2g of one), so they cast almost no shadow; use more clusters "
-        "(/shadows/clusters, now %d) or a higher resolution (/shadows/resolution)",
-        light.c_str(), maps.c_str(), res, res, double(texel), double(largest), in.settings.max_clusters);
+        "(/shadows/clusters, now %s) or a higher resolution (/shadows/resolution)",
+        light.c_str(), maps.c_str(), res, res, double(texel), double(largest),
+        in.settings.auto_clusters() ? "auto" : std::to_string(in.settings.max_clusters).c_str());
     frame.warnings.push_back(text);
   }
 }

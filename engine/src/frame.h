@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "backend/backend.h"
+#include "cdsm/frame_stats.h"
 #include "cdsm/renderer.h"
 #include "cdsm/scene.h"
 #include "cluster/clustering.h"
@@ -70,6 +71,9 @@ struct LightClusters {
   cluster::Clustering clustering;
   bool clustered = false;       // false: m = 1, or fell back to unclustered maps
   std::string fallback_reason;  // why clustering fell back
+  int32_t count = 0;            // the m it was clustered with (auto clusters: the one chosen)
+  std::vector<LightClusterStats::CountTrial> count_trials;  // auto clusters
+  std::string count_reason;                                 // auto clusters
 };
 
 // What one frame's maps are built from, besides the compiled scene.
@@ -167,7 +171,7 @@ struct ShadowFrame {
 void set_lookup(ShadowView& v, const ShadowSettings& s);
 
 // Builds every light's maps with the scene's shadow casters; with
-// settings.max_clusters > 1, one focused map per cluster (thesis Alg. 4.2).
+// settings.clustering(), one focused map per cluster (thesis Alg. 4.2).
 // Maps whose key is in `cache` are reused; the others are built by
 // `backend` and replaced ones freed; the cache is updated.
 void build_shadow_frame(const FrameInputs& in, const FragmentProducer& produce, ShadowBackend& backend, MapCache& cache,

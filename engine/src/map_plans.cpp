@@ -2,6 +2,7 @@
 // views (cube faces, parallel splits, clusters with their hysteresis).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "auto_resolution.h"
@@ -36,8 +37,11 @@ void replace_light_maps(LightSetup& ls, size_t li, const std::vector<MapPlan>& m
   ls.maps.swap(all);
 }
 
-// Replaces the light's unclustered maps with one focused map per cluster.
-void cluster_light(const FrameInputs& in, size_t li, const LightClusters* previous, LightSetup& ls, LightClusters& lc) {
+// Replaces the light's unclustered maps with one focused map per cluster
+// (at most m clusters).
+void cluster_light(const FrameInputs& in, size_t li, const LightClusters* previous, int m, LightSetup& ls,
+                   LightClusters& lc) {
+  lc.count = m;
   const SceneBuffers& sb = *in.scene;
   const ShadowSettings& s = in.settings;
   std::vector<cluster::Caster> casters;
@@ -49,7 +53,7 @@ void cluster_light(const FrameInputs& in, size_t li, const LightClusters* previo
   }
   cluster::ClusterSettings cs;
   cs.d0 = s.d0;
-  cs.max_clusters = s.max_clusters;
+  cs.max_clusters = m;
   cs.resolution = s.planned_resolution();
   PinholeView cam = camera_view(in.camera);
   const cluster::LightShape light = light_shape(in.lights[li]);
@@ -75,6 +79,47 @@ void cluster_light(const FrameInputs& in, size_t li, const LightClusters* previo
     }
   replace_light_maps(ls, li, mine, MapMode::Combine);
   lc.clustered = true;
+}
+
+// Auto clusters (ShadowSettings::auto_clusters): light li clustered with
+// each count 1, 2, 4, ... up to cluster_limit, the count taken by
+// pick_cluster_count (auto_resolution.h) from what each one's neediest map
+// wants; the previous frame's count reuses its clusters' hysteresis.
+void choose_cluster_count(const FrameInputs& in, size_t li, const std::vector<CameraReceiver>& receivers,
+                          const LightClusters* previous, LightSetup& ls, LightClusters& lc) {
+  const ShadowSettings& s = in.settings;
+  struct Trial {
+    int m;
+    LightSetup setup;
+    LightClusters clusters;
+    double texels;  // texels per side the neediest map wants (0: none seen)
+    double need;    // its rung position (-inf: none seen)
+  };
+  std::vector<Trial> trials;
+  const int prev = previous ? previous->count : 0;
+  for (int m = 1;; m = std::min(2 * m, s.cluster_limit)) {
+    Trial t{m, ls, {}, 0.0, 0.0};
+    t.clusters.count = 1;
+    if (m > 1) cluster_light(in, li, m == prev ? previous : nullptr, m, t.setup, t.clusters);
+    t.texels = light_wanted_texels(s, receivers, t.setup, uint32_t(li));
+    t.need = t.texels > 0.0 ? rung_position(t.texels) : -std::numeric_limits<double>::infinity();
+    trials.push_back(std::move(t));
+    if (m >= s.cluster_limit) break;
+  }
+  const double reach = reachable_rung(s) + 0.5;
+  std::vector<double> needs;
+  int kept = -1;
+  for (size_t k = 0; k < trials.size(); ++k) {
+    needs.push_back(trials[k].need);
+    if (trials[k].m == prev) kept = int(k);
+  }
+  const CountChoice choice = pick_cluster_count(needs, reach, kept);
+  Trial& chosen = trials[choice.pick];
+  for (const Trial& t : trials)
+    chosen.clusters.count_trials.push_back({t.m, t.setup.lights[li].map_count, t.texels, t.need <= reach});
+  chosen.clusters.count_reason = choice.reason;
+  ls = std::move(chosen.setup);
+  lc = std::move(chosen.clusters);
 }
 
 // Replaces a spot or directional light's map by parallel-split maps (near to far) along
@@ -156,12 +201,20 @@ std::unordered_map<uint64_t, MapCache::LightState> plan_maps(const FrameInputs& 
     for (size_t li = 0; li < in.lights.size(); ++li) split_light(in, li, frame.setup);
     frame.clusters.assign(in.lights.size(), LightClusters{});
     for (LightClusters& lc : frame.clusters) lc.fallback_reason = "parallel-split maps (baseline)";
-  } else if (s.max_clusters > 1) {
+  }
+  std::vector<CameraReceiver> receivers;
+  if (s.auto_resolution() || (s.auto_clusters() && s.parallel_splits <= 1))
+    receivers = sample_camera_receivers(*in.scene, in.camera, kAutoSamples);
+  if (s.parallel_splits <= 1 && s.clustering()) {
     auto t0 = Clock::now();
     for (size_t li = 0; li < in.lights.size(); ++li) {
       auto it = cache.lights.find(in.light_ids[li]);
       const bool keep = it != cache.lights.end() && it->second.signature == light_signature(in.lights[li], s);
-      cluster_light(in, li, keep ? &it->second.clusters : nullptr, frame.setup, frame.clusters[li]);
+      const LightClusters* previous = keep ? &it->second.clusters : nullptr;
+      if (s.auto_clusters())
+        choose_cluster_count(in, li, receivers, previous, frame.setup, frame.clusters[li]);
+      else
+        cluster_light(in, li, previous, s.max_clusters, frame.setup, frame.clusters[li]);
     }
     frame.cluster_ms = ms_since(t0);
   }
@@ -172,7 +225,6 @@ std::unordered_map<uint64_t, MapCache::LightState> plan_maps(const FrameInputs& 
       auto it = cache.lights.find(in.light_ids[li]);
       if (it != cache.lights.end()) previous[li] = it->second.rungs;
     }
-    const std::vector<CameraReceiver> receivers = sample_camera_receivers(*in.scene, in.camera, kAutoSamples);
     choose_map_resolutions(s, receivers, previous, in.map_texel_budget, map_bytes_per_texel(s), frame.setup, rungs,
                            frame.resolutions);
   } else {

@@ -97,7 +97,7 @@ std::vector<MemoryItem> estimate_frame_memory(const Scene& scene, const RenderOp
     else if (sh.parallel_splits > 1)
       maps += double(sh.parallel_splits + 1);
     else
-      maps += double(std::max(1, sh.max_clusters));
+      maps += double(sh.auto_clusters() ? sh.cluster_limit : std::max(1, sh.max_clusters));
   }
   // Auto resolution: the maps at the ladder's bottom; the chooser gives
   // them what the limit leaves (map_texel_budget, auto_resolution.h).

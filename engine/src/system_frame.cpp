@@ -56,6 +56,23 @@ const char* to_string(RebuildReason r) {
   return "?";
 }
 
+std::string cluster_count_text(const LightClusterStats& c) {
+  if (c.chosen_clusters == 0) return "";
+  std::string s = "auto clusters: " + std::to_string(c.chosen_clusters) + ", " + c.count_reason + " (";
+  for (size_t k = 0; k < c.count_trials.size(); ++k) {
+    const LightClusterStats::CountTrial& t = c.count_trials[k];
+    char text[160];
+    if (t.wanted_texels > 0.0)
+      std::snprintf(text, sizeof text, "%sm=%d: %u map%s, the neediest wants %.0f^2%s", k ? "; " : "", t.clusters,
+                    t.maps, t.maps == 1 ? "" : "s", t.wanted_texels, t.reaches ? "" : ", too many");
+    else
+      std::snprintf(text, sizeof text, "%sm=%d: %u map%s, none seen", k ? "; " : "", t.clusters, t.maps,
+                    t.maps == 1 ? "" : "s");
+    s += text;
+  }
+  return s + ")";
+}
+
 // The backend's kernel times since the last take (the exec backends: CUDA
 // events on the cuda backend), into `t.kernels`; the fragment producer's
 // launches ("fragments: ...", and "scan: ...", its offsets: no other pass
@@ -213,6 +230,9 @@ void ShadowSystem::Impl::build_maps(FrameStats& st) {
     cs.maps = frame.setup.lights[li].map_count;
     cs.directions = lc.clustering.directions;
     cs.warped_directions = lc.clustering.perspective_directions;
+    cs.count_trials = lc.count_trials;
+    if (!lc.count_trials.empty()) cs.chosen_clusters = lc.count;
+    cs.count_reason = lc.count_reason;
     st.clusters.push_back(std::move(cs));
   }
   st.map_resolutions = frame.resolutions;

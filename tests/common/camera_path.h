@@ -20,6 +20,8 @@ struct PathFigures {
   // Auto resolution: frames where a map's resolution moved a rung, and
   // frames with rebuilds that neither that nor a new clustering explains.
   uint32_t frames_with_new_rungs = 0, unexplained_rebuild_frames = 0;
+  // Auto clusters: frames where a light's cluster count changed.
+  uint32_t frames_with_new_counts = 0;
 };
 
 inline PathFigures walk_camera_path(cdsm::Scene s, int frames) {
@@ -30,7 +32,9 @@ inline PathFigures walk_camera_path(cdsm::Scene s, int frames) {
   Renderer r;
   FrameStats st;
   r.render(s, opt, &st);
-  EXPECT_EQ(st.maps_rebuilt, uint32_t(s.shadows.max_clusters > 1 ? s.shadows.max_clusters : 1));
+  EXPECT_EQ(st.maps_rebuilt, uint32_t(st.map_resolutions.size()));  // every map is new
+  std::vector<int32_t> counts;
+  for (const LightClusterStats& c : st.clusters) counts.push_back(c.chosen_clusters);
   const Vec3 p0 = s.camera.position, t0 = s.camera.target;
   PathFigures fig;
   std::vector<MapResolutionStats> rungs = st.map_resolutions;
@@ -50,6 +54,12 @@ inline PathFigures walk_camera_path(cdsm::Scene s, int frames) {
     for (const LightClusterStats& c : st.clusters)
       for (uint8_t changed : c.changed) reclustered = reclustered || changed != 0;
     rungs = st.map_resolutions;
+    bool new_count = false;
+    for (size_t li = 0; li < st.clusters.size() && li < counts.size(); ++li) {
+      new_count = new_count || st.clusters[li].chosen_clusters != counts[li];
+      counts[li] = st.clusters[li].chosen_clusters;
+    }
+    fig.frames_with_new_counts += new_count;
     fig.frames_with_new_rungs += new_rung;
     fig.unexplained_rebuild_frames += st.maps_rebuilt > 0 && !new_rung && !reclustered;
     if (st.popping.measured) {
@@ -66,10 +76,10 @@ inline PathFigures walk_camera_path(cdsm::Scene s, int frames) {
 // the popping probe's p99 within 0.01.
 inline void expect_auto_path(const char* what, const PathFigures& c, int frames, double new_rung_share) {
   std::printf(
-      "[ auto path] %s, %d frames: %u with rebuilds (%u maps), %u with a map on a new rung, %u unexplained; "
-      "popping p99 %.4f max %.4f\n",
-      what, frames, c.frames_with_rebuilds, c.maps_rebuilt, c.frames_with_new_rungs, c.unexplained_rebuild_frames,
-      c.worst_p99, c.worst_max);
+      "[ auto path] %s, %d frames: %u with rebuilds (%u maps), %u with a map on a new rung, %u with a new cluster "
+      "count, %u unexplained; popping p99 %.4f max %.4f\n",
+      what, frames, c.frames_with_rebuilds, c.maps_rebuilt, c.frames_with_new_rungs, c.frames_with_new_counts,
+      c.unexplained_rebuild_frames, c.worst_p99, c.worst_max);
   EXPECT_EQ(c.unexplained_rebuild_frames, 0u) << what;
   EXPECT_LT(double(c.frames_with_new_rungs), new_rung_share * frames) << what;
   EXPECT_LE(c.worst_p99, 0.01) << what;

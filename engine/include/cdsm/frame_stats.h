@@ -116,6 +116,19 @@ struct LightClusterStats {
   int32_t directions = 0;                 // light directions the clustering measured (1 or 6)
   int32_t warped_directions = 0;          // of those, measured in LiSPSM space (the rest: uniform light
                                           // space, where the view is parallel to the light)
+  // Auto clusters (ShadowSettings::auto_clusters): each count tried, the
+  // one chosen and why.
+  struct CountTrial {
+    int32_t clusters = 0;        // m tried (1: the light's unclustered maps)
+    uint32_t maps = 0;           // maps it gave
+    double wanted_texels = 0.0;  // texels per side its neediest map wants (0: no map seen)
+    bool reaches = false;        // within the size limit (half a ladder step)
+  };
+  std::vector<CountTrial> count_trials;
+  int32_t chosen_clusters = 0;  // 0: not auto
+  // "the fewest that reach the density", "none reaches it: the fewest within
+  // a ladder step of the best", "kept: ... (hysteresis)".
+  std::string count_reason;
 };
 
 // One map's resolution (ShadowSettings::resolution; auto: chosen from the
@@ -159,6 +172,9 @@ enum class RebuildReason : uint32_t {
 };
 inline constexpr int kRebuildReasons = 6;
 const char* to_string(RebuildReason reason);
+// Auto clusters: the count chosen, why, and the counts tried, in a line
+// ("" when the light's count was not chosen automatically).
+std::string cluster_count_text(const LightClusterStats& c);
 
 struct MapRebuild {
   uint32_t light = 0;  // light index of the frame

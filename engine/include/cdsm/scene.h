@@ -200,6 +200,9 @@ struct Camera {
 // ShadowSettings::resolution (and the scene file's "resolution": "auto"):
 // each map's resolution chosen from the screen.
 inline constexpr int32_t kAutoResolution = 0;
+// ShadowSettings::max_clusters (the scene file's "clusters": "auto"): each
+// light's cluster count chosen from the screen.
+inline constexpr int32_t kAutoClusters = 0;
 
 struct ShadowSettings {
   float epsilon = 0.01f;     // compression error bound of the visibility functions
@@ -226,7 +229,14 @@ struct ShadowSettings {
   // filter costs about its square of bilinear taps per map; fewer is
   // cheaper and wide penumbrae step more (below 5 too much: refused).
   int32_t penumbra_taps = 11;
-  int32_t max_clusters = 1;  // m
+  int32_t max_clusters = 1;  // m; kAutoClusters: per light, from the screen
+  // Auto clusters (max_clusters == kAutoClusters): each light gets the
+  // fewest clusters (1, 2, 4, ... up to cluster_limit) at which every map
+  // its receivers see reaches their density (texels_per_pixel) within its
+  // size (max_resolution with auto resolution, else resolution); where no
+  // count reaches it, the fewest within a ladder step of the best. A count
+  // is kept until another is 3/4 of a step better.
+  int32_t cluster_limit = 8;
   // Baseline arrangement: > 1 replaces a spot light's map (and any clusters)
   // by that many parallel-split maps along the camera's view (Zhang et al.
   // 2006, the cascades clustering competes with); 0 = off.
@@ -249,6 +259,9 @@ struct ShadowSettings {
   int64_t max_memory_mib = 0;
 
   bool auto_resolution() const { return resolution == kAutoResolution; }
+  bool auto_clusters() const { return max_clusters == kAutoClusters; }
+  // Whether lights' maps are clustered (m > 1, or auto).
+  bool clustering() const { return auto_clusters() || max_clusters > 1; }
   // The resolution maps are planned at (auto: the ladder's start, 512 or its top).
   int32_t planned_resolution() const { return auto_resolution() ? std::min(512, max_resolution) : resolution; }
 };
