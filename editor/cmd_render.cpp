@@ -77,8 +77,11 @@ nlohmann::json stats_json(const FrameStats& s, const Scene& scene, const std::st
       auto& tried = e["auto_clusters_tried"];
       tried = nlohmann::json::array();
       for (const LightClusterStats::CountTrial& t : c.count_trials)
-        tried.push_back(
-            {{"clusters", t.clusters}, {"maps", t.maps}, {"wanted_texels", t.wanted_texels}, {"reaches", t.reaches}});
+        tried.push_back({{"clusters", t.clusters},
+                         {"maps", t.maps},
+                         {"wanted_texels", t.wanted_texels},
+                         {"texels", t.texels},
+                         {"reaches", t.reaches}});
     }
     cl.push_back(e);
   }

@@ -125,32 +125,61 @@ double reachable_rung(const ShadowSettings& s) {
   return s.auto_resolution() ? double(top_rung(s)) : rung_position(double(s.resolution));
 }
 
-double light_wanted_texels(const ShadowSettings& s, const std::vector<CameraReceiver>& receivers,
-                           const LightSetup& setup, uint32_t li) {
+LightDemand light_demand(const ShadowSettings& s, const std::vector<CameraReceiver>& receivers, const LightSetup& setup,
+                         uint32_t li) {
   const LightData& L = setup.lights[li];
   const double deciding = kDecidingShare * double(receivers.size());
-  double most = 0.0;
+  const int top = top_rung(s);
+  LightDemand d;
   for (uint32_t k = 0; k < L.map_count; ++k) {
     std::vector<double> w = wanted_by_receivers(s, receivers, L, k, setup.maps[L.first_map + k].view);
-    if (w.empty() || double(w.size()) < deciding) continue;
-    const double median = quantile(w, 0.5);
-    most = std::max(most, std::isfinite(median) ? median : std::numeric_limits<double>::max());
+    const double median = w.empty() ? 0.0 : quantile(w, 0.5);
+    const double side = std::isfinite(median) ? median : std::numeric_limits<double>::max();
+    if (!w.empty() && double(w.size()) >= deciding) d.wanted_texels = std::max(d.wanted_texels, side);
+    double res = double(s.resolution);
+    if (s.auto_resolution()) {
+      const double pos = w.empty() ? double(kUnseenRung) : rung_position(side);
+      res = double(resolution_rung(std::clamp(int(std::lround(std::clamp(pos, -1.0, double(top) + 1.0))), 0, top)));
+    }
+    d.texels += res * res;
   }
-  return most;
+  return d;
 }
 
-CountChoice pick_cluster_count(const std::vector<double>& need, double reach, int kept) {
+CountChoice pick_cluster_count(const std::vector<CountTrial>& t, double reach, int kept) {
   CountChoice c;
-  if (need.empty()) return c;
-  const double best = *std::min_element(need.begin(), need.end());
-  const double good = best <= reach ? reach : best + 1.0;  // good enough
-  while (need[c.pick] > good) ++c.pick;
-  c.reason = best <= reach ? "the fewest that reach the density"
-                           : "none reaches the density: the fewest within a ladder step of the best";
-  if (kept >= 0 && size_t(kept) < need.size() && size_t(kept) != c.pick && need[size_t(kept)] <= good + kHysteresis &&
-      (size_t(kept) < c.pick || need[c.pick] > good - kHysteresis)) {
-    c.pick = size_t(kept);
-    c.reason = "kept from the last frame (within 3/4 of a ladder step)";
+  if (t.empty()) return c;
+  double best = t[0].need;
+  for (const CountTrial& x : t) best = std::min(best, x.need);
+  const double bound = best <= reach ? reach : best + 1.0;
+  auto cost = [](const CountTrial& x) { return x.texels * x.maps; };
+  // Whether `a` saves enough against `b` to be worth its maps (factor 2:
+  // twice that, 1/2: half).
+  auto saves = [&](const CountTrial& a, const CountTrial& b, double factor) {
+    return cost(a) * factor < cost(b) && (b.texels - a.texels) >= factor * kMinTexelSaving;
+  };
+  while (t[c.pick].need > bound) ++c.pick;
+  bool cheaper = false;
+  for (size_t k = c.pick + 1; k < t.size(); ++k)
+    if (t[k].need <= bound && saves(t[k], t[c.pick], 1.0)) {
+      c.pick = k;
+      cheaper = true;
+    }
+  c.reason = best > reach ? "none reaches the density: the fewest within a ladder step of the best"
+             : cheaper    ? "more maps that reach the density with fewer texels x maps"
+                          : "the fewest that reach the density";
+  if (kept >= 0 && size_t(kept) < t.size() && size_t(kept) != c.pick) {
+    const CountTrial& k = t[size_t(kept)];
+    const CountTrial& p = t[c.pick];
+    bool stay = k.need <= bound + kHysteresis;
+    if (size_t(kept) < c.pick)  // more maps picked: because the kept count no longer reaches, or to save texels
+      stay = stay && (k.need > bound || !saves(p, k, 2.0));
+    else  // fewer maps picked: the kept count stays while the pick reaches narrowly or it still saves half enough
+      stay = stay && (p.need > bound - kHysteresis || saves(k, p, 0.5));
+    if (stay) {
+      c.pick = size_t(kept);
+      c.reason = "kept from the last frame (hysteresis)";
+    }
   }
   return c;
 }

@@ -44,24 +44,41 @@ double rung_position(double texels);
 // ladder's top within max_resolution (auto resolution), or the fixed
 // resolution's.
 double reachable_rung(const ShadowSettings& s);
-// The texels per side the neediest map of light `li` wants at the median of
-// the receivers it serves (at s.texels_per_pixel), over the maps that serve
-// at least 0.5% of `receivers`; 0 when none does.
-double light_wanted_texels(const ShadowSettings& s, const std::vector<CameraReceiver>& receivers,
-                           const LightSetup& setup, uint32_t li);
+// What light `li`'s maps in `setup` ask for: the texels per side its
+// neediest map wants at the median of the receivers it serves (at
+// s.texels_per_pixel), over the maps that serve at least 0.5% of
+// `receivers` (0 when none does), and the texels all its maps would have
+// (auto resolution: each at its rung within the ladder, before any budget;
+// else the fixed resolution's).
+struct LightDemand {
+  double wanted_texels = 0.0;
+  double texels = 0.0;
+};
+LightDemand light_demand(const ShadowSettings& s, const std::vector<CameraReceiver>& receivers, const LightSetup& setup,
+                         uint32_t li);
 
-// Auto clusters: which of the cluster counts tried (in increasing order;
-// need[k]: the rung position the neediest map of count k wants, -inf when
-// no map is seen) a light takes: the fewest whose need is within `reach`
-// (the reachable rung plus half a step), or where none is, the fewest within
-// a step of the best. `kept` (the index of the last frame's count, -1: none)
-// stays while its need is within 3/4 of a step of that bound and the count
-// picked is not 3/4 of a step inside it.
+// Auto clusters: which of the cluster counts tried a light takes.
+struct CountTrial {
+  double need = 0.0;    // rung position its neediest map wants (-inf: no map seen)
+  double texels = 0.0;  // of all its maps
+  double maps = 1.0;
+};
 struct CountChoice {
   size_t pick = 0;
   const char* reason = "";
 };
-CountChoice pick_cluster_count(const std::vector<double>& need, double reach, int kept);
+// Eligible are the counts whose need is within `reach` (the reachable rung
+// plus half a step), or where none is, within a step of the best need. Of
+// those the fewest, unless more maps cost less — texels x maps lower (twice
+// the maps for less than half the texels) and at least kMinTexelSaving
+// texels fewer (with a fixed resolution never: the fewest that reach).
+// `kept` (the index of the last frame's count, -1: none) stays while its
+// need is within 3/4 of a step of the bound and, against a pick with more
+// maps, it no longer reaches or the pick saves less than twice what is
+// asked above; against a pick with fewer maps, the pick reaches by less than
+// 3/4 of a step or the kept count still saves half of what is asked.
+inline constexpr double kMinTexelSaving = 512.0 * 512.0;
+CountChoice pick_cluster_count(const std::vector<CountTrial>& trials, double reach, int kept);
 
 // Sets each map of `setup` to its resolution (the view's width and height,
 // its window widened so that its one-texel guard band stays a texel),

@@ -83,8 +83,8 @@ void cluster_light(const FrameInputs& in, size_t li, const LightClusters* previo
 
 // Auto clusters (ShadowSettings::auto_clusters): light li clustered with
 // each count 1, 2, 4, ... up to cluster_limit, the count taken by
-// pick_cluster_count (auto_resolution.h) from what each one's neediest map
-// wants; the previous frame's count reuses its clusters' hysteresis.
+// pick_cluster_count (auto_resolution.h) from what each one's maps want;
+// the previous frame's count reuses its clusters' hysteresis.
 void choose_cluster_count(const FrameInputs& in, size_t li, const std::vector<CameraReceiver>& receivers,
                           const LightClusters* previous, LightSetup& ls, LightClusters& lc) {
   const ShadowSettings& s = in.settings;
@@ -92,31 +92,33 @@ void choose_cluster_count(const FrameInputs& in, size_t li, const std::vector<Ca
     int m;
     LightSetup setup;
     LightClusters clusters;
-    double texels;  // texels per side the neediest map wants (0: none seen)
-    double need;    // its rung position (-inf: none seen)
+    LightDemand demand;
+    double need;  // rung position the neediest map wants (-inf: none seen)
   };
   std::vector<Trial> trials;
   const int prev = previous ? previous->count : 0;
   for (int m = 1;; m = std::min(2 * m, s.cluster_limit)) {
-    Trial t{m, ls, {}, 0.0, 0.0};
+    Trial t{m, ls, {}, {}, 0.0};
     t.clusters.count = 1;
     if (m > 1) cluster_light(in, li, m == prev ? previous : nullptr, m, t.setup, t.clusters);
-    t.texels = light_wanted_texels(s, receivers, t.setup, uint32_t(li));
-    t.need = t.texels > 0.0 ? rung_position(t.texels) : -std::numeric_limits<double>::infinity();
+    t.demand = light_demand(s, receivers, t.setup, uint32_t(li));
+    const double side = t.demand.wanted_texels;
+    t.need = side > 0.0 ? rung_position(side) : -std::numeric_limits<double>::infinity();
     trials.push_back(std::move(t));
     if (m >= s.cluster_limit) break;
   }
   const double reach = reachable_rung(s) + 0.5;
-  std::vector<double> needs;
+  std::vector<CountTrial> options;
   int kept = -1;
   for (size_t k = 0; k < trials.size(); ++k) {
-    needs.push_back(trials[k].need);
+    options.push_back({trials[k].need, trials[k].demand.texels, double(trials[k].setup.lights[li].map_count)});
     if (trials[k].m == prev) kept = int(k);
   }
-  const CountChoice choice = pick_cluster_count(needs, reach, kept);
+  const CountChoice choice = pick_cluster_count(options, reach, kept);
   Trial& chosen = trials[choice.pick];
   for (const Trial& t : trials)
-    chosen.clusters.count_trials.push_back({t.m, t.setup.lights[li].map_count, t.texels, t.need <= reach});
+    chosen.clusters.count_trials.push_back(
+        {t.m, t.setup.lights[li].map_count, t.demand.wanted_texels, t.demand.texels, t.need <= reach});
   chosen.clusters.count_reason = choice.reason;
   ls = std::move(chosen.setup);
   lc = std::move(chosen.clusters);

@@ -63,8 +63,9 @@ std::string cluster_count_text(const LightClusterStats& c) {
     const LightClusterStats::CountTrial& t = c.count_trials[k];
     char text[160];
     if (t.wanted_texels > 0.0)
-      std::snprintf(text, sizeof text, "%sm=%d: %u map%s, the neediest wants %.0f^2%s", k ? "; " : "", t.clusters,
-                    t.maps, t.maps == 1 ? "" : "s", t.wanted_texels, t.reaches ? "" : ", too many");
+      std::snprintf(text, sizeof text, "%sm=%d: %u map%s, %.2f Mtexels, the neediest wants %.0f^2%s", k ? "; " : "",
+                    t.clusters, t.maps, t.maps == 1 ? "" : "s", t.texels / 1e6, t.wanted_texels,
+                    t.reaches ? "" : ", too many");
     else
       std::snprintf(text, sizeof text, "%sm=%d: %u map%s, none seen", k ? "; " : "", t.clusters, t.maps,
                     t.maps == 1 ? "" : "s");

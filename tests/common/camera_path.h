@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <vector>
 
 #include "cdsm/renderer.h"
@@ -23,6 +24,10 @@ struct PathFigures {
   // Auto clusters: frames where a light's cluster count changed.
   uint32_t frames_with_new_counts = 0;
 };
+
+// CDSM_PATH_FULL=1: the camera-path tests walk the 200 frames at
+// the scenes' own image sizes (minutes), else short paths on small images.
+inline bool full_paths() { return std::getenv("CDSM_PATH_FULL") != nullptr; }
 
 inline PathFigures walk_camera_path(cdsm::Scene s, int frames) {
   using namespace cdsm;

@@ -196,20 +196,29 @@ TEST(AutoResolution, TheBudgetLowersTheLeastSeenMapFirst) {
   for (const MapResolutionStats& m : free_run.map_resolutions) EXPECT_EQ(m.limit, "target");
 }
 
+// sparse.json for a spot's camera path: at 160 x 107 and 2 texels per
+// pixel (CDSM_PATH_FULL=1: its own 480 x 320 at 1, 200 frames).
+Scene sparse_path_scene() {
+  Scene s = load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/sparse.json");
+  s.shadows.resolution = kAutoResolution;
+  if (!full_paths()) {
+    s.camera.width = 160;
+    s.camera.height = 107;
+    s.shadows.texels_per_pixel = 2.0f;
+  }
+  return s;
+}
+
 // A spot scene's camera path (issue 48 item 4; sun_clouds' is in
 // test_directional): sparse.json's four clusters under a spot 60 m up, the
 // camera 10 m sideways and turned 30 degrees over 60 frames at 160 x 107,
 // 2 texels per pixel. A map is rebuilt only on a frame where one moved a
 // rung or the clustering changed; the popping stays within 0.01 at p99.
 TEST(AutoResolution, ASpotScenesCameraPathRebuildsOnlyOnNewRungs) {
-  Scene s = load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/sparse.json");
-  s.camera.width = 160;
-  s.camera.height = 107;
-  s.shadows.resolution = kAutoResolution;
-  s.shadows.texels_per_pixel = 2.0f;
+  Scene s = sparse_path_scene();
   ASSERT_EQ(s.lights.size(), 1u);
   ASSERT_EQ(s.lights[0].type, LightType::Spot);
-  const int frames = 60;
+  const int frames = full_paths() ? 200 : 60;
   expect_auto_path("sparse.json", walk_camera_path(s, frames), frames, 0.2);
 }
 
@@ -219,18 +228,14 @@ TEST(AutoResolution, ASpotScenesCameraPathRebuildsOnlyOnNewRungs) {
 // (sparse.json at two clusters re-clusters once on this path, p99 0.077:
 // the clustering's own popping, not the count's).
 TEST(AutoClusters, ASpotScenesCameraPathKeepsItsCount) {
-  Scene s = load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/sparse.json");
-  s.camera.width = 160;
-  s.camera.height = 107;
-  s.shadows.resolution = kAutoResolution;
-  s.shadows.texels_per_pixel = 2.0f;
+  Scene s = sparse_path_scene();
   s.shadows.max_clusters = kAutoClusters;
   FrameStats first;
   Renderer().render(s, cpu(), &first);
   ASSERT_EQ(first.clusters.size(), 1u);
   const int chosen = first.clusters[0].chosen_clusters;
   ASSERT_GE(chosen, 1);
-  const int frames = 60;
+  const int frames = full_paths() ? 200 : 60;
   const PathFigures fig = walk_camera_path(s, frames);
   s.shadows.max_clusters = chosen;
   const PathFigures fixed = walk_camera_path(s, frames);
@@ -275,14 +280,15 @@ TEST(AutoResolution, TheLadderTopAndTheScreenSayWhy) {
 
 // Auto clusters (issue 48 item 2): the two boards under the sun with
 // "clusters": "auto". One map over the whole strip cannot give the near
-// board its density within 512^2, so the light is split; the count chosen
-// is the fewest whose trial reached it, every smaller count's did not, and
-// the chosen maps meet the target within a ladder step. With room for one
-// map (a ladder top above what it wants) one map is kept.
+// board its density within 512^2, so the light is split: the count chosen
+// reaches it, every count with fewer maps does not, and its maps meet the
+// target within a ladder step. With a fixed resolution the size limit is
+// that resolution: at 512^2 the light is split, at 1024^2 one map serves.
 TEST(AutoClusters, SplitOnlyWhereOneMapCannotReachTheDensity) {
   Scene sc = two_boards({0.0f, 4.0f, 0.0f});
   sc.shadows.max_clusters = kAutoClusters;
   sc.shadows.max_resolution = 512;
+  sc.shadows.texels_per_pixel = 1.0f;
   Renderer r;
   FrameStats st;
   r.render(sc, cpu(), &st);
@@ -296,7 +302,7 @@ TEST(AutoClusters, SplitOnlyWhereOneMapCannotReachTheDensity) {
   ASSERT_GE(c.chosen_clusters, 2);
   EXPECT_EQ(c.count_reason, std::string("the fewest that reach the density"));
   for (const LightClusterStats::CountTrial& t : c.count_trials) {
-    if (t.clusters < c.chosen_clusters) EXPECT_FALSE(t.reaches) << t.clusters;
+    if (t.maps < c.maps) EXPECT_FALSE(t.reaches) << t.clusters;
     if (t.clusters == c.chosen_clusters) EXPECT_TRUE(t.reaches) << t.clusters;
   }
   EXPECT_TRUE(c.clustered);
@@ -306,49 +312,63 @@ TEST(AutoClusters, SplitOnlyWhereOneMapCannotReachTheDensity) {
     EXPECT_GE(m.texels_per_pixel_median, 1.0 / kStep);
     EXPECT_LE(m.texels_per_pixel_median, kStep);
   }
-  // A ladder top above what the one map wants: one map.
   const double one_map = c.count_trials[0].wanted_texels;
-  sc.shadows.max_resolution = int(std::ceil(one_map * 1.2));
-  ASSERT_LE(sc.shadows.max_resolution, 4096) << "the test's one map would be too large to build quickly";
-  Renderer r1;
-  r1.render(sc, cpu(), &st);
-  std::printf("[ auto     ] %s\n", cluster_count_text(st.clusters[0]).c_str());
-  EXPECT_EQ(st.clusters[0].chosen_clusters, 1);
-  EXPECT_FALSE(st.clusters[0].clustered);
-  ASSERT_EQ(st.map_resolutions.size(), 1u);
-  EXPECT_EQ(st.map_resolutions[0].limit, "target");
-  // A fixed resolution is the size limit: 512^2 cannot serve both boards
-  // from one map either.
-  sc.shadows.resolution = 512;
-  Renderer r2;
-  r2.render(sc, cpu(), &st);
-  EXPECT_GE(st.clusters[0].chosen_clusters, 2) << cluster_count_text(st.clusters[0]);
+  for (int res : {512, 1024}) {
+    sc.shadows.resolution = res;
+    Renderer fixed;
+    fixed.render(sc, cpu(), &st);
+    std::printf("[ auto     ] %d^2: %s\n", res, cluster_count_text(st.clusters[0]).c_str());
+    EXPECT_EQ(st.clusters[0].chosen_clusters, one_map < res * 1.19 ? 1 : 2) << res << ": one map wants " << one_map;
+  }
+  EXPECT_GT(one_map, 512 * 1.19);
+  EXPECT_LT(one_map, 1024 * 1.19);
 }
 
-// The count's choice and its hysteresis on the numbers: need[k] is the rung
-// position the neediest map of the k-th count wants, reach the highest one
-// a map can have plus half a step.
-TEST(AutoClusters, TheFewestThatReachAndHysteresis) {
-  const double inf = std::numeric_limits<double>::infinity();
+// The count's choice and its hysteresis on the numbers: need is the rung
+// position the neediest map of a count wants, reach the highest one a map
+// can have plus half a step; with a fixed resolution (here 1024^2) the
+// texels grow with the maps, with auto resolution they may fall.
+TEST(AutoClusters, TheFewestThatReachUnlessMoreMapsSaveAndHysteresis) {
+  const double inf = std::numeric_limits<double>::infinity(), M = 1048576.0;
+  auto fixed = [&](std::vector<double> need) {
+    std::vector<CountTrial> t;
+    for (size_t k = 0; k < need.size(); ++k) t.push_back({need[k], double(1u << k) * M, double(1u << k)});
+    return t;
+  };
+  // Auto resolution: 1, 2, 4, 8 maps wanting 4, 1.5, 0.9, 0.8 Mtexels.
+  auto sizes = [&](std::vector<double> need) {
+    const double texels[] = {4.0 * M, 1.5 * M, 0.9 * M, 0.8 * M};
+    std::vector<CountTrial> t;
+    for (size_t k = 0; k < need.size(); ++k) t.push_back({need[k], texels[k], double(1u << k)});
+    return t;
+  };
   struct Case {
-    std::vector<double> need;
+    const char* what;
+    std::vector<CountTrial> trials;
     int kept;
     size_t pick;
   } cases[] = {
-      {{20, 12, 11, 10.5}, -1, 1},        // 2 clusters reach (12 <= 14.5)
-      {{14, 12, 11, 10.5}, -1, 0},        // one map reaches
-      {{20, 16, 15.2, 15}, -1, 1},        // none reaches: the fewest within a step of the best (15)
-      {{20, 17, 15.2, 15}, -1, 2},        //   (17 is more than a step from 15)
-      {{20, 13, 12, 11}, 2, 1},           // 4 kept, but 2 reach with margin (13 <= 14.5 - 0.75)
-      {{20, 14, 12, 11}, 2, 2},           // ... and without (14 > 13.75): 4 kept
-      {{15, 13, 12, 11}, 0, 0},           // 1 kept: 15 is within 3/4 of a step of 14.5
-      {{15.5, 13, 12, 11}, 0, 1},         // ... 15.5 is not
-      {{-inf, -inf, -inf, -inf}, -1, 0},  // nothing seen: one map
-      {{-inf, -inf, -inf, -inf}, 3, 0},   // ... whatever was kept
+      {"2 clusters reach", fixed({20, 12, 11, 10.5}), -1, 1},
+      {"one map reaches", fixed({14, 12, 11, 10.5}), -1, 0},
+      {"none reaches: the fewest within a step of the best", fixed({20, 16, 15.2, 15}), -1, 1},
+      {"none reaches: 17 is more than a step from 15", fixed({20, 17, 15.2, 15}), -1, 2},
+      {"4 kept, but 2 reach with margin", fixed({20, 13, 12, 11}), 2, 1},
+      {"4 kept: 2 reach without margin", fixed({20, 14, 12, 11}), 2, 2},
+      {"1 kept: within 3/4 of a step", fixed({15, 13, 12, 11}), 0, 0},
+      {"1 not kept: beyond 3/4 of a step", fixed({15.5, 13, 12, 11}), 0, 1},
+      {"auto resolution: 2 maps for 1.5 M texels instead of 4", sizes({12, 12, 12, 12}), -1, 1},
+      {"... 4 maps for 0.9 M would cost more (3.6 M texels x maps)", sizes({12, 12, 12, 12}), -1, 1},
+      {"... 1 kept: 2 maps save less than twice what is asked", sizes({12, 12, 12, 12}), 0, 0},
+      {"... 4 kept: within twice the cost of 2", sizes({12, 12, 12, 12}), 2, 2},
+      {"... 8 kept: more than twice the cost of 2", sizes({12, 12, 12, 12}), 3, 1},
+      {"... cheaper counts that do not reach are not taken", sizes({12, 15, 15, 15}), -1, 0},
+      {"... too little saved to be worth a map", {{12, 0.3 * M, 1}, {12, 0.1 * M, 2}}, -1, 0},
+      {"nothing seen: one map", fixed({-inf, -inf, -inf, -inf}), -1, 0},
+      {"nothing seen: whatever was kept", fixed({-inf, -inf, -inf, -inf}), 3, 0},
   };
   for (const Case& c : cases) {
-    const CountChoice got = pick_cluster_count(c.need, 14.5, c.kept);
-    EXPECT_EQ(got.pick, c.pick) << c.need[0] << " " << c.need[1] << " kept " << c.kept << ": " << got.reason;
+    const CountChoice got = pick_cluster_count(c.trials, 14.5, c.kept);
+    EXPECT_EQ(got.pick, c.pick) << c.what << ": " << got.reason;
   }
 }
 

@@ -234,7 +234,7 @@ TEST(Directional, SceneFilesNeedADirectionNotAPosition) {
 // cluster's window depends on its members only (snapped, sizes on a
 // 2^(1/4) ladder), so a map is rebuilt only when the clustering changes.
 // One map over every caster (m = 1) is never rebuilt.
-// sun_clouds.json for its camera path: CDSM_SUN_PATH_FULL=1 the shipped
+// sun_clouds.json for its camera path: CDSM_PATH_FULL=1 the shipped
 // image size and the 200-frame path, else 60 frames at 96 x 64.
 struct SunPath {
   Scene scene;
@@ -243,7 +243,7 @@ struct SunPath {
 };
 SunPath sun_clouds_path() {
   SunPath p{load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/sun_clouds.json"), 60,
-            std::getenv("CDSM_SUN_PATH_FULL") != nullptr};
+            cdsm_test::full_paths()};
   if (p.full) {
     p.frames = 200;
   } else {

@@ -122,12 +122,14 @@ struct LightClusterStats {
     int32_t clusters = 0;        // m tried (1: the light's unclustered maps)
     uint32_t maps = 0;           // maps it gave
     double wanted_texels = 0.0;  // texels per side its neediest map wants (0: no map seen)
+    double texels = 0.0;         // texels of all its maps (auto resolution: at their rungs)
     bool reaches = false;        // within the size limit (half a ladder step)
   };
   std::vector<CountTrial> count_trials;
   int32_t chosen_clusters = 0;  // 0: not auto
-  // "the fewest that reach the density", "none reaches it: the fewest within
-  // a ladder step of the best", "kept: ... (hysteresis)".
+  // Why (pick_cluster_count): the least texels x maps of the counts that
+  // reach the density, or within a ladder step of the best where none
+  // does, or kept from the last frame (hysteresis).
   std::string count_reason;
 };
 

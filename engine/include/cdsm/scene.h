@@ -233,9 +233,11 @@ struct ShadowSettings {
   // Auto clusters (max_clusters == kAutoClusters): each light gets the
   // fewest clusters (1, 2, 4, ... up to cluster_limit) at which every map
   // its receivers see reaches their density (texels_per_pixel) within its
-  // size (max_resolution with auto resolution, else resolution); where no
-  // count reaches it, the fewest within a ladder step of the best. A count
-  // is kept until another is 3/4 of a step better.
+  // size (max_resolution with auto resolution, else resolution) — with auto
+  // resolution more, where twice the maps need less than half the texels;
+  // where no count reaches it, the fewest within a ladder step of the best.
+  // A count is kept until another is clearly better (auto_resolution.h
+  // pick_cluster_count).
   int32_t cluster_limit = 8;
   // Baseline arrangement: > 1 replaces a spot light's map (and any clusters)
   // by that many parallel-split maps along the camera's view (Zhang et al.
