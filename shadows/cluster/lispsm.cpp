@@ -77,14 +77,23 @@ LispsmMap build_lispsm(const PinholeView& camera, const PinholeView& light, cons
                        const LispsmParams& params) {
   LispsmMap m;
   m.light = light;
-  std::vector<Vec3> verts = body.vertices();
-  if (verts.empty()) return m;
-  std::vector<Vec2> s(verts.size());
+  // B's vertices in front of the light. B holds the light itself where the
+  // light lies in it (a point light's or a spot's B is the hull of the
+  // camera frustum and the light, cut by the light's view): its near plane
+  // (the tiny near_clamp of a small scene) cannot cut that apex off beyond
+  // the clip's tolerance, and the apex has no image; the other vertices
+  // bound B's directions.
+  std::vector<Vec3> verts;
+  std::vector<Vec2> s;
   Vec3 centroid{};
-  for (size_t i = 0; i < verts.size(); ++i) {
-    if (!image_coords(light, verts[i], s[i])) return m;  // B must lie in front of the light
-    centroid += verts[i];
+  for (Vec3 p : body.vertices()) {
+    Vec2 q;
+    if (!image_coords(light, p, q)) continue;
+    verts.push_back(p);
+    s.push_back(q);
+    centroid += p;
   }
+  if (verts.empty()) return m;
   centroid = centroid / float(verts.size());
   m.valid = true;
 

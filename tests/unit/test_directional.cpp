@@ -242,8 +242,7 @@ struct SunPath {
   bool full;
 };
 SunPath sun_clouds_path() {
-  SunPath p{load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/sun_clouds.json"), 60,
-            cdsm_test::full_paths()};
+  SunPath p{load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/sun_clouds.json"), 60, cdsm_test::full_paths()};
   if (p.full) {
     p.frames = 200;
   } else {
