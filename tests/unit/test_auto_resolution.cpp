@@ -137,6 +137,7 @@ TEST(AutoResolution, HysteresisKeepsARungWithinThreeQuartersOfAStep) {
   };
   ShadowSettings s;
   s.resolution = kAutoResolution;
+  s.texels_per_pixel = 1.0f;  // the receivers' pixels above are for 1
   for (auto [at, before, expect] : {std::tuple{10.6, -1, 11}, std::tuple{10.6, 10, 10}, std::tuple{10.8, 10, 11},
                                     std::tuple{9.3, 10, 10}, std::tuple{9.2, 10, 9}}) {
     LightSetup ls = setup();
@@ -259,7 +260,7 @@ TEST(AutoResolution, TheLadderTopAndTheScreenSayWhy) {
   FrameStats st;
   r.render(sc, cpu(), &st);
   ASSERT_EQ(st.map_resolutions.size(), 2u);
-  int tops = 0;  // the near board's map wants 128 (above), the far one's 23
+  int tops = 0;  // the near board's map wants 256 (above), the far one's 45
   for (const MapResolutionStats& m : st.map_resolutions) {
     EXPECT_LE(m.resolution, 64);
     if (m.limit == "ladder top") {
