@@ -247,7 +247,8 @@ void write_markdown(const std::vector<Result>& results, const RunInfo& info, con
        "weights): *map* = |T - T_f| p99 (what ε controls), *res* = |T_f - T_ref| p99 (resolution, "
        "clustering), *int.* = total error p99 / max over interior points (the taps' and the point's exact "
        "transmittances agree within 0.05), "
-       "*edge %* = share of edge points. Memory = index + nodes + slack. "
+       "*edge %* = share of edge points. Memory = index + nodes + slack + surface tags + blocker pyramids (maps of "
+       "lights with a size). "
        "P: on the Pareto front of time against transmittance RMSE (t) and of memory against it (m).\n\n";
   std::map<std::string, bool> seen;
   for (const Result& first : results) {

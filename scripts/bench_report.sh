@@ -190,7 +190,8 @@ for every method at a resolution and is in the CSVs (\`fragments_ms_median\`).
 Error is against the exact reference renderer (shadow rays, no maps) of the same
 view, rendered once and cached: transmittance |T - T_ref| at about 20,000
 stratified shaded points, weighted by their compositing weight (mean, p99, max,
-RMSE), and the image PSNR. Memory is index + nodes + slack of the
+RMSE), and the image PSNR. Memory is index + nodes + slack + surface tags
+(+ blocker pyramids for lights with a size) of the
 \`packed\` layout (an AVSM or OSM in a fixed array would reserve N nodes for every
 texel). A machine with a load average above its core count gives noisy times:
 compare the load line above.

@@ -96,7 +96,7 @@ def plot_scene(plt, name, rows, out_dir):
     rmse_label = "transmittance RMSE against the reference"
     panels = [
         (axes[0], "time_ms", time_label, "pareto_time", "t_rmse", rmse_label),
-        (axes[1], "memory_bytes", "shadow-map memory: index + nodes + slack [KiB]", "pareto_memory", "t_rmse",
+        (axes[1], "memory_bytes", "shadow-map memory: index + nodes + slack + tags + pyramids [KiB]", "pareto_memory", "t_rmse",
          rmse_label),
         (axes[2], "time_ms", time_label, None, "map_err_p99",
          "map error p99: |T - T_filtered_exact| (what ε controls)"),
