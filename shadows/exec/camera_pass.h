@@ -1,10 +1,13 @@
 // The camera pass and the ray-cast fragment producer over an executor
-// (shadows/exec/exec.h): one pixel per parallel_for index, the CDSM_HD
+// (shadows/exec/exec.h): one pixel per parallel_for index (the producer on
+// CPU threads: one block of pixels per index), the CDSM_HD
 // functions of hd/camera_pass.h and hd/cast.h — the cpu drivers'
 // (cpu/camera_pass.cpp, cpu/fragments_cpu.cpp) per-pixel work, unchanged.
 #pragma once
 
+#include <cstring>
 #include <stdexcept>
+#include <vector>
 
 #include "exec/exec.h"
 #include "exec/scan.h"
@@ -45,10 +48,18 @@ void shade_pixels(Ex& ex, const SceneView& scene, const ShadowView& shadows, con
 // cpu/fragments_cpu.cpp's cast_fragments: `offsets` gets width*height + 1
 // entries, `fragments` the lists (unsorted). `mask` in executor memory;
 // `any_media` = mask_has_media(scene, mask), decided by the caller.
+// cast_fragments_exec takes the executor's way: a GPU casts each ray twice,
+// counting then filling (cast_fragments_twice), rather than hold lists per
+// thread; CPU threads cast each ray once (cast_fragments_once): blocks of
+// kHostCastBlock pixels keep their fragments (host memory, exactly what
+// they cast) until the scan has placed them, then copy them in one piece.
+// Both give the same lists, bit for bit (test_exec_backend).
+inline constexpr uint64_t kHostCastBlock = 64;
+
 template <class Ex>
-void cast_fragments_exec(Ex& ex, const SceneView& scene, const PinholeView& view, ObjectMask mask, bool any_media,
-                         ExecArray<uint32_t, Ex>& counts, ExecArray<uint32_t, Ex>& offsets,
-                         ExecArray<Fragment, Ex>& fragments, ExecArray<unsigned long long, Ex>& sums) {
+void cast_fragments_twice(Ex& ex, const SceneView& scene, const PinholeView& view, ObjectMask mask, bool any_media,
+                          ExecArray<uint32_t, Ex>& counts, ExecArray<uint32_t, Ex>& offsets,
+                          ExecArray<Fragment, Ex>& fragments, ExecArray<unsigned long long, Ex>& sums) {
   const int w = view.width;
   const uint64_t n = uint64_t(w) * uint64_t(view.height);
   counts.resize_discard(n + 1);
@@ -77,6 +88,49 @@ void cast_fragments_exec(Ex& ex, const SceneView& scene, const PinholeView& view
         cast_pixel(sv, v, mask, any_media, int(i % uint64_t(w)), int(i / uint64_t(w)),
                    [&](Fragment f) { out[at++] = f; });
       });
+}
+
+template <class Ex>
+void cast_fragments_once(Ex& ex, const SceneView& scene, const PinholeView& view, ObjectMask mask, bool any_media,
+                         ExecArray<uint32_t, Ex>& counts, ExecArray<uint32_t, Ex>& offsets,
+                         ExecArray<Fragment, Ex>& fragments, ExecArray<unsigned long long, Ex>& sums) {
+  static_assert(Ex::kHostMemory, "cast_fragments_once holds its blocks' lists in host memory");
+  const int w = view.width;
+  const uint64_t n = uint64_t(w) * uint64_t(view.height);
+  counts.resize_discard(n + 1);
+  offsets.resize_discard(n + 1);
+  uint32_t* c = counts.data();
+  const uint64_t blocks = (n + kHostCastBlock - 1) / kHostCastBlock;
+  std::vector<std::vector<Fragment>> held(blocks);
+  c[n] = 0;  // the scan's last entry becomes the total
+  ex.parallel_for("fragments: count", blocks, [&](uint64_t b) {
+    std::vector<Fragment>& mine = held[b];
+    for (uint64_t i = b * kHostCastBlock; i < n && i < (b + 1) * kHostCastBlock; ++i) {
+      const size_t before = mine.size();
+      cast_pixel(scene, view, mask, any_media, int(i % uint64_t(w)), int(i / uint64_t(w)),
+                 [&](Fragment f) { mine.push_back(f); });
+      c[i] = uint32_t(mine.size() - before);
+    }
+  });
+  const uint64_t all = exclusive_scan(ex, c, offsets.data(), n + 1, sums);
+  if (all > 0xffffffffull) throw std::length_error("fragment lists exceed 2^32 fragments");
+  fragments.resize_discard(all);
+  const uint32_t* off = offsets.data();
+  Fragment* out = fragments.data();
+  ex.parallel_for("fragments: fill", blocks, [&](uint64_t b) {
+    if (!held[b].empty()) std::memcpy(out + off[b * kHostCastBlock], held[b].data(), held[b].size() * sizeof(Fragment));
+    std::vector<Fragment>().swap(held[b]);
+  });
+}
+
+template <class Ex>
+void cast_fragments_exec(Ex& ex, const SceneView& scene, const PinholeView& view, ObjectMask mask, bool any_media,
+                         ExecArray<uint32_t, Ex>& counts, ExecArray<uint32_t, Ex>& offsets,
+                         ExecArray<Fragment, Ex>& fragments, ExecArray<unsigned long long, Ex>& sums) {
+  if constexpr (Ex::kHostMemory)
+    cast_fragments_once(ex, scene, view, mask, any_media, counts, offsets, fragments, sums);
+  else
+    cast_fragments_twice(ex, scene, view, mask, any_media, counts, offsets, fragments, sums);
 }
 
 }  // namespace cdsm::exec

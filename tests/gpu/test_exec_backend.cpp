@@ -19,9 +19,11 @@
 
 #include <cstring>
 #include <random>
+#include <string>
 
 #include "backend/exec_backend.h"
 #include "cdsm/shadow_system.h"
+#include "exec/camera_pass.h"
 #include "exec/host_exec.h"
 #include "exec/scan.h"
 #include "common/pyramid_check.h"
@@ -466,35 +468,55 @@ TEST(ExecBackend, ImageEqualsASerialCameraPass) {
 
 // The ray-cast fragment producer on the executor against a plain loop over
 // the pixels (hd/cast.h cast_pixel).
+// The backend's lists (on CPU threads: each ray cast once, blocks of
+// kHostCastBlock pixels held until the scan) and the GPU's count-then-fill
+// way run over CPU threads both equal a serial cast, bit for bit, for a
+// view of whole blocks and one whose last block is partial.
 TEST(ExecBackend, FragmentsEqualASerialRayCast) {
   for (const char* name : kScenes) {
     Scene s = parity::load(name, 64, 96, 64);
     SceneBuffers sb = cdsm_test::compiled_scene(s);
     HostBackend ex("cpu");
     ex.update_scene(sb, SceneChange::all());
-    const PinholeView cam = camera_view(s.camera);
+    PinholeView partial = camera_view(s.camera);
+    partial.width = 37;
+    partial.height = 23;
     std::vector<uint32_t> casters =
         sb.mask_where([&](uint32_t o) { return (sb.objects[o].flags & kObjCastsShadows) != 0u; });
-    for (ObjectMask mask : {ObjectMask{}, ObjectMask{{casters.data(), casters.size()}}}) {
-      std::vector<uint32_t> offsets{0};
-      std::vector<Fragment> fragments;
-      const bool media = mask_has_media(sb.view(), mask);
-      for (int py = 0; py < cam.height; ++py)
-        for (int px = 0; px < cam.width; ++px) {
-          cast_pixel(sb.view(), cam, mask, media, px, py, [&](Fragment fr) { fragments.push_back(fr); });
-          offsets.push_back(uint32_t(fragments.size()));
+    for (const PinholeView& cam : {camera_view(s.camera), partial})
+      for (ObjectMask mask : {ObjectMask{}, ObjectMask{{casters.data(), casters.size()}}}) {
+        const std::string what =
+            std::string(name) + " " + std::to_string(cam.width) + " x " + std::to_string(cam.height);
+        std::vector<uint32_t> offsets{0};
+        std::vector<Fragment> fragments;
+        const bool media = mask_has_media(sb.view(), mask);
+        for (int py = 0; py < cam.height; ++py)
+          for (int px = 0; px < cam.width; ++px) {
+            cast_pixel(sb.view(), cam, mask, media, px, py, [&](Fragment fr) { fragments.push_back(fr); });
+            offsets.push_back(uint32_t(fragments.size()));
+          }
+        FragmentBuffers got;
+        const ListsId id = ex.cast_lists(cam, mask);
+        ex.read_lists(id, got);
+        ex.free_lists(id);
+        exec::HostExec hx;
+        exec::ExecArray<uint32_t, exec::HostExec> counts(hx), twice_offsets(hx);
+        exec::ExecArray<Fragment, exec::HostExec> twice_fragments(hx);
+        exec::ExecArray<unsigned long long, exec::HostExec> sums(hx);
+        exec::cast_fragments_twice(hx, sb.view(), cam, mask, media, counts, twice_offsets, twice_fragments, sums);
+        FragmentBuffers twice;
+        twice_offsets.read(twice.offsets);
+        twice_fragments.read(twice.fragments);
+        for (const FragmentBuffers* lists : {&got, &twice}) {
+          const char* way = lists == &got ? " (once)" : " (twice)";
+          EXPECT_EQ(lists->offsets, offsets) << what << way;
+          ASSERT_EQ(lists->fragments.size(), fragments.size()) << what << way;
+          size_t differ = 0;
+          for (size_t i = 0; i < fragments.size(); ++i)
+            differ += lists->fragments[i].depth != fragments[i].depth || lists->fragments[i].bits != fragments[i].bits;
+          EXPECT_EQ(differ, 0u) << what << way;
         }
-      FragmentBuffers got;
-      const ListsId id = ex.cast_lists(cam, mask);
-      ex.read_lists(id, got);
-      ex.free_lists(id);
-      EXPECT_EQ(got.offsets, offsets) << name;
-      ASSERT_EQ(got.fragments.size(), fragments.size()) << name;
-      size_t differ = 0;
-      for (size_t i = 0; i < fragments.size(); ++i)
-        differ += got.fragments[i].depth != fragments[i].depth || got.fragments[i].bits != fragments[i].bits;
-      EXPECT_EQ(differ, 0u) << name;
-    }
+      }
   }
 }
 
