@@ -158,16 +158,36 @@ CDSM_HD CDSM_INLINE float slope_bias_offset(const LightData& L, const DsmMap& m,
   return kSlopeBiasConstant + kSlopeBiasTexels * texel_footprint(m, pr.axial) * tan_inc;
 }
 
-// How receiver r reads a tap of map m whose ray crosses its plane at
-// `depth` (DESIGN.md §8, hd/dsm.h TexelRead).
-CDSM_HD CDSM_INLINE TexelRead receiver_read_at(const ShadowView& sv, const DsmMap& m, const ViewProjection& pr,
-                                               const Receiver& r, float depth) {
+// What every tap of receiver r's lookup in map m shares: the reach of its
+// plane depths (tap_depth) and its own step's search window less the
+// coplanar band (receiver_read_at), from the map's texel footprint at the
+// point, computed once per lookup.
+struct TapShared {
+  float reach;   // plane depths within +-reach of the point's depth
+  float search;  // bias_constant + bias_slope texel footprints
+  uint32_t own;  // tag_object() of the receiver's object; 0: none
+};
+CDSM_HD CDSM_INLINE TapShared tap_shared(const ShadowView& sv, const DsmMap& m, const ViewProjection& pr,
+                                         const Receiver& r) {
+  const float footprint = texel_footprint(m, pr.axial);
+  return TapShared{kPlaneReachTexels * footprint, sv.bias_constant + sv.bias_slope * footprint,
+                   r.object == kNoObject ? 0u : tag_object(r.object)};
+}
+// How a tap whose ray crosses the receiver's plane at `depth` reads its
+// texel (DESIGN.md §8, hd/dsm.h TexelRead).
+CDSM_HD CDSM_INLINE TexelRead receiver_read_of(const TapShared& sh, float depth) {
   TexelRead tr;
   tr.depth = depth;
   tr.coplanar = kRelativeDepthOffset * depth;
-  tr.window = sv.bias_constant + sv.bias_slope * texel_footprint(m, pr.axial) + tr.coplanar;
-  tr.own = r.object == kNoObject ? 0u : tag_object(r.object);
+  tr.window = sh.search + tr.coplanar;
+  tr.own = sh.own;
   return tr;
+}
+// How receiver r reads a tap of map m whose ray crosses its plane at
+// `depth`.
+CDSM_HD CDSM_INLINE TexelRead receiver_read_at(const ShadowView& sv, const DsmMap& m, const ViewProjection& pr,
+                                               const Receiver& r, float depth) {
+  return receiver_read_of(tap_shared(sv, m, pr, r), depth);
 }
 
 // One more layer of opacity, thesis eq. 3.12: alpha + a (1 - alpha), per channel.
@@ -219,9 +239,10 @@ CDSM_HD inline Channels<N> map_alpha(const ShadowView& sv, const LightData& L, c
                  [&](int tx, int ty, float w) { a = a + texel_alpha<N>(sv.storage, m, tx, ty, z) * w; });
     return a;
   }
+  const TapShared sh = tap_shared(sv, m, pr, r);  // tap_depth and receiver_read_at per tap, shared terms once
   for_each_tap(m, pr.u, pr.v, sv.filtering, [&](int tx, int ty, float w) {
-    a = a +
-        texel_receive<N>(sv.storage, m, tx, ty, receiver_read_at(sv, m, pr, r, tap_depth(sv, m, pr, r, tx, ty))) * w;
+    const float depth = plane_depth_at_texel(m.view, tx, ty, r.p, r.plane, pr.depth, sh.reach);
+    a = a + texel_receive<N>(sv.storage, m, tx, ty, receiver_read_of(sh, depth)) * w;
   });
   return a;
 }
