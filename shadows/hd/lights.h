@@ -128,14 +128,18 @@ struct Receiver {
 // The depth at which texel (tx, ty)'s centre ray crosses the plane through p
 // with normal n (radial, as the map's depths), within `reach` of `depth`
 // (rays nearly parallel to the plane).
-CDSM_HD CDSM_INLINE float plane_depth_at_texel(const PinholeView& v, int tx, int ty, Vec3 p, Vec3 n, float depth,
-                                               float reach) {
-  const Vec3 d = normalize(view_direction(v, float(tx) + 0.5f, float(ty) + 0.5f));
-  const float dn = dot(d, n);
-  float t = dn != 0.0f ? dot(p - pixel_origin(v, tx, ty), n) / dn : depth + reach;
+// plane_depth_clamped takes the ray's cosine to n (dn) and the plane's
+// distance along n from the ray's origin (num).
+CDSM_HD CDSM_INLINE float plane_depth_clamped(float dn, float num, float depth, float reach) {
+  float t = dn != 0.0f ? num / dn : depth + reach;
   if (!(t > depth - reach)) t = depth - reach;  // also NaN
   if (!(t < depth + reach)) t = depth + reach;
   return t;
+}
+CDSM_HD CDSM_INLINE float plane_depth_at_texel(const PinholeView& v, int tx, int ty, Vec3 p, Vec3 n, float depth,
+                                               float reach) {
+  const Vec3 d = normalize(view_direction(v, float(tx) + 0.5f, float(ty) + 0.5f));
+  return plane_depth_clamped(dot(d, n), dot(p - pixel_origin(v, tx, ty), n), depth, reach);
 }
 
 // The depth at which tap (tx, ty) of map m reads its texel for receiver r
@@ -422,13 +426,19 @@ CDSM_HD inline TexelBlockers texel_blockers(const DsmStorage& st, const DsmMap& 
 // The depth in front of which a tap's texel holds blockers of receiver r:
 // its read depth less the own step's search window (surfaces), or the
 // point's depth (volume samples; the slope-bias baseline's offset depth).
+// `sh`: tap_shared(sv, m, pr, r), once per lookup.
 CDSM_HD CDSM_INLINE float blocker_limit(const ShadowView& sv, const LightData& L, const DsmMap& m,
-                                        const ViewProjection& pr, const Receiver& r, int tx, int ty) {
+                                        const ViewProjection& pr, const Receiver& r, const TapShared& sh, int tx,
+                                        int ty) {
   const bool surface = dot(r.plane, r.plane) > 0.0f;
   if (sv.receiver == ReceiverLookup::SlopeBias) return pr.depth - slope_bias_offset(L, m, pr, r);
   if (!surface) return pr.depth;
-  const float depth = tap_depth(sv, m, pr, r, tx, ty);
-  return depth - receiver_read_at(sv, m, pr, r, depth).window;
+  const float depth = plane_depth_at_texel(m.view, tx, ty, r.p, r.plane, pr.depth, sh.reach);
+  return depth - receiver_read_of(sh, depth).window;
+}
+CDSM_HD CDSM_INLINE float blocker_limit(const ShadowView& sv, const LightData& L, const DsmMap& m,
+                                        const ViewProjection& pr, const Receiver& r, int tx, int ty) {
+  return blocker_limit(sv, L, m, pr, r, tap_shared(sv, m, pr, r), tx, ty);
 }
 
 // The deepest depth a blocker search tap at texels [x0, x1] x [y0, y1] of
@@ -439,22 +449,23 @@ CDSM_HD CDSM_INLINE float blocker_limit(const ShadowView& sv, const LightData& L
 // is largest at a corner of the rectangle's (convex) cone of rays when the
 // plane lies in front of all four — else at most the reach's cap.
 CDSM_HD inline float blocker_limit_bound(const ShadowView& sv, const LightData& L, const DsmMap& m,
-                                         const ViewProjection& pr, const Receiver& r, int x0, int x1, int y0, int y1) {
+                                         const ViewProjection& pr, const Receiver& r, const TapShared& sh, int x0,
+                                         int x1, int y0, int y1) {
   const bool surface = dot(r.plane, r.plane) > 0.0f;
   if (sv.receiver == ReceiverLookup::SlopeBias) return pr.depth - slope_bias_offset(L, m, pr, r);
   if (!surface) return pr.depth;
-  const float reach = kPlaneReachTexels * texel_footprint(m, pr.axial);
-  float t = pr.depth - reach;
+  float t = pr.depth - sh.reach;
   bool in_front = true;
   for (int c = 0; c < 4; ++c) {
     const int tx = c & 1 ? x1 : x0, ty = c & 2 ? y1 : y0;
-    t = fmaxf(t, plane_depth_at_texel(m.view, tx, ty, r.p, r.plane, pr.depth, reach));
     const float dn = dot(normalize(view_direction(m.view, float(tx) + 0.5f, float(ty) + 0.5f)), r.plane);
-    in_front = in_front && dn * dot(r.p - pixel_origin(m.view, tx, ty), r.plane) > 0.0f;
+    const float num = dot(r.p - pixel_origin(m.view, tx, ty), r.plane);
+    t = fmaxf(t, plane_depth_clamped(dn, num, pr.depth, sh.reach));  // plane_depth_at_texel
+    in_front = in_front && dn * num > 0.0f;
   }
-  if (!in_front && !is_orthographic(m.view)) t = pr.depth + reach;
+  if (!in_front && !is_orthographic(m.view)) t = pr.depth + sh.reach;
   t += 4.0e-6f * fabsf(t);  // the taps' own rounding
-  return t - receiver_read_at(sv, m, pr, r, t).window;
+  return t - receiver_read_of(sh, t).window;
 }
 
 // Whether the blocker search around receiver r (penumbra_filter_radius,
@@ -485,6 +496,7 @@ CDSM_HD inline bool blockers_within_reach(const ShadowView& sv, const LightData&
     at += uint64_t(((w - 1u) >> k) + 1u) * (((h - 1u) >> k) + 1u);
   }
   if (!(a.pyramid[offset[top]] > -kNoOpacityDepth)) return true;  // built without one
+  const TapShared sh = tap_shared(sv, m, pr, r);
   const float ppa = max_pixels_per_angle(f);
   const float R = search * ppa + 1.0f;
   const int bx0 = int(fmaxf(floorf(pr.u - R), 0.0f)), bx1 = int(fminf(floorf(pr.u + R), float(w) - 1.0f));
@@ -511,7 +523,7 @@ CDSM_HD inline bool blockers_within_reach(const ShadowView& sv, const LightData&
     const float nearest = sqrtf(dx * dx + dy * dy) / ppa;  // an angle no texel centre of it is nearer than
     if (nearest * (1.0f - 1.0e-4f) > 2.0f * penumbra_radius(L, m, pr.depth, least) * (1.0f + 1.0e-4f) + f.texel)
       continue;
-    if (least >= blocker_limit_bound(sv, L, m, pr, r, x0, x1, y0, y1)) continue;
+    if (least >= blocker_limit_bound(sv, L, m, pr, r, sh, x0, x1, y0, y1)) continue;
     if (k == 1 || n + 4 > 64) return true;
     for (int y = 2 * cy; y <= 2 * cy + 1; ++y)
       for (int x = 2 * cx; x <= 2 * cx + 1; ++x)
@@ -534,6 +546,7 @@ CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightDat
               : blockers_within_reach<1>(sv, L, m, pr, r, f, search)))
     return 0.0f;
   const int res = int(m.res);
+  const TapShared sh = tap_shared(sv, m, pr, r);
   float weight = 0.0f, moment = 0.0f;
   // The texel under the receiver, then rings of 8 at 1, 2, 4, ... texels
   // out to the search radius (every other ring turned by 22.5 degrees).
@@ -555,8 +568,9 @@ CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightDat
     const float first =
         m.rgb ? texel_first_depth<3>(sv.storage, m, tx, ty) : texel_first_depth<1>(sv.storage, m, tx, ty);
     if (!(first < kFixedPadZ) || off > (2.0f * penumbra_radius(L, m, z, first) + f.texel) * (1.0f + 1.0e-5f)) continue;
-    const TexelBlockers b = m.rgb ? texel_blockers<3>(sv.storage, m, tx, ty, blocker_limit(sv, L, m, pr, r, tx, ty))
-                                  : texel_blockers<1>(sv.storage, m, tx, ty, blocker_limit(sv, L, m, pr, r, tx, ty));
+    const float limit = blocker_limit(sv, L, m, pr, r, sh, tx, ty);
+    const TexelBlockers b =
+        m.rgb ? texel_blockers<3>(sv.storage, m, tx, ty, limit) : texel_blockers<1>(sv.storage, m, tx, ty, limit);
     if (!(b.alpha > kPenumbraMinAlpha)) continue;
     if (off > 2.0f * penumbra_radius(L, m, z, b.depth) + f.texel) continue;
     weight += b.alpha;
@@ -571,11 +585,13 @@ CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightDat
 // (the body of a cup standing on the ground beside the receiver) casts only
 // within a texel or two of itself: the tap counts as lit.
 CDSM_HD inline bool blocks_receiver(const ShadowView& sv, const LightData& L, const DsmMap& m, const ViewProjection& pr,
-                                    const PenumbraFrame& f, const Receiver& r, const ViewProjection& at) {
+                                    const PenumbraFrame& f, const Receiver& r, const TapShared& sh,
+                                    const ViewProjection& at) {
   const int tx = int(floorf(at.u)), ty = int(floorf(at.v)), res = int(m.res);
   if (tx < 0 || ty < 0 || tx >= res || ty >= res) return true;
-  const TexelBlockers b = m.rgb ? texel_blockers<3>(sv.storage, m, tx, ty, blocker_limit(sv, L, m, pr, r, tx, ty))
-                                : texel_blockers<1>(sv.storage, m, tx, ty, blocker_limit(sv, L, m, pr, r, tx, ty));
+  const float limit = blocker_limit(sv, L, m, pr, r, sh, tx, ty);
+  const TexelBlockers b =
+      m.rgb ? texel_blockers<3>(sv.storage, m, tx, ty, limit) : texel_blockers<1>(sv.storage, m, tx, ty, limit);
   if (!(b.alpha > kPenumbraMinAlpha)) return true;
   return angle_of(f, at.u - pr.u, at.v - pr.v) <= penumbra_radius(L, m, pr.depth, b.depth) + f.texel;
 }
@@ -607,6 +623,7 @@ CDSM_HD inline Vec3 soft_map_alpha_in_colour(const ShadowView& sv, const LightDa
   const PenumbraFrame f = penumbra_frame(m, pr);
   const float reach = radius * max_pixels_per_angle(f);  // the ellipse's longer half-axis, pixels
   if (!(reach >= 0.5f)) return map_alpha_in_colour(sv, L, m, pr, r);
+  const TapShared sh = tap_shared(sv, m, pr, r);
   const float spacing = fmaxf(1.0f, 2.0f * reach / float(sv.penumbra_taps));
   const float inv = 1.0f / spacing, out = reach + 0.5f * spacing;
   const int i0 = int(ceilf((pr.u - out) * inv)), i1 = int(floorf((pr.u + out) * inv));
@@ -623,7 +640,7 @@ CDSM_HD inline Vec3 soft_map_alpha_in_colour(const ShadowView& sv, const LightDa
       const float w = rim_weight(du, dv, angle_of(f, du, dv), radius, spacing);
       if (!(w > 0.0f)) continue;
       weight += w;
-      if (sv.penumbra == Penumbra::Estimated && !blocks_receiver(sv, L, m, pr, f, r, at)) continue;
+      if (sv.penumbra == Penumbra::Estimated && !blocks_receiver(sv, L, m, pr, f, r, sh, at)) continue;
       sum += map_alpha_in_colour(sv, L, m, at, r) * w;
     }
   const Vec3 soft = sum * (1.0f / weight);
