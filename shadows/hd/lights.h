@@ -228,26 +228,46 @@ CDSM_HD CDSM_INLINE auto combine_maps(const ShadowView& sv, const LightData& L, 
   return alpha;
 }
 
+// How one lookup of receiver r in map m reads its texels: surfaces each at
+// the receiver's plane along the texel's ray with their own step left out
+// (receiver_read_of), volume samples at the point's depth, the slope-bias
+// baseline at the point's depth less its offset. Once per lookup.
+struct MapTaps {
+  TapShared sh;
+  float z;     // every texel's depth when !plane
+  bool plane;  // a surface read at its plane
+};
+CDSM_HD CDSM_INLINE MapTaps map_taps(const ShadowView& sv, const LightData& L, const DsmMap& m,
+                                     const ViewProjection& pr, const Receiver& r) {
+  MapTaps t;
+  t.sh = tap_shared(sv, m, pr, r);
+  t.plane = sv.receiver != ReceiverLookup::SlopeBias && dot(r.plane, r.plane) > 0.0f;
+  t.z = pr.depth - (sv.receiver == ReceiverLookup::SlopeBias ? slope_bias_offset(L, m, pr, r) : 0.0f);
+  return t;
+}
+// What texel (tx, ty) gives lookup `t` (map_taps) of receiver r at pr;
+// Plane = t.plane, decided once per lookup.
+template <int N, bool Plane>
+CDSM_HD CDSM_INLINE Channels<N> texel_of(const ShadowView& sv, const DsmMap& m, const ViewProjection& pr,
+                                         const Receiver& r, const MapTaps& t, int tx, int ty) {
+  if (!Plane) return texel_alpha<N>(sv.storage, m, tx, ty, t.z);
+  const float depth = plane_depth_at_texel(m.view, tx, ty, r.p, r.plane, pr.depth, t.sh.reach);
+  return texel_receive<N>(sv.storage, m, tx, ty, receiver_read_of(t.sh, depth));
+}
+
 // Opacity between light L and receiver r from one map of node kind N: its
-// taps, volume samples each at the point's depth, surfaces each at its
-// plane depth with their own step left out (receiver_read_at); the
-// slope-bias baseline at the point's depth less its offset.
+// taps (for_each_tap), each texel as texel_of reads it.
 template <int N>
 CDSM_HD inline Channels<N> map_alpha(const ShadowView& sv, const LightData& L, const DsmMap& m,
                                      const ViewProjection& pr, const Receiver& r) {
-  const bool surface = dot(r.plane, r.plane) > 0.0f;
+  const MapTaps t = map_taps(sv, L, m, pr, r);
   Channels<N> a{};
-  if (sv.receiver == ReceiverLookup::SlopeBias || !surface) {
-    const float z = pr.depth - (sv.receiver == ReceiverLookup::SlopeBias ? slope_bias_offset(L, m, pr, r) : 0.0f);
+  if (t.plane)
     for_each_tap(m, pr.u, pr.v, sv.filtering,
-                 [&](int tx, int ty, float w) { a = a + texel_alpha<N>(sv.storage, m, tx, ty, z) * w; });
-    return a;
-  }
-  const TapShared sh = tap_shared(sv, m, pr, r);  // tap_depth and receiver_read_at per tap, shared terms once
-  for_each_tap(m, pr.u, pr.v, sv.filtering, [&](int tx, int ty, float w) {
-    const float depth = plane_depth_at_texel(m.view, tx, ty, r.p, r.plane, pr.depth, sh.reach);
-    a = a + texel_receive<N>(sv.storage, m, tx, ty, receiver_read_of(sh, depth)) * w;
-  });
+                 [&](int tx, int ty, float w) { a = a + texel_of<N, true>(sv, m, pr, r, t, tx, ty) * w; });
+  else
+    for_each_tap(m, pr.u, pr.v, sv.filtering,
+                 [&](int tx, int ty, float w) { a = a + texel_of<N, false>(sv, m, pr, r, t, tx, ty) * w; });
   return a;
 }
 
@@ -297,8 +317,9 @@ CDSM_HD inline Vec3 map_alpha_in_colour(const ShadowView& sv, const LightData& L
 // radius of a blocker halfway to the light (rho(z/2)): a fixed-kernel PCF
 // of the same taps, the baseline. Cost: up to 8 kPenumbraSearchRings + 1 node
 // walks plus about (penumbra_taps + 1)^2 pi / 4 bilinear taps per map (each with one
-// more node walk, blocks_receiver), against one bilinear tap for a hard
-// lookup.
+// more node walk, blocks_receiver; taps under two texels apart share their
+// texels, each walked once: about one walk per tap instead of four),
+// against one bilinear tap for a hard lookup.
 inline constexpr int kPenumbraSearchRings = 7;         // blocker search: rings at 1, 2, 4, ... texels (<= 64)
 inline constexpr float kPenumbraSearchTexels = 64.0f;  // blocker search radius cap
 inline constexpr float kPenumbraMinAlpha = 1.0e-3f;    // less opacity in front: no blocker
@@ -608,6 +629,74 @@ CDSM_HD CDSM_INLINE float rim_weight(float du, float dv, float angle, float radi
   return fminf(fmaxf(w, 0.0f), 1.0f);
 }
 
+// The texels of a soft lookup's filter taps (soft_filter): taps less than
+// two texels apart share bilinear texels with their neighbours in the row
+// and the row before, so two rows of texel values are kept, each texel read
+// once (texel_of: the value every tap reading it would get).
+inline constexpr int kFilterRowTexels = 32;
+template <int N>
+struct FilterRows {
+  int x0 = 0;  // the rows' first texel column
+  int y[2] = {-1, -1};
+  uint32_t have[2] = {0u, 0u};  // bit k: column x0 + k read
+  Channels<N> at[2][kFilterRowTexels];
+};
+
+// The sum of the filter taps' opacity times their weights (their weights'
+// sum added to `weight`): the lattice of soft_map_alpha_in_colour.
+template <int N, bool Plane>
+CDSM_HD inline Channels<N> soft_filter(const ShadowView& sv, const LightData& L, const DsmMap& m,
+                                       const ViewProjection& pr, const Receiver& r, const PenumbraFrame& f,
+                                       const MapTaps& t, float radius, float reach, float& weight) {
+  const float spacing = fmaxf(1.0f, 2.0f * reach / float(sv.penumbra_taps));
+  const float inv = 1.0f / spacing, out = reach + 0.5f * spacing;
+  const int i0 = int(ceilf((pr.u - out) * inv)), i1 = int(floorf((pr.u + out) * inv));
+  const int j0 = int(ceilf((pr.v - out) * inv)), j1 = int(floorf((pr.v + out) * inv));
+  FilterRows<N> rows;
+  rows.x0 = int(floorf(float(i0) * spacing - 0.5f));  // for_each_tap's first column
+  const bool shared =
+      sv.filtering && spacing < 2.0f && int(floorf(float(i1) * spacing - 0.5f)) + 1 - rows.x0 < kFilterRowTexels;
+  Channels<N> sum{};
+  for (int j = j0; j <= j1; ++j) {
+    if (shared) {  // this row of taps reads texel rows y and y + 1: keep those held
+      const int y = int(floorf(float(j) * spacing - 0.5f));
+      for (int k = 0; k < 2; ++k)
+        if (rows.y[k] != y && rows.y[k] != y + 1) {
+          rows.y[k] = rows.y[k ^ 1] == y ? y + 1 : y;
+          rows.have[k] = 0u;
+        }
+    }
+    for (int i = i0; i <= i1; ++i) {
+      ViewProjection at = pr;
+      at.u = float(i) * spacing;
+      at.v = float(j) * spacing;
+      const float du = at.u - pr.u, dv = at.v - pr.v;
+      if (du * du + dv * dv > out * out) continue;  // past the rim's ramp along the longer axis too
+      const float w = rim_weight(du, dv, angle_of(f, du, dv), radius, spacing);
+      if (!(w > 0.0f)) continue;
+      weight += w;
+      if (sv.penumbra == Penumbra::Estimated && !blocks_receiver(sv, L, m, pr, f, r, t.sh, at)) continue;
+      Channels<N> a{};
+      for_each_tap(m, at.u, at.v, sv.filtering, [&](int tx, int ty, float tw) {
+        // (A texel outside the rows, should a rounding place a tap's
+        // texels other than where the rows expect them, is read directly.)
+        const int k = rows.y[0] == ty ? 0 : rows.y[1] == ty ? 1 : -1, c = tx - rows.x0;
+        if (!shared || k < 0 || c < 0 || c >= kFilterRowTexels) {
+          a = a + texel_of<N, Plane>(sv, m, pr, r, t, tx, ty) * tw;
+          return;
+        }
+        if (!(rows.have[k] >> c & 1u)) {
+          rows.at[k][c] = texel_of<N, Plane>(sv, m, pr, r, t, tx, ty);
+          rows.have[k] |= 1u << c;
+        }
+        a = a + rows.at[k][c] * tw;
+      });
+      sum = sum + a * w;
+    }
+  }
+  return sum;
+}
+
 // One map's opacity at receiver r from light L with a size: today's lookup
 // filtered over the penumbra's ellipse (step 2 above). The taps lie on a
 // lattice fixed in the map (points k s, s = the ellipse's longer axis over
@@ -623,30 +712,16 @@ CDSM_HD inline Vec3 soft_map_alpha_in_colour(const ShadowView& sv, const LightDa
   const PenumbraFrame f = penumbra_frame(m, pr);
   const float reach = radius * max_pixels_per_angle(f);  // the ellipse's longer half-axis, pixels
   if (!(reach >= 0.5f)) return map_alpha_in_colour(sv, L, m, pr, r);
-  const TapShared sh = tap_shared(sv, m, pr, r);
-  const float spacing = fmaxf(1.0f, 2.0f * reach / float(sv.penumbra_taps));
-  const float inv = 1.0f / spacing, out = reach + 0.5f * spacing;
-  const int i0 = int(ceilf((pr.u - out) * inv)), i1 = int(floorf((pr.u + out) * inv));
-  const int j0 = int(ceilf((pr.v - out) * inv)), j1 = int(floorf((pr.v + out) * inv));
-  Vec3 sum{0, 0, 0};
+  const MapTaps t = map_taps(sv, L, m, pr, r);
   float weight = 0.0f;
-  for (int j = j0; j <= j1; ++j)
-    for (int i = i0; i <= i1; ++i) {
-      ViewProjection at = pr;
-      at.u = float(i) * spacing;
-      at.v = float(j) * spacing;
-      const float du = at.u - pr.u, dv = at.v - pr.v;
-      if (du * du + dv * dv > out * out) continue;  // past the rim's ramp along the longer axis too
-      const float w = rim_weight(du, dv, angle_of(f, du, dv), radius, spacing);
-      if (!(w > 0.0f)) continue;
-      weight += w;
-      if (sv.penumbra == Penumbra::Estimated && !blocks_receiver(sv, L, m, pr, f, r, sh, at)) continue;
-      sum += map_alpha_in_colour(sv, L, m, at, r) * w;
-    }
+  const Vec3 sum = m.rgb ? (t.plane ? soft_filter<3, true>(sv, L, m, pr, r, f, t, radius, reach, weight)
+                                    : soft_filter<3, false>(sv, L, m, pr, r, f, t, radius, reach, weight))
+                         : to_rgb(t.plane ? soft_filter<1, true>(sv, L, m, pr, r, f, t, radius, reach, weight)
+                                          : soft_filter<1, false>(sv, L, m, pr, r, f, t, radius, reach, weight));
   const Vec3 soft = sum * (1.0f / weight);
   if (reach >= 1.5f) return soft;
-  const float t = reach - 0.5f;
-  return map_alpha_in_colour(sv, L, m, pr, r) * (1.0f - t) + soft * t;
+  const float s = reach - 0.5f;
+  return map_alpha_in_colour(sv, L, m, pr, r) * (1.0f - s) + soft * s;
 }
 
 // One map's opacity at r: soft for a light with a size (unless the
