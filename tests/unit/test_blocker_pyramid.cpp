@@ -162,11 +162,17 @@ struct Case {
 
 class BlockerPyramid : public ::testing::TestWithParam<Case> {};
 
-TEST_P(BlockerPyramid, SearchReadsTheSameWithFewerWalks) {
-  const Case c = GetParam();
+// The case's scene, its lights given a size, in its layout at 256^2.
+Scene case_scene(const Case& c) {
   Scene s = sized(shipped(c.scene));
   s.shadows.layout = c.layout;
   s.shadows.resolution = 256;
+  return s;
+}
+
+TEST_P(BlockerPyramid, SearchReadsTheSameWithFewerWalks) {
+  const Case c = GetParam();
+  const Scene s = case_scene(c);
   const SystemFrame f(s);
   const ShadowView sv = f.frame.view(s.shadows), bare = without_pyramid(sv);
   const std::vector<Receiver> rs = receivers(f.sb);
@@ -217,9 +223,7 @@ TEST_P(BlockerPyramid, SearchReadsTheSameWithFewerWalks) {
 // volume samples.
 TEST_P(BlockerPyramid, FilterReadsEachTexelOnceWithTheSameSum) {
   const Case c = GetParam();
-  Scene s = sized(shipped(c.scene));
-  s.shadows.layout = c.layout;
-  s.shadows.resolution = 256;
+  const Scene s = case_scene(c);
   const SystemFrame fr(s);
   const std::vector<Receiver> rs = receivers(fr.sb);
   int soft = 0;
