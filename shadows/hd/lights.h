@@ -447,19 +447,16 @@ CDSM_HD inline TexelBlockers texel_blockers(const DsmStorage& st, const DsmMap& 
 // The depth in front of which a tap's texel holds blockers of receiver r:
 // its read depth less the own step's search window (surfaces), or the
 // point's depth (volume samples; the slope-bias baseline's offset depth).
-// `sh`: tap_shared(sv, m, pr, r), once per lookup.
-CDSM_HD CDSM_INLINE float blocker_limit(const ShadowView& sv, const LightData& L, const DsmMap& m,
-                                        const ViewProjection& pr, const Receiver& r, const TapShared& sh, int tx,
-                                        int ty) {
-  const bool surface = dot(r.plane, r.plane) > 0.0f;
-  if (sv.receiver == ReceiverLookup::SlopeBias) return pr.depth - slope_bias_offset(L, m, pr, r);
-  if (!surface) return pr.depth;
-  const float depth = plane_depth_at_texel(m.view, tx, ty, r.p, r.plane, pr.depth, sh.reach);
-  return depth - receiver_read_of(sh, depth).window;
+// `t`: map_taps(sv, L, m, pr, r), once per lookup.
+CDSM_HD CDSM_INLINE float blocker_limit(const DsmMap& m, const ViewProjection& pr, const Receiver& r, const MapTaps& t,
+                                        int tx, int ty) {
+  if (!t.plane) return t.z;
+  const float depth = plane_depth_at_texel(m.view, tx, ty, r.p, r.plane, pr.depth, t.sh.reach);
+  return depth - receiver_read_of(t.sh, depth).window;
 }
 CDSM_HD CDSM_INLINE float blocker_limit(const ShadowView& sv, const LightData& L, const DsmMap& m,
                                         const ViewProjection& pr, const Receiver& r, int tx, int ty) {
-  return blocker_limit(sv, L, m, pr, r, tap_shared(sv, m, pr, r), tx, ty);
+  return blocker_limit(m, pr, r, map_taps(sv, L, m, pr, r), tx, ty);
 }
 
 // The deepest depth a blocker search tap at texels [x0, x1] x [y0, y1] of
@@ -469,12 +466,10 @@ CDSM_HD CDSM_INLINE float blocker_limit(const ShadowView& sv, const LightData& L
 // plane's distance over the cosine of the ray's angle to its normal, which
 // is largest at a corner of the rectangle's (convex) cone of rays when the
 // plane lies in front of all four — else at most the reach's cap.
-CDSM_HD inline float blocker_limit_bound(const ShadowView& sv, const LightData& L, const DsmMap& m,
-                                         const ViewProjection& pr, const Receiver& r, const TapShared& sh, int x0,
-                                         int x1, int y0, int y1) {
-  const bool surface = dot(r.plane, r.plane) > 0.0f;
-  if (sv.receiver == ReceiverLookup::SlopeBias) return pr.depth - slope_bias_offset(L, m, pr, r);
-  if (!surface) return pr.depth;
+CDSM_HD inline float blocker_limit_bound(const DsmMap& m, const ViewProjection& pr, const Receiver& r,
+                                         const MapTaps& taps, int x0, int x1, int y0, int y1) {
+  if (!taps.plane) return taps.z;
+  const TapShared& sh = taps.sh;
   float t = pr.depth - sh.reach;
   bool in_front = true;
   for (int c = 0; c < 4; ++c) {
@@ -517,7 +512,7 @@ CDSM_HD inline bool blockers_within_reach(const ShadowView& sv, const LightData&
     at += uint64_t(((w - 1u) >> k) + 1u) * (((h - 1u) >> k) + 1u);
   }
   if (!(a.pyramid[offset[top]] > -kNoOpacityDepth)) return true;  // built without one
-  const TapShared sh = tap_shared(sv, m, pr, r);
+  const MapTaps taps = map_taps(sv, L, m, pr, r);
   const float ppa = max_pixels_per_angle(f);
   const float R = search * ppa + 1.0f;
   const int bx0 = int(fmaxf(floorf(pr.u - R), 0.0f)), bx1 = int(fminf(floorf(pr.u + R), float(w) - 1.0f));
@@ -544,7 +539,7 @@ CDSM_HD inline bool blockers_within_reach(const ShadowView& sv, const LightData&
     const float nearest = sqrtf(dx * dx + dy * dy) / ppa;  // an angle no texel centre of it is nearer than
     if (nearest * (1.0f - 1.0e-4f) > 2.0f * penumbra_radius(L, m, pr.depth, least) * (1.0f + 1.0e-4f) + f.texel)
       continue;
-    if (least >= blocker_limit_bound(sv, L, m, pr, r, sh, x0, x1, y0, y1)) continue;
+    if (least >= blocker_limit_bound(m, pr, r, taps, x0, x1, y0, y1)) continue;
     if (k == 1 || n + 4 > 64) return true;
     for (int y = 2 * cy; y <= 2 * cy + 1; ++y)
       for (int x = 2 * cx; x <= 2 * cx + 1; ++x)
@@ -567,7 +562,7 @@ CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightDat
               : blockers_within_reach<1>(sv, L, m, pr, r, f, search)))
     return 0.0f;
   const int res = int(m.res);
-  const TapShared sh = tap_shared(sv, m, pr, r);
+  const MapTaps taps = map_taps(sv, L, m, pr, r);
   float weight = 0.0f, moment = 0.0f;
   // The texel under the receiver, then rings of 8 at 1, 2, 4, ... texels
   // out to the search radius (every other ring turned by 22.5 degrees).
@@ -589,7 +584,7 @@ CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightDat
     const float first =
         m.rgb ? texel_first_depth<3>(sv.storage, m, tx, ty) : texel_first_depth<1>(sv.storage, m, tx, ty);
     if (!(first < kFixedPadZ) || off > (2.0f * penumbra_radius(L, m, z, first) + f.texel) * (1.0f + 1.0e-5f)) continue;
-    const float limit = blocker_limit(sv, L, m, pr, r, sh, tx, ty);
+    const float limit = blocker_limit(m, pr, r, taps, tx, ty);
     const TexelBlockers b =
         m.rgb ? texel_blockers<3>(sv.storage, m, tx, ty, limit) : texel_blockers<1>(sv.storage, m, tx, ty, limit);
     if (!(b.alpha > kPenumbraMinAlpha)) continue;
@@ -606,11 +601,11 @@ CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightDat
 // (the body of a cup standing on the ground beside the receiver) casts only
 // within a texel or two of itself: the tap counts as lit.
 CDSM_HD inline bool blocks_receiver(const ShadowView& sv, const LightData& L, const DsmMap& m, const ViewProjection& pr,
-                                    const PenumbraFrame& f, const Receiver& r, const TapShared& sh,
+                                    const PenumbraFrame& f, const Receiver& r, const MapTaps& t,
                                     const ViewProjection& at) {
   const int tx = int(floorf(at.u)), ty = int(floorf(at.v)), res = int(m.res);
   if (tx < 0 || ty < 0 || tx >= res || ty >= res) return true;
-  const float limit = blocker_limit(sv, L, m, pr, r, sh, tx, ty);
+  const float limit = blocker_limit(m, pr, r, t, tx, ty);
   const TexelBlockers b =
       m.rgb ? texel_blockers<3>(sv.storage, m, tx, ty, limit) : texel_blockers<1>(sv.storage, m, tx, ty, limit);
   if (!(b.alpha > kPenumbraMinAlpha)) return true;
@@ -675,7 +670,7 @@ CDSM_HD inline Channels<N> soft_filter(const ShadowView& sv, const LightData& L,
       const float w = rim_weight(du, dv, angle_of(f, du, dv), radius, spacing);
       if (!(w > 0.0f)) continue;
       weight += w;
-      if (sv.penumbra == Penumbra::Estimated && !blocks_receiver(sv, L, m, pr, f, r, t.sh, at)) continue;
+      if (sv.penumbra == Penumbra::Estimated && !blocks_receiver(sv, L, m, pr, f, r, t, at)) continue;
       Channels<N> a{};
       for_each_tap(m, at.u, at.v, sv.filtering, [&](int tx, int ty, float tw) {
         // (A texel outside the rows, should a rounding place a tap's

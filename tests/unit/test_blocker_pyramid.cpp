@@ -123,7 +123,7 @@ Vec3 plain_filter(const ShadowView& sv, const LightData& L, const DsmMap& m, con
   const PenumbraFrame f = penumbra_frame(m, pr);
   const float reach = radius * max_pixels_per_angle(f);
   if (!(reach >= 0.5f)) return map_alpha_in_colour(sv, L, m, pr, r);
-  const TapShared sh = tap_shared(sv, m, pr, r);
+  const MapTaps taps = map_taps(sv, L, m, pr, r);
   const float spacing = std::max(1.0f, 2.0f * reach / float(sv.penumbra_taps));
   const float inv = 1.0f / spacing, out = reach + 0.5f * spacing;
   const int i0 = int(std::ceil((pr.u - out) * inv)), i1 = int(std::floor((pr.u + out) * inv));
@@ -140,7 +140,7 @@ Vec3 plain_filter(const ShadowView& sv, const LightData& L, const DsmMap& m, con
       const float w = rim_weight(du, dv, angle_of(f, du, dv), radius, spacing);
       if (!(w > 0.0f)) continue;
       weight += w;
-      if (sv.penumbra == Penumbra::Estimated && !blocks_receiver(sv, L, m, pr, f, r, sh, at)) continue;
+      if (sv.penumbra == Penumbra::Estimated && !blocks_receiver(sv, L, m, pr, f, r, taps, at)) continue;
       sum += map_alpha_in_colour(sv, L, m, at, r) * w;
     }
   const Vec3 soft = sum * (1.0f / weight);
