@@ -9,14 +9,26 @@
 
 namespace cdsm::exec {
 
-extern template DsmBuildStats build_map_exec<DsmNode, cuda::CudaExec>(cuda::CudaExec&, const SceneView&,
-                                                                      const LightPassParams&, FragmentLists,
-                                                                      const DsmLayoutParams&, const LightPassOptions&,
-                                                                      KindStore<DsmNode, cuda::CudaExec>&, DsmMap&,
-                                                                      LightPassScratch<cuda::CudaExec>&);
-extern template DsmBuildStats build_map_exec<DsmNodeRgb, cuda::CudaExec>(
-    cuda::CudaExec&, const SceneView&, const LightPassParams&, FragmentLists, const DsmLayoutParams&,
-    const LightPassOptions&, KindStore<DsmNodeRgb, cuda::CudaExec>&, DsmMap&, LightPassScratch<cuda::CudaExec>&);
+extern template void walk_map_exec<DsmNode, cuda::CudaExec>(cuda::CudaExec&, const SceneView&, const LightPassParams&,
+                                                            FragmentLists, const DsmLayoutParams&,
+                                                            const LightPassOptions&,
+                                                            KindStore<DsmNode, cuda::CudaExec>&,
+                                                            LightPassScratch<cuda::CudaExec>&, BatchEntry&,
+                                                            BuildCounters*, const BuildCounters*);
+extern template DsmBuildStats place_map_exec<DsmNode, cuda::CudaExec>(cuda::CudaExec&, const LightPassParams&,
+                                                                      const DsmLayoutParams&,
+                                                                      KindStore<DsmNode, cuda::CudaExec>&,
+                                                                      LightPassScratch<cuda::CudaExec>&,
+                                                                      const BatchEntry&, const BuildCounters&, DsmMap&);
+extern template void walk_map_exec<DsmNodeRgb, cuda::CudaExec>(cuda::CudaExec&, const SceneView&,
+                                                               const LightPassParams&, FragmentLists,
+                                                               const DsmLayoutParams&, const LightPassOptions&,
+                                                               KindStore<DsmNodeRgb, cuda::CudaExec>&,
+                                                               LightPassScratch<cuda::CudaExec>&, BatchEntry&,
+                                                               BuildCounters*, const BuildCounters*);
+extern template DsmBuildStats place_map_exec<DsmNodeRgb, cuda::CudaExec>(
+    cuda::CudaExec&, const LightPassParams&, const DsmLayoutParams&, KindStore<DsmNodeRgb, cuda::CudaExec>&,
+    LightPassScratch<cuda::CudaExec>&, const BatchEntry&, const BuildCounters&, DsmMap&);
 extern template void shade_pixels<cuda::CudaExec>(cuda::CudaExec&, const SceneView&, const ShadowView&,
                                                   const CameraPassParams&, FragmentLists, float*, uint32_t*);
 extern template void cast_fragments_exec<cuda::CudaExec>(cuda::CudaExec&, const SceneView&, const PinholeView&,

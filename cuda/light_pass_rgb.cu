@@ -2,9 +2,14 @@
 #include "instances.cuh"
 
 namespace cdsm::exec {
-template DsmBuildStats build_map_exec<DsmNodeRgb, cuda::CudaExec>(cuda::CudaExec&, const SceneView&,
-                                                                  const LightPassParams&, FragmentLists,
-                                                                  const DsmLayoutParams&, const LightPassOptions&,
-                                                                  KindStore<DsmNodeRgb, cuda::CudaExec>&, DsmMap&,
-                                                                  LightPassScratch<cuda::CudaExec>&);
+template void walk_map_exec<DsmNodeRgb, cuda::CudaExec>(cuda::CudaExec&, const SceneView&, const LightPassParams&,
+                                                        FragmentLists, const DsmLayoutParams&, const LightPassOptions&,
+                                                        KindStore<DsmNodeRgb, cuda::CudaExec>&,
+                                                        LightPassScratch<cuda::CudaExec>&, BatchEntry&, BuildCounters*,
+                                                        const BuildCounters*);
+template DsmBuildStats place_map_exec<DsmNodeRgb, cuda::CudaExec>(cuda::CudaExec&, const LightPassParams&,
+                                                                  const DsmLayoutParams&,
+                                                                  KindStore<DsmNodeRgb, cuda::CudaExec>&,
+                                                                  LightPassScratch<cuda::CudaExec>&, const BatchEntry&,
+                                                                  const BuildCounters&, DsmMap&);
 }  // namespace cdsm::exec

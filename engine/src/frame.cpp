@@ -118,6 +118,11 @@ void MapCache::clear(ShadowBackend& backend) {
 
 namespace {
 
+// A frame's missing maps are built together, their lists made first: up to
+// this many bytes of lists at once, then the group is built (one read of
+// its counters) and its lists freed.
+constexpr uint64_t kBuildGroupListBytes = uint64_t(256) << 20;
+
 // The planned maps against the cache: per plan its entry (reused by key, or
 // described for building), and per cache entry whether a plan took it.
 struct CacheMatch {
@@ -231,8 +236,36 @@ void build_missing(const FrameInputs& in, const FragmentProducer& produce, Shado
     frame.freed += uint32_t(replaced.size());
     if (in.maps_built) in.maps_built->store(0);
     if (in.maps_to_build) in.maps_to_build->store(uint32_t(m.missing()));
+    // The missing maps' lists are made first, then built together (one read
+    // of the light pass's counters for all of them: exec/light_pass.h), in
+    // groups whose lists stay under kBuildGroupListBytes.
+    std::vector<ShadowBackend::MapBuild> group;
+    std::vector<size_t> group_maps;              // their k
+    std::vector<std::vector<uint32_t>> insides;  // each build's objects containing its light
+    uint64_t group_bytes = 0;
+    const auto flush = [&] {
+      if (group.empty()) return;
+      const auto t0 = Clock::now();
+      std::vector<MapId> ids(group.size());
+      std::vector<DsmBuildStats> stats(group.size());
+      backend.build_maps(group.data(), group.size(), layout, ids.data(), stats.data());
+      for (size_t i = 0; i < group.size(); ++i) {
+        next[group_maps[i]].id = ids[i];
+        next[group_maps[i]].stats = stats[i];
+        built[group_maps[i]] = 1;
+      }
+      for (const ShadowBackend::MapBuild& g : group) {
+        reading.erase(std::find(reading.begin(), reading.end(), g.lists));
+        backend.free_lists(g.lists);
+      }
+      frame.build_ms += ms_since(t0);
+      if (in.maps_built) in.maps_built->fetch_add(uint32_t(group.size()));
+      group.clear();
+      group_maps.clear();
+      insides.clear();
+      group_bytes = 0;
+    };
     for (size_t k = 0; k < n; ++k) {
-      MapCache::Entry& e = next[k];
       const MapPlan& plan = frame.setup.maps[k];
       MapCache::KeptFragments* cached = nullptr;
       const uint64_t fkey = in.keep_fragments ? fragment_key(plan, in) : 0;
@@ -243,47 +276,48 @@ void build_missing(const FrameInputs& in, const FragmentProducer& produce, Shado
         cached->taken = true;
         kept.push_back(*cached);
       }
-      if (m.found[k]) {
-        frame.map_rebuilt.push_back(0);
-        ++frame.reused;
+      if (m.found[k]) continue;
+      std::vector<uint32_t> words = mask_words(plan.members, sb.objects.size());
+      ObjectMask mask{{words.data(), words.size()}};
+      auto t0 = Clock::now();
+      // The lists the build reads (and sorts in place): a copy of kept
+      // lists, or new ones of which a copy is kept — on the backend.
+      if (cached) {
+        reading.push_back(backend.copy_lists(cached->lists));
+        ++frame.fragment_lists_reused;
       } else {
-        std::vector<uint32_t> words = mask_words(plan.members, sb.objects.size());
-        ObjectMask mask{{words.data(), words.size()}};
-        auto t0 = Clock::now();
-        // The lists the build reads (and sorts in place): a copy of kept
-        // lists, or new ones of which a copy is kept — on the backend.
-        if (cached) {
-          reading.push_back(backend.copy_lists(cached->lists));
-          ++frame.fragment_lists_reused;
-        } else {
-          reading.push_back(produce(backend, plan.view, mask));
-          if (in.keep_fragments) kept.push_back({fkey, backend.copy_lists(reading.back()), false});
-        }
-        const ListsId lists = reading.back();
-        frame.fragments_ms += ms_since(t0);
-        frame.fragments += backend.lists_fragments(lists);
-        t0 = Clock::now();
-        std::vector<uint32_t> inside = objects_containing(sv, plan.view.eye, mask);
-        LightPassParams lp{plan.view, s.epsilon, {inside.data(), inside.size()}, s.method, s.method_param};
-        if (s.method == ShadowMethod::DeepOpacity)
-          lp.layer_thickness = s.layer_thickness > 0.0f
-                                   ? s.layer_thickness
-                                   : caster_depth_extent(plan, sb) / method_param_or_default(s.method, s.method_param);
-        // RGB nodes only where a member is coloured (deep shadow maps; the
-        // baselines are grey).
-        lp.rgb = s.rgb_maps && s.method == ShadowMethod::Dsm &&
-                 std::any_of(plan.members.begin(), plan.members.end(),
-                             [&](uint32_t o) { return is_coloured(sv, sv.objects[o]); });
-        lp.blocker_pyramid = wants_pyramid(frame.setup.lights[plan.light], s);
-        e.id = backend.build_map(lp, lists, layout, e.stats);
-        built[k] = 1;
-        reading.pop_back();
-        backend.free_lists(lists);
-        frame.build_ms += ms_since(t0);
-        frame.map_rebuilt.push_back(1);
-        ++frame.rebuilt;
-        if (in.maps_built) in.maps_built->fetch_add(1);
+        reading.push_back(produce(backend, plan.view, mask));
+        if (in.keep_fragments) kept.push_back({fkey, backend.copy_lists(reading.back()), false});
       }
+      const ListsId lists = reading.back();
+      frame.fragments_ms += ms_since(t0);
+      frame.fragments += backend.lists_fragments(lists);
+      insides.push_back(objects_containing(sv, plan.view.eye, mask));
+      LightPassParams lp{
+          plan.view, s.epsilon, {insides.back().data(), insides.back().size()}, s.method, s.method_param};
+      if (s.method == ShadowMethod::DeepOpacity)
+        lp.layer_thickness = s.layer_thickness > 0.0f
+                                 ? s.layer_thickness
+                                 : caster_depth_extent(plan, sb) / method_param_or_default(s.method, s.method_param);
+      // RGB nodes only where a member is coloured (deep shadow maps; the
+      // baselines are grey).
+      lp.rgb = s.rgb_maps && s.method == ShadowMethod::Dsm &&
+               std::any_of(plan.members.begin(), plan.members.end(),
+                           [&](uint32_t o) { return is_coloured(sv, sv.objects[o]); });
+      lp.blocker_pyramid = wants_pyramid(frame.setup.lights[plan.light], s);
+      group.push_back({lp, lists});
+      group_maps.push_back(k);
+      group_bytes += backend.lists_bytes(lists);
+      if (group_bytes >= kBuildGroupListBytes) flush();
+    }
+    flush();
+    for (size_t k = 0; k < n; ++k) {
+      const MapCache::Entry& e = next[k];
+      frame.map_rebuilt.push_back(m.found[k] ? 0 : 1);
+      if (m.found[k])
+        ++frame.reused;
+      else
+        ++frame.rebuilt;
       frame.maps.push_back(e.id);
       frame.map_stats.push_back(e.stats);
     }

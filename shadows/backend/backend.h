@@ -220,6 +220,27 @@ class ShadowBackend {
   // go to `stats`.
   virtual MapId build_map(const LightPassParams& params, ListsId lists, const DsmLayoutParams& layout,
                           DsmBuildStats& stats) = 0;
+  // One map of build_maps: its parameters and lists.
+  struct MapBuild {
+    LightPassParams params;
+    ListsId lists = 0;
+  };
+  // Builds several maps of one layout as build_map does, ids[i] and
+  // stats[i] map i's. All or nothing: when one fails, none is kept. The
+  // exec backend walks them all before it reads a count (one host
+  // synchronization for the frame's maps, exec/light_pass.h); by default
+  // one build_map after another.
+  virtual void build_maps(const MapBuild* builds, size_t n, const DsmLayoutParams& layout, MapId* ids,
+                          DsmBuildStats* stats) {
+    size_t built = 0;
+    try {
+      for (; built < n; ++built)
+        ids[built] = build_map(builds[built].params, builds[built].lists, layout, stats[built]);
+    } catch (...) {
+      for (size_t i = 0; i < built; ++i) free_map(ids[i]);
+      throw;
+    }
+  }
   // Releases a map's memory (the id is then invalid).
   virtual void free_map(MapId id) = 0;
   // Releases several maps with one decision about the store (a frame's

@@ -79,32 +79,70 @@ class ExecBackend final : public ExecShadowBackend {
 
   MapId build_map(const LightPassParams& params, ListsId lists, const DsmLayoutParams& layout,
                   DsmBuildStats& stats) override {
-    const FragmentLists frags = lists_.held(lists, "build_map").lists();
+    const MapBuild b{params, lists};
+    MapId id = 0;
+    build_maps(&b, 1, layout, &id, &stats);
+    return id;
+  }
+
+  // Every map walked, their counters read once, then placed
+  // (exec/light_pass.h build_maps_exec).
+  void build_maps(const MapBuild* builds, size_t n, const DsmLayoutParams& layout, MapId* ids,
+                  DsmBuildStats* stats) override {
+    if (n == 0) return;
     check_layout(layout);
-    if (params.rgb && params.method != ShadowMethod::Dsm)
-      throw std::invalid_argument("build_map: the baselines are grey (no RGB maps)");
     if (slots_.live() == 0) reset_store();
     CDSM_CHECK(!stored_any_ || same_layout(layout_, layout),
                "exec backend: maps of different layouts cannot share the store");
-    // The lists are where the executor reads them (sorted in place); the
-    // few ids of objects containing the light, over device memory, copied.
-    LightPassParams ep = params;
-    if constexpr (!Ex::kHostMemory) {
-      scratch_.inside.assign(params.inside.data(), params.inside.size());
-      ep.inside = scratch_.inside.cspan();
+    std::vector<MapBuildInput> in(n);
+    std::vector<uint32_t> inside;  // every map's objects containing its light, one after another
+    for (size_t i = 0; i < n; ++i) {
+      const LightPassParams& p = builds[i].params;
+      if (p.rgb && p.method != ShadowMethod::Dsm)
+        throw std::invalid_argument("build_map: the baselines are grey (no RGB maps)");
+      in[i].params = p;
+      in[i].frags = lists_.held(builds[i].lists, "build_map").lists();
+      inside.insert(inside.end(), p.inside.begin(), p.inside.end());
     }
-
-    ExecStoredMap m;
-    m.live = true;
-    if (params.rgb)
-      m = build_kind(ep, frags, layout, rgb_, stats);
-    else
-      m = build_kind(ep, frags, layout, grey_, stats);
+    // The few ids of objects containing each light, over device memory,
+    // copied (one upload for the frame).
+    if constexpr (!Ex::kHostMemory) {
+      scratch_.inside.assign(inside.data(), inside.size());
+      uint64_t at = 0;
+      for (MapBuildInput& b : in) {
+        b.params.inside = {scratch_.inside.data() + at, b.params.inside.size()};
+        at += b.params.inside.size();
+      }
+    }
+    std::vector<DsmMap> maps(n);
+    const StoreMark grey = mark(grey_), rgb = mark(rgb_);
+    try {
+      build_maps_exec(ex_, scene_view(), in.data(), n, layout, options_, grey_, rgb_, scratch_, maps.data(), stats);
+    } catch (...) {
+      cut_back(grey_, grey);
+      cut_back(rgb_, rgb);
+      throw;
+    }
     layout_ = layout;
     stored_any_ = true;
     mirror_dirty_ = true;
-    const MapId id = slots_.add(m);
-    return id;
+    // Each map's ranges in its kind's arrays: placed one after another.
+    StoreMark at[2] = {grey, rgb};
+    for (size_t i = 0; i < n; ++i) {
+      const int k = maps[i].rgb ? 1 : 0;
+      const StoreMark end = mark_after(at[k], maps[i], stats[i], layout);
+      ExecStoredMap m;
+      m.live = true;
+      m.map = maps[i];
+      m.texel_begin = at[k].texels;
+      m.node_begin = at[k].nodes;
+      m.chunk_begin = at[k].chunks;
+      m.texel_end = end.texels;
+      m.node_end = end.nodes;
+      m.chunk_end = end.chunks;
+      ids[i] = slots_.add(m);
+      at[k] = end;
+    }
   }
 
   void free_map(MapId id) override {
@@ -338,34 +376,40 @@ class ExecBackend final : public ExecShadowBackend {
       throw std::invalid_argument("build_map: chunk_nodes must be within [1, 4096]");
   }
 
-  // Builds one map into `store`. Strong guarantee: when the build throws
-  // (an allocation, the memory budget, a failed launch) the store's arrays
-  // are cut back to where they ended (their contents before them kept: a
-  // grown array copied them) and every earlier map reads as before.
+  // Where a kind's arrays end: what a failed build cuts them back to (their
+  // contents before kept: a grown array copied them, and every earlier map
+  // reads as before), and where a placed map's ranges begin.
+  struct StoreMark {
+    uint64_t texels = 0, nodes = 0, chunks = 0, tags = 0, pyramid = 0, texel_count = 0;
+  };
   template <class Node>
-  ExecStoredMap build_kind(const LightPassParams& p, FragmentLists f, const DsmLayoutParams& layout,
-                           KindStore<Node, Ex>& store, DsmBuildStats& stats) {
-    ExecStoredMap m;
-    m.live = true;
-    m.texel_begin = store.texels.size();
-    m.node_begin = store.nodes.size();
-    m.chunk_begin = store.chunks.size();
-    const uint64_t tags = store.tags.size(), pyramid = store.pyramid.size(), texel_count = store.texel_count;
-    try {
-      stats = build_map_exec(ex_, scene_view(), p, f, layout, options_, store, m.map, scratch_);
-    } catch (...) {
-      store.texels.resize(m.texel_begin);
-      store.nodes.resize(m.node_begin);
-      store.chunks.resize(m.chunk_begin);
-      store.tags.resize(tags);
-      store.pyramid.resize(pyramid);
-      store.texel_count = texel_count;
-      throw;
+  static StoreMark mark(const KindStore<Node, Ex>& k) {
+    return {k.texels.size(), k.nodes.size(), k.chunks.size(), k.tags.size(), k.pyramid.size(), k.texel_count};
+  }
+  template <class Node>
+  static void cut_back(KindStore<Node, Ex>& k, const StoreMark& m) {
+    k.texels.resize(m.texels);
+    k.nodes.resize(m.nodes);
+    k.chunks.resize(m.chunks);
+    k.tags.resize(m.tags);
+    k.pyramid.resize(m.pyramid);
+    k.texel_count = m.texel_count;
+  }
+  // The end of a map placed at `at` in `k` (its header and stats): packed
+  // and chunked keep a header per texel and their nodes or chunk slots,
+  // fixed L slots per texel.
+  static StoreMark mark_after(StoreMark at, const DsmMap& map, const DsmBuildStats& st, const DsmLayoutParams& layout) {
+    const uint64_t texels = uint64_t(map.res) * uint64_t(map.view.height);
+    switch (layout.layout) {
+      case DsmLayout::Fixed: at.nodes += texels * uint64_t(layout.fixed_layers); break;
+      case DsmLayout::Chunked:
+        at.texels += texels;
+        at.chunks += st.chunks * uint64_t(layout.chunk_nodes);
+        break;
+      default: at.texels += texels; at.nodes += st.nodes;
     }
-    m.texel_end = store.texels.size();
-    m.node_end = store.nodes.size();
-    m.chunk_end = store.chunks.size();
-    return m;
+    at.texel_count += texels;
+    return at;
   }
 
   SceneView scene_view() const { return scene_.view(); }

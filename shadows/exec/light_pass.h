@@ -1,24 +1,39 @@
-// The light pass over an executor (shadows/exec/exec.h): one map into one
-// of the three layouts (DESIGN.md §3), the same algorithm on CPU threads
-// and on a GPU. Each texel's light ray is walked once, into a small buffer
-// of K nodes; only a texel with more nodes than that buffer holds is walked
-// again, into the large buffer that re-compresses beyond its bound:
+// The light pass over an executor (shadows/exec/exec.h): a frame's maps
+// into one of the three layouts (DESIGN.md §3), the same algorithm on CPU
+// threads and on a GPU. Each texel's light ray is walked once, into a small
+// buffer of K nodes; only a texel with more nodes than that buffer holds is
+// walked again, into the large buffer that re-compresses beyond its bound.
+// Every map is walked before the host looks at any count, the counters of
+// all of them come back in one read, then the maps are placed:
 //
 //   1. walk     per texel of a batch of tile rows: build_texel into its own
 //               buffer of K = LightPassOptions::walk_nodes (64) nodes and
 //               their tags, no removal (hd/compress.h stop_when_full); a
 //               texel that would need more is listed for step 2;
-//   2. rewalk   the listed texels only, in chunks, each into a buffer of
-//               max_nodes (1024) nodes with the removal heap (where a long
-//               ray is re-compressed, the error bound recorded); each
-//               reserves exactly its node count in the pool with one atomic
+//   2. rewalk   the listed texels only, each into a buffer of max_nodes
+//               (1024) nodes with the removal heap (where a long ray is
+//               re-compressed, the error bound recorded); each reserves
+//               exactly its node count in the map's staging with one atomic
 //               add and writes its nodes there;
 //   3. reserve  per 8x8 tile of the batch: a tile-local prefix sum over its
 //               other texels and one atomic reservation of their total;
-//   4. copy     those texels' nodes from their walk buffers into the pool;
-//   5. layout   packed: the pool is the store's; fixed and chunked: the
-//               pool is a staging array that write_fixed_texel /
-//               write_chunked_tile turn into the layout.
+//   4. copy     those texels' nodes from their walk buffers into staging;
+//   5. layout   fixed: write_fixed_texel from staging into the store's L
+//               slots per texel (their number known beforehand); chunked:
+//               each tile's chunks counted;
+//   6. read     every map's counters, one download (the one host
+//               synchronization of a frame that builds maps);
+//   7. place    packed: staging copied into the store, offsets re-based;
+//               chunked: write_chunked_tile from staging; then the blocker
+//               pyramids.
+//
+// Staging is one array per node kind, kept across frames with its
+// capacity; the maps follow each other in it, each map's first node set on
+// the executor from the previous map's count. A write that would pass the
+// capacity is skipped, the count still taken: when the read shows a map
+// past it (or a texel listed for a second walk before any second-walk
+// buffers exist), the array grows to what the counts say and the walks are
+// done again from that map on (a second read; never in a steady frame).
 //
 // A texel's nodes are those of one walk into a buffer of max_nodes nodes
 // whatever K is: a texel that fits node_limit(K) nodes never removes any,
@@ -33,6 +48,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "exec/exec.h"
 #include "exec/light_pass_options.h"
@@ -46,10 +62,12 @@ namespace cdsm::exec {
 
 // Counters of one build, accumulated in executor memory.
 struct BuildCounters {
-  unsigned long long nodes;         // node slots reserved in the pool (cumulative over the batches)
+  unsigned long long base;          // the map's first node in its kind's staging (the previous map's base + nodes)
+  unsigned long long nodes;         // node slots reserved in staging (cumulative over the batches)
   unsigned long long chunks;        // chunked: chunks reserved
   unsigned long long stored;        // fixed: nodes stored in the layout (packed, chunked: `nodes`)
   uint32_t spilled;                 // this batch: texels listed for the second walk
+  uint32_t spilled_total;           // the map: texels listed for the second walk
   uint32_t rewalked;                // texels walked twice (the map)
   uint32_t layout_overflow_texels;  // fixed: re-compressed to fit L
   uint32_t recompressed_texels;     // by the large buffer's bound or the layout (DsmBuildStats::overflow_texels)
@@ -115,25 +133,51 @@ struct LightPassScratch {
         extra(ex),
         heads(ex),
         tile_first(ex),
-        staging(ex),
-        staging_tags(ex),
+        stage_grey(ex),
+        stage_rgb(ex),
+        stage_tags_grey(ex),
+        stage_tags_rgb(ex),
         walk(ex),
         spill(ex),
         spill_texels(ex),
         counters(ex),
         inside(ex) {}
-  ExecArray<uint32_t, Ex> counts;          // per texel of the map: its nodes before the layout
-  ExecArray<uint32_t, Ex> spilled;         // per texel of the map: 1 walked again, 2 and re-compressed
-  ExecArray<float, Ex> extra;              // per texel of the map: error the large buffer's bound added
-  ExecArray<TexelRange, Ex> heads;         // fixed, chunked: each texel's nodes in `staging`
-  ExecArray<uint32_t, Ex> tile_first;      // chunked: each tile's first chunk (relative to the map's)
-  ExecArray<unsigned char, Ex> staging;    // fixed, chunked: the packed nodes the layout is written from
-  ExecArray<SurfaceTag, Ex> staging_tags;  // their tags
-  ExecArray<unsigned char, Ex> walk;       // the first walk's buffers of one batch
-  ExecArray<unsigned char, Ex> spill;      // the second walk's buffers of one chunk
-  ExecArray<uint32_t, Ex> spill_texels;    // the batch's texels listed for the second walk
-  ExecArray<BuildCounters, Ex> counters;
-  ExecArray<uint32_t, Ex> inside;  // the objects containing the light (over device memory)
+  ExecArray<uint32_t, Ex> counts;             // per texel of the map: its nodes before the layout
+  ExecArray<uint32_t, Ex> spilled;            // per texel of the map: 1 walked again, 2 and re-compressed
+  ExecArray<float, Ex> extra;                 // per texel of the map: error the large buffer's bound added
+  ExecArray<TexelRange, Ex> heads;            // every map's texels: their nodes in staging (from the map's base)
+  ExecArray<uint32_t, Ex> tile_first;         // chunked, every map's tiles: the first chunk (from the map's)
+  ExecArray<unsigned char, Ex> stage_grey;    // the walked nodes of the frame's grey maps, map after map
+  ExecArray<unsigned char, Ex> stage_rgb;     // ... and of its RGB maps
+  ExecArray<SurfaceTag, Ex> stage_tags_grey;  // their tags
+  ExecArray<SurfaceTag, Ex> stage_tags_rgb;
+  ExecArray<unsigned char, Ex> walk;      // the first walk's buffers of one batch
+  ExecArray<unsigned char, Ex> spill;     // the second walk's buffers (none until a texel needs one)
+  ExecArray<uint32_t, Ex> spill_texels;   // the batch's texels listed for the second walk
+  ExecArray<BuildCounters, Ex> counters;  // per map of the frame
+  ExecArray<uint32_t, Ex> inside;         // the objects containing each map's light (over device memory)
+
+  ExecArray<unsigned char, Ex>& stage(bool rgb) { return rgb ? stage_rgb : stage_grey; }
+  ExecArray<SurfaceTag, Ex>& stage_tags(bool rgb) { return rgb ? stage_tags_rgb : stage_tags_grey; }
+  // The staging capacity in nodes of `Node` (node and tag arrays alike).
+  template <class Node>
+  uint64_t stage_capacity() {
+    const bool rgb = Node::kChannels == 3;
+    return std::min<uint64_t>(stage(rgb).capacity() / sizeof(Node), stage_tags(rgb).capacity());
+  }
+  // Staging of `Node` grown to hold `nodes` (by half at least), the nodes
+  // already staged kept: the maps before the first that did not fit are
+  // not walked again.
+  template <class Node>
+  void grow_stage(uint64_t nodes) {
+    const bool rgb = Node::kChannels == 3;
+    ExecArray<unsigned char, Ex>& a = stage(rgb);
+    ExecArray<SurfaceTag, Ex>& t = stage_tags(rgb);
+    a.resize(a.capacity());  // everything within the capacity is content
+    t.resize(t.capacity());
+    a.resize(nodes * sizeof(Node));
+    t.resize(nodes);
+  }
 };
 
 // Nodes a baseline texel can hold at once (hd/baselines.h): a first walk
@@ -163,18 +207,19 @@ struct TexelWalks {
   FragmentLists frags;
   int res = 0, height = 0, tiles_x = 0;
   int K = 0;                  // the buffer's nodes
-  uint64_t first = 0;         // first walks: the batch's first tile; second: the chunk's first listed texel
+  uint64_t first = 0;         // first walks: the batch's first tile
+  uint32_t threads = 0;       // second walks: the buffers (each walks every threads-th listed texel)
   bool layout_counts = true;  // packed and chunked store the nodes as built (fixed counts in its own pass)
-  uint64_t pool_base = 0;     // the pool's nodes before this map (packed: the store's)
+  uint64_t capacity = 0;      // staging's nodes (a write past them is skipped, its count kept)
   uint32_t* counts = nullptr;
   uint32_t* spilled = nullptr;  // per texel: 0, 1 walked again, 2 walked again and re-compressed
   float* extra = nullptr;
   TexelRange* heads = nullptr;
   BuildCounters* ctr = nullptr;
-  unsigned char* buffers = nullptr;  // first walks: the batch's; second: the chunk's
+  unsigned char* buffers = nullptr;  // first walks: the batch's; second: one per thread
   uint64_t slot_bytes = 0;
   uint32_t* spill_texels = nullptr;
-  Node* pool = nullptr;  // second walk: the pool (its capacity holds the chunk's worst case)
+  Node* pool = nullptr;  // second walk: staging (the map's nodes from ctr->base)
   SurfaceTag* pool_tags = nullptr;
 
   // Texel k of the batch whose first tile is `tile0`, in tile order (64
@@ -202,6 +247,7 @@ struct TexelWalks {
     if (buf.removed > 0) {
       spilled[i] = 1u;
       spill_texels[atomic_add(&ctr->spilled, 1u)] = uint32_t(i);
+      atomic_add(&ctr->spilled_total, 1u);
       return;
     }
     // (no per-texel sums here: an atomic add on one counter from every
@@ -246,14 +292,17 @@ struct BaselineWalk {
   }
 };
 
-// Second walk of a listed texel into the large buffer (either kind removes
-// through the heap: one overflow policy), reserved exactly in the pool and
-// written there.
+// Second walks of the batch's listed texels (their number is on the
+// executor: thread idx walks every threads-th of them with buffer idx) into
+// the large buffer (either kind removes through the heap: one overflow
+// policy), each reserved exactly in staging and written there.
 template <class Node>
 struct SecondWalk {
   TexelWalks<Node> w;
   CDSM_HD void operator()(uint64_t idx) const {
-    const uint64_t i = w.spill_texels[w.first + idx];
+    for (uint64_t k = idx; k < w.ctr->spilled; k += w.threads) walk_one(idx, w.spill_texels[k]);
+  }
+  CDSM_HD void walk_one(uint64_t idx, uint64_t i) const {
     const int tx = int(i % uint64_t(w.res)), ty = int(i / uint64_t(w.res));
     auto buf = NodeKind<Node>::buffer(w.buffers + idx * w.slot_bytes, w.K, true);
     WalkStats st;
@@ -263,12 +312,14 @@ struct SecondWalk {
     w.counts[i] = n;
     w.extra[i] = buf.extra_error;
     w.spilled[i] = recompressed ? 2u : 1u;
-    const uint32_t at = uint32_t(w.pool_base + atomic_add(&w.ctr->nodes, (unsigned long long)n));
-    w.heads[i] = TexelRange{at, n};
-    for (uint32_t j = 0; j < n; ++j) {
-      w.pool[at + j] = buf.nodes[j];
-      w.pool_tags[at + j] = buf.tags[j];
-    }
+    const uint64_t rel = atomic_add(&w.ctr->nodes, (unsigned long long)n);
+    w.heads[i] = TexelRange{uint32_t(rel), n};
+    const uint64_t at = w.ctr->base + rel;
+    if (at + n <= w.capacity)
+      for (uint32_t j = 0; j < n; ++j) {
+        w.pool[at + j] = buf.nodes[j];
+        w.pool_tags[at + j] = buf.tags[j];
+      }
     atomic_add(&w.ctr->rewalked, 1u);
     atomic_max(&w.ctr->max_built_nodes, n);
     if (w.layout_counts) {
@@ -323,16 +374,36 @@ uint64_t build_blocker_pyramid(Ex& ex, KindStore<Node, Ex>& out, const DsmMap& m
   return pyramid_cells(w, h) * sizeof(float);
 }
 
-// Builds one map from its light-view fragment lists (exec memory; sorted in
-// place) into `out` in `layout`. `scene`, `params.inside` and `frags` are
-// spans in executor memory. The map's header goes to `map`.
+// One map of a frame's builds: its inputs (spans in executor memory; the
+// lists are sorted in place).
+struct MapBuildInput {
+  LightPassParams params;
+  FragmentLists frags;
+};
+
+// Where a map of the batch keeps its parts between the walk and its
+// placement (host side).
+struct BatchEntry {
+  bool rgb = false;
+  int prev = -1;              // the previous map of the same kind in the batch (its base + nodes is this one's base)
+  uint64_t heads_at = 0;      // its texels in LightPassScratch::heads
+  uint64_t tiles_at = 0;      // chunked: its tiles in LightPassScratch::tile_first
+  uint64_t texel_offset = 0;  // fixed: its first texel in the store (the slots are placed by the walk)
+  // The kind's store as it was before this map's walk (fixed grows it):
+  // where a second round of walks cuts it back to.
+  uint64_t store_nodes = 0, store_tags = 0, store_texels = 0;
+};
+
+// Steps 1-5 of one map (its counters at `ctr`, zeroed; the previous map's
+// of the same kind at `prev`, or null). No read-back: every count stays on
+// the executor.
 template <class Node, class Ex>
-DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassParams& params, FragmentLists frags,
-                             const DsmLayoutParams& layout, const LightPassOptions& opt, KindStore<Node, Ex>& out,
-                             DsmMap& map, LightPassScratch<Ex>& s) {
+void walk_map_exec(Ex& ex, const SceneView& scene, const LightPassParams& params, FragmentLists frags,
+                   const DsmLayoutParams& layout, const LightPassOptions& opt, KindStore<Node, Ex>& out,
+                   LightPassScratch<Ex>& s, BatchEntry& b, BuildCounters* ctr, const BuildCounters* prev) {
   using Kind = NodeKind<Node>;
-  using Chunk = typename Kind::Chunk;
   const DsmLayout kind = layout.layout;
+  const bool rgb = Node::kChannels == 3;
   const int res = params.view.width, height = params.view.height;
   const int tiles_x = (res + kDsmTile - 1) / kDsmTile, tiles_y = (height + kDsmTile - 1) / kDsmTile;
   const uint64_t n_texels = uint64_t(res) * uint64_t(height);
@@ -344,53 +415,27 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
   if (K < 4 || K2 < K)
     throw std::invalid_argument("light pass: the walk buffers must hold >= 4 nodes, the second >= the first");
 
-  map = DsmMap{};
-  map.view = params.view;
-  map.res = uint32_t(res);
-  map.rgb = params.rgb ? 1u : 0u;
-  map.texel_offset = out.texel_count;
+  b.store_nodes = out.nodes.size();
+  b.store_tags = out.tags.size();
+  b.store_texels = out.texel_count;
 
   s.counts.resize_discard(n_texels);
   s.spilled.resize_discard(n_texels);
   s.extra.resize_discard(n_texels);
-  s.counters.resize_discard(1);
   ex.fill_zero(s.spilled.data(), s.spilled.bytes());
   ex.fill_zero(s.extra.data(), s.extra.bytes());
-  ex.fill_zero(s.counters.data(), s.counters.bytes());
   uint32_t* counts = s.counts.data();
   uint32_t* spilled = s.spilled.data();
   float* extra = s.extra.data();
-  BuildCounters* ctr = s.counters.data();
+  TexelRange* heads = s.heads.data() + b.heads_at;
 
-  // The pool the walks write: packed, the store's nodes; fixed and chunked,
-  // the staging array. Headers: packed, the store's; else the scratch's.
-  const uint64_t pool_base = kind == DsmLayout::Packed ? out.nodes.size() : 0;
-  if (kind != DsmLayout::Fixed) out.texels.resize(out.texels.size() + n_texels);
-  if (kind != DsmLayout::Packed) {
-    s.heads.resize_discard(n_texels);
-    s.staging.resize_discard(0);
-    s.staging_tags.resize_discard(0);
-  }
-  TexelRange* heads = kind == DsmLayout::Packed ? out.texels.data() + map.texel_offset : s.heads.data();
-  uint64_t pool_used = 0;  // nodes reserved in the pool so far (beyond pool_base)
-  // The pool grown to hold `nodes` beyond pool_base (contents kept).
-  const auto pool_size = [&](uint64_t nodes) {
-    if (kind == DsmLayout::Packed) {
-      check_u32_total(pool_base + nodes, "nodes");
-      out.nodes.resize(pool_base + nodes);
-      out.tags.resize(pool_base + nodes);
-    } else {
-      check_u32_total(nodes, "staged nodes");
-      s.staging.resize(nodes * sizeof(Node));
-      s.staging_tags.resize(nodes);
-    }
-  };
-  const auto pool_nodes = [&]() -> Node* {
-    return kind == DsmLayout::Packed ? out.nodes.data() : reinterpret_cast<Node*>(s.staging.data());
-  };
-  const auto pool_tags = [&]() -> SurfaceTag* {
-    return kind == DsmLayout::Packed ? out.tags.data() : s.staging_tags.data();
-  };
+  // The map's first node in staging: after the previous map's, on the executor.
+  ex.parallel_for(
+      "light pass: staging base", 1, CDSM_LAMBDA(uint64_t) { ctr->base = prev ? prev->base + prev->nodes : 0ull; });
+
+  const uint64_t capacity = s.template stage_capacity<Node>();
+  Node* pool = reinterpret_cast<Node*>(s.stage(rgb).data());
+  SurfaceTag* pool_tags = s.stage_tags(rgb).data();
 
   TexelWalks<Node> work;
   work.scene = scene;
@@ -400,20 +445,23 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
   work.height = height;
   work.tiles_x = tiles_x;
   work.layout_counts = kind != DsmLayout::Fixed;
-  work.pool_base = pool_base;
+  work.capacity = capacity;
   work.counts = counts;
   work.spilled = spilled;
   work.extra = extra;
   work.heads = heads;
   work.ctr = ctr;
+  work.pool = pool;
+  work.pool_tags = pool_tags;
 
   const uint64_t walk_bytes = Kind::buffer_bytes(K, false);
   const uint64_t rewalk_bytes = Kind::buffer_bytes(K2, true);
   const uint64_t row_texels = uint64_t(tiles_x) * kDsmTile * kDsmTile;  // a row of tiles, its edge included
   const uint64_t batch_bytes = opt.batch_bytes ? opt.batch_bytes : Ex::kLightPassBatchBytes;
   const uint64_t rows_per_batch = std::max<uint64_t>(1, batch_bytes / std::max<uint64_t>(1, row_texels * walk_bytes));
-  const uint64_t chunk_texels = std::max<uint64_t>(1, batch_bytes / rewalk_bytes);
-  BuildCounters c{};
+  // Second-walk buffers: as many as the spill array holds (at least one:
+  // build_maps_exec grows it to the texels a frame walked again).
+  const uint64_t spill_threads = s.spill.capacity() / rewalk_bytes;
   for (int row0 = 0; row0 < tiles_y; row0 += int(rows_per_batch)) {
     const int row1 = std::min<int>(tiles_y, row0 + int(rows_per_batch));
     const uint64_t tile0 = uint64_t(row0) * uint64_t(tiles_x), tiles = uint64_t(row1 - row0) * uint64_t(tiles_x);
@@ -435,25 +483,16 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
     } else {
       ex.parallel_for("light pass: walk", batch, FirstWalk<Node>{work});
     }
-    ex.download(&c, ctr, sizeof c);
-    // 2. rewalk the listed texels, a chunk at a time, into the pool.
-    if (c.spilled > 0) {
-      work.K = K2;
-      work.slot_bytes = rewalk_bytes;
-      for (uint64_t f = 0; f < c.spilled; f += chunk_texels) {
-        const uint64_t n = std::min<uint64_t>(chunk_texels, c.spilled - f);
-        s.spill.resize_discard(n * rewalk_bytes);
-        pool_size(pool_used + n * uint64_t(node_limit(K2)));  // the chunk's worst case; trimmed below
-        work.first = f;
-        work.buffers = s.spill.data();
-        work.pool = pool_nodes();
-        work.pool_tags = pool_tags();
-        ex.parallel_for("light pass: walk again", n, SecondWalk<Node>{work});
-        ex.download(&c, ctr, sizeof c);
-        pool_used = c.nodes;
-      }
+    // 2. walk the listed texels again (their number is on the executor).
+    if (spill_threads > 0) {
+      TexelWalks<Node> again = work;
+      again.K = K2;
+      again.slot_bytes = rewalk_bytes;
+      again.buffers = s.spill.data();
+      again.threads = uint32_t(spill_threads);
+      ex.parallel_for("light pass: walk again", spill_threads, SecondWalk<Node>{again});
     }
-    // 3. reserve the tiles' other texels.
+    // 3. reserve the tiles' other texels (offsets from the map's base).
     ex.parallel_for(
         "light pass: reserve tiles", tiles, CDSM_LAMBDA(uint64_t k) {
           const uint64_t tile = tile0 + k;
@@ -464,7 +503,7 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
             const uint64_t t = uint64_t(ty) * res + tx;
             if (tx < res && ty < height && spilled[t] == 0u) total += counts[t];
           }
-          uint64_t at = pool_base + atomic_add(&ctr->nodes, (unsigned long long)total);
+          uint64_t at = atomic_add(&ctr->nodes, (unsigned long long)total);
           for (int j = 0; j < kDsmTile * kDsmTile; ++j) {
             const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
             const uint64_t t = uint64_t(ty) * res + tx;
@@ -473,12 +512,7 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
             at += counts[t];
           }
         });
-    ex.download(&c, ctr, sizeof c);
-    pool_used = c.nodes;
-    pool_size(pool_used);
-    // 4. copy the walked texels' nodes.
-    Node* pn = pool_nodes();
-    SurfaceTag* pt = pool_tags();
+    // 4. copy the walked texels' nodes into staging (within its capacity).
     const unsigned char* walk_mem = s.walk.data();
     const TexelWalks<Node> at = work;
     ex.parallel_for(
@@ -488,29 +522,35 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
           const uint64_t t = uint64_t(ty) * uint64_t(res) + uint64_t(tx);
           if (spilled[t] != 0u) return;
           const TexelRange h = heads[t];
+          const uint64_t first = ctr->base + h.offset;
+          if (first + h.count > capacity) return;
           const auto buf = Kind::buffer(const_cast<unsigned char*>(walk_mem) + k * walk_bytes, K, false);
           for (uint32_t j = 0; j < h.count; ++j) {
-            pn[h.offset + j] = buf.nodes[j];
-            pt[h.offset + j] = buf.tags[j];
+            pool[first + j] = buf.nodes[j];
+            pool_tags[first + j] = buf.tags[j];
           }
         });
   }
-  const uint64_t total = pool_used;
 
-  // 5. the layout.
+  // 5. the layout's part that needs no count from the host.
   if (kind == DsmLayout::Fixed) {
+    b.texel_offset = out.texel_count;
     const uint64_t first_slot = out.nodes.size();
     out.nodes.resize(first_slot + n_texels * L);
     out.tags.resize(out.nodes.size());
+    out.texel_count += n_texels;
     Node* slots = out.nodes.data() + first_slot;
     SurfaceTag* slot_tags = out.tags.data() + first_slot;
     const float eps = params.epsilon;
-    const Node* staging = reinterpret_cast<const Node*>(s.staging.data());
-    const SurfaceTag* staging_tags = s.staging_tags.data();
     ex.parallel_for(
         "light pass: fixed layout", n_texels, CDSM_LAMBDA(uint64_t i) {
           const TexelRange h = heads[i];
-          FixedFit fit = write_fixed_texel(Span<const Node>{staging + h.offset, h.count}, staging_tags + h.offset, eps,
+          const uint64_t first = ctr->base + h.offset;
+          if (first + h.count > capacity) {  // staging overflowed: the map is walked again
+            counts[i] = 0;
+            return;
+          }
+          FixedFit fit = write_fixed_texel(Span<const Node>{pool + first, h.count}, pool_tags + first, eps,
                                            slots + i * L, slot_tags + i * L, int(L));
           counts[i] = uint32_t(fit.count);  // summed per tile below
           atomic_max(&ctr->max_nodes, uint32_t(fit.count));
@@ -532,28 +572,74 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
         });
   } else if (kind == DsmLayout::Chunked) {
     // Each tile reserves the chunks of all its nodes (Alg. 4.1, hd/dsm_chunked.h).
-    s.tile_first.resize_discard(n_tiles);
-    uint32_t* tile_first = s.tile_first.data();
+    uint32_t* tile_first = s.tile_first.data() + b.tiles_at;
     ex.parallel_for(
         "light pass: reserve chunks", n_tiles, CDSM_LAMBDA(uint64_t tile) {
           const int x0 = int(tile % uint64_t(tiles_x)) * kDsmTile, y0 = int(tile / uint64_t(tiles_x)) * kDsmTile;
           uint32_t n = 0;
           for (int j = 0; j < kDsmTile * kDsmTile; ++j) {
             const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
-            if (tx < res && ty < height) n += counts[uint64_t(ty) * res + tx];
+            if (tx < res && ty < height) n += heads[uint64_t(ty) * res + tx].count;
           }
           tile_first[tile] = uint32_t(atomic_add(&ctr->chunks, (unsigned long long)tile_chunks(n, C)));
         });
-    ex.download(&c, ctr, sizeof c);
-    const uint64_t chunk_base = out.chunks.size();  // slots
+  }
+}
+
+// Whether map `c`'s walk has to be done again: staging was too small for it.
+inline bool walk_overflowed(const BuildCounters& c, uint64_t capacity) { return c.base + c.nodes > capacity; }
+
+// Step 7 of one map whose counters `c` were read: placed into `out`, its
+// header into `map`; its stats.
+template <class Node, class Ex>
+DsmBuildStats place_map_exec(Ex& ex, const LightPassParams& params, const DsmLayoutParams& layout,
+                             KindStore<Node, Ex>& out, LightPassScratch<Ex>& s, const BatchEntry& b,
+                             const BuildCounters& c, DsmMap& map) {
+  using Chunk = typename NodeKind<Node>::Chunk;
+  const DsmLayout kind = layout.layout;
+  const bool rgb = Node::kChannels == 3;
+  const int res = params.view.width, height = params.view.height;
+  const int tiles_x = (res + kDsmTile - 1) / kDsmTile, tiles_y = (height + kDsmTile - 1) / kDsmTile;
+  const uint64_t n_texels = uint64_t(res) * uint64_t(height);
+  const uint64_t n_tiles = uint64_t(tiles_x) * uint64_t(tiles_y);
+  const uint32_t L = uint32_t(layout.fixed_layers), C = uint32_t(layout.chunk_nodes);
+  const Node* staging = reinterpret_cast<const Node*>(s.stage(rgb).data()) + c.base;
+  const SurfaceTag* staging_tags = s.stage_tags(rgb).data() + c.base;
+  const TexelRange* heads = s.heads.data() + b.heads_at;
+
+  map = DsmMap{};
+  map.view = params.view;
+  map.res = uint32_t(res);
+  map.rgb = params.rgb ? 1u : 0u;
+  map.texel_offset = kind == DsmLayout::Fixed ? b.texel_offset : out.texel_count;
+
+  if (kind == DsmLayout::Packed) {
+    const uint64_t node_base = out.nodes.size(), texel_base = out.texels.size();
+    check_u32_total(node_base + c.nodes, "nodes");
+    out.texels.resize(texel_base + n_texels);
+    out.nodes.resize(node_base + c.nodes);
+    out.tags.resize(node_base + c.nodes);
+    if (c.nodes) {
+      ex.copy(out.nodes.data() + node_base, staging, c.nodes * sizeof(Node));
+      ex.copy(out.tags.data() + node_base, staging_tags, c.nodes * sizeof(SurfaceTag));
+    }
+    TexelRange* store_heads = out.texels.data() + texel_base;
+    const uint32_t base = uint32_t(node_base);
+    ex.parallel_for(
+        "light pass: place", n_texels, CDSM_LAMBDA(uint64_t i) {
+          store_heads[i] = TexelRange{base + heads[i].offset, heads[i].count};
+        });
+    out.texel_count += n_texels;
+  } else if (kind == DsmLayout::Chunked) {
+    const uint64_t chunk_base = out.chunks.size(), texel_base = out.texels.size();  // slots
     check_u32_total(chunk_base + c.chunks * C, "chunk slots");
+    out.texels.resize(texel_base + n_texels);
     out.chunks.resize(chunk_base + c.chunks * C);
     out.tags.resize(out.chunks.size());
     Chunk* pool = out.chunks.data();
     SurfaceTag* chunk_tags = out.tags.data();
-    TexelRange* store_heads = out.texels.data() + map.texel_offset;
-    const Node* staging = reinterpret_cast<const Node*>(s.staging.data());
-    const SurfaceTag* staging_tags = s.staging_tags.data();
+    TexelRange* store_heads = out.texels.data() + texel_base;
+    const uint32_t* tile_first = s.tile_first.data() + b.tiles_at;
     // A thread per texel (write_chunked_texel: the tile writer's slots).
     ex.parallel_for(
         "light pass: chunked layout", n_tiles * kChunkTileTexels, CDSM_LAMBDA(uint64_t idx) {
@@ -574,10 +660,9 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
                               uint32_t(chunk_base + uint64_t(tile_first[tile]) * C), C, pool, chunk_tags, head);
           if (in) store_heads[t] = head;
         });
+    out.texel_count += n_texels;
   }
-  out.texel_count += n_texels;
 
-  ex.download(&c, ctr, sizeof c);
   DsmBuildStats stats;
   stats.layout = kind;
   stats.rgb = params.rgb;
@@ -608,13 +693,115 @@ DsmBuildStats build_map_exec(Ex& ex, const SceneView& scene, const LightPassPara
       break;
     default:
       stats.index_bytes = n_texels * sizeof(TexelRange);
-      stats.node_bytes_allocated = total * sizeof(Node);
+      stats.node_bytes_allocated = c.nodes * sizeof(Node);
       stats.node_bytes_used = stats.nodes * sizeof(Node);
-      stats.tag_bytes = total * sizeof(SurfaceTag);
+      stats.tag_bytes = c.nodes * sizeof(SurfaceTag);
   }
   stats.slack_bytes = stats.node_bytes_allocated - stats.node_bytes_used;
   stats.pyramid_bytes = build_blocker_pyramid(ex, out, map, kind, L, params.blocker_pyramid);
   return stats;
+}
+
+// Builds `n` maps (grey and RGB, one layout) into the stores: every map
+// walked, every counter read in one download, every map placed (the steps
+// above). maps[i] and stats[i] are map i's header and stats. Throws on
+// bad options or a failed allocation or launch; the caller cuts the
+// stores back (ExecBackend::build_maps).
+template <class Ex>
+void build_maps_exec(Ex& ex, const SceneView& scene, const MapBuildInput* in, size_t n, const DsmLayoutParams& layout,
+                     const LightPassOptions& opt, KindStore<DsmNode, Ex>& grey, KindStore<DsmNodeRgb, Ex>& rgb,
+                     LightPassScratch<Ex>& s, DsmMap* maps, DsmBuildStats* stats) {
+  if (n == 0) return;
+  std::vector<BatchEntry> batch(n);
+  uint64_t texels = 0, tiles = 0, stage_nodes[2] = {0, 0};
+  int last[2] = {-1, -1};
+  for (size_t i = 0; i < n; ++i) {
+    const PinholeView& v = in[i].params.view;
+    const uint64_t w = uint64_t(v.width), h = uint64_t(v.height);
+    BatchEntry& b = batch[i];
+    b.rgb = in[i].params.rgb;
+    b.prev = last[b.rgb];
+    last[b.rgb] = int(i);
+    b.heads_at = texels;
+    b.tiles_at = tiles;
+    texels += w * h;
+    tiles += ((w + kDsmTile - 1) / kDsmTile) * ((h + kDsmTile - 1) / kDsmTile);
+    stage_nodes[b.rgb] += 2 * w * h;  // a first guess of two nodes a texel (the counts correct it)
+  }
+  s.heads.resize_discard(texels);
+  // One second-walk buffer at least (a texel that needs it is walked, one
+  // at a time, before the read shows how many there were).
+  const uint64_t rewalk_bytes = std::max(NodeKind<DsmNode>::buffer_bytes(opt.max_nodes, true),
+                                         NodeKind<DsmNodeRgb>::buffer_bytes(opt.max_nodes, true));
+  if (s.spill.capacity() < rewalk_bytes) s.spill.resize_discard(rewalk_bytes);
+  if (layout.layout == DsmLayout::Chunked) s.tile_first.resize_discard(tiles);
+  s.counters.resize_discard(n);
+  // Staging that was never used starts at the guess; after that it grows
+  // only when a read says so (a steady frame allocates nothing).
+  for (int k = 0; k < 2; ++k)
+    if (stage_nodes[k] && s.stage(k).capacity() == 0) {
+      s.stage(k).resize_discard(stage_nodes[k] * (k ? sizeof(DsmNodeRgb) : sizeof(DsmNode)));
+      s.stage_tags(k).resize_discard(stage_nodes[k]);
+    }
+
+  std::vector<BuildCounters> c(n);
+  const auto capacity = [&](size_t i) {
+    return batch[i].rgb ? s.template stage_capacity<DsmNodeRgb>() : s.template stage_capacity<DsmNode>();
+  };
+  const auto cut_back = [&](auto& store, uint64_t nodes, uint64_t tags, uint64_t texel_count) {
+    store.nodes.resize(nodes);
+    store.tags.resize(tags);
+    store.texel_count = texel_count;
+  };
+  size_t from = 0;  // the first map to walk (again)
+  for (int round = 0;; ++round) {
+    ex.fill_zero(s.counters.data() + from, (n - from) * sizeof(BuildCounters));
+    for (size_t i = from; i < n; ++i) {
+      BuildCounters* ctr = s.counters.data() + i;
+      const BuildCounters* prev = batch[i].prev >= 0 ? s.counters.data() + batch[i].prev : nullptr;
+      if (batch[i].rgb)
+        walk_map_exec(ex, scene, in[i].params, in[i].frags, layout, opt, rgb, s, batch[i], ctr, prev);
+      else
+        walk_map_exec(ex, scene, in[i].params, in[i].frags, layout, opt, grey, s, batch[i], ctr, prev);
+    }
+    ex.download(c.data(), s.counters.data(), n * sizeof(BuildCounters));  // 6. the one read
+    size_t bad = n;
+    for (size_t i = from; i < n && bad == n; ++i)
+      if (walk_overflowed(c[i], capacity(i))) bad = i;
+    if (bad == n) break;
+    if (round == 2)
+      throw std::logic_error("light pass: map " + std::to_string(bad) + " still overflows staging after it grew");
+    // Grow what was short (to the counts, or by half) and walk again from
+    // the first map that did not fit; the store back to where it was then.
+    uint64_t need[2] = {0, 0};
+    for (size_t i = 0; i < n; ++i) need[batch[i].rgb] = std::max<uint64_t>(need[batch[i].rgb], c[i].base + c[i].nodes);
+    check_u32_total(std::max(need[0], need[1]), "staged nodes");
+    if (need[0] > s.template stage_capacity<DsmNode>()) s.template grow_stage<DsmNode>(need[0]);
+    if (need[1] > s.template stage_capacity<DsmNodeRgb>()) s.template grow_stage<DsmNodeRgb>(need[1]);
+    for (int k = 0; k < 2; ++k)
+      for (size_t i = bad; i < n; ++i)
+        if (int(batch[i].rgb) == k) {
+          if (k)
+            cut_back(rgb, batch[i].store_nodes, batch[i].store_tags, batch[i].store_texels);
+          else
+            cut_back(grey, batch[i].store_nodes, batch[i].store_tags, batch[i].store_texels);
+          break;
+        }
+    from = bad;
+  }
+  // Second-walk buffers for as many texels as a map's batch listed (up to
+  // the batch's bytes), for the next build.
+  uint64_t spilled = 0;
+  for (const BuildCounters& k : c) spilled = std::max<uint64_t>(spilled, k.spilled_total);
+  const uint64_t batch_bytes = opt.batch_bytes ? opt.batch_bytes : Ex::kLightPassBatchBytes;
+  const uint64_t threads = std::min<uint64_t>(spilled, std::max<uint64_t>(1, batch_bytes / rewalk_bytes));
+  if (s.spill.capacity() < threads * rewalk_bytes) s.spill.resize_discard(threads * rewalk_bytes);
+  for (size_t i = 0; i < n; ++i) {  // 7. place
+    if (batch[i].rgb)
+      stats[i] = place_map_exec(ex, in[i].params, layout, rgb, s, batch[i], c[i], maps[i]);
+    else
+      stats[i] = place_map_exec(ex, in[i].params, layout, grey, s, batch[i], c[i], maps[i]);
+  }
 }
 
 }  // namespace cdsm::exec

@@ -315,6 +315,55 @@ void expect_pyramid(const HostBackend& ex, MapId id, bool built, const std::stri
   EXPECT_EQ(p.wrong, 0) << what << ": first " << p.first;
 }
 
+// A frame's maps built together (build_maps: grey and RGB in one call,
+// every layout): each is the serial walk's, and their counters come back in
+// one read once staging holds them. The first call reads twice (the depth
+// scene passes staging's first guess of two nodes a texel, and its texels
+// walked twice need the second walk's buffers, which do not exist yet); the
+// same maps again read once and allocate nothing.
+TEST(ExecBackend, MapsBuiltTogetherReadTheirCountersOnce) {
+  OneView v(parity::load("depth", 48, 32, 24), 0.0005f);
+  // A shadow map first (a node or two a texel: within staging's first
+  // guess); the grey DSM after it passes the guess (walked again, the
+  // first not); RGB maps have their own staging.
+  std::vector<LightPassParams> params(3, v.params);
+  params[0].method = ShadowMethod::ShadowMap;
+  params[0].blocker_pyramid = true;
+  params[2].rgb = true;
+  std::vector<std::vector<SerialTexel>> serial;
+  for (const LightPassParams& p : params) serial.push_back(serial_map(v.sb, p, v.frags, kTexelNodeCapacity));
+  for (DsmLayout kind : {DsmLayout::Packed, DsmLayout::Fixed, DsmLayout::Chunked}) {
+    HostBackend ex("cpu");
+    ex.update_scene(v.sb, SceneChange::all());
+    ex.light_pass().walk_nodes = 8;  // texels walked twice as well
+    for (int call = 0; call < 2; ++call) {
+      const std::string what = std::string(tag_name(kind)) + (call ? ", again" : ", first call");
+      std::vector<ShadowBackend::MapBuild> builds;
+      for (const LightPassParams& p : params) builds.push_back({p, ex.adopt_lists(FragmentBuffers(v.frags))});
+      std::vector<MapId> ids(builds.size());
+      std::vector<DsmBuildStats> stats(builds.size());
+      const exec::ExecCounters before = ex.executor().counters;
+      ex.build_maps(builds.data(), builds.size(), layout_params(kind), ids.data(), stats.data());
+      const exec::ExecCounters d = ex.executor().counters.since(before);
+      for (size_t i = 0; i < ids.size(); ++i) {
+        expect_map_equals_serial(ex, ids[i], serial[i], layout_params(kind), params[i].epsilon,
+                                 what + ", map " + std::to_string(i));
+        if (kind != DsmLayout::Fixed) EXPECT_EQ(stats[i].nodes, totals(serial[i]).nodes) << what << ", map " << i;
+        if (i > 0) EXPECT_GT(stats[i].rewalked_texels, 0u) << what << ", map " << i;
+      }
+      expect_pyramid(ex, ids[0], true, what);
+      std::printf("[ together ] %s: nodes %llu %llu %llu for %llu texels each, %llu reads\n", what.c_str(),
+                  (unsigned long long)stats[0].nodes, (unsigned long long)stats[1].nodes,
+                  (unsigned long long)stats[2].nodes, (unsigned long long)stats[0].texels, (unsigned long long)d.syncs);
+      EXPECT_EQ(d.syncs, call ? 1u : 2u) << what;
+      EXPECT_EQ(d.bytes_down, d.syncs * builds.size() * sizeof(exec::BuildCounters)) << what;
+      if (call) EXPECT_EQ(d.allocations, 0u) << what;
+      ex.free_maps(ids);
+      for (const ShadowBackend::MapBuild& b : builds) ex.free_lists(b.lists);
+    }
+  }
+}
+
 // Freed maps leave holes; compaction moves the rest (offsets, chunk links,
 // tags and blocker pyramids re-based) and they read as the serial walk, in
 // every layout.
