@@ -13,27 +13,28 @@
 //   2. rewalk   the listed texels only, each into a buffer of max_nodes
 //               (1024) nodes with the removal heap (where a long ray is
 //               re-compressed, the error bound recorded); each reserves
-//               exactly its node count in the map's staging with one atomic
-//               add and writes its nodes there;
+//               exactly its node count in the pool with one atomic add and
+//               writes its nodes there;
 //   3. reserve  per 8x8 tile of the batch: a tile-local prefix sum over its
 //               other texels and one atomic reservation of their total;
-//   4. copy     those texels' nodes from their walk buffers into staging;
+//   4. copy     those texels' nodes from their walk buffers into the pool:
+//               packed, the store's node array itself; fixed and chunked,
+//               a staging array;
 //   5. layout   fixed: write_fixed_texel from staging into the store's L
 //               slots per texel (their number known beforehand); chunked:
 //               each tile's chunks counted;
 //   6. read     every map's counters, one download (the one host
 //               synchronization of a frame that builds maps);
-//   7. place    packed: staging copied into the store, offsets re-based;
-//               chunked: write_chunked_tile from staging; then the blocker
-//               pyramids.
+//   7. place    packed: the store's size set to its nodes; chunked:
+//               write_chunked_tile from staging; then the blocker pyramids.
 //
-// Staging is one array per node kind, kept across frames with its
-// capacity; the maps follow each other in it, each map's first node set on
-// the executor from the previous map's count. A write that would pass the
-// capacity is skipped, the count still taken: when the read shows a map
-// past it (or a texel listed for a second walk before any second-walk
-// buffers exist), the array grows to what the counts say and the walks are
-// done again from that map on (a second read; never in a steady frame).
+// The pool keeps its capacity across frames (the store's, or staging: one
+// array per node kind); the maps follow each other in it, each map's first
+// node set on the executor from the previous map's count. A write that
+// would pass the capacity is skipped, the count still taken: when the read
+// shows a map past it, the pool grows to what the counts say and the walks
+// are done again from that map on (a second read: the first build, or maps
+// that outgrow what the pool held before).
 //
 // A texel's nodes are those of one walk into a buffer of max_nodes nodes
 // whatever K is: a texel that fits node_limit(K) nodes never removes any,
@@ -156,6 +157,9 @@ struct LightPassScratch {
   ExecArray<uint32_t, Ex> spill_texels;   // the batch's texels listed for the second walk
   ExecArray<BuildCounters, Ex> counters;  // per map of the frame
   ExecArray<uint32_t, Ex> inside;         // the objects containing each map's light (over device memory)
+  // Nodes per texel of the last build, per node kind: the guess of how many
+  // the next needs (before any build: two).
+  double nodes_per_texel[2] = {2.0, 2.0};
 
   ExecArray<unsigned char, Ex>& stage(bool rgb) { return rgb ? stage_rgb : stage_grey; }
   ExecArray<SurfaceTag, Ex>& stage_tags(bool rgb) { return rgb ? stage_tags_rgb : stage_tags_grey; }
@@ -210,7 +214,8 @@ struct TexelWalks {
   uint64_t first = 0;         // first walks: the batch's first tile
   uint32_t threads = 0;       // second walks: the buffers (each walks every threads-th listed texel)
   bool layout_counts = true;  // packed and chunked store the nodes as built (fixed counts in its own pass)
-  uint64_t capacity = 0;      // staging's nodes (a write past them is skipped, its count kept)
+  uint64_t capacity = 0;      // the pool's nodes (a write past them is skipped, its count kept)
+  bool absolute = false;      // packed: heads hold pool offsets (the store's); else offsets from ctr->base
   uint32_t* counts = nullptr;
   uint32_t* spilled = nullptr;  // per texel: 0, 1 walked again, 2 walked again and re-compressed
   float* extra = nullptr;
@@ -219,7 +224,7 @@ struct TexelWalks {
   unsigned char* buffers = nullptr;  // first walks: the batch's; second: one per thread
   uint64_t slot_bytes = 0;
   uint32_t* spill_texels = nullptr;
-  Node* pool = nullptr;  // second walk: staging (the map's nodes from ctr->base)
+  Node* pool = nullptr;  // second walk: the pool (the map's nodes from ctr->base)
   SurfaceTag* pool_tags = nullptr;
 
   // Texel k of the batch whose first tile is `tile0`, in tile order (64
@@ -313,8 +318,8 @@ struct SecondWalk {
     w.extra[i] = buf.extra_error;
     w.spilled[i] = recompressed ? 2u : 1u;
     const uint64_t rel = atomic_add(&w.ctr->nodes, (unsigned long long)n);
-    w.heads[i] = TexelRange{uint32_t(rel), n};
     const uint64_t at = w.ctr->base + rel;
+    w.heads[i] = TexelRange{uint32_t(w.absolute ? at : rel), n};
     if (at + n <= w.capacity)
       for (uint32_t j = 0; j < n; ++j) {
         w.pool[at + j] = buf.nodes[j];
@@ -388,10 +393,10 @@ struct BatchEntry {
   int prev = -1;              // the previous map of the same kind in the batch (its base + nodes is this one's base)
   uint64_t heads_at = 0;      // its texels in LightPassScratch::heads
   uint64_t tiles_at = 0;      // chunked: its tiles in LightPassScratch::tile_first
-  uint64_t texel_offset = 0;  // fixed: its first texel in the store (the slots are placed by the walk)
-  // The kind's store as it was before this map's walk (fixed grows it):
-  // where a second round of walks cuts it back to.
-  uint64_t store_nodes = 0, store_tags = 0, store_texels = 0;
+  uint64_t texel_offset = 0;  // packed, fixed: its first texel in the store (the walk places them)
+  // The kind's store as it was before this map's walk (packed and fixed
+  // grow it): where a second round of walks cuts it back to.
+  uint64_t store_nodes = 0, store_tags = 0, store_texels = 0, store_headers = 0;
 };
 
 // Steps 1-5 of one map (its counters at `ctr`, zeroed; the previous map's
@@ -418,6 +423,7 @@ void walk_map_exec(Ex& ex, const SceneView& scene, const LightPassParams& params
   b.store_nodes = out.nodes.size();
   b.store_tags = out.tags.size();
   b.store_texels = out.texel_count;
+  b.store_headers = out.texels.size();
 
   s.counts.resize_discard(n_texels);
   s.spilled.resize_discard(n_texels);
@@ -427,15 +433,26 @@ void walk_map_exec(Ex& ex, const SceneView& scene, const LightPassParams& params
   uint32_t* counts = s.counts.data();
   uint32_t* spilled = s.spilled.data();
   float* extra = s.extra.data();
+  // The pool the walks write: packed, the store's nodes from its end (the
+  // headers the store's, with store offsets); fixed and chunked, staging
+  // (the headers the scratch's, offsets from the map's base).
+  const bool in_store = kind == DsmLayout::Packed;
   TexelRange* heads = s.heads.data() + b.heads_at;
+  if (in_store) {
+    b.texel_offset = out.texel_count;
+    out.texels.resize(out.texels.size() + n_texels);
+    out.texel_count += n_texels;
+    heads = out.texels.data() + b.texel_offset;
+  }
+  const uint64_t capacity =
+      in_store ? std::min(out.nodes.capacity(), out.tags.capacity()) : s.template stage_capacity<Node>();
+  Node* pool = in_store ? out.nodes.data() : reinterpret_cast<Node*>(s.stage(rgb).data());
+  SurfaceTag* pool_tags = in_store ? out.tags.data() : s.stage_tags(rgb).data();
 
-  // The map's first node in staging: after the previous map's, on the executor.
+  // The map's first node in the pool: after the previous map's, on the executor.
+  const unsigned long long first_base = in_store ? out.nodes.size() : 0ull;
   ex.parallel_for(
-      "light pass: staging base", 1, CDSM_LAMBDA(uint64_t) { ctr->base = prev ? prev->base + prev->nodes : 0ull; });
-
-  const uint64_t capacity = s.template stage_capacity<Node>();
-  Node* pool = reinterpret_cast<Node*>(s.stage(rgb).data());
-  SurfaceTag* pool_tags = s.stage_tags(rgb).data();
+      "light pass: pool base", 1, CDSM_LAMBDA(uint64_t) { ctr->base = prev ? prev->base + prev->nodes : first_base; });
 
   TexelWalks<Node> work;
   work.scene = scene;
@@ -446,6 +463,7 @@ void walk_map_exec(Ex& ex, const SceneView& scene, const LightPassParams& params
   work.tiles_x = tiles_x;
   work.layout_counts = kind != DsmLayout::Fixed;
   work.capacity = capacity;
+  work.absolute = in_store;
   work.counts = counts;
   work.spilled = spilled;
   work.extra = extra;
@@ -508,7 +526,7 @@ void walk_map_exec(Ex& ex, const SceneView& scene, const LightPassParams& params
             const int tx = x0 + j % kDsmTile, ty = y0 + j / kDsmTile;
             const uint64_t t = uint64_t(ty) * res + tx;
             if (tx >= res || ty >= height || spilled[t] != 0u) continue;
-            heads[t] = TexelRange{uint32_t(at), counts[t]};
+            heads[t] = TexelRange{uint32_t(in_store ? ctr->base + at : at), counts[t]};
             at += counts[t];
           }
         });
@@ -522,7 +540,7 @@ void walk_map_exec(Ex& ex, const SceneView& scene, const LightPassParams& params
           const uint64_t t = uint64_t(ty) * uint64_t(res) + uint64_t(tx);
           if (spilled[t] != 0u) return;
           const TexelRange h = heads[t];
-          const uint64_t first = ctr->base + h.offset;
+          const uint64_t first = in_store ? uint64_t(h.offset) : ctr->base + h.offset;
           if (first + h.count > capacity) return;
           const auto buf = Kind::buffer(const_cast<unsigned char*>(walk_mem) + k * walk_bytes, K, false);
           for (uint32_t j = 0; j < h.count; ++j) {
@@ -611,25 +629,12 @@ DsmBuildStats place_map_exec(Ex& ex, const LightPassParams& params, const DsmLay
   map.view = params.view;
   map.res = uint32_t(res);
   map.rgb = params.rgb ? 1u : 0u;
-  map.texel_offset = kind == DsmLayout::Fixed ? b.texel_offset : out.texel_count;
+  map.texel_offset = kind == DsmLayout::Chunked ? out.texel_count : b.texel_offset;
 
-  if (kind == DsmLayout::Packed) {
-    const uint64_t node_base = out.nodes.size(), texel_base = out.texels.size();
-    check_u32_total(node_base + c.nodes, "nodes");
-    out.texels.resize(texel_base + n_texels);
-    out.nodes.resize(node_base + c.nodes);
-    out.tags.resize(node_base + c.nodes);
-    if (c.nodes) {
-      ex.copy(out.nodes.data() + node_base, staging, c.nodes * sizeof(Node));
-      ex.copy(out.tags.data() + node_base, staging_tags, c.nodes * sizeof(SurfaceTag));
-    }
-    TexelRange* store_heads = out.texels.data() + texel_base;
-    const uint32_t base = uint32_t(node_base);
-    ex.parallel_for(
-        "light pass: place", n_texels, CDSM_LAMBDA(uint64_t i) {
-          store_heads[i] = TexelRange{base + heads[i].offset, heads[i].count};
-        });
-    out.texel_count += n_texels;
+  if (kind == DsmLayout::Packed) {  // the walks wrote the store: its size now covers the map's nodes
+    check_u32_total(c.base + c.nodes, "nodes");
+    out.nodes.resize(c.base + c.nodes);
+    out.tags.resize(c.base + c.nodes);
   } else if (kind == DsmLayout::Chunked) {
     const uint64_t chunk_base = out.chunks.size(), texel_base = out.texels.size();  // slots
     check_u32_total(chunk_base + c.chunks * C, "chunk slots");
@@ -713,7 +718,7 @@ void build_maps_exec(Ex& ex, const SceneView& scene, const MapBuildInput* in, si
                      LightPassScratch<Ex>& s, DsmMap* maps, DsmBuildStats* stats) {
   if (n == 0) return;
   std::vector<BatchEntry> batch(n);
-  uint64_t texels = 0, tiles = 0, stage_nodes[2] = {0, 0};
+  uint64_t texels = 0, tiles = 0, guess[2] = {0, 0}, texels_of[2] = {0, 0};
   int last[2] = {-1, -1};
   for (size_t i = 0; i < n; ++i) {
     const PinholeView& v = in[i].params.view;
@@ -726,8 +731,10 @@ void build_maps_exec(Ex& ex, const SceneView& scene, const MapBuildInput* in, si
     b.tiles_at = tiles;
     texels += w * h;
     tiles += ((w + kDsmTile - 1) / kDsmTile) * ((h + kDsmTile - 1) / kDsmTile);
-    stage_nodes[b.rgb] += 2 * w * h;  // a first guess of two nodes a texel (the counts correct it)
+    texels_of[b.rgb] += w * h;
   }
+  // The guess: the last build's nodes per texel (a read corrects it).
+  for (int k = 0; k < 2; ++k) guess[k] = uint64_t(double(texels_of[k]) * s.nodes_per_texel[k]);
   s.heads.resize_discard(texels);
   // One second-walk buffer at least (a texel that needs it is walked, one
   // at a time, before the read shows how many there were).
@@ -736,23 +743,59 @@ void build_maps_exec(Ex& ex, const SceneView& scene, const MapBuildInput* in, si
   if (s.spill.capacity() < rewalk_bytes) s.spill.resize_discard(rewalk_bytes);
   if (layout.layout == DsmLayout::Chunked) s.tile_first.resize_discard(tiles);
   s.counters.resize_discard(n);
-  // Staging that was never used starts at the guess; after that it grows
-  // only when a read says so (a steady frame allocates nothing).
-  for (int k = 0; k < 2; ++k)
-    if (stage_nodes[k] && s.stage(k).capacity() == 0) {
-      s.stage(k).resize_discard(stage_nodes[k] * (k ? sizeof(DsmNodeRgb) : sizeof(DsmNode)));
-      s.stage_tags(k).resize_discard(stage_nodes[k]);
-    }
-
   std::vector<BuildCounters> c(n);
-  const auto capacity = [&](size_t i) {
-    return batch[i].rgb ? s.template stage_capacity<DsmNodeRgb>() : s.template stage_capacity<DsmNode>();
+  // Where the walks write (exec/light_pass.h step 4): packed, the store
+  // itself; fixed and chunked, staging.
+  const bool packed = layout.layout == DsmLayout::Packed;
+  const auto capacity_of = [&](bool is_rgb) -> uint64_t {
+    if (packed)
+      return is_rgb ? std::min(rgb.nodes.capacity(), rgb.tags.capacity())
+                    : std::min(grey.nodes.capacity(), grey.tags.capacity());
+    return is_rgb ? s.template stage_capacity<DsmNodeRgb>() : s.template stage_capacity<DsmNode>();
   };
-  const auto cut_back = [&](auto& store, uint64_t nodes, uint64_t tags, uint64_t texel_count) {
-    store.nodes.resize(nodes);
-    store.tags.resize(tags);
-    store.texel_count = texel_count;
+  const auto capacity = [&](size_t i) { return capacity_of(batch[i].rgb); };
+  const auto cut_back = [&](auto& store, const BatchEntry& b) {
+    store.nodes.resize(b.store_nodes);
+    store.tags.resize(b.store_tags);
+    store.texels.resize(b.store_headers);
+    store.texel_count = b.store_texels;
   };
+  // An array grown to `n` entries (by half at least), everything within its
+  // capacity kept: the maps before the first that did not fit are not
+  // walked again.
+  const auto grow_keeping = [](auto& a, uint64_t n) {
+    a.resize(a.capacity());
+    a.resize(n);
+  };
+  // Where the guess of the batch's nodes does not fit (the first build,
+  // maps added to a full store), room for it and a quarter more; a steady
+  // frame fits.
+  const auto room_for = [&](bool is_rgb, uint64_t nodes) {
+    if (nodes == 0) return;  // no map of the kind
+    const uint64_t ample = nodes + nodes / 4;
+    if (packed) {
+      const auto grow = [&](auto& store) {
+        const uint64_t size = store.nodes.size();
+        if (capacity_of(is_rgb) >= size + nodes) return;
+        check_u32_total(size + ample, "nodes");
+        grow_keeping(store.nodes, size + ample);
+        grow_keeping(store.tags, size + ample);
+        store.nodes.resize(size);
+        store.tags.resize(size);
+      };
+      if (is_rgb)
+        grow(rgb);
+      else
+        grow(grey);
+    } else if (capacity_of(is_rgb) < nodes) {
+      if (is_rgb)
+        s.template grow_stage<DsmNodeRgb>(ample);
+      else
+        s.template grow_stage<DsmNode>(ample);
+    }
+  };
+  room_for(false, guess[0]);
+  room_for(true, guess[1]);
   size_t from = 0;  // the first map to walk (again)
   for (int round = 0;; ++round) {
     ex.fill_zero(s.counters.data() + from, (n - from) * sizeof(BuildCounters));
@@ -770,21 +813,35 @@ void build_maps_exec(Ex& ex, const SceneView& scene, const MapBuildInput* in, si
       if (walk_overflowed(c[i], capacity(i))) bad = i;
     if (bad == n) break;
     if (round == 2)
-      throw std::logic_error("light pass: map " + std::to_string(bad) + " still overflows staging after it grew");
+      throw std::logic_error("light pass: map " + std::to_string(bad) + " still overflows its pool after it grew");
     // Grow what was short (to the counts, or by half) and walk again from
     // the first map that did not fit; the store back to where it was then.
     uint64_t need[2] = {0, 0};
     for (size_t i = 0; i < n; ++i) need[batch[i].rgb] = std::max<uint64_t>(need[batch[i].rgb], c[i].base + c[i].nodes);
-    check_u32_total(std::max(need[0], need[1]), "staged nodes");
-    if (need[0] > s.template stage_capacity<DsmNode>()) s.template grow_stage<DsmNode>(need[0]);
-    if (need[1] > s.template stage_capacity<DsmNodeRgb>()) s.template grow_stage<DsmNodeRgb>(need[1]);
+    check_u32_total(std::max(need[0], need[1]), "nodes");
+    if (need[0] > capacity_of(false)) {
+      if (packed) {
+        grow_keeping(grey.nodes, need[0]);
+        grow_keeping(grey.tags, need[0]);
+      } else {
+        s.template grow_stage<DsmNode>(need[0]);
+      }
+    }
+    if (need[1] > capacity_of(true)) {
+      if (packed) {
+        grow_keeping(rgb.nodes, need[1]);
+        grow_keeping(rgb.tags, need[1]);
+      } else {
+        s.template grow_stage<DsmNodeRgb>(need[1]);
+      }
+    }
     for (int k = 0; k < 2; ++k)
       for (size_t i = bad; i < n; ++i)
         if (int(batch[i].rgb) == k) {
           if (k)
-            cut_back(rgb, batch[i].store_nodes, batch[i].store_tags, batch[i].store_texels);
+            cut_back(rgb, batch[i]);
           else
-            cut_back(grey, batch[i].store_nodes, batch[i].store_tags, batch[i].store_texels);
+            cut_back(grey, batch[i]);
           break;
         }
     from = bad;
@@ -796,6 +853,10 @@ void build_maps_exec(Ex& ex, const SceneView& scene, const MapBuildInput* in, si
   const uint64_t batch_bytes = opt.batch_bytes ? opt.batch_bytes : Ex::kLightPassBatchBytes;
   const uint64_t threads = std::min<uint64_t>(spilled, std::max<uint64_t>(1, batch_bytes / rewalk_bytes));
   if (s.spill.capacity() < threads * rewalk_bytes) s.spill.resize_discard(threads * rewalk_bytes);
+  uint64_t nodes_of[2] = {0, 0};
+  for (size_t i = 0; i < n; ++i) nodes_of[batch[i].rgb] += c[i].nodes;
+  for (int k = 0; k < 2; ++k)
+    if (texels_of[k] > 0) s.nodes_per_texel[k] = double(nodes_of[k]) / double(texels_of[k]);
   for (size_t i = 0; i < n; ++i) {  // 7. place
     if (batch[i].rgb)
       stats[i] = place_map_exec(ex, in[i].params, layout, rgb, s, batch[i], c[i], maps[i]);

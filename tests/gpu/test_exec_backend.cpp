@@ -317,15 +317,15 @@ void expect_pyramid(const HostBackend& ex, MapId id, bool built, const std::stri
 
 // A frame's maps built together (build_maps: grey and RGB in one call,
 // every layout): each is the serial walk's, and their counters come back in
-// one read once staging holds them. The first call reads twice (the depth
-// scene passes staging's first guess of two nodes a texel, and its texels
-// walked twice need the second walk's buffers, which do not exist yet); the
-// same maps again read once and allocate nothing.
+// one read once the pool (packed: the store; fixed, chunked: staging) holds
+// them. The first call reads twice: the depth scene passes the pool's first
+// guess of two nodes a texel, so the grey DSM is walked again after it grew
+// (the shadow map before it is not: its nodes are kept); the same maps
+// again read once and allocate nothing.
 TEST(ExecBackend, MapsBuiltTogetherReadTheirCountersOnce) {
   OneView v(parity::load("depth", 48, 32, 24), 0.0005f);
-  // A shadow map first (a node or two a texel: within staging's first
-  // guess); the grey DSM after it passes the guess (walked again, the
-  // first not); RGB maps have their own staging.
+  // A shadow map first (a node or two a texel: within the first guess); the
+  // grey DSM after it passes the guess; RGB maps have their own pool.
   std::vector<LightPassParams> params(3, v.params);
   params[0].method = ShadowMethod::ShadowMap;
   params[0].blocker_pyramid = true;
