@@ -383,7 +383,9 @@ void FragmentRasterizer::Impl::rasterize(const PinholeView& view, ObjectMask mas
   const uint64_t pixels = uint64_t(W) * uint64_t(H);
   out.width = W;
   out.height = H;
-  out.offsets.resize(pixels + 1);
+  // One value more than the lists keep: a band's read of its offsets brings
+  // the scan's overflow flag with it (after its total), one read-back.
+  out.offsets.resize(pixels + 2);
   stats.tiles = 0;
   stats.bands = 0;
   stats.fragments = 0;
@@ -395,7 +397,7 @@ void FragmentRasterizer::Impl::rasterize(const PinholeView& view, ObjectMask mas
   if (uint64_t(W) > band_pixels)
     throw Error(kWhere, "one row of " + std::to_string(W) + " pixels exceeds the counter buffer limit");
   counts.reserve(uint64_t(W) * uint64_t(band_rows) * 4);
-  offsets.reserve((uint64_t(W) * uint64_t(band_rows) + 1) * 4);
+  offsets.reserve((uint64_t(W) * uint64_t(band_rows) + 2) * 4);
   const uint64_t cap_fragments = max_pool_bytes() / kFragmentBytes;
 
   StateReset reset;
@@ -415,9 +417,13 @@ void FragmentRasterizer::Impl::rasterize(const PinholeView& view, ObjectMask mas
     draw();
     sync("count");
 
-    // Prefix sum -> band-local offsets, read back into out.offsets.
+    // Prefix sum -> band-local offsets and the overflow flag after them,
+    // read back into out.offsets in one read.
     scan.exclusive_scan(counts, offsets, n);
-    if (scan.overflowed()) {
+    scan.write_overflow_flag(offsets, n + 1);
+    uint32_t* band_offsets = out.offsets.data() + uint64_t(r0) * uint64_t(W);
+    offsets.download(band_offsets, (n + 2) * 4);
+    if (band_offsets[n + 1] != 0) {
       // Say whether the counts overflow or the scan does (a driver or
       // synchronization fault): the counts summed on the host.
       CDSM_GL(glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT));
@@ -437,8 +443,6 @@ void FragmentRasterizer::Impl::rasterize(const PinholeView& view, ObjectMask mas
       throw Error(kWhere,
                   "internal: the prefix sum reported a carry out of 32 bits that the counts do not have; " + band);
     }
-    uint32_t* band_offsets = out.offsets.data() + uint64_t(r0) * uint64_t(W);
-    offsets.download(band_offsets, (n + 1) * 4);
     const uint64_t band_total = band_offsets[n];
     if (total + band_total > 0xffffffffull)
       throw Error(kWhere, "more than 2^32-1 fragments in the view (offsets are 32-bit)");
@@ -489,6 +493,7 @@ void FragmentRasterizer::Impl::rasterize(const PinholeView& view, ObjectMask mas
       for (uint64_t i = 0; i <= n; ++i) band_offsets[i] += base;
     total += band_total;
   }
+  out.offsets.resize(pixels + 1);  // (the flag's slot)
   stats.fragments = total;
   stats.pool_bytes = pool.capacity();
   stats.gpu_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

@@ -87,6 +87,13 @@ bool PrefixSum::overflowed() {
   return flag != 0;
 }
 
+void PrefixSum::write_overflow_flag(Buffer& out, uint64_t at) {
+  if (out.capacity() < (at + 1) * 4)
+    throw Error("gl::PrefixSum", "no room for the overflow flag at value " + std::to_string(at));
+  CDSM_GL(glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT));
+  CDSM_GL(glCopyNamedBufferSubData(status_.id(), out.id(), 0, GLintptr(at * 4), 4));
+}
+
 void PrefixSum::forget() noexcept {
   scan_.forget();
   add_.forget();

@@ -25,6 +25,10 @@ class PrefixSum {
 
   // Whether the last scan's total did not fit in 32 bits (reads 4 bytes back).
   bool overflowed();
+  // The same flag (0: the total fits) copied into value `at` of `out` on the
+  // GPU, no read-back: a caller that reads `out` back anyway learns it with
+  // the same read (the fragment rasterizer's offsets: out[n + 1]).
+  void write_overflow_flag(Buffer& out, uint64_t at);
 
   static constexpr uint64_t kBlock = 1024;  // values per workgroup (256 threads x 4)
 

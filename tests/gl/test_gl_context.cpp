@@ -161,14 +161,24 @@ TEST_F(GlPrefixSum, ReportsOverflow) {
   v[10] = 0x80000000u;
   v[2500] = 0x80000000u;  // different blocks: the carry happens in level 1
   in.reserve(v.size() * 4);
-  out.reserve((v.size() + 1) * 4);
+  out.reserve((v.size() + 2) * 4);
+  // The flag read back alone, and copied after the total (no read-back of
+  // its own: the rasterizer reads it with the offsets).
+  const auto flag_in_out = [&] {
+    scan.write_overflow_flag(out, v.size() + 1);
+    uint32_t flag = 7;
+    out.download(&flag, 4, (v.size() + 1) * 4);
+    return flag;
+  };
   in.upload(v.data(), v.size() * 4);
   scan.exclusive_scan(in, out, v.size());
   EXPECT_TRUE(scan.overflowed());
+  EXPECT_NE(flag_in_out(), 0u);
   v[2500] = 0x7fffffffu;
   in.upload(v.data(), v.size() * 4);
   scan.exclusive_scan(in, out, v.size());
   EXPECT_FALSE(scan.overflowed());
+  EXPECT_EQ(flag_in_out(), 0u);
 }
 
 }  // namespace

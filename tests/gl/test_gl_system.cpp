@@ -651,6 +651,25 @@ TEST_F(GlSystem, GlListsHandedOverTileByTileEqualListsReadBack) {
   EXPECT_EQ(std::memcmp(got.rgb.data(), want.rgb.data(), got.rgb.size() * sizeof(float)), 0);
 }
 
+// A light view's GL lists come back to the host in at most two reads
+// (issue 45 item 2): its offsets with the scan's overflow flag after them,
+// then its fragments (one tile: the pool holds the view). The flag had a
+// read of its own before.
+TEST_F(GlSystem, EachLightViewReadsBackItsOffsetsAndFragmentsOnce) {
+  Scene scene = load_scene(scene_path("teapot_omni.json"));
+  scene.shadows.resolution = 96;
+  ShadowSystem sys(app_options(FragmentSource::Gl));
+  sync_scene(sys, scene);
+  FrameStats st;
+  sys.update(&st);
+  ASSERT_EQ(st.fragment_source, "gl");
+  ASSERT_EQ(st.maps_rebuilt, 7u) << "a spot's map and an omni light's six";
+  // (a view with no fragment reads its offsets alone)
+  EXPECT_LE(st.counters.gl_readbacks, 2u * st.maps_rebuilt);
+  EXPECT_GT(st.counters.gl_readbacks, uint64_t(st.maps_rebuilt));
+  EXPECT_EQ(st.counters.host_syncs, 1u) << "the light pass reads every map's counters once";
+}
+
 // The figures of one update and whether the GL buffers then equal storage().
 struct PublishStep {
   UpdateStats u;
