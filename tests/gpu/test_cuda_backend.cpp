@@ -177,3 +177,45 @@ TEST(CudaBackend, StageTimesFromEvents) {
   }
   EXPECT_GT(total, 0.0);
 }
+
+// The engine's rebuild frame on the device (issue 45 item 3): four maps
+// rebuilt from kept lists after warm-up (an epsilon edit over four
+// clusters) read the light pass's counters once, allocate nothing and send
+// nothing up; the image equals the CPU threads' system's.
+TEST(CudaBackend, ARebuildFrameSynchronizesOnce) {
+  CDSM_REQUIRE_DEVICE();
+  Scene s = parity::load("default", 256, 160, 120);
+  s.shadows.max_clusters = 4;
+  s.shadows.d0 = 0.02f;
+  const auto system = [&](Backend b) {
+    SystemOptions o;
+    o.backend = b;
+    o.fragments = FragmentSource::Cpu;
+    o.keep_fragment_lists = true;
+    auto sys = std::make_unique<ShadowSystem>(o);
+    sync_scene(*sys, s);
+    return sys;
+  };
+  std::unique_ptr<ShadowSystem> gpu = system(Backend::Cuda), cpu = system(Backend::Cpu);
+  FrameStats st;
+  gpu->update(&st);
+  ASSERT_EQ(st.backend, "cuda");
+  const uint32_t maps = st.maps_rebuilt;
+  ASSERT_EQ(maps, 4u);
+  for (int i = 1; i <= 3; ++i) {
+    ShadowSettings e = s.shadows;
+    e.epsilon = s.shadows.epsilon * (i % 2 ? 0.5f : 1.0f);
+    gpu->set_settings(e);
+    gpu->update(&st);
+    ASSERT_EQ(st.maps_rebuilt, maps);
+    if (i == 1) continue;
+    EXPECT_EQ(st.counters.host_syncs, 1u) << "rebuild " << i;
+    EXPECT_EQ(st.counters.backend_allocations, 0u) << "rebuild " << i;
+    EXPECT_EQ(st.update.host_to_backend_bytes, 0u) << "rebuild " << i;
+    std::printf("[ rebuild  ] %u maps: %.3f ms update, %.3f ms light pass kernels, %llu launches\n", maps,
+                st.times.total_ms, st.times.kernel_dsm_build_ms, (unsigned long long)st.counters.launches);
+    cpu->set_settings(e);
+  }
+  const Image a = gpu->render(), b = cpu->render();
+  EXPECT_GE(parity::psnr(a.rgb, b.rgb), 50.0);
+}
