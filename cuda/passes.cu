@@ -10,12 +10,13 @@ template void cast_fragments_exec<cuda::CudaExec>(cuda::CudaExec&, const SceneVi
                                                   ExecArray<uint32_t, cuda::CudaExec>&,
                                                   ExecArray<Fragment, cuda::CudaExec>&,
                                                   ExecArray<unsigned long long, cuda::CudaExec>&);
-template ExecStoredMap move_map_exec<DsmNode, cuda::CudaExec>(cuda::CudaExec&, const ExecStoredMap&, DsmLayout,
-                                                              const KindStore<DsmNode, cuda::CudaExec>&,
-                                                              KindStore<DsmNode, cuda::CudaExec>&);
-template ExecStoredMap move_map_exec<DsmNodeRgb, cuda::CudaExec>(cuda::CudaExec&, const ExecStoredMap&, DsmLayout,
-                                                                 const KindStore<DsmNodeRgb, cuda::CudaExec>&,
-                                                                 KindStore<DsmNodeRgb, cuda::CudaExec>&);
+template ExecStoredMap move_map_down_exec<DsmNode, cuda::CudaExec>(cuda::CudaExec&, const ExecStoredMap&, DsmLayout,
+                                                                   KindStore<DsmNode, cuda::CudaExec>&, StoreCursor&,
+                                                                   ExecArray<unsigned char, cuda::CudaExec>&);
+template ExecStoredMap move_map_down_exec<DsmNodeRgb, cuda::CudaExec>(cuda::CudaExec&, const ExecStoredMap&, DsmLayout,
+                                                                      KindStore<DsmNodeRgb, cuda::CudaExec>&,
+                                                                      StoreCursor&,
+                                                                      ExecArray<unsigned char, cuda::CudaExec>&);
 template void read_map_exec<cuda::CudaExec>(cuda::CudaExec&, const DsmStorage&, const DsmMap&, uint32_t,
                                             std::vector<uint32_t>&, std::vector<DsmNode>&);
 }  // namespace cdsm::exec

@@ -27,6 +27,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -60,7 +61,8 @@ class ExecBackend final : public ExecShadowBackend {
         cam_walk_(ex_),
         frag_counts_(ex_),
         frag_total_(ex_),
-        frag_mask_(ex_) {}
+        frag_mask_(ex_),
+        bounce_(ex_) {}
   ExecBackend(const ExecBackend&) = delete;
   ExecBackend& operator=(const ExecBackend&) = delete;
 
@@ -472,28 +474,71 @@ class ExecBackend final : public ExecShadowBackend {
     ++epoch_;
   }
 
-  // The live maps into fresh arrays, exactly sized, offsets and links
-  // re-based. Nothing changes until every map moved (a failure leaves the
-  // store as it was, holes included).
+  // The live maps moved down over the holes inside their arrays, in the
+  // order they lie there, each range through a bounce buffer (kept with its
+  // capacity), offsets and links re-based: the arrays keep their capacity
+  // (a steady frame that compacts allocates nothing), unless it passes
+  // twice what is left, which is then given back. The bounce is allocated
+  // before anything moves (a failed allocation leaves the store as it
+  // was); a failed copy or launch part-way empties the store (its maps are
+  // lost, the error goes on).
   void compact() {
-    KindStore<DsmNode, Ex> grey(ex_);
-    KindStore<DsmNodeRgb, Ex> rgb(ex_);
-    std::vector<ExecStoredMap> moved = slots_.maps;
+    std::vector<ExecStoredMap> maps = slots_.maps;
+    uint64_t bounce = 0;
+    for (const ExecStoredMap& m : maps)
+      if (m.live)
+        bounce = std::max(bounce, m.map.rgb ? move_bounce_bytes<DsmNodeRgb>(m, rgb_.pyramid.size() > 0)
+                                            : move_bounce_bytes<DsmNode>(m, grey_.pyramid.size() > 0));
+    if (bounce_.capacity() < bounce) bounce_.resize_discard(bounce);
     uint64_t bytes = 0;
-    for (ExecStoredMap& m : moved) {
-      if (!m.live) continue;
-      m = m.map.rgb ? move_map_exec(ex_, m, layout_.layout, rgb_, rgb)
-                    : move_map_exec(ex_, m, layout_.layout, grey_, grey);
-      bytes += m.bytes();
+    try {
+      compact_kind(grey_, false, maps, bytes);
+      compact_kind(rgb_, true, maps, bytes);
+    } catch (...) {
+      reset_store();
+      throw;
     }
-    slots_.maps = std::move(moved);
+    slots_.maps = std::move(maps);
     compacted_bytes_ += bytes;
-    grey_ = std::move(grey);
-    rgb_ = std::move(rgb);
     slots_.compacted();
     ++compactions_;
     ++epoch_;
     mirror_dirty_ = true;
+  }
+
+  template <class Node>
+  void compact_kind(KindStore<Node, Ex>& k, bool rgb, std::vector<ExecStoredMap>& maps, uint64_t& bytes) {
+    std::vector<size_t> order;
+    for (size_t i = 0; i < maps.size(); ++i)
+      if (maps[i].live && (maps[i].map.rgb != 0u) == rgb) order.push_back(i);
+    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+      const ExecStoredMap &x = maps[a], &y = maps[b];
+      return std::tie(x.texel_begin, x.node_begin, x.chunk_begin) <
+             std::tie(y.texel_begin, y.node_begin, y.chunk_begin);
+    });
+    StoreCursor at;
+    for (size_t i : order) {
+      const ExecStoredMap before = maps[i];
+      maps[i] = move_map_down_exec(ex_, before, layout_.layout, k, at, bounce_);
+      if (maps[i].node_begin != before.node_begin || maps[i].texel_begin != before.texel_begin ||
+          maps[i].chunk_begin != before.chunk_begin)
+        bytes += maps[i].bytes();
+    }
+    const bool chunked = layout_.layout == DsmLayout::Chunked;
+    k.texels.resize(at.texels);
+    k.nodes.resize(at.nodes);
+    k.chunks.resize(at.chunks);
+    k.tags.resize(chunked ? at.chunks : at.nodes);
+    k.texel_count = at.texel_count;
+    if (k.pyramid.size() > 0) k.pyramid.resize(at.texel_count > 0 ? pyramid_array_size(at.texel_count) : 0);
+    const auto give_back = [](auto& a) {
+      if (a.capacity() > 2 * a.size()) a.shrink_to_fit();
+    };
+    give_back(k.texels);
+    give_back(k.nodes);
+    give_back(k.chunks);
+    give_back(k.tags);
+    give_back(k.pyramid);
   }
 
   const char* name_;
@@ -511,6 +556,7 @@ class ExecBackend final : public ExecShadowBackend {
   ExecArray<uint32_t, Ex> frag_counts_;
   ExecArray<unsigned long long, Ex> frag_total_;
   ExecArray<uint32_t, Ex> frag_mask_;
+  ExecArray<unsigned char, Ex> bounce_;  // compaction's moves (compact)
 
   ExecCounters taken_;  // the executor's counters at the last take_counters
   LightPassOptions options_;

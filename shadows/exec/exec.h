@@ -152,6 +152,24 @@ class ExecArray {
 
   void resize(uint64_t n) { grow(n, true); }
   void resize_discard(uint64_t n) { grow(n, false); }
+  // The capacity cut to the size (the memory given back; the contents kept).
+  void shrink_to_fit() {
+    if (capacity_ == size_) return;
+    if (size_ == 0) {
+      reset();
+      return;
+    }
+    T* p = static_cast<T*>(ex_->allocate(size_t(size_ * sizeof(T))));
+    try {
+      ex_->copy(p, ptr_, size_t(size_ * sizeof(T)));
+    } catch (...) {
+      ex_->release(p);
+      throw;
+    }
+    ex_->release(ptr_);
+    ptr_ = p;
+    capacity_ = size_;
+  }
   // Releases the memory (size and capacity 0).
   void reset() noexcept {
     if (ptr_) ex_->release(ptr_);

@@ -1,8 +1,11 @@
-// Copies of stored maps inside an executor's memory (shadows/exec/exec.h):
-// the exec backend's compaction moves a map's headers, nodes and chunks
-// to the end of fresh arrays and re-bases its offsets and links — the cpu
-// backend's move_map (cpu/cpu_backend.cpp) without leaving the device.
+// Moves of stored maps inside an executor's memory (shadows/exec/exec.h):
+// the exec backend's compaction moves each live map's headers, nodes,
+// chunks, tags and pyramid cells down over the holes before it, inside the
+// same arrays, and re-bases its offsets and links, without leaving the
+// device.
 #pragma once
+
+#include <algorithm>
 
 #include "exec/light_pass.h"
 
@@ -23,68 +26,97 @@ struct ExecStoredMap {
   }
 };
 
-// Appends map m of `from` to `to` (same kind and layout); returns its new place.
-template <class Node, class Ex>
-ExecStoredMap move_map_exec(Ex& ex, const ExecStoredMap& m, DsmLayout layout, const KindStore<Node, Ex>& from,
-                            KindStore<Node, Ex>& to) {
+// Where the next map goes when a kind's maps are moved down over the holes
+// (compaction in place, move_map_down_exec). Tags follow the node slots
+// (packed, fixed) or the chunk slots (chunked).
+struct StoreCursor {
+  uint64_t texels = 0, nodes = 0, chunks = 0, texel_count = 0;
+};
+
+// The bytes of map m's largest range in one of its kind's arrays: what
+// moving it through a bounce buffer needs.
+template <class Node>
+uint64_t move_bounce_bytes(const ExecStoredMap& m, bool pyramid) {
   using Chunk = typename NodeKind<Node>::Chunk;
+  const uint64_t chunks = m.chunk_end - m.chunk_begin, nodes = m.node_end - m.node_begin;
+  uint64_t b = (m.texel_end - m.texel_begin) * sizeof(TexelRange);
+  b = std::max<uint64_t>(b, nodes * sizeof(Node));
+  b = std::max<uint64_t>(b, chunks * sizeof(Chunk));
+  b = std::max<uint64_t>(b, std::max(nodes, chunks) * sizeof(SurfaceTag));
+  if (pyramid) b = std::max<uint64_t>(b, uint64_t(m.map.res) * uint64_t(m.map.view.height) / 2u * sizeof(float));
+  return b;
+}
+
+// Moves map m of `k` down to `at` inside the same arrays (at is at or below
+// it: the holes before it closed), each range through `bounce` (at least
+// move_bounce_bytes long), offsets and links re-based; advances `at`;
+// returns its new place. A map already at `at` stays where it is.
+template <class Node, class Ex>
+ExecStoredMap move_map_down_exec(Ex& ex, const ExecStoredMap& m, DsmLayout layout, KindStore<Node, Ex>& k,
+                                 StoreCursor& at, ExecArray<unsigned char, Ex>& bounce) {
+  using Chunk = typename NodeKind<Node>::Chunk;
+  const bool chunked = layout == DsmLayout::Chunked;
+  const uint64_t texels = m.texel_end - m.texel_begin, nodes = m.node_end - m.node_begin;
+  const uint64_t chunks = m.chunk_end - m.chunk_begin;
   ExecStoredMap n = m;
-  n.texel_begin = to.texels.size();
-  n.node_begin = to.nodes.size();
-  n.chunk_begin = to.chunks.size();
-  n.map.texel_offset = to.texel_count;
-  to.texel_count += uint64_t(m.map.res) * uint64_t(m.map.view.height);
+  n.texel_begin = at.texels;
+  n.node_begin = at.nodes;
+  n.chunk_begin = at.chunks;
+  n.texel_end = n.texel_begin + texels;
+  n.node_end = n.node_begin + nodes;
+  n.chunk_end = n.chunk_begin + chunks;
+  n.map.texel_offset = at.texel_count;
+  at.texels = n.texel_end;
+  at.nodes = n.node_end;
+  at.chunks = n.chunk_end;
+  at.texel_count += uint64_t(m.map.res) * uint64_t(m.map.view.height);
+  if (n.texel_begin == m.texel_begin && n.node_begin == m.node_begin && n.chunk_begin == m.chunk_begin &&
+      n.map.texel_offset == m.map.texel_offset)
+    return n;
   const long long node_shift = (long long)n.node_begin - (long long)m.node_begin;
   const long long chunk_shift = (long long)n.chunk_begin - (long long)m.chunk_begin;
-  const bool chunked = layout == DsmLayout::Chunked;
-
-  const uint64_t texels = m.texel_end - m.texel_begin;
-  to.texels.resize(n.texel_begin + texels);
-  const TexelRange* src_t = from.texels.data() + m.texel_begin;
-  TexelRange* dst_t = to.texels.data() + n.texel_begin;
-  ex.parallel_for(
-      "store: move headers", texels, CDSM_LAMBDA(uint64_t i) {
-        TexelRange r = src_t[i];
-        if (chunked) {
-          if (r.offset != kChunkEnd) r.offset = uint32_t((long long)r.offset + chunk_shift);
-        } else {
-          r.offset = uint32_t((long long)r.offset + node_shift);
-        }
-        dst_t[i] = r;
-      });
-
-  const uint64_t nodes = m.node_end - m.node_begin;
-  to.nodes.resize(n.node_begin + nodes);
-  if (nodes) ex.copy(to.nodes.data() + n.node_begin, from.nodes.data() + m.node_begin, nodes * sizeof(Node));
-
-  // Tags go with the node slots (packed, fixed) or the chunk slots (chunked).
-  const uint64_t tag_begin = chunked ? m.chunk_begin : m.node_begin;
-  const uint64_t tags = chunked ? m.chunk_end - m.chunk_begin : nodes;
-  const uint64_t to_tag = to.tags.size();
-  to.tags.resize(to_tag + tags);
-  if (tags) ex.copy(to.tags.data() + to_tag, from.tags.data() + tag_begin, tags * sizeof(SurfaceTag));
-
-  const uint64_t chunks = m.chunk_end - m.chunk_begin;
-  to.chunks.resize(n.chunk_begin + chunks);
-  const Chunk* src_c = from.chunks.data() + m.chunk_begin;
-  Chunk* dst_c = to.chunks.data() + n.chunk_begin;
-  ex.parallel_for(
-      "store: move chunks", chunks, CDSM_LAMBDA(uint64_t i) {
-        Chunk c = src_c[i];
-        if (c.next != kChunkEnd) c.next = uint32_t((long long)c.next + chunk_shift);
-        dst_c[i] = c;
-      });
-  // The blocker pyramid's slot (hd/blocker_pyramid.h), where the kind has them.
-  if (from.pyramid.size() > 0) {
-    const uint64_t cells = uint64_t(m.map.res) * uint64_t(m.map.view.height) / 2u;
-    to.pyramid.resize(pyramid_array_size(to.texel_count));
-    if (cells)
-      ex.copy(to.pyramid.data() + n.map.texel_offset / 2u, from.pyramid.data() + m.map.texel_offset / 2u,
-              cells * sizeof(float));
+  unsigned char* b = bounce.data();
+  // A plain range: to the bounce, then to its new place.
+  const auto move = [&](void* dst, const void* src, uint64_t bytes) {
+    if (bytes == 0) return;
+    ex.copy(b, src, bytes);
+    ex.copy(dst, b, bytes);
+  };
+  if (texels) {
+    ex.copy(b, k.texels.data() + m.texel_begin, texels * sizeof(TexelRange));
+    const TexelRange* src = reinterpret_cast<const TexelRange*>(b);
+    TexelRange* dst = k.texels.data() + n.texel_begin;
+    ex.parallel_for(
+        "store: move headers", texels, CDSM_LAMBDA(uint64_t i) {
+          TexelRange r = src[i];
+          if (chunked) {
+            if (r.offset != kChunkEnd) r.offset = uint32_t((long long)r.offset + chunk_shift);
+          } else {
+            r.offset = uint32_t((long long)r.offset + node_shift);
+          }
+          dst[i] = r;
+        });
   }
-  n.texel_end = to.texels.size();
-  n.node_end = to.nodes.size();
-  n.chunk_end = to.chunks.size();
+  move(k.nodes.data() + n.node_begin, k.nodes.data() + m.node_begin, nodes * sizeof(Node));
+  if (chunked)
+    move(k.tags.data() + n.chunk_begin, k.tags.data() + m.chunk_begin, chunks * sizeof(SurfaceTag));
+  else
+    move(k.tags.data() + n.node_begin, k.tags.data() + m.node_begin, nodes * sizeof(SurfaceTag));
+  if (chunks) {
+    ex.copy(b, k.chunks.data() + m.chunk_begin, chunks * sizeof(Chunk));
+    const Chunk* src = reinterpret_cast<const Chunk*>(b);
+    Chunk* dst = k.chunks.data() + n.chunk_begin;
+    ex.parallel_for(
+        "store: move chunks", chunks, CDSM_LAMBDA(uint64_t i) {
+          Chunk c = src[i];
+          if (c.next != kChunkEnd) c.next = uint32_t((long long)c.next + chunk_shift);
+          dst[i] = c;
+        });
+  }
+  if (k.pyramid.size() > 0) {
+    const uint64_t cells = uint64_t(m.map.res) * uint64_t(m.map.view.height) / 2u;
+    move(k.pyramid.data() + n.map.texel_offset / 2u, k.pyramid.data() + m.map.texel_offset / 2u, cells * sizeof(float));
+  }
   return n;
 }
 
