@@ -125,6 +125,8 @@ class ExecBackend final : public ExecShadowBackend {
       cut_back(rgb_, rgb);
       throw;
     }
+    give_back(grey_);
+    give_back(rgb_);
     layout_ = layout;
     stored_any_ = true;
     mirror_dirty_ = true;
@@ -477,8 +479,8 @@ class ExecBackend final : public ExecShadowBackend {
   // The live maps moved down over the holes inside their arrays, in the
   // order they lie there, each range through a bounce buffer (kept with its
   // capacity), offsets and links re-based: the arrays keep their capacity
-  // (a steady frame that compacts allocates nothing), unless it passes
-  // twice what is left, which is then given back. The bounce is allocated
+  // (a steady frame that compacts allocates nothing; give_back trims them
+  // after the frame's builds). The bounce is allocated
   // before anything moves (a failed allocation leaves the store as it
   // was); a failed copy or launch part-way empties the store (its maps are
   // lost, the error goes on).
@@ -531,14 +533,26 @@ class ExecBackend final : public ExecShadowBackend {
     k.tags.resize(chunked ? at.chunks : at.nodes);
     k.texel_count = at.texel_count;
     if (k.pyramid.size() > 0) k.pyramid.resize(at.texel_count > 0 ? pyramid_array_size(at.texel_count) : 0);
-    const auto give_back = [](auto& a) {
-      if (a.capacity() > 2 * a.size()) a.shrink_to_fit();
+  }
+
+  // Capacity past three times what a kind's arrays hold is given back,
+  // once a frame's maps are built (not when compaction empties them in the
+  // middle of a frame that builds them again); an emptied kind keeps its
+  // arrays, as an emptied store does.
+  template <class Node>
+  static void give_back(KindStore<Node, Ex>& k) {
+    const auto trim = [](auto& a) {
+      if (a.size() == 0 || a.capacity() <= 3 * a.size()) return;
+      try {
+        a.shrink_to_fit();
+      } catch (...) {  // (the capacity stays: nothing is lost)
+      }
     };
-    give_back(k.texels);
-    give_back(k.nodes);
-    give_back(k.chunks);
-    give_back(k.tags);
-    give_back(k.pyramid);
+    trim(k.texels);
+    trim(k.nodes);
+    trim(k.chunks);
+    trim(k.tags);
+    trim(k.pyramid);
   }
 
   const char* name_;
