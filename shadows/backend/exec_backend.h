@@ -9,9 +9,12 @@
 // the executor's ray caster, or handed over once from the host (moved in
 // over host memory); kept copies are made on the executor.
 //
-// Maps are appended to one store per node kind,
-// freed maps leave holes that are compacted on the executor once they
-// exceed a quarter of the store. storage() is the host's view: over device
+// Maps are appended to one store per node kind (a frame's maps walked
+// together, their counters read once: exec/light_pass.h), freed maps leave
+// holes that are closed on the executor, inside the arrays, once they
+// exceed a quarter of the store; the arrays keep their capacity, given
+// back after a frame's builds only past three times what they hold.
+// storage() is the host's view: over device
 // memory, a host mirror downloaded when the maps changed since the last
 // call (the probes read it, and the GL map buffers where the executor
 // cannot write them itself); the camera pass reads the executor's copy, and
@@ -447,7 +450,7 @@ class ExecBackend final : public ExecShadowBackend {
 
   // Emptied, capacity kept: when every map was replaced (the usual rebuild
   // of a one-map light) the next builds reuse the memory instead of
-  // allocating it again. Compaction is what gives memory back.
+  // allocating it again (give_back trims what the next builds leave unused).
   template <class Node>
   static void empty(KindStore<Node, Ex>& k) {
     k.texels.resize_discard(0);
