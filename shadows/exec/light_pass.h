@@ -621,8 +621,14 @@ DsmBuildStats place_map_exec(Ex& ex, const LightPassParams& params, const DsmLay
   const uint64_t n_texels = uint64_t(res) * uint64_t(height);
   const uint64_t n_tiles = uint64_t(tiles_x) * uint64_t(tiles_y);
   const uint32_t L = uint32_t(layout.fixed_layers), C = uint32_t(layout.chunk_nodes);
-  const Node* staging = reinterpret_cast<const Node*>(s.stage(rgb).data()) + c.base;
-  const SurfaceTag* staging_tags = s.stage_tags(rgb).data() + c.base;
+  // Chunked: the map's nodes in staging (packed maps are in the store
+  // already; fixed maps were placed by the walk).
+  const Node* staging = nullptr;
+  const SurfaceTag* staging_tags = nullptr;
+  if (kind == DsmLayout::Chunked) {
+    staging = reinterpret_cast<const Node*>(s.stage(rgb).data()) + c.base;
+    staging_tags = s.stage_tags(rgb).data() + c.base;
+  }
   const TexelRange* heads = s.heads.data() + b.heads_at;
 
   map = DsmMap{};
