@@ -399,6 +399,23 @@ struct BatchEntry {
   uint64_t store_nodes = 0, store_tags = 0, store_texels = 0, store_headers = 0;
 };
 
+// A map's texels in 8x8 tiles, and its layout's L and C (the walk's and
+// the placement's shared terms).
+struct MapGrid {
+  int res, height, tiles_x, tiles_y;
+  uint64_t texels, tiles;
+  uint32_t L, C;
+  MapGrid(const PinholeView& v, const DsmLayoutParams& layout)
+      : res(v.width),
+        height(v.height),
+        tiles_x((v.width + kDsmTile - 1) / kDsmTile),
+        tiles_y((v.height + kDsmTile - 1) / kDsmTile),
+        texels(uint64_t(v.width) * uint64_t(v.height)),
+        tiles(uint64_t(tiles_x) * uint64_t(tiles_y)),
+        L(uint32_t(layout.fixed_layers)),
+        C(uint32_t(layout.chunk_nodes)) {}
+};
+
 // Steps 1-5 of one map (its counters at `ctr`, zeroed; the previous map's
 // of the same kind at `prev`, or null). No read-back: every count stays on
 // the executor.
@@ -409,11 +426,10 @@ void walk_map_exec(Ex& ex, const SceneView& scene, const LightPassParams& params
   using Kind = NodeKind<Node>;
   const DsmLayout kind = layout.layout;
   const bool rgb = Node::kChannels == 3;
-  const int res = params.view.width, height = params.view.height;
-  const int tiles_x = (res + kDsmTile - 1) / kDsmTile, tiles_y = (height + kDsmTile - 1) / kDsmTile;
-  const uint64_t n_texels = uint64_t(res) * uint64_t(height);
-  const uint64_t n_tiles = uint64_t(tiles_x) * uint64_t(tiles_y);
-  const uint32_t L = uint32_t(layout.fixed_layers), C = uint32_t(layout.chunk_nodes);
+  const MapGrid g(params.view, layout);
+  const int res = g.res, height = g.height, tiles_x = g.tiles_x, tiles_y = g.tiles_y;
+  const uint64_t n_texels = g.texels, n_tiles = g.tiles;
+  const uint32_t L = g.L, C = g.C;
   const bool baseline = params.method != ShadowMethod::Dsm;
   const int K = baseline ? baseline_capacity(params.method, params.method_param) : opt.walk_nodes;
   const int K2 = opt.max_nodes;
@@ -616,11 +632,10 @@ DsmBuildStats place_map_exec(Ex& ex, const LightPassParams& params, const DsmLay
   using Chunk = typename NodeKind<Node>::Chunk;
   const DsmLayout kind = layout.layout;
   const bool rgb = Node::kChannels == 3;
-  const int res = params.view.width, height = params.view.height;
-  const int tiles_x = (res + kDsmTile - 1) / kDsmTile, tiles_y = (height + kDsmTile - 1) / kDsmTile;
-  const uint64_t n_texels = uint64_t(res) * uint64_t(height);
-  const uint64_t n_tiles = uint64_t(tiles_x) * uint64_t(tiles_y);
-  const uint32_t L = uint32_t(layout.fixed_layers), C = uint32_t(layout.chunk_nodes);
+  const MapGrid g(params.view, layout);
+  const int res = g.res, height = g.height, tiles_x = g.tiles_x, tiles_y = g.tiles_y;
+  const uint64_t n_texels = g.texels, n_tiles = g.tiles;
+  const uint32_t L = g.L, C = g.C;
   // Chunked: the map's nodes in staging (packed maps are in the store
   // already; fixed maps were placed by the walk).
   const Node* staging = nullptr;

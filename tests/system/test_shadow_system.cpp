@@ -73,6 +73,15 @@ SystemOptions cpu_options(bool keep_lists) {
   return o;
 }
 
+// The default scene small (96 x 64, 64^2 maps) in four clusters: the
+// frame-structure tests' rebuilds.
+Scene four_clusters() {
+  Scene scene = shipped("default", 96, 64, 64);
+  scene.shadows.max_clusters = 4;
+  scene.shadows.d0 = 0.02f;
+  return scene;
+}
+
 bool same_pixels(const Image& a, const Image& b) {
   return a.width == b.width && a.height == b.height && a.rgb.size() == b.rgb.size() &&
          std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float)) == 0;
@@ -337,9 +346,7 @@ TEST(ShadowSystem, AFailedBuildLeavesNothingBehind) {
 // pass's counters (CPU threads cast each ray once, on the host; the GPU's
 // cast reads its scan's total: one more there).
 TEST(ShadowSystem, AMovedObjectAfterWarmUpAllocatesNothing) {
-  Scene scene = shipped("default", 96, 64, 64);
-  scene.shadows.max_clusters = 4;
-  scene.shadows.d0 = 0.02f;
+  const Scene scene = four_clusters();
   ShadowSystem sys(cpu_options(false));
   add_scene(sys, scene);
   FrameStats st;
@@ -862,9 +869,7 @@ TEST(ShadowSystem, SteadyFramesWaitAllocateLaunchAndMoveNothing) {
 // only grows), upload nothing (the kept fragment lists are where the
 // executor reads them) and read back only the light pass's counters, once.
 TEST(ShadowSystem, ARebuildAfterWarmUpAllocatesNothing) {
-  Scene scene = shipped("default", 96, 64, 64);
-  scene.shadows.max_clusters = 4;
-  scene.shadows.d0 = 0.02f;
+  const Scene scene = four_clusters();
   ShadowSystem sys(cpu_options(true));
   add_scene(sys, scene);
   FrameStats st;
