@@ -30,12 +30,13 @@ layout(location = 4) uniform vec4 u_window;    // center.x, center.y, tan_half_x
 layout(location = 5) uniform vec2 u_near_far;  // view-axis clip range, world units
 layout(location = 6) uniform ivec2 u_size;     // view width, height in pixels
 layout(location = 7) uniform int u_row0;       // first image row of the counted band
-layout(location = 8) uniform uint u_frag_base; // band offset of the fill tile's first pixel
+layout(location = 8) uniform uint u_frag_base; // batch offset of the pool's first fragment
 layout(location = 9) uniform int u_pass;       // 0 count, 1 fill
 layout(location = 10) uniform uint u_tri_base; // first triangle of the bound normal range
 layout(location = 11) uniform float u_clip_z;  // user clip plane z >= u_clip_z (< near), drops geometry behind the eye
 layout(location = 12) uniform float u_x_shift; // NDC shift of the geometry: half a snapping step (see below)
 layout(location = 13) uniform int u_ortho;     // 1: orthographic (parallel rays along u_forward), 0: pinhole
+layout(location = 14) uniform uint u_count_base; // the band's first counter in its batch (views counted together)
 
 #if defined(VERTEX_STAGE)
 
@@ -79,7 +80,7 @@ struct Fragment {   // cdsm::Fragment (shadows/hd/fragment.h), 8 bytes
   uint bits;        // bits 0..28 primitive, bit 29 clipped, bit 31 front-facing
 };
 
-layout(std430, binding = 0) buffer Counts { uint counts[]; };          // per band pixel
+layout(std430, binding = 0) buffer Counts { uint counts[]; };          // per pixel of the batch's bands
 layout(std430, binding = 1) readonly buffer Offsets { uint offsets[]; }; // exclusive sums of counts
 layout(std430, binding = 2) writeonly buffer Fragments { Fragment fragments[]; };
 // Bit t set: triangle t bounds a medium (hd/scene_data.h bounds_medium).
@@ -95,7 +96,7 @@ void main() {
   if (clipped && (axial < u_clip_z || ((tri_media[v_prim >> 5u] >> (v_prim & 31u)) & 1u) == 0u)) return;
   int px = int(gl_FragCoord.x);
   int py = u_size.y - 1 - int(gl_FragCoord.y);  // image rows go down
-  uint pixel = uint(py - u_row0) * uint(u_size.x) + uint(px);
+  uint pixel = u_count_base + uint(py - u_row0) * uint(u_size.x) + uint(px);
   if (u_pass == 0) {
     atomicAdd(counts[pixel], 1u);
     return;

@@ -34,6 +34,7 @@ enum Uniform : GLint {
   kClipZ = 11,
   kXShift = 12,
   kOrtho = 13,
+  kCountBase = 14,
 };
 enum Binding : GLuint { kCounts = 0, kOffsets = 1, kFragments = 2, kNormals = 3, kMedia = 4 };
 
@@ -342,7 +343,33 @@ struct FragmentRasterizer::Impl {
                                 " fill slots (count and fill passes rasterized differently)");
   }
 
-  void rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out, const TileSink* sink);
+  // A view's rows [r0, r1), counted at counter `base` of its batch.
+  struct Band {
+    uint32_t job;
+    int32_t r0, r1;
+    uint64_t base;
+  };
+  std::vector<Band> bands;              // of the current call
+  std::vector<uint32_t> batch_offsets;  // a batch's offsets read back (+ total, overflow flag)
+  std::vector<Piece> pieces;            // what the pool holds since its last hand-over
+  std::vector<Fragment> staging;        // a pool of several pieces read back at once
+  uint32_t drawn_job = ~0u;             // the job whose draws and view are set
+
+  // Draws and view of job j, set when they are not yet.
+  void draw_setup(Span<const Job> jobs, uint32_t j) {
+    if (drawn_job != j) {
+      build_draws(jobs[j].mask);
+      set_view(jobs[j].view);
+      drawn_job = j;
+    }
+    bind_pipeline(jobs[j].view.width, jobs[j].view.height);
+  }
+
+  void rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink);
+  void rasterize_batch(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink, size_t b0, size_t b1,
+                       uint64_t n);
+  void flush(FragmentBuffers* outs, const TileSink* sink);
+  [[noreturn]] void report_overflow(Span<const Job> jobs, size_t b0, size_t b1, uint64_t n);
 
   // CDSM_GL_SYNC: passes wait for what came before them, so a fault that
   // goes away with it is one of synchronization (the GL analogue of
@@ -367,136 +394,219 @@ struct FragmentRasterizer::Impl {
   }
 };
 
-void FragmentRasterizer::Impl::rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out,
-                                         const TileSink* sink) {
+void FragmentRasterizer::Impl::rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink) {
   auto t0 = std::chrono::steady_clock::now();
   context.make_current();
   const Limits& lim = context.limits();
-  const int32_t W = view.width, H = view.height;
-  if (W <= 0 || H <= 0) throw Error(kWhere, "view of " + std::to_string(W) + "x" + std::to_string(H) + " pixels");
-  if (W > std::min(lim.max_framebuffer_width, lim.max_viewport_width) ||
-      H > std::min(lim.max_framebuffer_height, lim.max_viewport_height))
-    throw Error(kWhere, "view of " + std::to_string(W) + "x" + std::to_string(H) +
-                            " pixels exceeds this GL's framebuffer/viewport limit of " +
-                            std::to_string(std::min(lim.max_framebuffer_width, lim.max_viewport_width)) + "x" +
-                            std::to_string(std::min(lim.max_framebuffer_height, lim.max_viewport_height)));
-  const uint64_t pixels = uint64_t(W) * uint64_t(H);
-  out.width = W;
-  out.height = H;
-  // One value more than the lists keep: a band's read of its offsets brings
-  // the scan's overflow flag with it (after its total), one read-back.
-  out.offsets.resize(pixels + 2);
+  const uint64_t band_pixels = max_band_pixels();
   stats.tiles = 0;
   stats.bands = 0;
+  stats.scans = 0;
+  stats.flushes = 0;
   stats.fragments = 0;
-
-  build_draws(mask);
-  set_view(view);
-  const uint64_t band_pixels = max_band_pixels();
-  const int32_t band_rows = int32_t(std::max<uint64_t>(1, std::min<uint64_t>(uint64_t(H), band_pixels / uint64_t(W))));
-  if (uint64_t(W) > band_pixels)
-    throw Error(kWhere, "one row of " + std::to_string(W) + " pixels exceeds the counter buffer limit");
-  counts.reserve(uint64_t(W) * uint64_t(band_rows) * 4);
-  offsets.reserve((uint64_t(W) * uint64_t(band_rows) + 2) * 4);
-  const uint64_t cap_fragments = max_pool_bytes() / kFragmentBytes;
-
+  // Every view checked before any GL work; then its bands of rows (one
+  // unless its counters exceed one SSBO), batched while they fit one.
+  bands.clear();
+  for (uint32_t j = 0; j < uint32_t(jobs.size()); ++j) {
+    const PinholeView& view = jobs[j].view;
+    const int32_t W = view.width, H = view.height;
+    if (W <= 0 || H <= 0) throw Error(kWhere, "view of " + std::to_string(W) + "x" + std::to_string(H) + " pixels");
+    if (W > std::min(lim.max_framebuffer_width, lim.max_viewport_width) ||
+        H > std::min(lim.max_framebuffer_height, lim.max_viewport_height))
+      throw Error(kWhere, "view of " + std::to_string(W) + "x" + std::to_string(H) +
+                              " pixels exceeds this GL's framebuffer/viewport limit of " +
+                              std::to_string(std::min(lim.max_framebuffer_width, lim.max_viewport_width)) + "x" +
+                              std::to_string(std::min(lim.max_framebuffer_height, lim.max_viewport_height)));
+    if (uint64_t(W) > band_pixels)
+      throw Error(kWhere, "one row of " + std::to_string(W) + " pixels exceeds the counter buffer limit");
+    const int32_t band_rows =
+        int32_t(std::max<uint64_t>(1, std::min<uint64_t>(uint64_t(H), band_pixels / uint64_t(W))));
+    for (int32_t r0 = 0; r0 < H; r0 += band_rows) bands.push_back({j, r0, std::min(H, r0 + band_rows), 0});
+  }
+  for (uint32_t j = 0; j < uint32_t(jobs.size()); ++j) {
+    FragmentBuffers& out = outs[j];
+    out.width = jobs[j].view.width;
+    out.height = jobs[j].view.height;
+    out.offsets.resize(uint64_t(out.width) * uint64_t(out.height) + 1);
+    out.offsets.back() = 0;  // the view's fragments so far, while its bands come
+    out.fragments.clear();
+  }
+  drawn_job = ~0u;
   StateReset reset;
-  uint64_t total = 0;
-  for (int32_t r0 = 0; r0 < H; r0 += band_rows) {
-    const int32_t r1 = std::min(H, r0 + band_rows);
-    const uint64_t n = uint64_t(W) * uint64_t(r1 - r0);
-    ++stats.bands;
-
-    // Count pass.
-    counts.clear(n * 4);
-    bind_pipeline(W, H);
-    CDSM_GL(glProgramUniform1i(program.id(), kRow0, r0));
-    CDSM_GL(glProgramUniform1i(program.id(), kPass, 0));
-    scissor(H, r0, r1, 0, W);
-    sync("clear");
-    draw();
-    sync("count");
-
-    // Prefix sum -> band-local offsets and the overflow flag after them,
-    // read back into out.offsets in one read.
-    scan.exclusive_scan(counts, offsets, n);
-    scan.write_overflow_flag(offsets, n + 1);
-    uint32_t* band_offsets = out.offsets.data() + uint64_t(r0) * uint64_t(W);
-    offsets.download(band_offsets, (n + 2) * 4);
-    if (band_offsets[n + 1] != 0) {
-      // Say whether the counts overflow or the scan does (a driver or
-      // synchronization fault): the counts summed on the host.
-      CDSM_GL(glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT));
-      std::vector<uint32_t> c(n);
-      counts.download(c.data(), n * 4);
-      uint64_t sum = 0, largest = 0, at = 0;
-      for (uint64_t i = 0; i < n; ++i) {
-        sum += c[i];
-        if (c[i] > largest) largest = c[i], at = i;
-      }
-      const std::string band = "rows " + std::to_string(r0) + ".." + std::to_string(r1 - 1) + " of a " +
-                               std::to_string(W) + "x" + std::to_string(H) + " view: the counts sum to " +
-                               std::to_string(sum) + " (largest " + std::to_string(largest) + " at pixel (" +
-                               std::to_string(at % uint64_t(W)) + ", " +
-                               std::to_string(r0 + int32_t(at / uint64_t(W))) + "))";
-      if (sum > 0xffffffffull) throw Error(kWhere, "more than 2^32-1 fragments in one band of the view: " + band);
-      throw Error(kWhere,
-                  "internal: the prefix sum reported a carry out of 32 bits that the counts do not have; " + band);
+  for (size_t b0 = 0; b0 < bands.size();) {
+    uint64_t n = 0;
+    size_t b1 = b0;
+    for (; b1 < bands.size(); ++b1) {
+      const uint64_t band_n = uint64_t(jobs[bands[b1].job].view.width) * uint64_t(bands[b1].r1 - bands[b1].r0);
+      if (b1 > b0 && n + band_n > band_pixels) break;
+      bands[b1].base = n;
+      n += band_n;
     }
-    const uint64_t band_total = band_offsets[n];
-    if (total + band_total > 0xffffffffull)
-      throw Error(kWhere, "more than 2^32-1 fragments in the view (offsets are 32-bit)");
-    const uint32_t base = uint32_t(total);
-    if (!sink) out.fragments.resize(total + band_total);
+    rasterize_batch(jobs, outs, sink, b0, b1, n);
+    b0 = b1;
+  }
+  stats.pool_bytes = pool.capacity();
+  stats.gpu_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
 
-    // Fill tiles: whole rows while they fit the pool cap, else row pieces.
-    bind_pipeline(W, H);
+// Bands [b0, b1) (n counters in all): counted, scanned, read back once;
+// filled into the pool, which is handed on each time it is full.
+void FragmentRasterizer::Impl::rasterize_batch(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink,
+                                               size_t b0, size_t b1, uint64_t n) {
+  counts.reserve(n * 4);
+  offsets.reserve((n + 2) * 4);
+  counts.clear(n * 4);
+  sync("clear");
+  for (size_t b = b0; b < b1; ++b) {
+    const Band& band = bands[b];
+    draw_setup(jobs, band.job);
+    CDSM_GL(glProgramUniform1i(program.id(), kPass, 0));
+    CDSM_GL(glProgramUniform1i(program.id(), kRow0, band.r0));
+    CDSM_GL(glProgramUniform1ui(program.id(), kCountBase, GLuint(band.base)));
+    scissor(jobs[band.job].view.height, band.r0, band.r1, 0, jobs[band.job].view.width);
+    draw();
+    ++stats.bands;
+  }
+  sync("count");
+
+  // Prefix sum over the batch -> batch offsets and the overflow flag after
+  // them, read back in one read.
+  scan.exclusive_scan(counts, offsets, n);
+  scan.write_overflow_flag(offsets, n + 1);
+  batch_offsets.resize(n + 2);
+  offsets.download(batch_offsets.data(), (n + 2) * 4);
+  ++stats.scans;
+  if (batch_offsets[n + 1] != 0) report_overflow(jobs, b0, b1, n);
+  const uint64_t batch_total = batch_offsets[n];
+  auto off = [&](uint64_t i) { return uint64_t(batch_offsets[i]); };
+  // Each band's offsets into its view's lists, which count on from the
+  // view's earlier bands.
+  for (size_t b = b0; b < b1; ++b) {
+    const Band& band = bands[b];
+    FragmentBuffers& out = outs[band.job];
+    const uint64_t W = uint64_t(out.width), band_n = W * uint64_t(band.r1 - band.r0);
+    const uint64_t before = out.offsets.back(), band_total = off(band.base + band_n) - off(band.base);
+    if (before + band_total > 0xffffffffull)
+      throw Error(kWhere, "more than 2^32-1 fragments in a " + std::to_string(out.width) + "x" +
+                              std::to_string(out.height) + " view (offsets are 32-bit)");
+    uint32_t* dst = out.offsets.data() + uint64_t(band.r0) * W;
+    const uint32_t shift = uint32_t(before) - batch_offsets[band.base];  // modulo 2^32
+    for (uint64_t i = 0; i < band_n; ++i) dst[i] = batch_offsets[band.base + i] + shift;
+    out.offsets.back() = uint32_t(before + band_total);
+    stats.fragments += band_total;
+  }
+  if (!sink)
+    for (size_t b = b0; b < b1; ++b) {
+      FragmentBuffers& out = outs[bands[b].job];
+      out.fragments.resize(out.offsets.back());
+    }
+
+  // Fill tiles: whole rows while they fit the pool cap, else row pieces;
+  // into the pool one after another, handed on when the next does not fit.
+  const uint64_t cap_fragments = max_pool_bytes() / kFragmentBytes;
+  if (batch_total > 0) ensure_pool(std::min(batch_total, cap_fragments));
+  const uint64_t pool_fragments = pool.capacity() / kFragmentBytes;
+  uint64_t pool_first = 0;  // batch offset of the pool's first fragment
+  pieces.clear();
+  for (size_t b = b0; b < b1; ++b) {
+    const Band& band = bands[b];
+    const int32_t W = jobs[band.job].view.width, H = jobs[band.job].view.height;
+    const uint64_t band_n = uint64_t(W) * uint64_t(band.r1 - band.r0);
+    // The band's first fragment in its view's lists.
+    const uint64_t view_first = outs[band.job].offsets[uint64_t(band.r0) * uint64_t(W)];
+    const uint64_t band_first = off(band.base);
+    if (off(band.base + band_n) == band_first) continue;
+    draw_setup(jobs, band.job);
     CDSM_GL(glProgramUniform1i(program.id(), kPass, 1));
-    auto off = [&](uint64_t i) { return uint64_t(band_offsets[i]); };  // band-local, before rebasing
+    CDSM_GL(glProgramUniform1i(program.id(), kRow0, band.r0));
+    CDSM_GL(glProgramUniform1ui(program.id(), kCountBase, GLuint(band.base)));
+    auto boff = [&](uint64_t i) { return off(band.base + i); };  // batch offset of band pixel i
     uint64_t p = 0;
-    while (p < n) {
+    while (p < band_n) {
       uint64_t end;
-      int32_t row_a = r0 + int32_t(p / uint64_t(W));
+      int32_t row_a = band.r0 + int32_t(p / uint64_t(W));
       int32_t row_b = row_a + 1, col_a = int32_t(p % uint64_t(W)), col_b = W;
-      if (p % uint64_t(W) == 0 && off(p + uint64_t(W)) - off(p) <= cap_fragments) {
+      if (p % uint64_t(W) == 0 && boff(p + uint64_t(W)) - boff(p) <= cap_fragments) {
         end = p + uint64_t(W);
-        while (end < n && off(end + uint64_t(W)) - off(p) <= cap_fragments) end += uint64_t(W);
-        row_b = r0 + int32_t(end / uint64_t(W));
+        while (end < band_n && boff(end + uint64_t(W)) - boff(p) <= cap_fragments) end += uint64_t(W);
+        row_b = band.r0 + int32_t(end / uint64_t(W));
       } else {
         // Pieces of one row: a row alone holds more than the pool cap.
         uint64_t row_end = (p / uint64_t(W) + 1) * uint64_t(W);
         end = p;
-        while (end < row_end && off(end + 1) - off(p) <= cap_fragments) ++end;
+        while (end < row_end && boff(end + 1) - boff(p) <= cap_fragments) ++end;
         if (end == p)
           throw Error(kWhere, "pixel (" + std::to_string(p % uint64_t(W)) + ", " + std::to_string(row_a) + ") has " +
-                                  std::to_string(off(p + 1) - off(p)) + " fragments, more than the pool holds");
+                                  std::to_string(boff(p + 1) - boff(p)) + " fragments, more than the pool holds");
         col_b = int32_t(end % uint64_t(W) == 0 ? uint64_t(W) : end % uint64_t(W));
       }
       ++stats.tiles;
-      const uint64_t tile_fragments = off(end) - off(p);
+      const uint64_t tile_fragments = boff(end) - boff(p);
       if (tile_fragments > 0) {
-        ensure_pool(tile_fragments);
-        CDSM_GL(glProgramUniform1ui(program.id(), kFragBase, GLuint(off(p))));
+        if (boff(end) - pool_first > pool_fragments) {
+          flush(outs, sink);
+          pool_first = boff(p);
+        }
+        CDSM_GL(glProgramUniform1ui(program.id(), kFragBase, GLuint(pool_first)));
         scissor(H, row_a, row_b, col_a, col_b);
         draw();
         sync("fill");
-        CDSM_GL(glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT));
-        if (sink)
-          (*sink)(total + off(p), tile_fragments, pool.id(), pool.capacity(), pool_generation);
+        const uint64_t first = view_first + (boff(p) - band_first);
+        if (!pieces.empty() && pieces.back().job == band.job && pieces.back().first + pieces.back().count == first)
+          pieces.back().count += tile_fragments;
         else
-          pool.download(out.fragments.data() + total + off(p), tile_fragments * kFragmentBytes);
+          pieces.push_back({band.job, first, tile_fragments, boff(p) - pool_first});
       }
       p = end;
     }
-    if (context.debug()) verify_cursors_consumed(n);
-    if (base != 0)
-      for (uint64_t i = 0; i <= n; ++i) band_offsets[i] += base;
-    total += band_total;
   }
-  out.offsets.resize(pixels + 1);  // (the flag's slot)
-  stats.fragments = total;
-  stats.pool_bytes = pool.capacity();
-  stats.gpu_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  flush(outs, sink);
+  if (context.debug()) verify_cursors_consumed(n);
+}
+
+// The pool's pieces to their lists: one read-back into the host's lists, or
+// one call of the sink.
+void FragmentRasterizer::Impl::flush(FragmentBuffers* outs, const TileSink* sink) {
+  if (pieces.empty()) return;
+  CDSM_GL(glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT));
+  ++stats.flushes;
+  if (sink) {
+    (*sink)({pieces.data(), pieces.size()}, pool.id(), pool.capacity(), pool_generation);
+  } else if (pieces.size() == 1) {
+    const Piece& q = pieces[0];
+    pool.download(outs[q.job].fragments.data() + q.first, q.count * kFragmentBytes, q.at * kFragmentBytes);
+  } else {
+    const uint64_t used = pieces.back().at + pieces.back().count;
+    staging.resize(used);
+    pool.download(staging.data(), used * kFragmentBytes);
+    for (const Piece& q : pieces)
+      std::memcpy(outs[q.job].fragments.data() + q.first, staging.data() + q.at, q.count * kFragmentBytes);
+  }
+  pieces.clear();
+}
+
+// Says whether a batch's counts overflow 32 bits or its scan does (a driver
+// or synchronization fault): the counts summed on the host. Throws.
+void FragmentRasterizer::Impl::report_overflow(Span<const Job> jobs, size_t b0, size_t b1, uint64_t n) {
+  CDSM_GL(glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT));
+  std::vector<uint32_t> c(n);
+  counts.download(c.data(), n * 4);
+  uint64_t sum = 0, largest = 0, at = 0;
+  for (uint64_t i = 0; i < n; ++i) {
+    sum += c[i];
+    if (c[i] > largest) largest = c[i], at = i;
+  }
+  size_t b = b0;
+  while (b + 1 < b1 && bands[b + 1].base <= at) ++b;
+  const PinholeView& v = jobs[bands[b].job].view;
+  const uint64_t in_band = at - bands[b].base;
+  const std::string where = std::to_string(b1 - b0) + " band(s) of " + std::to_string(jobs.size()) +
+                            " view(s): the counts sum to " + std::to_string(sum) + " (largest " +
+                            std::to_string(largest) + " at pixel (" + std::to_string(in_band % uint64_t(v.width)) +
+                            ", " + std::to_string(bands[b].r0 + int64_t(in_band / uint64_t(v.width))) + ") of a " +
+                            std::to_string(v.width) + "x" + std::to_string(v.height) + " view)";
+  if (sum > 0xffffffffull) throw Error(kWhere, "more than 2^32-1 fragments in one batch of views: " + where);
+  throw Error(kWhere, "internal: the prefix sum reported a carry out of 32 bits that the counts do not have; " + where);
 }
 
 FragmentRasterizer::FragmentRasterizer(Context& context) : FragmentRasterizer(context, RasterOptions{}) {}
@@ -524,13 +634,16 @@ uint64_t FragmentRasterizer::scene_buffer_bytes() const {
 }
 
 void FragmentRasterizer::rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out) {
-  impl_->rasterize(view, mask, out, nullptr);
+  const Job job{view, mask};
+  impl_->rasterize({&job, 1}, &out, nullptr);
 }
 
-void FragmentRasterizer::rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out,
-                                   const TileSink& sink) {
-  out.fragments.clear();
-  impl_->rasterize(view, mask, out, &sink);
+void FragmentRasterizer::rasterize(Span<const Job> jobs, FragmentBuffers* outs) {
+  impl_->rasterize(jobs, outs, nullptr);
+}
+
+void FragmentRasterizer::rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink& sink) {
+  impl_->rasterize(jobs, outs, &sink);
 }
 
 void FragmentRasterizer::set_release_hook(std::function<void(uint32_t)> hook) { impl_->release_hook = std::move(hook); }

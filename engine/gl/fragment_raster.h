@@ -30,7 +30,12 @@
 // (GL_MAX_SHADER_STORAGE_BLOCK_SIZE, 128 MiB on llvmpipe) or
 // RasterOptions::max_pool_bytes are filled in horizontal tiles (scissor
 // rectangles of whole rows; of partial rows only if one row alone is too
-// big), each read back into `out` in order.
+// big), the pool read back (or handed over) each time it is full.
+//
+// Batches: views rasterized together (rasterize(jobs, outs)) are counted
+// into one counter buffer, scanned once, read back once, filled one after
+// another into the pool and read back (or handed over) once — two waits on
+// the GL pipeline for a frame's light views instead of two per view.
 //
 // GL state: rasterize() binds its own framebuffer, program, vertex array,
 // buffers, viewport and scissor, and on return leaves framebuffer 0, program
@@ -58,8 +63,12 @@ struct RasterStats {
   uint32_t pool_grows = 0;  // times the node pool grew (cumulative)
   uint64_t pool_bytes = 0;  // current fragment pool size
   double gpu_ms = 0.0;      // count+scan+fill, wall clock incl. read-back
-  uint32_t bands = 0;       // count passes of the last call (> 1 only when the
-                            // per-pixel counters of the whole view exceed one SSBO)
+  uint32_t bands = 0;       // count passes of the last call: one per view (more when
+                            // a view's per-pixel counters exceed one SSBO)
+  uint32_t scans = 0;       // prefix sums (and offset read-backs) of the last call:
+                            // one per batch of views whose counters fit one SSBO
+  uint32_t flushes = 0;     // fragment hand-overs (read-backs, or sink calls) of the
+                            // last call: one per filled pool
 };
 
 struct RasterOptions {
@@ -107,18 +116,40 @@ class FragmentRasterizer {
   // the view axis is dropped: GL cannot project points at the eye.)
   void rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out);
 
-  // Where the fragments go instead of the host: each tile's fragments lie
-  // at the start of GL buffer `gl_buffer` (`gl_buffer_bytes` long, this
-  // context's) and belong at fragments [first, first + count) of the view's
-  // lists; tiles come in order (first is the fragments before them). The
-  // buffer is written again after the call returns: the sink copies them
-  // before (CUDA-GL interop: mapped, copied on the device, unmapped).
-  // `generation` changes whenever the buffer is a new object.
-  using TileSink = std::function<void(uint64_t first, uint64_t count, uint32_t gl_buffer, uint64_t gl_buffer_bytes,
-                                      uint64_t generation)>;
-  // rasterize() handing every tile to `sink`: out.offsets as above,
-  // out.fragments left empty.
-  void rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out, const TileSink& sink);
+  // One view of a batch: the view and the objects drawn into it (the mask's
+  // words stay alive for the call).
+  struct Job {
+    PinholeView view;
+    ObjectMask mask;
+  };
+  // Several views at once, outs[i] job i's lists as rasterize() makes them:
+  // every view counted, one scan of all their counts and one read of all
+  // their offsets, every view filled into the pool, then one read of all
+  // their fragments (2 GL read-backs for the batch while its counters fit
+  // one SSBO and its fragments the pool; else one more pair per counter
+  // batch, one more fragment read per filled pool).
+  void rasterize(Span<const Job> jobs, FragmentBuffers* outs);
+
+  // Where a batch's fragments go instead of the host: each time the pool is
+  // full (or the batch done), its first fragments are pieces of the views'
+  // lists — piece p: fragments [first, first + count) of job `job`'s lists
+  // lie at fragment `at` of GL buffer `gl_buffer` (`gl_buffer_bytes` long,
+  // this context's). Pieces come in order (per job, `first` is the
+  // fragments before it). The buffer is written again after the call
+  // returns: the sink copies them before (CUDA-GL interop: mapped once,
+  // copied on the device, unmapped). `generation` changes whenever the
+  // buffer is a new object.
+  struct Piece {
+    uint32_t job;
+    uint64_t first;
+    uint64_t count;
+    uint64_t at;
+  };
+  using TileSink =
+      std::function<void(Span<const Piece> pieces, uint32_t gl_buffer, uint64_t gl_buffer_bytes, uint64_t generation)>;
+  // rasterize(jobs, outs) handing the fragments to `sink`: outs[i].offsets
+  // as above, outs[i].fragments left empty.
+  void rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink& sink);
   // Called with a buffer's name before this rasterizer deletes or replaces
   // it (a sink that registered it with CUDA lets go of it then).
   void set_release_hook(std::function<void(uint32_t)> hook);

@@ -89,7 +89,7 @@ void MapBuffers::renew(int b) {
   generation_[b] = next.fetch_add(1);
 }
 
-GlMapWrite MapBuffers::prepare_array(int b, uint64_t bytes, bool full, MapUploadStats& st) {
+GlMapWrite MapBuffers::prepare_array(int b, uint64_t bytes, uint64_t from, MapUploadStats& st) {
   if (bytes > max_block_)
     throw Error(std::string("GL map buffers: ") + block_name(MapBlock(b)),
                 "the frame's maps need " + mib(bytes) + " in one storage block, more than this GL implementation's " +
@@ -99,34 +99,30 @@ GlMapWrite MapBuffers::prepare_array(int b, uint64_t bytes, bool full, MapUpload
   Buffer& buf = buffers_[b];
   GlMapWrite w;
   w.array = StorageArray(b - int(MapBlock::Texels));  // the blocks after the frame block, in storage order
-  if (full || bytes < used_[b]) {
-    const uint64_t want = (std::max(bytes, kMinBytes) + 3) & ~uint64_t(3);  // whole words
+  from = std::min({from, used_[b], bytes});
+  const uint64_t want = (std::max(bytes, kMinBytes) + 3) & ~uint64_t(3);  // whole words
+  if (buf.capacity() > 2 * want && bytes < used_[b]) from = 0;            // shrunk to under half: re-allocated
+  if (from == 0) {
     if (want > buf.capacity() || buf.capacity() > 2 * want) {
       release(b);
       buf.destroy();
       buf.reserve(want);
       renew(b);
     }
-    w.offset = 0;
-    w.bytes = bytes;
-  } else if (bytes > used_[b]) {
-    if (bytes > buf.capacity()) {  // grow, keeping the contents (a GL-side copy)
-      const uint64_t grown =
-          (std::min(std::max(bytes, buf.capacity() + buf.capacity() / 2), std::max(max_block_, bytes)) + 3) &
-          ~uint64_t(3);
-      Buffer next(buf.label());
-      next.reserve(grown);
-      if (used_[b] > 0) {
-        CDSM_GL(glCopyNamedBufferSubData(buf.id(), next.id(), 0, 0, GLsizeiptr(used_[b])));
-        st.copy_bytes += used_[b];
-      }
-      release(b);
-      buf = std::move(next);  // deletes the old buffer object
-      renew(b);
-    }
-    w.offset = used_[b];
-    w.bytes = bytes - used_[b];
+  } else if (bytes > buf.capacity()) {  // grow, keeping the contents (a GL-side copy)
+    const uint64_t grown =
+        (std::min(std::max(bytes, buf.capacity() + buf.capacity() / 2), std::max(max_block_, bytes)) + 3) &
+        ~uint64_t(3);
+    Buffer next(buf.label());
+    next.reserve(grown);
+    CDSM_GL(glCopyNamedBufferSubData(buf.id(), next.id(), 0, 0, GLsizeiptr(from)));
+    st.copy_bytes += from;
+    release(b);
+    buf = std::move(next);  // deletes the old buffer object
+    renew(b);
   }
+  w.offset = from;
+  w.bytes = bytes - from;
   used_[b] = bytes;
   w.gl_buffer = buf.id();
   w.gl_buffer_bytes = buf.capacity();
@@ -134,11 +130,22 @@ GlMapWrite MapBuffers::prepare_array(int b, uint64_t bytes, bool full, MapUpload
   return w;
 }
 
-MapUploadStats MapBuffers::sync(const ShadowView& view, uint64_t epoch, const DeviceWriter& device) {
+MapUploadStats MapBuffers::sync(const ShadowView& view, uint64_t epoch, const KeptBytes& kept,
+                                const DeviceWriter& device) {
   context_.make_current();
   MapUploadStats st;
   const DsmStorage& s = view.storage;
-  st.full = !synced_ || epoch != epoch_ || s.layout != layout_;
+  // Per array, the bytes the buffers hold that are still the storage's.
+  uint64_t from[kStorageArrays];
+  const bool whole = !synced_ || s.layout != layout_ || epoch_ == 0;
+  for (int a = 0; a < kStorageArrays; ++a) from[a] = whole ? 0 : ~uint64_t(0);
+  if (!whole && epoch != epoch_) {
+    if (kept)
+      kept(epoch_, from);
+    else
+      for (int a = 0; a < kStorageArrays; ++a) from[a] = 0;
+  }
+  st.full = std::all_of(from, from + kStorageArrays, [](uint64_t f) { return f == 0; });
   const void* data[kMapBlocks] = {};
   uint64_t bytes[kMapBlocks] = {};
   for (int b = int(MapBlock::Texels); b < kMapBlocks; ++b) {
@@ -150,7 +157,7 @@ MapUploadStats MapBuffers::sync(const ShadowView& view, uint64_t epoch, const De
   GlMapWrite writes[kMapBlocks];
   int count = 0;
   for (int b = int(MapBlock::Texels); b < kMapBlocks; ++b) {
-    const GlMapWrite w = prepare_array(b, bytes[b], st.full, st);
+    const GlMapWrite w = prepare_array(b, bytes[b], from[b - int(MapBlock::Texels)], st);
     if (w.bytes > 0) writes[count++] = w;
   }
   if (device) {

@@ -8,12 +8,16 @@
 //
 // Uploads follow the backend's storage_epoch(): while it stays the same the
 // arrays only grew at their ends (maps built since), and only those tails
-// are uploaded; a new epoch (compaction, an emptied store, another layout)
-// uploads every array once. A buffer that must grow keeps its contents by a
-// GL-side copy (glCopyNamedBufferSubData, no host traffic) into one 1.5x
-// larger; after a full upload buffers are re-allocated to the exact size
-// when they are more than twice it. The frame block is re-uploaded only when
-// its bytes changed. So a frame in which no map changed uploads nothing.
+// are uploaded; across a new epoch (a compaction) each array is uploaded
+// from the first byte the backend did not keep in place
+// (ShadowBackend::storage_kept_bytes: the maps that moved down and the new
+// ones), and from its start where it does not know (an emptied store; the
+// first sync and another layout upload every array). A buffer that must
+// grow keeps its contents by a GL-side copy (glCopyNamedBufferSubData, no
+// host traffic) into one 1.5x larger; a buffer more than twice what its
+// array needs is re-allocated to the exact size and that array uploaded
+// whole. The frame block is re-uploaded only when its bytes changed. So a
+// frame in which no map changed uploads nothing.
 //
 // Every array must fit one storage block (GL_MAX_SHADER_STORAGE_BLOCK_SIZE,
 // 128 MiB on llvmpipe): a larger one is refused with cdsm::Error naming the
@@ -69,7 +73,7 @@ struct MapUploadStats {
   uint64_t upload_bytes = 0;     // host -> GL bytes of this sync
   uint64_t device_bytes = 0;     // array bytes the DeviceWriter wrote (no host traffic)
   uint64_t copy_bytes = 0;       // GL-side copies of grown buffers
-  bool full = false;             // every array uploaded (new epoch or first sync)
+  bool full = false;             // every array uploaded whole (first sync, another layout, nothing kept)
   uint64_t allocated_bytes = 0;  // all blocks' buffers
   uint64_t used_bytes = 0;       // of which holding data
 };
@@ -89,11 +93,16 @@ class MapBuffers {
   MapBuffers(const MapBuffers&) = delete;
   MapBuffers& operator=(const MapBuffers&) = delete;
 
+  // Per storage array, the bytes at its start unchanged since storage epoch
+  // `since` (ShadowBackend::storage_kept_bytes).
+  using KeptBytes = std::function<void(uint64_t since, uint64_t* kept)>;
   // Brings the buffers to `view` (its lights, maps and storage; the storage
-  // of a backend at storage epoch `epoch`). The context must be current.
-  // With `device`, the arrays' ranges are written by it (see above) and
-  // view.storage's spans are only read for their sizes.
-  MapUploadStats sync(const ShadowView& view, uint64_t epoch, const DeviceWriter& device = {});
+  // of a backend at storage epoch `epoch`, which keeps what `kept` says).
+  // The context must be current. With `device`, the arrays' ranges are
+  // written by it (see above) and view.storage's spans are only read for
+  // their sizes. Without `kept`, a new epoch uploads every array whole.
+  MapUploadStats sync(const ShadowView& view, uint64_t epoch, const KeptBytes& kept = {},
+                      const DeviceWriter& device = {});
 
   // Called with a buffer's GL name just before this deletes it or replaces
   // it by another (growth, re-allocation, the destructor), the context
@@ -116,9 +125,11 @@ class MapBuffers {
   DsmLayout layout() const { return layout_; }
 
  private:
-  // Sizes array `block`'s buffer for `bytes` (growing it by a GL-side copy,
-  // or re-allocating it on a full sync) and returns the range to write.
-  GlMapWrite prepare_array(int block, uint64_t bytes, bool full, MapUploadStats& st);
+  // Sizes array `block`'s buffer for `bytes` of which the first `from` are
+  // in it already (growing it by a GL-side copy of those, or re-allocating
+  // it exactly and writing it whole when it is more than twice the size)
+  // and returns the range to write.
+  GlMapWrite prepare_array(int block, uint64_t bytes, uint64_t from, MapUploadStats& st);
   void renew(int block);    // the array has a new buffer object
   void release(int block);  // tells the release hook before the block's buffer goes
 

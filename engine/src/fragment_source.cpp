@@ -1,5 +1,7 @@
 #include "fragment_source.h"
 
+#include <vector>
+
 #include "cdsm/error.h"
 #include "backend/backend.h"
 
@@ -127,26 +129,46 @@ uint64_t FragmentSourceSelector::scene_changed(const SceneBuffers& sb, const Sce
 FragmentProducer FragmentSourceSelector::producer(const SceneBuffers& sb) const {
   if (use_cuda_) {
     // The backend's ray caster: the lists never leave the device.
-    return
-        [](ShadowBackend& backend, const PinholeView& view, ObjectMask mask) { return backend.cast_lists(view, mask); };
+    return [](ShadowBackend& backend, const ListsRequest* requests, size_t n, ListsId* ids) {
+      produce_each(backend, requests, n, ids,
+                   [&](const ListsRequest& r) { return backend.cast_lists(r.view, r.mask); });
+    };
   }
 #if CDSM_HAVE_GL
   if (use_gl_) {
     gl::FragmentRasterizer* r = gl_->raster.get();
     gl::Context* context = gl_->context;
-    return [r, context](ShadowBackend& backend, const PinholeView& view, ObjectMask mask) {
+    return [r, context](ShadowBackend& backend, const ListsRequest* requests, size_t n, ListsId* ids) {
       context->make_current();
+      std::vector<gl::FragmentRasterizer::Job> jobs(n);
+      for (size_t i = 0; i < n; ++i) jobs[i] = {requests[i].view, requests[i].mask};
       // The backend's memory is where this context's buffers live (the cuda
-      // backend, CUDA-GL interop): each tile copied there on the device,
-      // nothing read back.
-      if (backend.can_write_gl_maps())
-        return backend.lists_from_gl(
-            [&](const ShadowBackend::GlTileSink& sink, FragmentBuffers& out) { r->rasterize(view, mask, out, sink); });
-      // Else read back once per view and handed over (moved in on the cpu
-      // backend).
-      FragmentBuffers fb;
-      r->rasterize(view, mask, fb);
-      return backend.adopt_lists(std::move(fb));
+      // backend, CUDA-GL interop): every view rasterized together, each
+      // filled pool copied there on the device, nothing read back but the
+      // offsets.
+      if (backend.can_write_gl_maps()) {
+        std::vector<ShadowBackend::GlPiece> handed;
+        backend.lists_from_gl(
+            n,
+            [&](const ShadowBackend::GlTileSink& sink, FragmentBuffers* outs) {
+              r->rasterize({jobs.data(), n}, outs,
+                           [&](Span<const gl::FragmentRasterizer::Piece> pieces, uint32_t buffer, uint64_t bytes,
+                               uint64_t generation) {
+                             handed.clear();
+                             for (const auto& p : pieces) handed.push_back({p.job, p.first, p.count, p.at});
+                             sink(handed.data(), handed.size(), buffer, bytes, generation);
+                           });
+            },
+            ids);
+        return;
+      }
+      // Else read back together (offsets once, fragments once) and handed
+      // over (moved in on the cpu backend).
+      std::vector<FragmentBuffers> fb(n);
+      r->rasterize({jobs.data(), n}, fb.data());
+      size_t i = 0;
+      produce_each(backend, requests, n, ids,
+                   [&](const ListsRequest&) { return backend.adopt_lists(std::move(fb[i++])); });
     };
   }
 #endif

@@ -122,6 +122,9 @@ namespace {
 // this many bytes of lists at once, then the group is built (one read of
 // its counters) and its lists freed.
 constexpr uint64_t kBuildGroupListBytes = uint64_t(256) << 20;
+// Views whose lists are made together: up to this many pixels (the GL
+// rasterizer's counters and offsets of 4 cube faces at 2048^2).
+constexpr uint64_t kProduceBatchPixels = uint64_t(1) << 24;
 
 // The planned maps against the cache: per plan its entry (reused by key, or
 // described for building), and per cache entry whether a plan took it.
@@ -199,7 +202,6 @@ void build_missing(const FrameInputs& in, const FragmentProducer& produce, Shado
   std::vector<uint8_t> built(n, 0);
   std::vector<MapCache::KeptFragments> kept;  // the next frame's MapCache::fragments
   std::vector<ListsId> reading;               // lists a build is reading
-  reading.reserve(1);
   auto abandon = [&] {
     auto quietly = [](auto f) {
       try {
@@ -265,50 +267,83 @@ void build_missing(const FrameInputs& in, const FragmentProducer& produce, Shado
       insides.clear();
       group_bytes = 0;
     };
+    // The maps to build, and the kept lists each planned map can take (kept
+    // again for the next frame below, where they are free again).
+    std::vector<size_t> todo;                          // k of the maps to build
+    std::vector<MapCache::KeptFragments*> from_cache;  // per todo: its kept lists, or null
     for (size_t k = 0; k < n; ++k) {
-      const MapPlan& plan = frame.setup.maps[k];
       MapCache::KeptFragments* cached = nullptr;
-      const uint64_t fkey = in.keep_fragments ? fragment_key(plan, in) : 0;
+      const uint64_t fkey = in.keep_fragments ? fragment_key(frame.setup.maps[k], in) : 0;
       if (in.keep_fragments)
         for (MapCache::KeptFragments& c : cache.fragments)
           if (!c.taken && c.key == fkey) cached = &c;
-      if (cached) {  // (kept for the next frame below, where it is free again)
+      if (cached) {
         cached->taken = true;
         kept.push_back(*cached);
       }
       if (m.found[k]) continue;
-      std::vector<uint32_t> words = mask_words(plan.members, sb.objects.size());
-      ObjectMask mask{{words.data(), words.size()}};
-      auto t0 = Clock::now();
-      // The lists the build reads (and sorts in place): a copy of kept
-      // lists, or new ones of which a copy is kept — on the backend.
-      if (cached) {
-        reading.push_back(backend.copy_lists(cached->lists));
-        ++frame.fragment_lists_reused;
-      } else {
-        reading.push_back(produce(backend, plan.view, mask));
-        if (in.keep_fragments) kept.push_back({fkey, backend.copy_lists(reading.back()), false});
+      todo.push_back(k);
+      from_cache.push_back(cached);
+    }
+    // Lists made together (one wait of the producer for all of them) in
+    // batches of up to kProduceBatchPixels, then built in groups.
+    std::vector<std::vector<uint32_t>> words(todo.size());  // each build's object mask
+    std::vector<ListsRequest> requests;
+    std::vector<ListsId> produced;
+    for (size_t t0 = 0; t0 < todo.size();) {
+      size_t t1 = t0;
+      uint64_t pixels = 0;
+      requests.clear();
+      for (; t1 < todo.size(); ++t1) {
+        const MapPlan& plan = frame.setup.maps[todo[t1]];
+        words[t1] = mask_words(plan.members, sb.objects.size());
+        if (from_cache[t1]) continue;
+        const uint64_t p = uint64_t(plan.view.width) * uint64_t(plan.view.height);
+        if (!requests.empty() && pixels + p > kProduceBatchPixels) break;
+        pixels += p;
+        requests.push_back({plan.view, ObjectMask{{words[t1].data(), words[t1].size()}}});
       }
-      const ListsId lists = reading.back();
-      frame.fragments_ms += ms_since(t0);
-      frame.fragments += backend.lists_fragments(lists);
-      insides.push_back(objects_containing(sv, plan.view.eye, mask));
-      LightPassParams lp{
-          plan.view, s.epsilon, {insides.back().data(), insides.back().size()}, s.method, s.method_param};
-      if (s.method == ShadowMethod::DeepOpacity)
-        lp.layer_thickness = s.layer_thickness > 0.0f
-                                 ? s.layer_thickness
-                                 : caster_depth_extent(plan, sb) / method_param_or_default(s.method, s.method_param);
-      // RGB nodes only where a member is coloured (deep shadow maps; the
-      // baselines are grey).
-      lp.rgb = s.rgb_maps && s.method == ShadowMethod::Dsm &&
-               std::any_of(plan.members.begin(), plan.members.end(),
-                           [&](uint32_t o) { return is_coloured(sv, sv.objects[o]); });
-      lp.blocker_pyramid = wants_pyramid(frame.setup.lights[plan.light], s);
-      group.push_back({lp, lists});
-      group_maps.push_back(k);
-      group_bytes += backend.lists_bytes(lists);
-      if (group_bytes >= kBuildGroupListBytes) flush();
+      auto t_start = Clock::now();
+      produced.assign(requests.size(), 0);
+      if (!requests.empty()) produce(backend, requests.data(), requests.size(), produced.data());
+      reading.insert(reading.end(), produced.begin(), produced.end());
+      frame.fragments_ms += ms_since(t_start);
+      size_t next_produced = 0;
+      for (size_t t = t0; t < t1; ++t) {
+        const size_t k = todo[t];
+        const MapPlan& plan = frame.setup.maps[k];
+        ObjectMask mask{{words[t].data(), words[t].size()}};
+        // The lists the build reads (and sorts in place): a copy of kept
+        // lists, or new ones of which a copy is kept — on the backend.
+        ListsId lists;
+        if (from_cache[t]) {
+          reading.push_back(backend.copy_lists(from_cache[t]->lists));
+          lists = reading.back();
+          ++frame.fragment_lists_reused;
+        } else {
+          lists = produced[next_produced++];
+          if (in.keep_fragments) kept.push_back({fragment_key(plan, in), backend.copy_lists(lists), false});
+        }
+        frame.fragments += backend.lists_fragments(lists);
+        insides.push_back(objects_containing(sv, plan.view.eye, mask));
+        LightPassParams lp{
+            plan.view, s.epsilon, {insides.back().data(), insides.back().size()}, s.method, s.method_param};
+        if (s.method == ShadowMethod::DeepOpacity)
+          lp.layer_thickness = s.layer_thickness > 0.0f
+                                   ? s.layer_thickness
+                                   : caster_depth_extent(plan, sb) / method_param_or_default(s.method, s.method_param);
+        // RGB nodes only where a member is coloured (deep shadow maps; the
+        // baselines are grey).
+        lp.rgb = s.rgb_maps && s.method == ShadowMethod::Dsm &&
+                 std::any_of(plan.members.begin(), plan.members.end(),
+                             [&](uint32_t o) { return is_coloured(sv, sv.objects[o]); });
+        lp.blocker_pyramid = wants_pyramid(frame.setup.lights[plan.light], s);
+        group.push_back({lp, lists});
+        group_maps.push_back(k);
+        group_bytes += backend.lists_bytes(lists);
+        if (group_bytes >= kBuildGroupListBytes) flush();
+      }
+      t0 = t1;
     }
     flush();
     for (size_t k = 0; k < n; ++k) {

@@ -25,9 +25,33 @@
 
 namespace cdsm {
 
-// Produces one view's fragment lists for the objects in the mask into
-// `backend` (held there until the caller frees them).
-using FragmentProducer = std::function<ListsId(ShadowBackend& backend, const PinholeView&, ObjectMask)>;
+// One view whose fragment lists are wanted: the view and the objects drawn
+// into it.
+struct ListsRequest {
+  PinholeView view;
+  ObjectMask mask;
+};
+// Produces the fragment lists of `n` views into `backend`, ids[i] view i's
+// (held there until the caller frees them); all or nothing. Views produced
+// together share the producer's waits (the GL rasterizer counts every view,
+// scans and reads back once, fills every view, hands them over once).
+using FragmentProducer =
+    std::function<void(ShadowBackend& backend, const ListsRequest* requests, size_t n, ListsId* ids)>;
+// One view's lists through `produce`.
+ListsId produce_lists(const FragmentProducer& produce, ShadowBackend& backend, const PinholeView& view,
+                      ObjectMask mask);
+// ids[i] = one(requests[i]) for each view in turn; all or nothing (the ones
+// made are freed when one fails).
+template <class One>
+void produce_each(ShadowBackend& backend, const ListsRequest* requests, size_t n, ListsId* ids, One&& one) {
+  size_t made = 0;
+  try {
+    for (; made < n; ++made) ids[made] = one(requests[made]);
+  } catch (...) {
+    for (size_t i = 0; i < made; ++i) backend.free_lists(ids[i]);
+    throw;
+  }
+}
 
 // The exact ray caster on the host's threads, its lists handed to the
 // backend (moved in where the backend's memory is host memory).

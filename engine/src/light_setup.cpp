@@ -52,11 +52,21 @@ LightData light_data(const Light& l) {
 }
 
 FragmentProducer cpu_fragment_producer(const SceneView& scene) {
-  return [scene](ShadowBackend& backend, const PinholeView& view, ObjectMask mask) {
-    FragmentBuffers fb;
-    cast_fragments(scene, view, mask, fb);
-    return backend.adopt_lists(std::move(fb));
+  return [scene](ShadowBackend& backend, const ListsRequest* requests, size_t n, ListsId* ids) {
+    produce_each(backend, requests, n, ids, [&](const ListsRequest& r) {
+      FragmentBuffers fb;
+      cast_fragments(scene, r.view, r.mask, fb);
+      return backend.adopt_lists(std::move(fb));
+    });
   };
+}
+
+ListsId produce_lists(const FragmentProducer& produce, ShadowBackend& backend, const PinholeView& view,
+                      ObjectMask mask) {
+  const ListsRequest r{view, mask};
+  ListsId id = 0;
+  produce(backend, &r, 1, &id);
+  return id;
 }
 
 PinholeView camera_view(const Camera& cam) {

@@ -296,7 +296,7 @@ Image ShadowSystem::render(FrameStats* stats) {
   if (I.has_camera_lists) I.backend->free_lists(I.camera_lists);
   I.has_camera_lists = false;
   I.camera_frags_read = false;
-  I.camera_lists = I.fragments.producer(I.sb)(*I.backend, cam.view, ObjectMask{});
+  I.camera_lists = produce_lists(I.fragments.producer(I.sb), *I.backend, cam.view, ObjectMask{});
   I.has_camera_lists = true;
   st.times.camera_fragments_ms = ms_since(t0);
   take_kernel_times(*I.backend, st.times, st.times.kernel_camera_fragments_ms, st.times.kernel_camera_fragments_ms);

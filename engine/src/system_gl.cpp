@@ -87,14 +87,16 @@ void sync_gl_maps(SystemGl& g, ShadowView view, ShadowBackend& backend, UpdateSt
   // to it before GL deletes or replaces it (system_gl.h).
   g.maps->set_release_hook([&backend](GLuint name) { backend.gl_buffer_released(name); });
   gl::MapUploadStats m;
+  // What a compaction left in place is not sent again.
+  const auto kept = [&backend](uint64_t since, uint64_t* bytes) { backend.storage_kept_bytes(since, bytes); };
   if (backend.can_write_gl_maps()) {
     // The backend writes the ranges from its own memory: sizes only here.
     view.storage = backend.storage_extent();
-    m = g.maps->sync(view, backend.storage_epoch(),
+    m = g.maps->sync(view, backend.storage_epoch(), kept,
                      [&backend](const GlMapWrite* w, int n) { backend.write_gl_maps(w, n); });
   } else {
     view.storage = backend.storage();
-    m = g.maps->sync(view, backend.storage_epoch());
+    m = g.maps->sync(view, backend.storage_epoch(), kept);
   }
   st.gl_map_upload_bytes += m.upload_bytes;
   st.gl_map_device_bytes += m.device_bytes;

@@ -196,21 +196,33 @@ class ShadowBackend {
   // counted in take_counters.
   virtual void read_lists(ListsId id, FragmentBuffers& out) = 0;
 
-  // Each tile of fragments a GL rasterizer made: the first `count` fragments
-  // of GL buffer `gl_buffer` (current context, `gl_buffer_bytes` long,
-  // `generation` new with each new buffer object) are fragments [first,
-  // first + count) of the lists; tiles come in order.
-  using GlTileSink = std::function<void(uint64_t first, uint64_t count, uint32_t gl_buffer, uint64_t gl_buffer_bytes,
+  // Fragments a GL rasterizer made for several views at once: piece p holds
+  // fragments [first, first + count) of view `view`'s lists, at fragment
+  // `at` of the GL buffer the sink is given.
+  struct GlPiece {
+    uint32_t view = 0;
+    uint64_t first = 0;
+    uint64_t count = 0;
+    uint64_t at = 0;
+  };
+  // Each filling of the rasterizer's pool: `n` pieces in GL buffer
+  // `gl_buffer` (current context, `gl_buffer_bytes` long, `generation` new
+  // with each new buffer object); per view, pieces come in order.
+  using GlTileSink = std::function<void(const GlPiece* pieces, size_t n, uint32_t gl_buffer, uint64_t gl_buffer_bytes,
                                         uint64_t generation)>;
-  // Lists rasterized by GL straight into the backend's memory, never
-  // through the host (CUDA-GL interop; only where can_write_gl_maps() holds
-  // for the current context, else std::logic_error): `rasterize(sink, out)`
-  // runs the rasterizer, handing each tile to `sink` (copied on the device
-  // before it returns), and leaves the lists' size and offsets in `out`
-  // (out.fragments empty); the offsets are uploaded.
-  using GlRasterize = std::function<void(const GlTileSink& sink, FragmentBuffers& out)>;
-  virtual ListsId lists_from_gl(const GlRasterize& rasterize) {
+  // The lists of `views` views rasterized by GL together straight into the
+  // backend's memory, never through the host (CUDA-GL interop; only where
+  // can_write_gl_maps() holds for the current context, else
+  // std::logic_error): `rasterize(sink, outs)` runs the rasterizer, handing
+  // each filled pool to `sink` (copied on the device, under one map of the
+  // buffer, before it returns), and leaves each view's size and offsets in
+  // outs[v] (fragments empty); the offsets are uploaded. ids[v] view v's.
+  // All or nothing.
+  using GlRasterize = std::function<void(const GlTileSink& sink, FragmentBuffers* outs)>;
+  virtual void lists_from_gl(size_t views, const GlRasterize& rasterize, ListsId* ids) {
+    (void)views;
     (void)rasterize;
+    (void)ids;
     throw std::logic_error(std::string(name()) +
                            " backend: lists_from_gl is not supported (can_write_gl_maps is false)");
   }
@@ -260,6 +272,14 @@ class ShadowBackend {
   // ends, so a mirror of the storage (GL buffers, engine/gl/map_buffers.h)
   // copies just the new tails: the maps built since it last looked.
   virtual uint64_t storage_epoch() const = 0;
+  // Per storage array (StorageArray order), how many of its first bytes
+  // hold what they held at storage epoch `since`: a mirror that copied the
+  // storage then needs only the bytes after these (and the new tails). Every
+  // byte when `since` is the current epoch; 0 where the backend does not
+  // know (by default, for any older epoch).
+  virtual void storage_kept_bytes(uint64_t since, uint64_t* kept) const {
+    for (int a = 0; a < kStorageArrays; ++a) kept[a] = since == storage_epoch() ? ~uint64_t(0) : 0;
+  }
   // storage()'s layout and array sizes, without its bytes: every span's
   // size() is that of storage(), its data() may be null (over device memory
   // no host mirror is downloaded for it). For callers that only need sizes,

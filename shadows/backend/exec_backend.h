@@ -177,6 +177,19 @@ class ExecBackend final : public ExecShadowBackend {
     }
   }
   uint64_t storage_epoch() const override { return epoch_; }
+  // The bytes each compaction of the last kKeptEpochs left in place, the
+  // least of those since `since`.
+  void storage_kept_bytes(uint64_t since, uint64_t* kept) const override {
+    for (int a = 0; a < kStorageArrays; ++a) kept[a] = ~uint64_t(0);
+    if (since > epoch_ || epoch_ - since > kKeptEpochs) {
+      for (int a = 0; a < kStorageArrays; ++a) kept[a] = 0;
+      return;
+    }
+    for (uint64_t e = since + 1; e <= epoch_; ++e) {
+      const EpochKept& k = kept_log_[e % kKeptEpochs];
+      for (int a = 0; a < kStorageArrays; ++a) kept[a] = std::min(kept[a], k.epoch == e ? k.bytes[a] : 0);
+    }
+  }
 
   // Sizes without the mirror: over device memory the spans' data is null.
   DsmStorage storage_extent() const override {
@@ -289,36 +302,54 @@ class ExecBackend final : public ExecShadowBackend {
   }
   uint64_t lists_bytes(ListsId id) const override { return lists_.bytes(lists_.held(id, "lists_bytes").lists()); }
 
-  // Each tile mapped (read-only) and copied on the executor into the
-  // lists' fragments, which grow as tiles come; then the offsets uploaded.
-  ListsId lists_from_gl(const GlRasterize& rasterize) override {
+  // Each filled pool mapped (read-only) once and its pieces copied on the
+  // executor into the views' fragments, which grow as pieces come; then the
+  // offsets uploaded.
+  void lists_from_gl(size_t views, const GlRasterize& rasterize, ListsId* ids) override {
     if constexpr (Ex::kGlInterop) {
       CDSM_CHECK(ex_.gl_context_on_device(),
                  std::string(name_) + " backend: lists_from_gl needs the current GL context on its device");
-      auto h = lists_.make();
-      FragmentBuffers out;
+      std::vector<std::unique_ptr<typename ExecListStore<Ex>::Held>> h(views);
+      for (auto& l : h) l = lists_.make();
+      std::vector<FragmentBuffers> outs(views);
       rasterize(
-          [&](uint64_t first, uint64_t count, uint32_t gl_buffer, uint64_t gl_buffer_bytes, uint64_t generation) {
-            CDSM_CHECK(first == h->fragments.size(), "lists_from_gl: a tile out of order");
-            if (count * sizeof(Fragment) > gl_buffer_bytes)
-              throw std::out_of_range("lists_from_gl: a tile of " + std::to_string(count) +
-                                      " fragments in a GL buffer of " + std::to_string(gl_buffer_bytes) + " bytes");
-            h->fragments.resize(first + count);
-            Fragment* dst = h->fragments.data() + first;
-            ex_.with_gl_source(gl_buffer, gl_buffer_bytes, generation,
-                               [&](const void* src) { ex_.copy(dst, src, count * sizeof(Fragment)); });
+          [&](const GlPiece* pieces, size_t n, uint32_t gl_buffer, uint64_t gl_buffer_bytes, uint64_t generation) {
+            for (size_t p = 0; p < n; ++p) {
+              const GlPiece& q = pieces[p];
+              CDSM_CHECK(q.view < views && q.first == h[q.view]->fragments.size(),
+                         "lists_from_gl: a piece out of order");
+              if ((q.at + q.count) * sizeof(Fragment) > gl_buffer_bytes)
+                throw std::out_of_range("lists_from_gl: " + std::to_string(q.count) + " fragments at " +
+                                        std::to_string(q.at) + " of a GL buffer of " + std::to_string(gl_buffer_bytes) +
+                                        " bytes");
+              h[q.view]->fragments.resize(q.first + q.count);
+            }
+            ex_.with_gl_source(gl_buffer, gl_buffer_bytes, generation, [&](const void* src) {
+              for (size_t p = 0; p < n; ++p)
+                ex_.copy(h[pieces[p].view]->fragments.data() + pieces[p].first,
+                         static_cast<const Fragment*>(src) + pieces[p].at, pieces[p].count * sizeof(Fragment));
+            });
           },
-          out);
-      ExecListStore<Ex>::check(out.width, out.height, out.offsets.size(), h->fragments.size(), "lists_from_gl");
-      CDSM_CHECK(out.offsets.back() == h->fragments.size(), "lists_from_gl: " + std::to_string(h->fragments.size()) +
-                                                                " fragments copied, the offsets count " +
-                                                                std::to_string(out.offsets.back()));
-      h->width = out.width;
-      h->height = out.height;
-      h->offsets.assign(out.offsets);
-      return lists_.hold(std::move(h));
+          outs.data());
+      for (size_t v = 0; v < views; ++v) {
+        const FragmentBuffers& out = outs[v];
+        ExecListStore<Ex>::check(out.width, out.height, out.offsets.size(), h[v]->fragments.size(), "lists_from_gl");
+        CDSM_CHECK(out.offsets.back() == h[v]->fragments.size(),
+                   "lists_from_gl: " + std::to_string(h[v]->fragments.size()) +
+                       " fragments copied, the offsets count " + std::to_string(out.offsets.back()));
+        h[v]->width = out.width;
+        h[v]->height = out.height;
+        h[v]->offsets.assign(out.offsets);
+      }
+      size_t held = 0;
+      try {
+        for (; held < views; ++held) ids[held] = lists_.hold(std::move(h[held]));
+      } catch (...) {
+        for (size_t v = 0; v < held; ++v) lists_.free(ids[v]);
+        throw;
+      }
     } else {
-      return ShadowBackend::lists_from_gl(rasterize);
+      ShadowBackend::lists_from_gl(views, rasterize, ids);
     }
   }
 
@@ -477,6 +508,7 @@ class ExecBackend final : public ExecShadowBackend {
     stored_any_ = false;
     mirror_dirty_ = true;
     ++epoch_;
+    kept_log_[epoch_ % kKeptEpochs] = {epoch_, {}};  // nothing kept
   }
 
   // The live maps moved down over the holes inside their arrays, in the
@@ -496,9 +528,10 @@ class ExecBackend final : public ExecShadowBackend {
                                             : move_bounce_bytes<DsmNode>(m, grey_.pyramid.size() > 0));
     if (bounce_.capacity() < bounce) bounce_.resize_discard(bounce);
     uint64_t bytes = 0;
+    EpochKept kept{epoch_ + 1, {}};
     try {
-      compact_kind(grey_, false, maps, bytes);
-      compact_kind(rgb_, true, maps, bytes);
+      compact_kind(grey_, false, maps, bytes, kept.bytes);
+      compact_kind(rgb_, true, maps, bytes, kept.bytes);
     } catch (...) {
       reset_store();
       throw;
@@ -508,11 +541,15 @@ class ExecBackend final : public ExecShadowBackend {
     slots_.compacted();
     ++compactions_;
     ++epoch_;
+    kept_log_[epoch_ % kKeptEpochs] = kept;
     mirror_dirty_ = true;
   }
 
+  // Moves kind `k`'s maps down; kept[] (per storage array) gets the bytes
+  // before the first that moved, or before the arrays' new ends when none did.
   template <class Node>
-  void compact_kind(KindStore<Node, Ex>& k, bool rgb, std::vector<ExecStoredMap>& maps, uint64_t& bytes) {
+  void compact_kind(KindStore<Node, Ex>& k, bool rgb, std::vector<ExecStoredMap>& maps, uint64_t& bytes,
+                    uint64_t* kept) {
     std::vector<size_t> order;
     for (size_t i = 0; i < maps.size(); ++i)
       if (maps[i].live && (maps[i].map.rgb != 0u) == rgb) order.push_back(i);
@@ -521,15 +558,31 @@ class ExecBackend final : public ExecShadowBackend {
       return std::tie(x.texel_begin, x.node_begin, x.chunk_begin) <
              std::tie(y.texel_begin, y.node_begin, y.chunk_begin);
     });
+    const bool chunked = layout_.layout == DsmLayout::Chunked;
+    using Chunk = typename NodeKind<Node>::Chunk;
+    const int base = rgb ? int(StorageArray::RgbTexels) : int(StorageArray::Texels);
+    const int tags = rgb ? int(StorageArray::RgbTags) : int(StorageArray::Tags);
+    // Bytes [0, kept) of each of the kind's arrays untouched: up to where
+    // the first moved map now starts, and never past the arrays' new ends
+    // (maps built next are appended there).
+    const auto keep_below = [&](uint64_t texels, uint64_t nodes, uint64_t chunks) {
+      kept[base] = std::min<uint64_t>(kept[base], texels * sizeof(TexelRange));
+      kept[base + 1] = std::min<uint64_t>(kept[base + 1], nodes * sizeof(Node));
+      kept[base + 2] = std::min<uint64_t>(kept[base + 2], chunks * sizeof(Chunk));
+      kept[tags] = std::min<uint64_t>(kept[tags], (chunked ? chunks : nodes) * sizeof(SurfaceTag));
+    };
+    for (int a : {base, base + 1, base + 2, tags}) kept[a] = ~uint64_t(0);
     StoreCursor at;
     for (size_t i : order) {
       const ExecStoredMap before = maps[i];
       maps[i] = move_map_down_exec(ex_, before, layout_.layout, k, at, bounce_);
       if (maps[i].node_begin != before.node_begin || maps[i].texel_begin != before.texel_begin ||
-          maps[i].chunk_begin != before.chunk_begin)
+          maps[i].chunk_begin != before.chunk_begin) {
         bytes += maps[i].bytes();
+        keep_below(maps[i].texel_begin, maps[i].node_begin, maps[i].chunk_begin);
+      }
     }
-    const bool chunked = layout_.layout == DsmLayout::Chunked;
+    keep_below(at.texels, at.nodes, at.chunks);
     k.texels.resize(at.texels);
     k.nodes.resize(at.nodes);
     k.chunks.resize(at.chunks);
@@ -582,6 +635,14 @@ class ExecBackend final : public ExecShadowBackend {
   MapSlots<ExecStoredMap> slots_;
   uint64_t compactions_ = 0, compacted_bytes_ = 0;
   uint64_t epoch_ = 1;
+  // What each of the last kKeptEpochs epochs kept of the storage arrays
+  // (storage_kept_bytes): slot e % kKeptEpochs holds epoch e's.
+  static constexpr uint64_t kKeptEpochs = 8;
+  struct EpochKept {
+    uint64_t epoch = 0;
+    uint64_t bytes[kStorageArrays] = {};
+  };
+  EpochKept kept_log_[kKeptEpochs];
   // storage() over device memory: a host copy of the store's arrays.
   mutable HostStorage mirror_;
   mutable bool mirror_dirty_ = true;

@@ -10,6 +10,7 @@
 #include "cluster/light_views.h"
 #include "frame.h"
 #include "hd/segments.h"
+#include "gl/gl_objects.h"
 #include "gl_test_util.h"
 
 namespace cdsm::test {
@@ -327,6 +328,74 @@ TEST_F(FragmentRaster, SplitsRowsWhenOneRowExceedsThePool) {
     std::sort(y.begin(), y.end(), frag_less);
     for (size_t k = 0; k < x.size(); ++k)
       ASSERT_TRUE(x[k].bits == y[k].bits && x[k].depth == y[k].depth) << "pixel " << i;
+  }
+}
+
+// Views rasterized together (a frame's light views: counted into one
+// counter buffer, scanned and read back once, filled into one pool) give
+// each view the lists it gets alone: with default limits in one scan and
+// one hand-over (two GL read-backs), and with a counter limit that splits
+// views across batches and bands and a pool that several views' pieces
+// share and that is handed over many times.
+TEST_F(FragmentRaster, ViewsRasterizedTogetherEqualViewsOneByOne) {
+  TestScene s = closed_meshes_scene();
+  std::vector<gl::FragmentRasterizer::Job> jobs;
+  const uint32_t first_only = 1u, all_but_first = ~1u;
+  const PinholeView cam = look_at({0.5f, 2.5f, 6.5f}, {0, 0.6f, 0}, {0, 1, 0}, 50.0f, 96, 72, 0.1f, 50.0f);
+  jobs.push_back({cam, {}});
+  jobs.push_back({look_at({2.0f, 4.0f, 3.0f}, {0, 0, 0}, {0, 1, 0}, 60.0f, 64, 64, 0.1f, 50.0f), {{&first_only, 1}}});
+  for (const PinholeView& f : cube_face_views({0.2f, 1.9f, 0.4f}, 40, 0.05f, 30.0f)) jobs.push_back({f, {}});
+  jobs.push_back(
+      {look_at({-3.0f, 1.0f, 2.0f}, {0, 0.5f, 0}, {0, 1, 0}, 40.0f, 50, 30, 0.1f, 50.0f), {{&all_but_first, 1}}});
+  gl::FragmentRasterizer alone(context());
+  s.upload(alone);
+  std::vector<FragmentBuffers> want(jobs.size());
+  for (size_t j = 0; j < jobs.size(); ++j) alone.rasterize(jobs[j].view, jobs[j].mask, want[j]);
+
+  gl::RasterOptions limited;
+  limited.max_band_pixels = 96 * 20;                // the camera view in bands; batches end mid-list
+  limited.max_pool_bytes = 300 * sizeof(Fragment);  // many hand-overs, pieces of several views in one
+  limited.initial_pool_bytes = 64;
+  for (const gl::RasterOptions& o : {gl::RasterOptions{}, limited}) {
+    gl::FragmentRasterizer r(context(), o);
+    s.upload(r);
+    std::vector<FragmentBuffers> got(jobs.size());
+    const uint64_t reads = gl::thread_gl_counters().readbacks;
+    r.rasterize({jobs.data(), jobs.size()}, got.data());
+    const uint64_t read = gl::thread_gl_counters().readbacks - reads;
+    const bool defaults = o.max_pool_bytes == 0;
+    uint64_t total = 0;
+    for (size_t j = 0; j < jobs.size(); ++j) {
+      SCOPED_TRACE("view " + std::to_string(j) + (defaults ? ", default limits" : ", limited"));
+      ASSERT_EQ(got[j].width, want[j].width);
+      ASSERT_EQ(got[j].height, want[j].height);
+      ASSERT_EQ(got[j].offsets, want[j].offsets);
+      ASSERT_EQ(got[j].fragments.size(), want[j].fragments.size());
+      for (size_t i = 0; i + 1 < want[j].offsets.size(); ++i) {
+        std::vector<Fragment> x(want[j].fragments.begin() + want[j].offsets[i],
+                                want[j].fragments.begin() + want[j].offsets[i + 1]);
+        std::vector<Fragment> y(got[j].fragments.begin() + got[j].offsets[i],
+                                got[j].fragments.begin() + got[j].offsets[i + 1]);
+        std::sort(x.begin(), x.end(), frag_less);
+        std::sort(y.begin(), y.end(), frag_less);
+        for (size_t k = 0; k < x.size(); ++k)
+          ASSERT_TRUE(x[k].bits == y[k].bits && x[k].depth == y[k].depth) << "pixel " << i;
+      }
+      total += want[j].total();
+    }
+    EXPECT_EQ(r.stats().fragments, total);
+    EXPECT_GT(total, 8 * 300u) << "the limited pool must be handed over several times";
+    if (defaults) {
+      EXPECT_EQ(r.stats().bands, jobs.size());
+      EXPECT_EQ(r.stats().scans, 1u);
+      EXPECT_EQ(r.stats().flushes, 1u);
+      EXPECT_EQ(read, 2u) << "one read of every view's offsets, one of their fragments";
+    } else {
+      EXPECT_GT(r.stats().bands, jobs.size());
+      EXPECT_GT(r.stats().scans, 2u);
+      EXPECT_GT(r.stats().flushes, r.stats().scans);
+      EXPECT_EQ(read, uint64_t(r.stats().scans) + r.stats().flushes);
+    }
   }
 }
 

@@ -550,6 +550,71 @@ TEST(ExecBackend, CompactionInPlaceKeepsTheArrays) {
   }
 }
 
+// What a compaction leaves in place, per storage array
+// (storage_kept_bytes), is what a mirror of the storage may keep (the GL
+// map buffers, issue 45 item 5): a mirror taken before the compaction, its
+// first kept bytes kept and the rest copied, equals the storage after it —
+// when the maps after a hole move down (the first map stays), and when the
+// last maps go and nothing moves but the arrays end earlier, where the next
+// map is then built (a different one: a larger epsilon).
+TEST(ExecBackend, CompactionSaysWhatItKeptInPlace) {
+  OneView v(parity::load("depth", 32, 32, 24), 0.005f);
+  using Bytes = std::vector<unsigned char>;
+  const auto arrays = [](const ShadowBackend& b) {
+    std::vector<Bytes> out;
+    const DsmStorage s = b.storage();
+    for (int a = 0; a < kStorageArrays; ++a) {
+      const StorageBytes x = storage_bytes(s, StorageArray(a));
+      const auto* p = static_cast<const unsigned char*>(x.data);
+      out.push_back(p ? Bytes(p, p + x.bytes) : Bytes{});
+    }
+    return out;
+  };
+  for (DsmLayout kind : {DsmLayout::Packed, DsmLayout::Fixed, DsmLayout::Chunked}) {
+    for (bool tail : {false, true}) {
+      const std::string what =
+          std::string(tag_name(kind)) + (tail ? ", the last maps freed" : ", a hole after the first");
+      HostBackend b("cpu");
+      b.update_scene(v.sb, SceneChange::all());
+      const auto build = [&](float epsilon) {
+        LightPassParams p = v.params;
+        p.epsilon = epsilon;
+        DsmBuildStats st;
+        FragmentBuffers f = v.frags;
+        return build_map_from_host(b, p, f, layout_params(kind), st);
+      };
+      std::vector<MapId> ids;
+      for (int i = 0; i < 4; ++i) ids.push_back(build(v.params.epsilon));
+      const uint64_t epoch = b.storage_epoch();
+      const std::vector<Bytes> before = arrays(b);
+      b.free_maps(tail ? std::vector<MapId>{ids[2], ids[3]} : std::vector<MapId>{ids[1], ids[2]});
+      ASSERT_EQ(b.map_store().compactions, 1u) << what;
+      ASSERT_GT(b.storage_epoch(), epoch) << what;
+      build(4.0f * v.params.epsilon);
+      uint64_t kept[kStorageArrays];
+      b.storage_kept_bytes(epoch, kept);
+      const std::vector<Bytes> after = arrays(b);
+      bool kept_any = false;
+      for (int a = 0; a < kStorageArrays; ++a) {
+        SCOPED_TRACE(what + ", array " + std::to_string(a));
+        const size_t from = size_t(std::min<uint64_t>({kept[a], before[a].size(), after[a].size()}));
+        Bytes mirror(before[a].begin(), before[a].begin() + std::ptrdiff_t(from));
+        mirror.insert(mirror.end(), after[a].begin() + std::ptrdiff_t(from), after[a].end());
+        EXPECT_TRUE(mirror == after[a]) << "kept " << kept[a] << " of " << before[a].size() << " bytes";
+        EXPECT_LT(from, after[a].size() + (after[a].empty() ? 1 : 0)) << "the map built after it is new";
+        kept_any = kept_any || from > 0;
+      }
+      EXPECT_TRUE(kept_any) << what << ": the first map stays where it is";
+      uint64_t now[kStorageArrays];
+      b.storage_kept_bytes(b.storage_epoch(), now);
+      for (int a = 0; a < kStorageArrays; ++a)
+        EXPECT_EQ(now[a], ~uint64_t(0)) << what << ": the current epoch keeps all";
+      b.storage_kept_bytes(0, now);
+      for (int a = 0; a < kStorageArrays; ++a) EXPECT_EQ(now[a], 0u) << what << ": before the first store";
+    }
+  }
+}
+
 // The camera pass: every pixel as a plain loop over shade_pixel shades it,
 // bit for bit, over the backend's maps.
 TEST(ExecBackend, ImageEqualsASerialCameraPass) {
