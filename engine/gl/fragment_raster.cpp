@@ -141,7 +141,8 @@ struct FragmentRasterizer::Impl {
       scan.forget();
       vao.forget();
       fbo.forget();
-      for (Buffer* b : {&vertices, &normals, &media, &counts, &offsets, &pool}) b->forget();
+      gather.forget();
+      for (Buffer* b : {&vertices, &normals, &media, &counts, &offsets, &pool, &mesh_box, &mesh_indices}) b->forget();
     }
   }
 
@@ -341,6 +342,45 @@ struct FragmentRasterizer::Impl {
       if (left[i] != 0)
         throw Error(kWhere, "internal: pixel " + std::to_string(i) + " of the band kept " + std::to_string(left[i]) +
                                 " fill slots (count and fill passes rasterized differently)");
+  }
+
+  // Application meshes read on the GPU (gl_mesh_gather.comp), made on first use.
+  Program gather;
+  Buffer mesh_box{"cdsm.fragments.mesh_bounds"};  // 6 ordered uints
+  // The mesh's indices copied on the GPU (glCopyNamedBufferSubData) at their
+  // offset modulo 4, into whole words: the shader reads 32-bit words, and a
+  // last 16- or 8-bit index may end an application buffer mid-word.
+  Buffer mesh_indices{"cdsm.fragments.mesh_indices"};
+
+  void dispatch_gather(const AppMesh& m, uint64_t first_tri, const Mat4& model, bool mirrored, uint32_t mode) {
+    context.make_current();
+    if (!gather) gather = build_program("cdsm.fragments.gather_mesh", {{GL_COMPUTE_SHADER, "gl_mesh_gather.comp"}});
+    const GLuint p = gather.id();
+    CDSM_GL(glProgramUniform1ui(p, 0, m.triangles));
+    CDSM_GL(glProgramUniform1ui(p, 1, GLuint(first_tri)));
+    CDSM_GL(glProgramUniform1ui(p, 2, GLuint(m.vertex_offset / 4)));
+    CDSM_GL(glProgramUniform1ui(p, 3, m.vertex_stride / 4));
+    CDSM_GL(glProgramUniform1ui(p, 4, m.vertex_count));
+    const uint64_t index_bytes = m.index_buffer ? uint64_t(m.triangles) * 3 * m.index_size : 0;
+    if (index_bytes > 0) {
+      mesh_indices.reserve(((m.index_offset & 3) + index_bytes + 3) & ~uint64_t(3));
+      CDSM_GL(glCopyNamedBufferSubData(m.index_buffer, mesh_indices.id(), GLintptr(m.index_offset),
+                                       GLintptr(m.index_offset & 3), GLsizeiptr(index_bytes)));
+    }
+    CDSM_GL(glProgramUniform1ui(p, 5, index_bytes > 0 ? m.index_size : 0u));
+    CDSM_GL(glProgramUniform1ui(p, 6, GLuint(m.index_offset & 3)));
+    for (int r = 0; r < 3; ++r)
+      CDSM_GL(glProgramUniform4f(p, 7 + r, model.m[r][0], model.m[r][1], model.m[r][2], model.m[r][3]));
+    CDSM_GL(glProgramUniform1ui(p, 10, mirrored ? 1u : 0u));
+    CDSM_GL(glProgramUniform1ui(p, 11, mode));
+    CDSM_GL(glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, m.vertex_buffer));
+    CDSM_GL(glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, index_bytes > 0 ? mesh_indices.id() : media.id()));
+    CDSM_GL(glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, vertices.id()));
+    CDSM_GL(glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, normals.id()));
+    CDSM_GL(glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, mesh_box.id()));
+    CDSM_GL(glUseProgram(p));
+    CDSM_GL(glDispatchCompute((m.triangles + 63) / 64, 1, 1));
+    CDSM_GL(glUseProgram(0));
   }
 
   // A view's rows [r0, r1), counted at counter `base` of its batch.
@@ -625,6 +665,44 @@ void FragmentRasterizer::upload_scene(Span<const Vec3> tri_vertices, Span<const 
 
 void FragmentRasterizer::update_triangles(uint64_t first_tri, Span<const Vec3> tri_vertices) {
   impl_->update_triangles(first_tri, tri_vertices);
+}
+
+void FragmentRasterizer::gather_mesh(uint64_t first_tri, const AppMesh& mesh, const Mat4& model, bool mirrored) {
+  Impl& I = *impl_;
+  if (first_tri + mesh.triangles > I.tri_count)
+    throw Error(kWhere, "gather_mesh: triangles [" + std::to_string(first_tri) + ", " +
+                            std::to_string(first_tri + mesh.triangles) + ") are not within the " +
+                            std::to_string(I.tri_count) + " uploaded");
+  if (mesh.triangles == 0) return;
+  I.mesh_box.reserve(24);  // (bound, unused when gathering)
+  I.dispatch_gather(mesh, first_tri, model, mirrored, 0);
+  // The draws read the vertices as attributes and the normals as storage.
+  CDSM_GL(glMemoryBarrier(GL_VERTEX_ATTRIB_ARRAY_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT));
+}
+
+Box3 FragmentRasterizer::mesh_bounds(const AppMesh& mesh, const Mat4& model) {
+  Impl& I = *impl_;
+  Box3 box;
+  if (mesh.triangles == 0) return box;
+  // Min keys start at the largest, max keys at the smallest.
+  const uint32_t start[6] = {~0u, ~0u, ~0u, 0u, 0u, 0u};
+  I.context.make_current();
+  I.mesh_box.reserve(24);
+  I.mesh_box.upload(start, sizeof start);
+  I.dispatch_gather(mesh, 0, model, false, 1);
+  CDSM_GL(glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT));
+  uint32_t key[6];
+  I.mesh_box.download(key, sizeof key);
+  if (key[0] == ~0u) return box;  // no finite triangle
+  const auto value = [](uint32_t k) {
+    const uint32_t u = (k & 0x80000000u) != 0u ? k & 0x7fffffffu : ~k;
+    float f;
+    std::memcpy(&f, &u, 4);
+    return f;
+  };
+  box.grow(Vec3{value(key[0]), value(key[1]), value(key[2])});
+  box.grow(Vec3{value(key[3]), value(key[4]), value(key[5])});
+  return box;
 }
 
 uint64_t FragmentRasterizer::last_upload_bytes() const { return impl_->uploaded; }

@@ -102,6 +102,34 @@ class FragmentRasterizer {
   // Re-uploads triangles [first_tri, first_tri + n) that moved (3 vertices
   // each; the same triangles, objects and media as uploaded). O(n).
   void update_triangles(uint64_t first_tri, Span<const Vec3> tri_vertices);
+  // A mesh in the application's GL buffers (this context's names):
+  // positions, 3 floats each, every `vertex_stride` bytes from
+  // `vertex_offset` (both multiples of 4); indices of `index_size` bytes (4,
+  // 2 or 1) from `index_offset`, or none (index_size 0: triangles of
+  // consecutive vertices). The caller checked the ranges against the
+  // buffers' sizes.
+  struct AppMesh {
+    uint32_t vertex_buffer = 0;
+    uint64_t vertex_offset = 0;
+    uint32_t vertex_stride = 12;
+    uint32_t vertex_count = 0;
+    uint32_t index_buffer = 0;
+    uint64_t index_offset = 0;
+    uint32_t index_size = 0;
+    uint32_t triangles = 0;
+  };
+  // Writes triangles [first_tri, first_tri + mesh.triangles) of the uploaded
+  // scene from `mesh` on the GPU (content/shaders/gl_mesh_gather.comp): world
+  // positions under `model` (winding flipped when `mirrored`) and facing
+  // normals, as upload_scene computes them from the same floats on the host.
+  // Nothing is read back. Call after the upload_scene / update_triangles
+  // that covers the range.
+  void gather_mesh(uint64_t first_tri, const AppMesh& mesh, const Mat4& model, bool mirrored);
+  // The world box of `mesh`'s triangles under `model`, computed on the GPU:
+  // one read-back of 24 bytes (waits for the GL work queued before it).
+  // Empty when no triangle is finite.
+  Box3 mesh_bounds(const AppMesh& mesh, const Mat4& model);
+
   // Bytes the last upload_scene / update_triangles sent to GL.
   uint64_t last_upload_bytes() const;
   // GL memory holding the uploaded scene (vertices, facing normals, media bits).

@@ -1,5 +1,6 @@
 #include "fragment_source.h"
 
+#include <stdexcept>
 #include <vector>
 
 #include "cdsm/error.h"
@@ -107,23 +108,69 @@ void FragmentSourceSelector::choose(FragmentSource want, std::string& name, std:
   reason = reason_;
 }
 
-uint64_t FragmentSourceSelector::scene_changed(const SceneBuffers& sb, const SceneChange& change) {
+#if CDSM_HAVE_GL
+namespace {
+
+gl::FragmentRasterizer::AppMesh app_mesh(const GpuMesh& m) {
+  gl::FragmentRasterizer::AppMesh a;
+  a.vertex_buffer = m.source.vertex_buffer;
+  a.vertex_offset = m.source.vertex_offset;
+  a.vertex_stride = m.source.vertex_stride ? m.source.vertex_stride : 12;
+  a.vertex_count = m.source.vertex_count;
+  a.index_buffer = m.source.index_buffer;
+  a.index_offset = m.source.index_offset;
+  a.index_size = m.index_size;
+  a.triangles = m.triangles;
+  return a;
+}
+
+}  // namespace
+#endif
+
+uint64_t FragmentSourceSelector::scene_changed(const SceneBuffers& sb, const SceneChange& change,
+                                               const std::vector<GpuObject>& gpu) {
   if (!use_gl_) return 0;
 #if CDSM_HAVE_GL
   gl::FragmentRasterizer& r = *gl_->raster;
+  // Where each GPU mesh's triangles lie: read there on the GPU.
+  const auto gather = [&](const GpuObject& g) {
+    const ObjectData& od = sb.objects[g.object];
+    r.gather_mesh(od.first_tri, app_mesh(*g.mesh), g.transform, mirrors(g.transform));
+  };
   if (change.everything) {
     r.upload_scene({sb.tri_vertices.data(), sb.tri_vertices.size()}, {sb.tri_object.data(), sb.tri_object.size()},
                    {sb.objects.data(), sb.objects.size()});
+    for (const GpuObject& g : gpu) gather(g);
     return r.last_upload_bytes();
   }
   uint64_t bytes = 0;
   for (const IndexRange& t : change.triangles) {
+    const GpuObject* on_gpu = nullptr;
+    for (const GpuObject& g : gpu)
+      if (sb.objects[g.object].first_tri == t.first) on_gpu = &g;
+    if (on_gpu) {
+      gather(*on_gpu);
+      continue;
+    }
     r.update_triangles(t.first, {sb.tri_vertices.data() + size_t(t.first) * 3, size_t(t.count) * 3});
     bytes += r.last_upload_bytes();
   }
-  if (!change.triangles.empty()) return bytes;
-#endif
+  return bytes;
+#else
+  (void)sb;
+  (void)change;
+  (void)gpu;
   return 0;
+#endif
+}
+
+Box3 FragmentSourceSelector::gpu_mesh_bounds(const GpuMesh& mesh, const Mat4& transform) {
+#if CDSM_HAVE_GL
+  if (use_gl_) return gl_->raster->mesh_bounds(app_mesh(mesh), transform);
+#endif
+  (void)mesh;
+  (void)transform;
+  throw std::logic_error("gpu_mesh_bounds: the fragment producer is not the GL rasterizer");
 }
 
 FragmentProducer FragmentSourceSelector::producer(const SceneBuffers& sb) const {

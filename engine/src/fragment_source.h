@@ -8,8 +8,10 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "backend/backend.h"
+#include "cdsm/gl.h"
 #include "cdsm/renderer.h"
 #include "frame.h"
 
@@ -18,6 +20,18 @@ namespace cdsm {
 namespace gl {
 class Context;
 }
+
+// A mesh that stays in the application's GL buffers
+// (ShadowSystem::add_gpu_object): where it is, checked against the buffers'
+// sizes (check_gl_mesh), and what the application asserts of it.
+struct GpuMesh {
+  GlMeshSource source;
+  uint32_t index_size = 0;  // bytes per index; 0: not indexed
+  uint32_t triangles = 0;
+  bool closed = false;        // asserted by the application
+  bool bounds_given = false;  // `bounds` (object space) from the application, else computed on the GPU
+  Box3 bounds;
+};
 
 class FragmentSourceSelector {
  public:
@@ -45,7 +59,18 @@ class FragmentSourceSelector {
   // and unavailable.
   void choose(FragmentSource want, std::string& name, std::string& reason);
   // Tells the producer what changed in `sb`; returns the bytes sent to GL.
-  uint64_t scene_changed(const SceneBuffers& sb, const SceneChange& change);
+  // The triangles of the meshes in `gpu` (object index -> mesh, with the
+  // object's transform) are read from the application's buffers on the GPU
+  // instead of sent (they hold placeholders in `sb`).
+  struct GpuObject {
+    uint32_t object = 0;
+    const GpuMesh* mesh = nullptr;
+    Mat4 transform;
+  };
+  uint64_t scene_changed(const SceneBuffers& sb, const SceneChange& change, const std::vector<GpuObject>& gpu = {});
+  // The world box of a GPU mesh under `transform`, computed on the GPU (one
+  // read-back of 24 bytes). Only with the GL producer.
+  Box3 gpu_mesh_bounds(const GpuMesh& mesh, const Mat4& transform);
   // The producer over the scene last given to scene_changed().
   FragmentProducer producer(const SceneBuffers& sb) const;
   // GL memory holding the scene (0 for the CPU producer).

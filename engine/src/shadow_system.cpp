@@ -97,6 +97,14 @@ bool ShadowSystem::Impl::is_closed_mesh(const std::shared_ptr<const TriangleMesh
   return closed;
 }
 
+void ShadowSystem::Impl::require_host_meshes(const std::string& what) const {
+  for (size_t i = 0; i < objects.size(); ++i)
+    if (objects[i].gpu)
+      throw Error(object_where(i), what +
+                                       " needs every mesh's triangles on the host, and this one stays on the GPU "
+                                       "(add_gpu_object): draw the scene with your own shader and cdsm.glsl (bind_gl)");
+}
+
 void ShadowSystem::Impl::touch_object(size_t i) {
   ++objects[i].generation;
   changed = compile_pending = true;
@@ -219,6 +227,8 @@ void ShadowSystem::set_casts_shadows(ObjectHandle h, bool casts) {
 void ShadowSystem::set_interior(ObjectHandle h, InteriorKind interior, Vec3 sigma, VolumeHandle volume) {
   Impl& I = *impl_;
   const size_t i = I.object_index(h);
+  if (I.objects[i].gpu && interior != InteriorKind::None)
+    throw Error(I.object_where(i), "set_interior: a mesh that stays on the GPU has no interior (medium or volume)");
   Object& o = I.scene.objects[i];
   uint64_t vol = 0;
   int32_t index = -1;
@@ -242,6 +252,10 @@ void ShadowSystem::set_mesh(ObjectHandle h, std::shared_ptr<const TriangleMesh> 
   Impl& I = *impl_;
   const size_t i = I.object_index(h);
   if (!mesh) throw Error(I.object_where(i), "has no mesh");
+  if (I.objects[i].gpu)
+    throw Error(I.object_where(i),
+                "set_mesh: its mesh stays on the GPU (add_gpu_object): after changing its buffers call "
+                "mark_changed(), or remove it and add a host mesh");
   I.scene.objects[i].mesh = std::move(mesh);
   I.structure_dirty = true;
   I.touch_object(i);

@@ -11,6 +11,7 @@
 #include "cdsm/shadow_system.h"
 #include "fragment_source.h"
 #include "frame.h"
+#include "scene_compile.h"
 #include "slot_map.h"
 #include "system_gl.h"
 
@@ -29,6 +30,10 @@ struct ShadowSystem::Impl {
     bool closed = false;      // is_closed(mesh), taken when the mesh was given
     bool moved = false;       // transform changed: world data to recompute in place
     bool surface = false;     // material / shadow flag changed: kernel data only
+    // A mesh that stays on the GPU (add_gpu_object): where it is in the
+    // application's buffers; its Object holds a placeholder mesh of as many
+    // degenerate triangles. Null for meshes on the host.
+    std::shared_ptr<GpuMesh> gpu;
   };
   struct VolumeRec {
     uint64_t id = 0;
@@ -107,6 +112,12 @@ struct ShadowSystem::Impl {
   void compile_moves(FrameStats& st, SceneChange& change);
   bool refresh_surfaces();
   std::string object_where(size_t i) const;
+  // A GPU mesh's world box (given bounds transformed, or computed on the
+  // GPU) into `co`, whose placeholder vertices say nothing.
+  void gpu_bounds(size_t oi, CompiledObject& co);
+  // Throws cdsm::Error naming the first mesh that stays on the GPU: `what`
+  // (render(), the reference) needs every triangle on the host.
+  void require_host_meshes(const std::string& what) const;
   // The lookup over the last update's maps with the current settings.
   ShadowView shadow_view() const { return frame.view(scene.shadows); }
 };

@@ -108,7 +108,8 @@ void ShadowSystem::Impl::compile_structure(FrameStats& st) {
     for (size_t oi = 0; oi < scene.objects.size(); ++oi) {
       const Object& o = scene.objects[oi];
       const std::string where = object_where(oi);
-      compile_object(o, is_closed_mesh(o.mesh), where, co);
+      compile_object(o, objects[oi].gpu ? objects[oi].gpu->closed : is_closed_mesh(o.mesh), where, co);
+      if (objects[oi].gpu) gpu_bounds(oi, co);
       if (o.interior == InteriorKind::Volume) {
         if (!objects[oi].volume) throw Error(where, "has a volume interior but names no volume");
         const size_t vi = volume_index(objects[oi].volume);
@@ -146,7 +147,8 @@ void ShadowSystem::Impl::compile_moves(FrameStats& st, SceneChange& change) {
     ObjectRec& rec = objects[oi];
     if (!rec.moved) continue;
     const Object& o = scene.objects[oi];
-    compile_object(o, rec.closed = is_closed_mesh(o.mesh), object_where(oi), co);
+    compile_object(o, rec.closed = rec.gpu ? rec.gpu->closed : is_closed_mesh(o.mesh), object_where(oi), co);
+    if (rec.gpu) gpu_bounds(oi, co);
     ObjectData& od = sb.objects[oi];
     CDSM_CHECK(co.vertices.size() == size_t(od.tri_count) * 3, "compile_moves: triangle count changed");
     if (od.volume >= 0) {
@@ -176,6 +178,21 @@ void ShadowSystem::Impl::compile_moves(FrameStats& st, SceneChange& change) {
   }
 }
 
+void ShadowSystem::Impl::gpu_bounds(size_t oi, CompiledObject& co) {
+  const GpuMesh& g = *objects[oi].gpu;
+  const Mat4& t = scene.objects[oi].transform;
+  Box3 b;
+  if (g.bounds_given) {
+    for (int c = 0; c < 8; ++c)
+      b.grow(t.point(Vec3{c & 1 ? g.bounds.hi.x : g.bounds.lo.x, c & 2 ? g.bounds.hi.y : g.bounds.lo.y,
+                          c & 4 ? g.bounds.hi.z : g.bounds.lo.z}));
+  } else {
+    b = fragments.gpu_mesh_bounds(g, t);
+  }
+  // (no finite triangle: the placeholder's point, the object's origin)
+  if (!b.empty()) co.bounds = b;
+}
+
 // Material and shadow-flag edits: kernel data only. Whether any was made.
 bool ShadowSystem::Impl::refresh_surfaces() {
   bool any = false;
@@ -194,6 +211,12 @@ void ShadowSystem::Impl::compile(FrameStats& st) {
     epoch_fragment_name = fragment_name;
     ++geometry_epoch;
   }
+  for (size_t oi = 0; oi < objects.size(); ++oi)
+    if (objects[oi].gpu && fragment_name != "gl")
+      throw Error(object_where(oi),
+                  "stays on the GPU (add_gpu_object): only the GL rasterizer reads its triangles, "
+                  "and the fragments come from the " +
+                      fragment_name + " producer (" + fragment_reason + ")");
   if (!compile_pending) return;
   ++geometry_epoch;
   auto t0 = Clock::now();
@@ -209,7 +232,10 @@ void ShadowSystem::Impl::compile(FrameStats& st) {
     change.objects = refresh_surfaces();
   }
   st.times.compile_ms = ms_since(t0);
-  st.update.gl_upload_bytes += fragments.scene_changed(sb, change);
+  std::vector<FragmentSourceSelector::GpuObject> gpu;  // read on the GPU where they are
+  for (size_t oi = 0; oi < objects.size(); ++oi)
+    if (objects[oi].gpu) gpu.push_back({uint32_t(oi), objects[oi].gpu.get(), scene.objects[oi].transform});
+  st.update.gl_upload_bytes += fragments.scene_changed(sb, change, gpu);
   backend->update_scene(sb, change);
   compile_pending = false;
 }

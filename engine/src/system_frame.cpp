@@ -283,6 +283,7 @@ Image ShadowSystem::render(FrameStats* stats) {
   FrameStats& st = stats ? *stats : local;
   st = FrameStats{};
   const auto t_total = Clock::now();
+  I.require_host_meshes("render()");
   SystemGlScope gl_scope(I.gl.get(), &st.warnings);
   I.update(st);
   CameraPassParams& cam = I.cam;
@@ -327,6 +328,7 @@ Image ShadowSystem::render(FrameStats* stats) {
 
 Image ShadowSystem::render_reference(float step_voxels, RenderProgress* progress) {
   Impl& I = *impl_;
+  I.require_host_meshes("render_reference()");
   FrameStats st;
   validate_scene(I.scene, &st.warnings);
   // The frame's estimate with the reference's own buffers (its image and

@@ -67,6 +67,15 @@ class SystemGlScope {
 void sync_gl_maps(SystemGl& g, ShadowView view, ShadowBackend& backend, UpdateStats& st);
 GlMapBuffers gl_map_buffers(const SystemGl& g);
 void bind_gl_maps(SystemGl& g, uint32_t program);
+// Where a mesh lies in application buffers, checked against their sizes
+// without reading them (the buffers are GL buffers of the current context,
+// the counts, offsets, strides and index type fit them). Throws cdsm::Error
+// naming the field. The mesh's index size and triangle count.
+struct GlMeshExtent {
+  uint32_t index_size = 0;  // 0: not indexed
+  uint32_t triangles = 0;
+};
+GlMeshExtent check_gl_mesh(const GlMeshSource& src, const std::string& where);
 // Reads a mesh from application buffers; adds the bytes read to `bytes`.
 std::shared_ptr<TriangleMesh> read_gl_mesh(SystemGl& g, const GlMeshSource& src, const std::string& where,
                                            uint64_t& bytes);

@@ -140,6 +140,18 @@ struct SystemOptions {
   bool keep_fragment_lists = false;
 };
 
+// How a mesh that stays on the GPU is given (ShadowSystem::add_gpu_object).
+struct GpuMeshOptions {
+  // The application asserts the mesh is closed (watertight, outward
+  // facing): the system cannot check it without the triangles.
+  bool closed = false;
+  // Object-space bounds (every vertex, over all the frames it will have)
+  // when the application knows them; empty (the default): computed on the
+  // GPU when it is added and at each mark_changed(), one read-back of 24
+  // bytes each (counted in FrameStats::counters.gl_readbacks).
+  Box3 bounds;
+};
+
 class ShadowSystem {
  public:
   explicit ShadowSystem(const SystemOptions& options = {});
@@ -222,6 +234,36 @@ class ShadowSystem {
   // not one of the three, an index past the vertices, a non-finite
   // position. Costs a GPU->host copy of the ranges read; needs the context.
   std::shared_ptr<const TriangleMesh> read_gl_mesh(const GlMeshSource& source);
+
+  // A mesh that stays on the GPU: one the application changes there every
+  // frame (skinned, simulated, animated in a shader), registered by its GL
+  // buffers and never read back. Whenever one of its maps is rebuilt, the
+  // GL rasterizer reads its triangles where they are (a compute pass on
+  // the GPU: stride, offsets and index type as given, positions transformed
+  // by `o.transform`, the same floats an upload would give). After the application
+  // changed the vertices, mark_changed() rebuilds its maps and nothing else.
+  // `o.mesh` is ignored (the system keeps a placeholder). Positions must lie
+  // at offsets and strides that are multiples of 4 bytes.
+  //
+  // What such a mesh cannot do, refused by name: fragments from a ray
+  // caster (FragmentSource::Cpu or Cuda: they need the triangles on the
+  // host), render() and render_reference() (they shade on the host), an
+  // interior (medium or volume), set_mesh(), a system on its own context
+  // (GlContextUse::Own or private_fragment_context: the buffers are the
+  // application's). Not checked, taken as given: closedness (`closed`),
+  // indices within the vertices and finite positions (a triangle that
+  // breaks either draws nothing). Auto resolution does not count it as a
+  // receiver, and a light inside a closed one is not detected.
+
+  // Throws cdsm::Error naming the field for a buffer that is not a GL buffer
+  // of the context or too small, and for the refusals above. Needs the
+  // context.
+  ObjectHandle add_gpu_object(const Object& o, const GlMeshSource& source, const GpuMeshOptions& options = {});
+  // The application changed a GPU mesh's vertices (or its buffers: `source`
+  // checked again when given): its maps rebuild in the next update().
+  // `object_bounds` replaces the bounds given so far (null: keep them, or
+  // compute them on the GPU again when none were given).
+  void mark_changed(ObjectHandle h, const Box3* object_bounds = nullptr, const GlMeshSource* source = nullptr);
   // The GL buffers of the last update()'s maps (names change only when a
   // buffer grows). Cheap.
   GlMapBuffers gl_buffers() const;
