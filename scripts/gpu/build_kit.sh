@@ -235,8 +235,8 @@ common_args=(-G Ninja -DCMAKE_BUILD_TYPE=Release -DCDSM_CUDA=ON -DCMAKE_CUDA_COM
 extra=(${CDSM_KIT_CMAKE_ARGS:-})
 # The GL suite, run there on the device's own OpenGL (run_kit.sh stage `gl`):
 # the rasterizer against the CPU ray caster, the default scene through GL,
-# the system on an application context.
-gl_tests=(test_fragment_raster test_gl_default_scene test_gl_system)
+# the system on an application context, meshes that stay on the GPU.
+gl_tests=(test_fragment_raster test_gl_default_scene test_gl_system test_gpu_mesh)
 if [[ ${1:-} != --no-build ]]; then
   start=$SECONDS
   for b in "$release" "$parity"; do
@@ -269,6 +269,14 @@ cp "$parity/tests/gpu/test_cuda_backend" "$parity/tests/gpu/test_gl_interop" "$p
 for t in "${gl_tests[@]}"; do
   [[ -x $parity/tests/gl/$t ]] || die "$parity/tests/gl/$t missing: build first"
   cp "$parity/tests/gl/$t" "$kit/bin/parity/"
+done
+# The shared data test_gl_system reads (primitives.json's glTF: $SHARED/ is
+# $CDSM_DATA_DIR, which run_kit.sh points here): it does not travel otherwise.
+data_src=${CDSM_DATA_DIR:-$src/../shared/data}
+for f in mesh/vsa_primitives_scene.gltf; do
+  [[ -f $data_src/$f ]] || die "$data_src/$f missing: test_gl_system reads it (set CDSM_DATA_DIR)"
+  mkdir -p "$kit/data/$(dirname "$f")"
+  cp "$data_src/$f" "$kit/data/$f"
 done
 strip --strip-unneeded "$kit/bin/bench_gpu" "$kit/bin/bench_warm" "$kit/bin/parity/"*
 gather_libraries "$kit" download
