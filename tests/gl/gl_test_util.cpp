@@ -414,4 +414,32 @@ std::string gl_maps_differ(const GlMapBuffers& b, const DsmStorage& s) {
   return out;
 }
 
+std::string lists_differ(const FragmentBuffers& a, const FragmentBuffers& b) {
+  if (a.width != b.width || a.height != b.height)
+    return "sizes " + std::to_string(a.width) + "x" + std::to_string(a.height) + " and " + std::to_string(b.width) +
+           "x" + std::to_string(b.height);
+  if (a.offsets != b.offsets) return "the offsets differ";
+  if (a.fragments.size() != b.fragments.size()) return "the fragment counts differ";
+  std::vector<Fragment> x, y;
+  for (size_t i = 0; i + 1 < a.offsets.size(); ++i) {
+    x.assign(a.fragments.begin() + a.offsets[i], a.fragments.begin() + a.offsets[i + 1]);
+    y.assign(b.fragments.begin() + b.offsets[i], b.fragments.begin() + b.offsets[i + 1]);
+    std::sort(x.begin(), x.end(), frag_less);
+    std::sort(y.begin(), y.end(), frag_less);
+    for (size_t k = 0; k < x.size(); ++k)
+      if (x[k].bits != y[k].bits || x[k].depth != y[k].depth)
+        return "pixel " + std::to_string(i) + " (" + std::to_string(i % uint64_t(a.width)) + ", " +
+               std::to_string(i / uint64_t(a.width)) + "), fragment " + std::to_string(k);
+  }
+  return "";
+}
+
+SystemOptions app_options(FragmentSource fragments) {
+  SystemOptions o;
+  o.gl_context = GlContextUse::Application;
+  o.fragments = fragments;
+  o.source = "test system";
+  return o;
+}
+
 }  // namespace cdsm::test

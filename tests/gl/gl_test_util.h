@@ -7,12 +7,15 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <exception>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "backend/backend.h"
+#include "cdsm/error.h"
 #include "cdsm/gl.h"
+#include "cdsm/shadow_system.h"
 #include "cdsm/scene.h"
 #include "scene/fragments.h"
 #include "scene_compile.h"
@@ -111,6 +114,26 @@ Comparison compare_fragments(const TestScene& scene, const PinholeView& view, co
 // order_crossings), fragments alternate entry (front), exit (back) and come
 // in pairs. Returns the pixels where not; `first` describes the first one.
 uint64_t count_unpaired_pixels(const TestScene& scene, const FragmentBuffers& lists, std::string* first);
+
+// "" when two producers' lists of one view are equal: the same offsets and,
+// per pixel, the same fragments in any order; else the first difference.
+std::string lists_differ(const FragmentBuffers& a, const FragmentBuffers& b);
+
+// A shadow system on the test's (current) context with `fragments`.
+SystemOptions app_options(FragmentSource fragments = FragmentSource::Gl);
+
+// The message of a call that must throw cdsm::Error (else what it did).
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    return std::string("not a cdsm::Error: ") + e.what();
+  }
+  return "no error";
+}
 
 // "" when the six map arrays in GL buffers `b` (ShadowSystem::gl_buffers)
 // begin with `s`'s arrays byte for byte, else which array differs and

@@ -30,27 +30,6 @@ namespace {
 
 std::string scene_path(const std::string& name) { return std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/" + name; }
 
-SystemOptions app_options(FragmentSource fragments = FragmentSource::Gl) {
-  SystemOptions o;
-  o.gl_context = GlContextUse::Application;
-  o.fragments = fragments;
-  o.source = "test system";
-  return o;
-}
-
-// A message containing `part`, from a call that must throw cdsm::Error.
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    return std::string("not a cdsm::Error: ") + e.what();
-  }
-  return "no error";
-}
-
 // Every piece of state the system promises to restore, as one comparable record.
 struct GlStateSnapshot {
   GLint program, vao, draw_fbo, read_fbo, viewport[4], scissor[4], polygon[2], ssbo_generic;

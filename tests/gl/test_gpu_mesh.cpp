@@ -20,6 +20,7 @@
 #include "gl/fragment_raster.h"
 #include "gl/gl_api.h"
 #include "gl_test_util.h"
+#include "scene_sync.h"
 #include "hd/camera_pass.h"
 
 namespace cdsm::test {
@@ -27,26 +28,6 @@ namespace {
 
 using cdsm_test::spot_light;
 using cdsm_test::surface_object;
-
-SystemOptions app_options(FragmentSource fragments = FragmentSource::Gl) {
-  SystemOptions o;
-  o.gl_context = GlContextUse::Application;
-  o.fragments = fragments;
-  o.source = "gpu mesh test";
-  return o;
-}
-
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    return std::string("not a cdsm::Error: ") + e.what();
-  }
-  return "no error";
-}
 
 // A curtain of kCols x kRows vertices in the application's buffers, laid out
 // as an engine might: 32-byte vertices (uv, position, padding) after a
@@ -253,25 +234,7 @@ TEST_F(GpuResidentMesh, GatheredTrianglesRasterizeAsUploadedOnes) {
     a.rasterize(v, {}, fa);
     b.rasterize(v, {}, fb);
     EXPECT_GT(fa.total(), 500u);
-    for (size_t i = 0, shown = 0; i + 1 < fa.offsets.size() && shown < 4; ++i) {
-      const uint32_t na = fa.offsets[i + 1] - fa.offsets[i], nb = fb.offsets[i + 1] - fb.offsets[i];
-      if (na == nb) continue;
-      ++shown;
-      std::printf("pixel %zu (%zu,%zu): %u vs %u\n", i, i % 128, i / 128, na, nb);
-      for (uint32_t k = 0; k < na; ++k)
-        std::printf("  a %g %08x\n", fa.fragments[fa.offsets[i] + k].depth, fa.fragments[fa.offsets[i] + k].bits);
-      for (uint32_t k = 0; k < nb; ++k)
-        std::printf("  b %g %08x\n", fb.fragments[fb.offsets[i] + k].depth, fb.fragments[fb.offsets[i] + k].bits);
-    }
-    ASSERT_EQ(fa.offsets, fb.offsets);
-    for (size_t i = 0; i + 1 < fa.offsets.size(); ++i) {
-      std::vector<Fragment> x(fa.fragments.begin() + fa.offsets[i], fa.fragments.begin() + fa.offsets[i + 1]);
-      std::vector<Fragment> y(fb.fragments.begin() + fb.offsets[i], fb.fragments.begin() + fb.offsets[i + 1]);
-      std::sort(x.begin(), x.end(), frag_less);
-      std::sort(y.begin(), y.end(), frag_less);
-      for (size_t k = 0; k < x.size(); ++k)
-        ASSERT_TRUE(x[k].bits == y[k].bits && x[k].depth == y[k].depth) << "pixel " << i;
-    }
+    EXPECT_EQ(lists_differ(fa, fb), "");
     const Box3 box = b.mesh_bounds(m, model);
     EXPECT_TRUE(std::memcmp(&box, &host.sb.object_bounds[1], sizeof box) == 0)
         << box.lo.x << " " << host.sb.object_bounds[1].lo.x;
@@ -288,12 +251,8 @@ TEST_F(GpuResidentMesh, ACurtainMovedByAComputeShaderCastsTheShadowOfTheHostCurt
   curtain.move(0.0f);
   const Scene scene = curtain_scene();
   ShadowSystem gpu(app_options()), host(app_options());
-  for (ShadowSystem* sys : {&gpu, &host}) {
-    for (const Object& o : scene.objects) sys->add_object(o);
-    for (const Light& l : scene.lights) sys->add_light(l);
-    sys->set_camera(scene.camera);
-    sys->set_settings(scene.shadows);
-  }
+  sync_scene(gpu, scene);
+  sync_scene(host, scene);
   const ObjectHandle on_gpu = gpu.add_gpu_object(curtain_object(), curtain.source());
   Object given = curtain_object();
   given.mesh = curtain.on_host();
@@ -344,10 +303,7 @@ TEST_F(GpuResidentMesh, BoundsGivenByTheApplicationReadNothingBack) {
   curtain.move(0.3f);
   const Scene scene = curtain_scene();
   ShadowSystem sys(app_options());
-  for (const Object& o : scene.objects) sys.add_object(o);
-  for (const Light& l : scene.lights) sys.add_light(l);
-  sys.set_camera(scene.camera);
-  sys.set_settings(scene.shadows);
+  sync_scene(sys, scene);
   GpuMeshOptions opt;
   opt.bounds.lo = {-1.2f, 0.4f, -0.45f};
   opt.bounds.hi = {1.2f, 1.8f, 0.45f};
@@ -373,8 +329,7 @@ TEST_F(GpuResidentMesh, UsesThatNeedTheTrianglesOnTheHostAreRefusedByName) {
   const Scene scene = curtain_scene();
   {
     ShadowSystem sys(app_options());
-    for (const Object& o : scene.objects) sys.add_object(o);
-    for (const Light& l : scene.lights) sys.add_light(l);
+    sync_scene(sys, scene);
     const ObjectHandle h = sys.add_gpu_object(curtain_object(), curtain.source());
     EXPECT_NE(error_of([&] { sys.render(); }).find("'curtain'"), std::string::npos);
     EXPECT_NE(error_of([&] { sys.render(); }).find("render()"), std::string::npos);
