@@ -179,6 +179,10 @@ struct Writer {
     if (!o.mesh) fail(pointer, "has no mesh");
     if (!o.mesh_source.empty()) {
       nlohmann::json j = parse_source(o.mesh_source, pointer);
+      if (j["type"] == "gl_buffers")
+        fail(pointer,
+             "is a mesh that stays on the GPU (ShadowSystem::add_gpu_object): its triangles are in the "
+             "application's GL buffers, not in the scene, and cannot be written");
       if (j["type"] != "volume_box") return j.dump();
       // A proxy is described only while it still is the proxy of the
       // object's volume (else its triangles are written).

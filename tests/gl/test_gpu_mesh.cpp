@@ -13,6 +13,7 @@
 #include "common/builders.h"
 #include "cdsm/error.h"
 #include "cdsm/procedural.h"
+#include "cdsm/scene_io.h"
 #include "cdsm/shadow_system.h"
 #include "common/sanitized.h"
 #include "backend/exec_shadow_backend.h"
@@ -296,8 +297,8 @@ TEST_F(GpuResidentMesh, ACurtainMovedByAComputeShaderCastsTheShadowOfTheHostCurt
   EXPECT_GT(differ_from_first, uint64_t(frames) * 9 / 10) << "the shadow follows the wave";
 }
 
-// GPU bounds given by the application: no read-back at all in a frame, the
-// maps those of the bounds computed on the GPU when they hold the same box.
+// Bounds given by the application: no bounds read back in a frame (only
+// the light views' two reads), the object's box the given one.
 TEST_F(GpuResidentMesh, BoundsGivenByTheApplicationReadNothingBack) {
   Curtain curtain;
   curtain.move(0.3f);
@@ -344,6 +345,9 @@ TEST_F(GpuResidentMesh, UsesThatNeedTheTrianglesOnTheHostAreRefusedByName) {
     bad.lo = {0, 0, 0};
     bad.hi = {1, std::nanf(""), 1};
     EXPECT_NE(error_of([&] { sys.mark_changed(h, &bad); }).find("finite"), std::string::npos);
+    const std::string saved = error_of([&] { scene_to_json(FrameSnapshot(sys).scene()); });
+    EXPECT_NE(saved.find("/objects/2"), std::string::npos) << saved;
+    EXPECT_NE(saved.find("stays on the GPU"), std::string::npos) << saved;
     sys.update();  // (still fine after the refusals)
   }
   {

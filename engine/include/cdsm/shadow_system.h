@@ -248,7 +248,8 @@ class ShadowSystem {
   // What such a mesh cannot do, refused by name: fragments from a ray
   // caster (FragmentSource::Cpu or Cuda: they need the triangles on the
   // host), render() and render_reference() (they shade on the host), an
-  // interior (medium or volume), set_mesh(), a system on its own context
+  // interior (medium or volume), set_mesh(), writing the scene to a file
+  // (its triangles are not in it), a system on its own context
   // (GlContextUse::Own or private_fragment_context: the buffers are the
   // application's). Not checked, taken as given: closedness (`closed`),
   // indices within the vertices and finite positions (a triangle that
