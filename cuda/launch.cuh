@@ -220,13 +220,14 @@ class CudaExec {
     with_mapped("with_gl_buffer", image_link_, image_generation_, GlAccess::WriteDiscard, name, bytes, generation,
                 [&](void* p) { f(p); });
   }
-  // f(pointer) with GL buffer `name` mapped read-only on the stream (the
-  // fragment rasterizer's pool: registered once per buffer object), unmapped
-  // after, in stream order: GL work issued later waits for what f launched.
+  // f(pointer) with GL buffer `name` mapped read-only on the stream (source
+  // `slot` of the fragment rasterizer: 0 its pool, 1 its offsets; each
+  // registered once per buffer object), unmapped after, in stream order: GL
+  // work issued later waits for what f launched.
   template <class F>
-  void with_gl_source(unsigned name, uint64_t bytes, uint64_t generation, F&& f) {
-    with_mapped("with_gl_source", source_link_, source_generation_, GlAccess::ReadOnly, name, bytes, generation,
-                [&](void* p) { f(static_cast<const void*>(p)); });
+  void with_gl_source(int slot, unsigned name, uint64_t bytes, uint64_t generation, F&& f) {
+    with_mapped("with_gl_source", source_link_[slot], source_generation_[slot], GlAccess::ReadOnly, name, bytes,
+                generation, [&](void* p) { f(static_cast<const void*>(p)); });
   }
   // GL buffer `name` is about to be deleted or replaced by its owner
   // (ShadowBackend::gl_buffer_released): unregistered now, while it exists;
@@ -235,12 +236,13 @@ class CudaExec {
     for (GlBufferLink& l : gl_links_)
       if (l.registered() && l.name() == name) l.reset();
     if (image_link_.registered() && image_link_.name() == name) image_link_.reset();
-    if (source_link_.registered() && source_link_.name() == name) source_link_.reset();
+    for (GlBufferLink& l : source_link_)
+      if (l.registered() && l.name() == name) l.reset();
   }
   uint64_t gl_registrations() const {
     uint64_t r = 0;
     for (const GlBufferLink& l : gl_links_) r += l.registrations();
-    return r + image_link_.registrations() + source_link_.registrations();
+    return r + image_link_.registrations() + source_link_[0].registrations() + source_link_[1].registrations();
   }
 #endif
 
@@ -342,8 +344,8 @@ class CudaExec {
   uint64_t gl_generation_[kStorageArrays] = {};
   GlBufferLink image_link_;  // camera_pass_to_gl's target
   uint64_t image_generation_ = 0;
-  GlBufferLink source_link_;  // lists_from_gl's source (the rasterizer's fragment pool)
-  uint64_t source_generation_ = 0;
+  GlBufferLink source_link_[2];  // lists_from_gl's sources (the rasterizer's fragment pool, its offsets)
+  uint64_t source_generation_[2] = {};
 #endif
   std::vector<Launch> pending_;
   std::vector<exec::StageTime> folded_;

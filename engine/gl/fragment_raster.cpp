@@ -383,17 +383,22 @@ struct FragmentRasterizer::Impl {
     CDSM_GL(glUseProgram(0));
   }
 
-  // A view's rows [r0, r1), counted at counter `base` of its batch.
+  // A view's rows [r0, r1), counted at counter `base` of its batch; its
+  // first fragment in its view's lists.
   struct Band {
     uint32_t job;
     int32_t r0, r1;
     uint64_t base;
+    uint64_t view_first = 0;
   };
-  std::vector<Band> bands;              // of the current call
-  std::vector<uint32_t> batch_offsets;  // a batch's offsets read back (+ total, overflow flag)
-  std::vector<Piece> pieces;            // what the pool holds since its last hand-over
-  std::vector<Fragment> staging;        // a pool of several pieces read back at once
-  uint32_t drawn_job = ~0u;             // the job whose draws and view are set
+  std::vector<uint64_t> view_done;       // per job: its fragments in the batches so far
+  std::vector<OffsetBand> offset_bands;  // a batch's, for the offsets sink
+  uint64_t offsets_generation = 1;       // a new offsets buffer object: a new generation
+  std::vector<Band> bands;               // of the current call
+  std::vector<uint32_t> batch_offsets;   // a batch's offsets read back (+ total, overflow flag)
+  std::vector<Piece> pieces;             // what the pool holds since its last hand-over
+  std::vector<Fragment> staging;         // a pool of several pieces read back at once
+  uint32_t drawn_job = ~0u;              // the job whose draws and view are set
 
   // Draws and view of job j, set when they are not yet.
   void draw_setup(Span<const Job> jobs, uint32_t j) {
@@ -405,9 +410,9 @@ struct FragmentRasterizer::Impl {
     bind_pipeline(jobs[j].view.width, jobs[j].view.height);
   }
 
-  void rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink);
-  void rasterize_batch(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink, size_t b0, size_t b1,
-                       uint64_t n);
+  void rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink, const OffsetsSink* offsets_sink);
+  void rasterize_batch(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink,
+                       const OffsetsSink* offsets_sink, size_t b0, size_t b1, uint64_t n);
   void flush(FragmentBuffers* outs, const TileSink* sink);
   [[noreturn]] void report_overflow(Span<const Job> jobs, size_t b0, size_t b1, uint64_t n);
 
@@ -434,7 +439,8 @@ struct FragmentRasterizer::Impl {
   }
 };
 
-void FragmentRasterizer::Impl::rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink) {
+void FragmentRasterizer::Impl::rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink,
+                                         const OffsetsSink* offsets_sink) {
   auto t0 = std::chrono::steady_clock::now();
   context.make_current();
   const Limits& lim = context.limits();
@@ -463,12 +469,13 @@ void FragmentRasterizer::Impl::rasterize(Span<const Job> jobs, FragmentBuffers* 
         int32_t(std::max<uint64_t>(1, std::min<uint64_t>(uint64_t(H), band_pixels / uint64_t(W))));
     for (int32_t r0 = 0; r0 < H; r0 += band_rows) bands.push_back({j, r0, std::min(H, r0 + band_rows), 0});
   }
+  view_done.assign(jobs.size(), 0);
   for (uint32_t j = 0; j < uint32_t(jobs.size()); ++j) {
     FragmentBuffers& out = outs[j];
     out.width = jobs[j].view.width;
     out.height = jobs[j].view.height;
-    out.offsets.resize(uint64_t(out.width) * uint64_t(out.height) + 1);
-    out.offsets.back() = 0;  // the view's fragments so far, while its bands come
+    // (with an offsets sink the offsets go there: `out` keeps the total)
+    out.offsets.resize(offsets_sink ? 1 : uint64_t(out.width) * uint64_t(out.height) + 1);
     out.fragments.clear();
   }
   drawn_job = ~0u;
@@ -482,9 +489,10 @@ void FragmentRasterizer::Impl::rasterize(Span<const Job> jobs, FragmentBuffers* 
       bands[b1].base = n;
       n += band_n;
     }
-    rasterize_batch(jobs, outs, sink, b0, b1, n);
+    rasterize_batch(jobs, outs, sink, offsets_sink, b0, b1, n);
     b0 = b1;
   }
+  for (uint32_t j = 0; j < uint32_t(jobs.size()); ++j) outs[j].offsets.back() = uint32_t(view_done[j]);
   stats.pool_bytes = pool.capacity();
   stats.gpu_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -492,9 +500,13 @@ void FragmentRasterizer::Impl::rasterize(Span<const Job> jobs, FragmentBuffers* 
 // Bands [b0, b1) (n counters in all): counted, scanned, read back once;
 // filled into the pool, which is handed on each time it is full.
 void FragmentRasterizer::Impl::rasterize_batch(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink,
-                                               size_t b0, size_t b1, uint64_t n) {
+                                               const OffsetsSink* offsets_sink, size_t b0, size_t b1, uint64_t n) {
   counts.reserve(n * 4);
-  offsets.reserve((n + 2) * 4);
+  if (offsets.capacity() < (n + 2) * 4) {  // a new buffer object: a sink that mapped the old one lets go first
+    if (release_hook && offsets.id() != 0) release_hook(offsets.id());
+    offsets.reserve((n + 2) * 4);
+    ++offsets_generation;
+  }
   counts.clear(n * 4);
   sync("clear");
   for (size_t b = b0; b < b1; ++b) {
@@ -520,26 +532,32 @@ void FragmentRasterizer::Impl::rasterize_batch(Span<const Job> jobs, FragmentBuf
   const uint64_t batch_total = batch_offsets[n];
   auto off = [&](uint64_t i) { return uint64_t(batch_offsets[i]); };
   // Each band's offsets into its view's lists, which count on from the
-  // view's earlier bands.
+  // view's earlier bands: written here, or re-based where the sink puts
+  // them (the band's values and the next band's start, shifted).
+  offset_bands.clear();
   for (size_t b = b0; b < b1; ++b) {
-    const Band& band = bands[b];
-    FragmentBuffers& out = outs[band.job];
+    Band& band = bands[b];
+    const FragmentBuffers& out = outs[band.job];
     const uint64_t W = uint64_t(out.width), band_n = W * uint64_t(band.r1 - band.r0);
-    const uint64_t before = out.offsets.back(), band_total = off(band.base + band_n) - off(band.base);
+    const uint64_t before = view_done[band.job], band_total = off(band.base + band_n) - off(band.base);
     if (before + band_total > 0xffffffffull)
       throw Error(kWhere, "more than 2^32-1 fragments in a " + std::to_string(out.width) + "x" +
                               std::to_string(out.height) + " view (offsets are 32-bit)");
-    uint32_t* dst = out.offsets.data() + uint64_t(band.r0) * W;
     const uint32_t shift = uint32_t(before) - batch_offsets[band.base];  // modulo 2^32
-    for (uint64_t i = 0; i < band_n; ++i) dst[i] = batch_offsets[band.base + i] + shift;
-    out.offsets.back() = uint32_t(before + band_total);
+    band.view_first = before;
+    if (offsets_sink) {
+      offset_bands.push_back({band.job, uint64_t(band.r0) * W, band_n, band.base, shift});
+    } else {
+      uint32_t* dst = outs[band.job].offsets.data() + uint64_t(band.r0) * W;
+      for (uint64_t i = 0; i < band_n; ++i) dst[i] = batch_offsets[band.base + i] + shift;
+    }
+    view_done[band.job] = before + band_total;
     stats.fragments += band_total;
   }
+  if (offsets_sink)
+    (*offsets_sink)({offset_bands.data(), offset_bands.size()}, offsets.id(), offsets.capacity(), offsets_generation);
   if (!sink)
-    for (size_t b = b0; b < b1; ++b) {
-      FragmentBuffers& out = outs[bands[b].job];
-      out.fragments.resize(out.offsets.back());
-    }
+    for (size_t b = b0; b < b1; ++b) outs[bands[b].job].fragments.resize(view_done[bands[b].job]);
 
   // Fill tiles: whole rows while they fit the pool cap, else row pieces;
   // into the pool one after another, handed on when the next does not fit.
@@ -552,8 +570,7 @@ void FragmentRasterizer::Impl::rasterize_batch(Span<const Job> jobs, FragmentBuf
     const Band& band = bands[b];
     const int32_t W = jobs[band.job].view.width, H = jobs[band.job].view.height;
     const uint64_t band_n = uint64_t(W) * uint64_t(band.r1 - band.r0);
-    // The band's first fragment in its view's lists.
-    const uint64_t view_first = outs[band.job].offsets[uint64_t(band.r0) * uint64_t(W)];
+    const uint64_t view_first = band.view_first;  // the band's first fragment in its view's lists
     const uint64_t band_first = off(band.base);
     if (off(band.base + band_n) == band_first) continue;
     draw_setup(jobs, band.job);
@@ -713,15 +730,16 @@ uint64_t FragmentRasterizer::scene_buffer_bytes() const {
 
 void FragmentRasterizer::rasterize(const PinholeView& view, ObjectMask mask, FragmentBuffers& out) {
   const Job job{view, mask};
-  impl_->rasterize({&job, 1}, &out, nullptr);
+  impl_->rasterize({&job, 1}, &out, nullptr, nullptr);
 }
 
 void FragmentRasterizer::rasterize(Span<const Job> jobs, FragmentBuffers* outs) {
-  impl_->rasterize(jobs, outs, nullptr);
+  impl_->rasterize(jobs, outs, nullptr, nullptr);
 }
 
-void FragmentRasterizer::rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink& sink) {
-  impl_->rasterize(jobs, outs, &sink);
+void FragmentRasterizer::rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink& sink,
+                                   const OffsetsSink& offsets) {
+  impl_->rasterize(jobs, outs, &sink, &offsets);
 }
 
 void FragmentRasterizer::set_release_hook(std::function<void(uint32_t)> hook) { impl_->release_hook = std::move(hook); }

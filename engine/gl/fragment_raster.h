@@ -175,11 +175,30 @@ class FragmentRasterizer {
   };
   using TileSink =
       std::function<void(Span<const Piece> pieces, uint32_t gl_buffer, uint64_t gl_buffer_bytes, uint64_t generation)>;
-  // rasterize(jobs, outs) handing the fragments to `sink`: outs[i].offsets
-  // as above, outs[i].fragments left empty.
-  void rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink& sink);
+  // Where each batch's offsets go instead of the host's lists: band b's
+  // values [at, at + count] of GL buffer `gl_buffer` (uint32, scanned over
+  // the batch; the last is where the next band starts) are offsets [first,
+  // first + count] of job `job`'s lists, each plus `shift` (modulo 2^32).
+  // Called once per batch, before its fragments; the buffer is written
+  // again after the call returns.
+  struct OffsetBand {
+    uint32_t job;
+    uint64_t first;
+    uint64_t count;
+    uint64_t at;
+    uint32_t shift;
+  };
+  using OffsetsSink = std::function<void(Span<const OffsetBand> bands, uint32_t gl_buffer, uint64_t gl_buffer_bytes,
+                                         uint64_t generation)>;
+  // rasterize(jobs, outs) handing the offsets to `offsets` and the
+  // fragments to `sink`: outs[i] gets its size, outs[i].offsets only the
+  // fragment count (one value), outs[i].fragments stays empty. (The host
+  // still reads each batch's offsets once: they size the pool and its
+  // fillings.)
+  void rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink& sink, const OffsetsSink& offsets);
   // Called with a buffer's name before this rasterizer deletes or replaces
-  // it (a sink that registered it with CUDA lets go of it then).
+  // it (a sink that registered it with CUDA lets go of it then): the pool
+  // and the offsets buffer.
   void set_release_hook(std::function<void(uint32_t)> hook);
 
   const RasterStats& stats() const;

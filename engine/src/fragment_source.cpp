@@ -191,20 +191,30 @@ FragmentProducer FragmentSourceSelector::producer(const SceneBuffers& sb) const 
       for (size_t i = 0; i < n; ++i) jobs[i] = {requests[i].view, requests[i].mask};
       // The backend's memory is where this context's buffers live (the cuda
       // backend, CUDA-GL interop): every view rasterized together, each
-      // filled pool copied there on the device, nothing read back but the
-      // offsets.
+      // batch's offsets and each filled pool copied there on the device;
+      // the host reads each batch's offsets once (to size the pool) and
+      // sends nothing.
       if (backend.can_write_gl_maps()) {
         std::vector<ShadowBackend::GlPiece> handed;
+        std::vector<ShadowBackend::GlOffsets> bands;
         backend.lists_from_gl(
             n,
-            [&](const ShadowBackend::GlTileSink& sink, FragmentBuffers* outs) {
-              r->rasterize({jobs.data(), n}, outs,
-                           [&](Span<const gl::FragmentRasterizer::Piece> pieces, uint32_t buffer, uint64_t bytes,
-                               uint64_t generation) {
-                             handed.clear();
-                             for (const auto& p : pieces) handed.push_back({p.job, p.first, p.count, p.at});
-                             sink(handed.data(), handed.size(), buffer, bytes, generation);
-                           });
+            [&](const ShadowBackend::GlTileSink& tiles, const ShadowBackend::GlOffsetsSink& offsets,
+                FragmentBuffers* outs) {
+              r->rasterize(
+                  {jobs.data(), n}, outs,
+                  [&](Span<const gl::FragmentRasterizer::Piece> pieces, uint32_t buffer, uint64_t bytes,
+                      uint64_t generation) {
+                    handed.clear();
+                    for (const auto& p : pieces) handed.push_back({p.job, p.first, p.count, p.at});
+                    tiles(handed.data(), handed.size(), buffer, bytes, generation);
+                  },
+                  [&](Span<const gl::FragmentRasterizer::OffsetBand> in, uint32_t buffer, uint64_t bytes,
+                      uint64_t generation) {
+                    bands.clear();
+                    for (const auto& b : in) bands.push_back({b.job, b.first, b.count, b.at, b.shift});
+                    offsets(bands.data(), bands.size(), buffer, bytes, generation);
+                  });
             },
             ids);
         return;

@@ -210,15 +210,30 @@ class ShadowBackend {
   // with each new buffer object); per view, pieces come in order.
   using GlTileSink = std::function<void(const GlPiece* pieces, size_t n, uint32_t gl_buffer, uint64_t gl_buffer_bytes,
                                         uint64_t generation)>;
+  // A band of a view's offsets the rasterizer scanned: values [at, at +
+  // count] of its offsets buffer (uint32, count + 1 of them: the last is
+  // where the next band starts) are offsets [first, first + count] of view
+  // `view`'s lists, each plus `shift` (modulo 2^32).
+  struct GlOffsets {
+    uint32_t view = 0;
+    uint64_t first = 0;
+    uint64_t count = 0;
+    uint64_t at = 0;
+    uint32_t shift = 0;
+  };
+  // Each batch's scanned offsets: `n` bands in GL buffer `gl_buffer` (as
+  // GlTileSink's), handed over before the batch's fragments.
+  using GlOffsetsSink = std::function<void(const GlOffsets* bands, size_t n, uint32_t gl_buffer,
+                                           uint64_t gl_buffer_bytes, uint64_t generation)>;
   // The lists of `views` views rasterized by GL together straight into the
   // backend's memory, never through the host (CUDA-GL interop; only where
   // can_write_gl_maps() holds for the current context, else
-  // std::logic_error): `rasterize(sink, outs)` runs the rasterizer, handing
-  // each filled pool to `sink` (copied on the device, under one map of the
-  // buffer, before it returns), and leaves each view's size and offsets in
-  // outs[v] (fragments empty); the offsets are uploaded. ids[v] view v's.
-  // All or nothing.
-  using GlRasterize = std::function<void(const GlTileSink& sink, FragmentBuffers* outs)>;
+  // std::logic_error): `rasterize(tiles, offsets, outs)` runs the
+  // rasterizer, handing each batch's offsets and each filled pool to the
+  // sinks (copied on the device, under one map of the buffer, before they
+  // return), and leaves each view's size in outs[v] and its fragment count
+  // in outs[v].offsets (one value). ids[v] view v's. All or nothing.
+  using GlRasterize = std::function<void(const GlTileSink& tiles, const GlOffsetsSink& offsets, FragmentBuffers* outs)>;
   virtual void lists_from_gl(size_t views, const GlRasterize& rasterize, ListsId* ids) {
     (void)views;
     (void)rasterize;

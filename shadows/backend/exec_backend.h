@@ -37,6 +37,7 @@
 #include "backend/backend.h"
 #include "backend/exec_shadow_backend.h"
 #include "backend/host_storage.h"
+#include "exec/scan.h"
 #include "backend/list_store.h"
 #include "backend/scene_store.h"
 #include "exec/camera_pass.h"
@@ -302,9 +303,10 @@ class ExecBackend final : public ExecShadowBackend {
   }
   uint64_t lists_bytes(ListsId id) const override { return lists_.bytes(lists_.held(id, "lists_bytes").lists()); }
 
-  // Each filled pool mapped (read-only) once and its pieces copied on the
-  // executor into the views' fragments, which grow as pieces come; then the
-  // offsets uploaded.
+  // Each batch's offsets buffer and each filled pool mapped (read-only) once:
+  // the bands of offsets re-based on the executor into the views' offsets,
+  // the pieces copied into their fragments, which grow as pieces come.
+  // Nothing crosses the host but the counts.
   void lists_from_gl(size_t views, const GlRasterize& rasterize, ListsId* ids) override {
     if constexpr (Ex::kGlInterop) {
       CDSM_CHECK(ex_.gl_context_on_device(),
@@ -312,6 +314,7 @@ class ExecBackend final : public ExecShadowBackend {
       std::vector<std::unique_ptr<typename ExecListStore<Ex>::Held>> h(views);
       for (auto& l : h) l = lists_.make();
       std::vector<FragmentBuffers> outs(views);
+      std::vector<uint8_t> sized(views, 0);
       rasterize(
           [&](const GlPiece* pieces, size_t n, uint32_t gl_buffer, uint64_t gl_buffer_bytes, uint64_t generation) {
             for (size_t p = 0; p < n; ++p) {
@@ -324,22 +327,41 @@ class ExecBackend final : public ExecShadowBackend {
                                         " bytes");
               h[q.view]->fragments.resize(q.first + q.count);
             }
-            ex_.with_gl_source(gl_buffer, gl_buffer_bytes, generation, [&](const void* src) {
+            ex_.with_gl_source(0, gl_buffer, gl_buffer_bytes, generation, [&](const void* src) {
               for (size_t p = 0; p < n; ++p)
                 ex_.copy(h[pieces[p].view]->fragments.data() + pieces[p].first,
                          static_cast<const Fragment*>(src) + pieces[p].at, pieces[p].count * sizeof(Fragment));
             });
           },
+          [&](const GlOffsets* bands, size_t n, uint32_t gl_buffer, uint64_t gl_buffer_bytes, uint64_t generation) {
+            for (size_t b = 0; b < n; ++b) {
+              const GlOffsets& o = bands[b];
+              CDSM_CHECK(o.view < views, "lists_from_gl: offsets of an unknown view");
+              const uint64_t pixels = uint64_t(outs[o.view].width) * uint64_t(outs[o.view].height);
+              if (!sized[o.view]) {
+                h[o.view]->offsets.resize_discard(pixels + 1);
+                sized[o.view] = 1;
+              }
+              if (o.first + o.count > pixels || (o.at + o.count + 1) * sizeof(uint32_t) > gl_buffer_bytes)
+                throw std::out_of_range("lists_from_gl: offsets [" + std::to_string(o.first) + ", " +
+                                        std::to_string(o.first + o.count) + "] of a view of " + std::to_string(pixels) +
+                                        " pixels");
+            }
+            ex_.with_gl_source(1, gl_buffer, gl_buffer_bytes, generation, [&](const void* src) {
+              for (size_t b = 0; b < n; ++b)
+                exec::shifted_copy(ex_, static_cast<const uint32_t*>(src) + bands[b].at,
+                                   h[bands[b].view]->offsets.data() + bands[b].first, bands[b].count + 1,
+                                   bands[b].shift);
+            });
+          },
           outs.data());
       for (size_t v = 0; v < views; ++v) {
         const FragmentBuffers& out = outs[v];
-        ExecListStore<Ex>::check(out.width, out.height, out.offsets.size(), h[v]->fragments.size(), "lists_from_gl");
-        CDSM_CHECK(out.offsets.back() == h[v]->fragments.size(),
-                   "lists_from_gl: " + std::to_string(h[v]->fragments.size()) +
-                       " fragments copied, the offsets count " + std::to_string(out.offsets.back()));
+        CDSM_CHECK(sized[v] && out.offsets.size() == 1 && out.offsets[0] == h[v]->fragments.size(),
+                   "lists_from_gl: view " + std::to_string(v) + "'s offsets or fragments did not all come");
+        ExecListStore<Ex>::check(out.width, out.height, h[v]->offsets.size(), h[v]->fragments.size(), "lists_from_gl");
         h[v]->width = out.width;
         h[v]->height = out.height;
-        h[v]->offsets.assign(out.offsets);
       }
       size_t held = 0;
       try {

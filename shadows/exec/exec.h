@@ -16,8 +16,8 @@
 //     bool gl_context_on_device() const;  // the current GL context shares its memory
 //     void write_gl_buffers(const GlMapWrite* w, int n, const void* const* src);  // src[array] + offset -> buffer
 //     template <class F> void with_gl_buffer(unsigned name, uint64_t bytes, uint64_t generation, F f);  // f(mapped)
-//     template <class F> void with_gl_source(unsigned name, uint64_t bytes, uint64_t generation, F f);  // f(mapped,
-//     read-only)
+//     template <class F> void with_gl_source(int slot, unsigned name, uint64_t bytes, uint64_t generation, F f);
+//     // f(mapped, read-only); slot 0 the rasterizer's pool, 1 its offsets
 //   void* allocate(size_t bytes);       // 256-byte aligned; throws on failure
 //   void release(void* p) noexcept;
 //   template <class F> void parallel_for(const char* name, uint64_t n, F f);  // f(i) for i in [0, n)

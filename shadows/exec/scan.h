@@ -53,4 +53,13 @@ uint64_t exclusive_scan(Ex& ex, const uint32_t* in, uint32_t* out, uint64_t n,
   return total;
 }
 
+// out[i] = in[i] + shift (modulo 2^32) for i < n: a band of offsets
+// scanned elsewhere (the GL rasterizer's batch) re-based onto its view's
+// lists. in and out may not overlap.
+template <class Ex>
+void shifted_copy(Ex& ex, const uint32_t* in, uint32_t* out, uint64_t n, uint32_t shift) {
+  ex.parallel_for(
+      "lists: offsets from GL", n, CDSM_LAMBDA(uint64_t i) { out[i] = in[i] + shift; });
+}
+
 }  // namespace cdsm::exec

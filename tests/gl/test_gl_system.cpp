@@ -565,7 +565,25 @@ class InPlaceBackend final : public ShadowBackend {
     ++gl_batches;
     gl_lists += views;
     std::vector<std::vector<Fragment>> fragments(views);
+    std::vector<std::vector<uint32_t>> offsets(views);
     std::vector<FragmentBuffers> outs(views);
+    // Each band of offsets read from the GL buffer and re-based, as the
+    // cuda backend does on the device.
+    const auto take_offsets = [&](const GlOffsets* bands, size_t n, uint32_t buffer, uint64_t bytes, uint64_t) {
+      ++offset_batches;
+      if (!glIsBuffer(buffer)) violations.push_back("offsets in no GL buffer");
+      for (size_t b = 0; b < n; ++b) {
+        const GlOffsets& o = bands[b];
+        if (o.view >= views || (o.at + o.count + 1) * 4 > bytes) {
+          violations.push_back("a band of offsets past its view or buffer");
+          continue;
+        }
+        std::vector<uint32_t>& dst = offsets[o.view];
+        if (dst.size() < o.first + o.count + 1) dst.resize(o.first + o.count + 1);
+        glGetNamedBufferSubData(buffer, GLintptr(o.at * 4), GLsizeiptr((o.count + 1) * 4), dst.data() + o.first);
+        for (uint64_t i = 0; i <= o.count; ++i) dst[o.first + i] += o.shift;
+      }
+    };
     rasterize(
         [&](const GlPiece* pieces, size_t n, uint32_t buffer, uint64_t bytes, uint64_t generation) {
           if (!glIsBuffer(buffer)) violations.push_back("a pool in no GL buffer");
@@ -590,9 +608,14 @@ class InPlaceBackend final : public ShadowBackend {
             ++pieces_read;
           }
         },
-        outs.data());
+        take_offsets, outs.data());
     for (size_t v = 0; v < views; ++v) {
       if (!outs[v].fragments.empty()) violations.push_back("fragments read back to the host by the rasterizer");
+      if (outs[v].offsets.size() != 1) violations.push_back("offsets written to the host by the rasterizer");
+      if (offsets[v].size() != uint64_t(outs[v].width) * uint64_t(outs[v].height) + 1 ||
+          offsets[v].back() != fragments[v].size() || !std::is_sorted(offsets[v].begin(), offsets[v].end()))
+        throw std::runtime_error("view " + std::to_string(v) + "'s offsets did not all come, or not in order");
+      outs[v].offsets = std::move(offsets[v]);
       outs[v].fragments = std::move(fragments[v]);
       ids[v] = inner_->adopt_lists(std::move(outs[v]));
     }
@@ -603,7 +626,8 @@ class InPlaceBackend final : public ShadowBackend {
     registered.erase(name);
     pool_releases += pools.erase(name);
   }
-  uint64_t writes = 0, releases = 0, gl_lists = 0, gl_batches = 0, tiles = 0, pieces_read = 0, pool_releases = 0;
+  uint64_t writes = 0, releases = 0, gl_lists = 0, gl_batches = 0, offset_batches = 0, tiles = 0, pieces_read = 0,
+           pool_releases = 0;
   bool fail_next = false;
   std::map<uint32_t, uint64_t> registered;  // GL name -> gl_buffer_generation
   std::map<uint32_t, uint64_t> pools;       // the fragment pools tiles came from: GL name -> generation
@@ -653,13 +677,14 @@ TEST_F(GlSystem, GlListsHandedOverPoolByPoolEqualListsReadBack) {
   dev.set_settings(tiny);
   dev.update();
   ASSERT_EQ(ip->gl_batches, 1u);
-  ip->gl_batches = ip->gl_lists = ip->tiles = ip->pieces_read = 0;
+  ip->gl_batches = ip->gl_lists = ip->offset_batches = ip->tiles = ip->pieces_read = 0;
   dev.set_settings(scene.shadows);
   FrameStats st;
   const Image got = dev.render(&st);
   EXPECT_EQ(st.fragment_source, "gl");
   EXPECT_EQ(ip->gl_lists, uint64_t(st.maps_rebuilt) + 1) << "every light view and the camera's";
   EXPECT_EQ(ip->gl_batches, 2u) << "the light views together, then the camera's";
+  EXPECT_EQ(ip->offset_batches, 2u) << "each batch's offsets handed over once, on the GPU";
   EXPECT_GT(ip->tiles, ip->gl_batches) << "views larger than the pool were handed over in several fillings";
   EXPECT_GT(ip->pieces_read, ip->tiles) << "a filling holds pieces of several views";
   EXPECT_GE(ip->pool_releases, 1u) << "the pool grew from 4 KiB to 64 KiB: the one handed over let go of first";
