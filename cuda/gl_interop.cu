@@ -1,6 +1,7 @@
 #include "gl_interop.h"
 
 #include <cuda_gl_interop.h>
+#include <dlfcn.h>
 
 #include <stdexcept>
 #include <utility>
@@ -102,6 +103,35 @@ bool gl_context_on_device(int device, std::string* why) {
     if (devices[i] == device) return true;
   if (why) *why = "the GL context runs on another GPU than CUDA device " + std::to_string(device);
   return false;
+}
+
+namespace {
+
+// The current GL context of this thread as EGL or GLX names it (looked up
+// in the process, so neither library is linked here); null when neither is
+// loaded or none is current.
+const void* current_gl_context() {
+  using Get = void* (*)();
+  static const Get egl = reinterpret_cast<Get>(dlsym(RTLD_DEFAULT, "eglGetCurrentContext"));
+  static const Get glx = reinterpret_cast<Get>(dlsym(RTLD_DEFAULT, "glXGetCurrentContext"));
+  const void* c = egl ? egl() : nullptr;
+  if (!c && glx) c = glx();
+  return c;
+}
+
+}  // namespace
+
+bool gl_context_on_device_cached(int device) {
+  struct Seen {
+    const void* context = nullptr;
+    int device = -1;
+    bool on = false;
+  };
+  thread_local Seen seen;
+  const void* c = current_gl_context();
+  if (c == nullptr) return gl_context_on_device(device, nullptr);
+  if (c != seen.context || device != seen.device) seen = {c, device, gl_context_on_device(device, nullptr)};
+  return seen.on;
 }
 
 }  // namespace cdsm::cuda

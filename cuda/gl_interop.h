@@ -76,5 +76,9 @@ class GlMapScope {
 // Whether the current GL context runs on CUDA device `device` (cudaGLGetDevices);
 // `why` says what it runs on otherwise. False without a current context.
 bool gl_context_on_device(int device, std::string* why);
+// The same answer, asked of the driver once per current GL context (EGL's or
+// GLX's, whichever is current on this thread; every call when neither can
+// be asked): what ShadowBackend::can_write_gl_maps() costs each frame.
+bool gl_context_on_device_cached(int device);
 
 }  // namespace cdsm::cuda

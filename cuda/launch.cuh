@@ -189,7 +189,7 @@ class CudaExec {
   // this device, and the ranges copied device to device into the GL buffers,
   // each registered once per buffer object (again when its name, size or
   // generation changed), all mapped together on the stream for the copies.
-  bool gl_context_on_device() const { return cuda::gl_context_on_device(device_, nullptr); }
+  bool gl_context_on_device() const { return cuda::gl_context_on_device_cached(device_); }
   void write_gl_buffers(const GlMapWrite* w, int n, const void* const* src) {
     check_usable("write_gl_buffers");
     if (n < 0 || n > kStorageArrays)
