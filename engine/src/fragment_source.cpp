@@ -144,17 +144,21 @@ uint64_t FragmentSourceSelector::scene_changed(const SceneBuffers& sb, const Sce
     return r.last_upload_bytes();
   }
   uint64_t bytes = 0;
+  std::vector<uint8_t> gathered(gpu.size(), 0);
   for (const IndexRange& t : change.triangles) {
-    const GpuObject* on_gpu = nullptr;
-    for (const GpuObject& g : gpu)
-      if (sb.objects[g.object].first_tri == t.first) on_gpu = &g;
-    if (on_gpu) {
-      gather(*on_gpu);
+    size_t on_gpu = gpu.size();
+    for (size_t k = 0; k < gpu.size(); ++k)
+      if (sb.objects[gpu[k].object].first_tri == t.first) on_gpu = k;
+    if (on_gpu < gpu.size()) {  // (moved: the placeholder's range, read again on the GPU)
+      gather(gpu[on_gpu]);
+      gathered[on_gpu] = 1;
       continue;
     }
     r.update_triangles(t.first, {sb.tri_vertices.data() + size_t(t.first) * 3, size_t(t.count) * 3});
     bytes += r.last_upload_bytes();
   }
+  for (size_t k = 0; k < gpu.size(); ++k)
+    if (gpu[k].changed && !gathered[k]) gather(gpu[k]);
   return bytes;
 #else
   (void)sb;

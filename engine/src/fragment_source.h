@@ -66,6 +66,7 @@ class FragmentSourceSelector {
     uint32_t object = 0;
     const GpuMesh* mesh = nullptr;
     Mat4 transform;
+    bool changed = false;  // its vertices changed on the GPU (read again even where `change` names none)
   };
   uint64_t scene_changed(const SceneBuffers& sb, const SceneChange& change, const std::vector<GpuObject>& gpu = {});
   // The world box of a GPU mesh under `transform`, computed on the GPU (one

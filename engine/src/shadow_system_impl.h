@@ -34,6 +34,7 @@ struct ShadowSystem::Impl {
     // application's buffers; its Object holds a placeholder mesh of as many
     // degenerate triangles. Null for meshes on the host.
     std::shared_ptr<GpuMesh> gpu;
+    bool gpu_changed = false;  // mark_changed(): its triangles to read again, its bounds to take again
   };
   struct VolumeRec {
     uint64_t id = 0;
@@ -110,6 +111,7 @@ struct ShadowSystem::Impl {
   void erase_volume_data(size_t vi);
   void compile_structure(FrameStats& st);
   void compile_moves(FrameStats& st, SceneChange& change);
+  bool refresh_gpu_bounds(const SceneChange& moved);
   bool refresh_surfaces();
   std::string object_where(size_t i) const;
   // A GPU mesh's world box (given bounds transformed, or computed on the

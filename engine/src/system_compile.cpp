@@ -193,6 +193,31 @@ void ShadowSystem::Impl::gpu_bounds(size_t oi, CompiledObject& co) {
   if (!b.empty()) co.bounds = b;
 }
 
+// GPU meshes the application changed (mark_changed) and that did not move:
+// their bounds taken again, nothing else (their placeholders on the host
+// and in the BVH stay as they are; the rasterizer reads them again).
+// Whether any was.
+bool ShadowSystem::Impl::refresh_gpu_bounds(const SceneChange& moved) {
+  bool any = false;
+  CompiledObject co;
+  for (size_t oi = 0; oi < objects.size(); ++oi) {
+    if (!objects[oi].gpu_changed) continue;
+    const uint32_t first = sb.objects[oi].first_tri;
+    if (std::any_of(moved.triangles.begin(), moved.triangles.end(),
+                    [&](const IndexRange& t) { return t.first == first; }))
+      continue;  // (compile_moves took its bounds)
+    co.bounds = sb.object_bounds[oi];
+    gpu_bounds(oi, co);
+    sb.object_bounds[oi] = co.bounds;
+    any = true;
+  }
+  if (any) {
+    sb.bounds = Box3{};
+    for (const Box3& b : sb.object_bounds) sb.bounds.grow(b);
+  }
+  return any;
+}
+
 // Material and shadow-flag edits: kernel data only. Whether any was made.
 bool ShadowSystem::Impl::refresh_surfaces() {
   bool any = false;
@@ -229,13 +254,16 @@ void ShadowSystem::Impl::compile(FrameStats& st) {
     change.everything = true;
   } else {
     compile_moves(st, change);
+    refresh_gpu_bounds(change);
     change.objects = refresh_surfaces();
   }
   st.times.compile_ms = ms_since(t0);
   std::vector<FragmentSourceSelector::GpuObject> gpu;  // read on the GPU where they are
   for (size_t oi = 0; oi < objects.size(); ++oi)
-    if (objects[oi].gpu) gpu.push_back({uint32_t(oi), objects[oi].gpu.get(), scene.objects[oi].transform});
+    if (objects[oi].gpu)
+      gpu.push_back({uint32_t(oi), objects[oi].gpu.get(), scene.objects[oi].transform, objects[oi].gpu_changed});
   st.update.gl_upload_bytes += fragments.scene_changed(sb, change, gpu);
+  for (ObjectRec& r : objects) r.gpu_changed = false;
   backend->update_scene(sb, change);
   compile_pending = false;
 }

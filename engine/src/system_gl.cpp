@@ -407,7 +407,7 @@ void ShadowSystem::mark_changed(ObjectHandle h, const Box3* object_bounds, const
     rec.gpu->bounds_given = true;
     rec.gpu->bounds = *object_bounds;
   }
-  rec.moved = true;
+  rec.gpu_changed = true;  // (its placeholder on the host is unchanged: nothing of it is sent)
   I.touch_object(i);
 }
 

@@ -277,6 +277,7 @@ TEST_F(GpuResidentMesh, ACurtainMovedByAComputeShaderCastsTheShadowOfTheHostCurt
       EXPECT_EQ(gs.maps_rebuilt, maps_holding(gpu, 2)) << "the curtain's maps only";
       EXPECT_GE(gs.maps_reused, 1u) << "the box's maps are kept";
       EXPECT_EQ(gs.update.gl_upload_bytes, 0u) << "the curtain's triangles are read where they are, not sent";
+      EXPECT_EQ(gs.update.host_to_backend_bytes, 0u) << "nothing of the curtain is sent to the backend either";
       // (read_map's reads after the previous frame count in this one's)
       if ((f - 1) % 10 != 0) EXPECT_EQ(gs.counters.host_syncs, 1u) << "one host synchronization per rebuild frame";
     }
@@ -295,6 +296,35 @@ TEST_F(GpuResidentMesh, ACurtainMovedByAComputeShaderCastsTheShadowOfTheHostCurt
     }
   }
   EXPECT_GT(differ_from_first, uint64_t(frames) * 9 / 10) << "the shadow follows the wave";
+}
+
+// A curtain placed by its object's transform, then moved by set_transform
+// (its triangles read again under the new one, also when it mirrors):
+// the same shadow as the host's curtain under the same transforms.
+TEST_F(GpuResidentMesh, ItsTransformPlacesItAsAHostMesh) {
+  Curtain curtain;
+  curtain.move(0.5f);
+  const Scene scene = curtain_scene();
+  ShadowSystem gpu(app_options()), host(app_options());
+  sync_scene(gpu, scene);
+  sync_scene(host, scene);
+  Object o = curtain_object();
+  o.transform = make_transform({0.2f, 0.1f, -0.3f}, {0, 20, 0}, {1, 1, 1});
+  const ObjectHandle a = gpu.add_gpu_object(o, curtain.source());
+  o.mesh = curtain.on_host();
+  const ObjectHandle b = host.add_object(o);
+  for (const Mat4& t : {make_transform({-0.4f, 0.2f, 0.1f}, {5, -30, 0}, {1.2f, 1, 1}),
+                        make_transform({0, 0, 0}, {0, 0, 0}, {-1, 1, 1})}) {
+    gpu.update();
+    host.update();
+    EXPECT_EQ(map_nodes(gpu), map_nodes(host));
+    EXPECT_TRUE(ground_image(gpu) == ground_image(host));
+    gpu.set_transform(a, t);
+    host.set_transform(b, t);
+  }
+  gpu.update();
+  host.update();
+  EXPECT_TRUE(ground_image(gpu) == ground_image(host)) << "mirrored";
 }
 
 // Bounds given by the application: no bounds read back in a frame (only
