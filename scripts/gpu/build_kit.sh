@@ -9,7 +9,8 @@
 #      the parity build (CDSM_FP_STRICT=ON) $CDSM_KIT_PARITY_BUILD (default
 #      build-gpu-parity) for test_cuda_backend, test_gl_interop,
 #      test_cuda_faults and the GL suite (test_fragment_raster,
-#      test_gl_default_scene, test_gl_system: run there on NVIDIA's GL);
+#      test_gl_kit_suite: test_gl_default_scene, test_gl_system and
+#      test_gpu_mesh in one binary; run there on NVIDIA's GL);
 #   2. the binaries, stripped, into gpu-kit/bin (release) and gpu-kit/bin/parity;
 #   3. every shared library they load that is not on the allowed list
 #      (glibc, libstdc++, libgcc_s, and the NVIDIA driver's own: libcuda, the
@@ -235,8 +236,10 @@ common_args=(-G Ninja -DCMAKE_BUILD_TYPE=Release -DCDSM_CUDA=ON -DCMAKE_CUDA_COM
 extra=(${CDSM_KIT_CMAKE_ARGS:-})
 # The GL suite, run there on the device's own OpenGL (run_kit.sh stage `gl`):
 # the rasterizer against the CPU ray caster, the default scene through GL,
-# the system on an application context, meshes that stay on the GPU.
-gl_tests=(test_fragment_raster test_gl_default_scene test_gl_system test_gpu_mesh)
+# the system on an application context, meshes that stay on the GPU (the
+# last three in one binary, test_gl_kit_suite: each engine binary carries the
+# CUDA kernels).
+gl_tests=(test_fragment_raster test_gl_kit_suite)
 if [[ ${1:-} != --no-build ]]; then
   start=$SECONDS
   for b in "$release" "$parity"; do

@@ -11,8 +11,9 @@
 #               kernel faulting on purpose) of the parity build, once each,
 #               with CDSM_REQUIRE_GPU=1 and CDSM_REQUIRE_GL=1 (a missing
 #               device, a GL context off the device or any skip fails them);
-#   gl          the GL suite (test_fragment_raster, test_gl_default_scene,
-#               test_gl_system, test_gpu_mesh) on the device's own OpenGL;
+#   gl          the GL suite (test_fragment_raster; test_gl_kit_suite:
+#               test_gl_default_scene, test_gl_system and test_gpu_mesh in
+#               one binary) on the device's own OpenGL;
 #   sanitizers  compute-sanitizer memcheck and initcheck on one small case;
 #   bench       bench_gpu (release build): per-stage times at 1280x720 and
 #               1920x1080, GL against CUDA fragments, the CPU/CUDA ratio;
@@ -109,11 +110,11 @@ if wants tests; then
 fi
 if wants gl; then
   # The GL suite on the device's OpenGL (CI runs it on Mesa llvmpipe only).
-  # test_gl_system reads one glTF of the shared data, which the kit carries
-  # (data/). test_gpu_mesh: the waving curtain read where it is (on a CUDA
-  # device, through the cuda backend's lists_from_gl).
-  for t in test_fragment_raster test_gl_default_scene test_gl_system test_gpu_mesh; do
-    run "$t" 60 "$work/$t.log" "${kit_env[@]}" "CDSM_DATA_DIR=$kit/data" "$kit/bin/parity/$t" \
+  # test_gl_system's part reads one glTF of the shared data, which the kit
+  # carries (data/). test_gpu_mesh's: the waving curtain read where it is
+  # (on a CUDA device, through the cuda backend's lists_from_gl).
+  for t in test_fragment_raster test_gl_kit_suite; do
+    run "$t" 120 "$work/$t.log" "${kit_env[@]}" "CDSM_DATA_DIR=$kit/data" "$kit/bin/parity/$t" \
       --gtest_output=json:"$work/$t.json"
   done
 fi
