@@ -180,9 +180,15 @@ Box3 FragmentSourceSelector::gpu_mesh_bounds(const GpuMesh& mesh, const Mat4& tr
 FragmentProducer FragmentSourceSelector::producer(const SceneBuffers& sb) const {
   if (use_cuda_) {
     // The backend's ray caster: the lists never leave the device.
+    // (every view counted before a total is read: one wait for them all)
     return [](ShadowBackend& backend, const ListsRequest* requests, size_t n, ListsId* ids) {
-      produce_each(backend, requests, n, ids,
-                   [&](const ListsRequest& r) { return backend.cast_lists(r.view, r.mask); });
+      std::vector<PinholeView> views(n);
+      std::vector<ObjectMask> masks(n);
+      for (size_t i = 0; i < n; ++i) {
+        views[i] = requests[i].view;
+        masks[i] = requests[i].mask;
+      }
+      backend.cast_views(views.data(), masks.data(), n, ids);
     };
   }
 #if CDSM_HAVE_GL

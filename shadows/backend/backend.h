@@ -181,6 +181,19 @@ class ShadowBackend {
   // The backend's exact ray caster over the scene of the last update_scene
   // (on a CUDA device the lists never leave it); `mask` a host mask.
   virtual ListsId cast_lists(const PinholeView& view, ObjectMask mask) = 0;
+  // Several views' lists as cast_lists makes them (ids[i] view i's; all or
+  // nothing). The exec backend counts every view before it reads a total:
+  // one host synchronization for them all. By default one cast_lists after
+  // another.
+  virtual void cast_views(const PinholeView* views, const ObjectMask* masks, size_t n, ListsId* ids) {
+    size_t made = 0;
+    try {
+      for (; made < n; ++made) ids[made] = cast_lists(views[made], masks[made]);
+    } catch (...) {
+      for (size_t i = 0; i < made; ++i) free_lists(ids[i]);
+      throw;
+    }
+  }
   // Lists made on the host (the GL rasterizer's read-back, the host ray
   // caster): moved in where the backend's memory is host memory, else
   // uploaded once (counted in take_counters).

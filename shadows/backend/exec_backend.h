@@ -65,6 +65,7 @@ class ExecBackend final : public ExecShadowBackend {
         cam_walk_(ex_),
         frag_counts_(ex_),
         frag_total_(ex_),
+        frag_totals_(ex_),
         frag_mask_(ex_),
         bounce_(ex_) {}
   ExecBackend(const ExecBackend&) = delete;
@@ -293,6 +294,48 @@ class ExecBackend final : public ExecShadowBackend {
     h->width = view.width;
     h->height = view.height;
     return lists_.hold(std::move(h));
+  }
+
+  // Every view counted and scanned, each total left in executor memory,
+  // all totals read at once (one synchronization), then every view filled.
+  void cast_views(const PinholeView* views, const ObjectMask* masks, size_t n, ListsId* ids) override {
+    CDSM_CHECK(scene_.host(), "cast_lists: no scene (update_scene first)");
+    if (n == 0) return;
+    std::vector<uint32_t> words;  // the masks one after another, in one upload
+    std::vector<size_t> at(n);
+    for (size_t i = 0; i < n; ++i) {
+      at[i] = words.size();
+      words.insert(words.end(), masks[i].words.begin(), masks[i].words.end());
+    }
+    frag_mask_.assign(words.data(), words.size());
+    frag_totals_.resize_discard(n);
+    std::vector<std::unique_ptr<typename ExecListStore<Ex>::Held>> h(n);
+    std::vector<exec::CastHeld> held(n);
+    std::vector<uint8_t> media(n);
+    const auto mask_of = [&](size_t i) { return ObjectMask{{frag_mask_.data() + at[i], masks[i].words.size()}}; };
+    for (size_t i = 0; i < n; ++i) {
+      media[i] = mask_has_media(scene_.host()->view(), masks[i]) ? 1 : 0;
+      h[i] = lists_.make(uint64_t(views[i].width) * uint64_t(views[i].height) + 1);
+      exec::cast_count_exec(ex_, scene_.view(), views[i], mask_of(i), media[i] != 0, frag_counts_, h[i]->offsets,
+                            frag_total_, frag_totals_.data() + i, held[i]);
+    }
+    std::vector<unsigned long long> totals(n);
+    ex_.download(totals.data(), frag_totals_.data(), n * sizeof(unsigned long long));  // the one read
+    for (size_t i = 0; i < n; ++i) {
+      if (totals[i] > 0xffffffffull) throw std::length_error("fragment lists exceed 2^32 fragments");
+      h[i]->fragments.resize_discard(totals[i]);
+      exec::cast_fill_exec(ex_, scene_.view(), views[i], mask_of(i), media[i] != 0, h[i]->offsets, h[i]->fragments,
+                           held[i]);
+      h[i]->width = views[i].width;
+      h[i]->height = views[i].height;
+    }
+    size_t made = 0;
+    try {
+      for (; made < n; ++made) ids[made] = lists_.hold(std::move(h[made]));
+    } catch (...) {
+      for (size_t i = 0; i < made; ++i) lists_.free(ids[i]);
+      throw;
+    }
   }
 
   ListsId adopt_lists(FragmentBuffers&& lists) override { return lists_.adopt(std::move(lists)); }
@@ -647,6 +690,7 @@ class ExecBackend final : public ExecShadowBackend {
   ExecArray<uint32_t, Ex> cam_walk_;
   ExecArray<uint32_t, Ex> frag_counts_;
   ExecArray<unsigned long long, Ex> frag_total_;
+  ExecArray<unsigned long long, Ex> frag_totals_;  // cast_views: each view's total, read together
   ExecArray<uint32_t, Ex> frag_mask_;
   ExecArray<unsigned char, Ex> bounce_;  // compaction's moves (compact)
 

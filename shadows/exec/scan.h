@@ -13,12 +13,13 @@ namespace cdsm::exec {
 
 inline constexpr uint64_t kScanChunk = 1024;
 
-// out[i] = in[0] + ... + in[i-1] for i < n; returns the total. `sums`
-// holds the chunk sums (resized here). in and out must not overlap.
+// out[i] = in[0] + ... + in[i-1] for i < n, and the total at *total in
+// executor memory (not read: several scans' totals can come back in one
+// read). `sums` holds the chunk sums (resized here). in and out must not
+// overlap.
 template <class Ex>
-uint64_t exclusive_scan(Ex& ex, const uint32_t* in, uint32_t* out, uint64_t n,
-                        ExecArray<unsigned long long, Ex>& sums) {
-  if (n == 0) return 0;
+void exclusive_scan_to(Ex& ex, const uint32_t* in, uint32_t* out, uint64_t n, ExecArray<unsigned long long, Ex>& sums,
+                       unsigned long long* total) {
   const uint64_t chunks = (n + kScanChunk - 1) / kScanChunk;
   sums.resize_discard(chunks + 1);
   unsigned long long* s = sums.data();
@@ -38,6 +39,7 @@ uint64_t exclusive_scan(Ex& ex, const uint32_t* in, uint32_t* out, uint64_t n,
           run += t;
         }
         s[chunks] = run;
+        *total = run;
       });
   ex.parallel_for(
       "scan: chunks", chunks, CDSM_LAMBDA(uint64_t c) {
@@ -48,8 +50,18 @@ uint64_t exclusive_scan(Ex& ex, const uint32_t* in, uint32_t* out, uint64_t n,
           run += in[i];
         }
       });
+}
+
+// exclusive_scan_to, the total read back (one host synchronization).
+template <class Ex>
+uint64_t exclusive_scan(Ex& ex, const uint32_t* in, uint32_t* out, uint64_t n,
+                        ExecArray<unsigned long long, Ex>& sums) {
+  if (n == 0) return 0;
+  const uint64_t chunks = (n + kScanChunk - 1) / kScanChunk;
+  sums.resize_discard(chunks + 1);
+  exclusive_scan_to(ex, in, out, n, sums, sums.data() + chunks);
   unsigned long long total = 0;
-  ex.download(&total, s + chunks, sizeof total);
+  ex.download(&total, sums.data() + chunks, sizeof total);
   return total;
 }
 

@@ -643,6 +643,43 @@ TEST(ExecBackend, ImageEqualsASerialCameraPass) {
   }
 }
 
+// Several views cast together (cast_views, a frame's views with
+// --fragments cuda): every view counted before a total is read, so one host
+// synchronization for all of them, and each view's lists exactly those of
+// cast_lists alone (different sizes and masks, a partial last block).
+TEST(ExecBackend, ViewsCastTogetherReadTheirTotalsOnce) {
+  Scene s = parity::load("depth", 64, 96, 64);
+  SceneBuffers sb = cdsm_test::compiled_scene(s);
+  HostBackend ex("cpu");
+  ex.update_scene(sb, SceneChange::all());
+  std::vector<uint32_t> casters =
+      sb.mask_where([&](uint32_t o) { return (sb.objects[o].flags & kObjCastsShadows) != 0u; });
+  PinholeView partial = camera_view(s.camera);
+  partial.width = 37;
+  partial.height = 23;
+  const std::vector<PinholeView> views{camera_view(s.camera), partial, camera_view(s.camera), partial};
+  const std::vector<ObjectMask> masks{ObjectMask{}, ObjectMask{{casters.data(), casters.size()}},
+                                      ObjectMask{{casters.data(), casters.size()}}, ObjectMask{}};
+  std::vector<ListsId> ids(views.size());
+  const exec::ExecCounters before = ex.executor().counters;
+  ex.cast_views(views.data(), masks.data(), views.size(), ids.data());
+  EXPECT_EQ(ex.executor().counters.since(before).syncs, 1u) << "one read of the four views' totals";
+  for (size_t i = 0; i < views.size(); ++i) {
+    FragmentBuffers got, alone;
+    ex.read_lists(ids[i], got);
+    const ListsId one = ex.cast_lists(views[i], masks[i]);
+    ex.read_lists(one, alone);
+    ex.free_lists(one);
+    ex.free_lists(ids[i]);
+    EXPECT_EQ(got.width, alone.width) << "view " << i;
+    EXPECT_EQ(got.offsets, alone.offsets) << "view " << i;
+    ASSERT_EQ(got.fragments.size(), alone.fragments.size()) << "view " << i;
+    EXPECT_GT(got.fragments.size(), 0u) << "view " << i;
+    EXPECT_EQ(std::memcmp(got.fragments.data(), alone.fragments.data(), got.fragments.size() * sizeof(Fragment)), 0)
+        << "view " << i;
+  }
+}
+
 // The ray-cast fragment producer on the executor against a plain loop over
 // the pixels (hd/cast.h cast_pixel).
 // The backend's lists (on CPU threads: each ray cast once, blocks of
