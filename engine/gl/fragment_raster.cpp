@@ -555,7 +555,7 @@ void FragmentRasterizer::Impl::rasterize_batch(Span<const Job> jobs, FragmentBuf
     stats.fragments += band_total;
   }
   if (offsets_sink)
-    (*offsets_sink)({offset_bands.data(), offset_bands.size()}, offsets.id(), offsets.capacity(), offsets_generation);
+    (*offsets_sink)(offset_bands.data(), offset_bands.size(), offsets.id(), offsets.capacity(), offsets_generation);
   if (!sink)
     for (size_t b = b0; b < b1; ++b) outs[bands[b].job].fragments.resize(view_done[bands[b].job]);
 
@@ -609,7 +609,7 @@ void FragmentRasterizer::Impl::rasterize_batch(Span<const Job> jobs, FragmentBuf
         draw();
         sync("fill");
         const uint64_t first = view_first + (boff(p) - band_first);
-        if (!pieces.empty() && pieces.back().job == band.job && pieces.back().first + pieces.back().count == first)
+        if (!pieces.empty() && pieces.back().view == band.job && pieces.back().first + pieces.back().count == first)
           pieces.back().count += tile_fragments;
         else
           pieces.push_back({band.job, first, tile_fragments, boff(p) - pool_first});
@@ -628,16 +628,16 @@ void FragmentRasterizer::Impl::flush(FragmentBuffers* outs, const TileSink* sink
   CDSM_GL(glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT));
   ++stats.flushes;
   if (sink) {
-    (*sink)({pieces.data(), pieces.size()}, pool.id(), pool.capacity(), pool_generation);
+    (*sink)(pieces.data(), pieces.size(), pool.id(), pool.capacity(), pool_generation);
   } else if (pieces.size() == 1) {
     const Piece& q = pieces[0];
-    pool.download(outs[q.job].fragments.data() + q.first, q.count * kFragmentBytes, q.at * kFragmentBytes);
+    pool.download(outs[q.view].fragments.data() + q.first, q.count * kFragmentBytes, q.at * kFragmentBytes);
   } else {
     const uint64_t used = pieces.back().at + pieces.back().count;
     staging.resize(used);
     pool.download(staging.data(), used * kFragmentBytes);
     for (const Piece& q : pieces)
-      std::memcpy(outs[q.job].fragments.data() + q.first, staging.data() + q.at, q.count * kFragmentBytes);
+      std::memcpy(outs[q.view].fragments.data() + q.first, staging.data() + q.at, q.count * kFragmentBytes);
   }
   pieces.clear();
 }

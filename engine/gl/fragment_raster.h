@@ -49,6 +49,7 @@
 #include <memory>
 #include <string>
 
+#include "backend/backend.h"
 #include "scene/fragments.h"
 #include "hd/scene_data.h"
 #include "hd/view.h"
@@ -158,38 +159,19 @@ class FragmentRasterizer {
   // batch, one more fragment read per filled pool).
   void rasterize(Span<const Job> jobs, FragmentBuffers* outs);
 
-  // Where a batch's fragments go instead of the host: each time the pool is
-  // full (or the batch done), its first fragments are pieces of the views'
-  // lists — piece p: fragments [first, first + count) of job `job`'s lists
-  // lie at fragment `at` of GL buffer `gl_buffer` (`gl_buffer_bytes` long,
-  // this context's). Pieces come in order (per job, `first` is the
-  // fragments before it). The buffer is written again after the call
-  // returns: the sink copies them before (CUDA-GL interop: mapped once,
-  // copied on the device, unmapped). `generation` changes whenever the
-  // buffer is a new object.
-  struct Piece {
-    uint32_t job;
-    uint64_t first;
-    uint64_t count;
-    uint64_t at;
-  };
-  using TileSink =
-      std::function<void(Span<const Piece> pieces, uint32_t gl_buffer, uint64_t gl_buffer_bytes, uint64_t generation)>;
-  // Where each batch's offsets go instead of the host's lists: band b's
-  // values [at, at + count] of GL buffer `gl_buffer` (uint32, scanned over
-  // the batch; the last is where the next band starts) are offsets [first,
-  // first + count] of job `job`'s lists, each plus `shift` (modulo 2^32).
-  // Called once per batch, before its fragments; the buffer is written
-  // again after the call returns.
-  struct OffsetBand {
-    uint32_t job;
-    uint64_t first;
-    uint64_t count;
-    uint64_t at;
-    uint32_t shift;
-  };
-  using OffsetsSink = std::function<void(Span<const OffsetBand> bands, uint32_t gl_buffer, uint64_t gl_buffer_bytes,
-                                         uint64_t generation)>;
+  // Where a batch's offsets and fragments go instead of the host: the
+  // backend's hand-over (shadows/backend/backend.h, lists_from_gl), job j
+  // being view j there. Each batch's scanned offsets go to the offsets sink
+  // once, before its fragments (bands re-based by their shift); each time
+  // the pool is full (or the batch done) its pieces go to the tile sink,
+  // per job in order. Both buffers are written again after the calls
+  // return: the sinks copy them before (CUDA-GL interop: mapped once,
+  // copied on the device, unmapped). `generation` changes whenever a buffer
+  // is a new object.
+  using Piece = ShadowBackend::GlPiece;
+  using OffsetBand = ShadowBackend::GlOffsets;
+  using TileSink = ShadowBackend::GlTileSink;
+  using OffsetsSink = ShadowBackend::GlOffsetsSink;
   // rasterize(jobs, outs) handing the offsets to `offsets` and the
   // fragments to `sink`: outs[i] gets its size, outs[i].offsets only the
   // fragment count (one value), outs[i].fragments stays empty. (The host

@@ -205,26 +205,11 @@ FragmentProducer FragmentSourceSelector::producer(const SceneBuffers& sb) const 
       // the host reads each batch's offsets once (to size the pool) and
       // sends nothing.
       if (backend.can_write_gl_maps()) {
-        std::vector<ShadowBackend::GlPiece> handed;
-        std::vector<ShadowBackend::GlOffsets> bands;
         backend.lists_from_gl(
             n,
             [&](const ShadowBackend::GlTileSink& tiles, const ShadowBackend::GlOffsetsSink& offsets,
                 FragmentBuffers* outs) {
-              r->rasterize(
-                  {jobs.data(), n}, outs,
-                  [&](Span<const gl::FragmentRasterizer::Piece> pieces, uint32_t buffer, uint64_t bytes,
-                      uint64_t generation) {
-                    handed.clear();
-                    for (const auto& p : pieces) handed.push_back({p.job, p.first, p.count, p.at});
-                    tiles(handed.data(), handed.size(), buffer, bytes, generation);
-                  },
-                  [&](Span<const gl::FragmentRasterizer::OffsetBand> in, uint32_t buffer, uint64_t bytes,
-                      uint64_t generation) {
-                    bands.clear();
-                    for (const auto& b : in) bands.push_back({b.job, b.first, b.count, b.at, b.shift});
-                    offsets(bands.data(), bands.size(), buffer, bytes, generation);
-                  });
+              r->rasterize({jobs.data(), n}, outs, tiles, offsets);
             },
             ids);
         return;

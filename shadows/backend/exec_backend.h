@@ -329,13 +329,7 @@ class ExecBackend final : public ExecShadowBackend {
       h[i]->width = views[i].width;
       h[i]->height = views[i].height;
     }
-    size_t made = 0;
-    try {
-      for (; made < n; ++made) ids[made] = lists_.hold(std::move(h[made]));
-    } catch (...) {
-      for (size_t i = 0; i < made; ++i) lists_.free(ids[i]);
-      throw;
-    }
+    lists_.hold_all(h, ids);
   }
 
   ListsId adopt_lists(FragmentBuffers&& lists) override { return lists_.adopt(std::move(lists)); }
@@ -406,13 +400,7 @@ class ExecBackend final : public ExecShadowBackend {
         h[v]->width = out.width;
         h[v]->height = out.height;
       }
-      size_t held = 0;
-      try {
-        for (; held < views; ++held) ids[held] = lists_.hold(std::move(h[held]));
-      } catch (...) {
-        for (size_t v = 0; v < held; ++v) lists_.free(ids[v]);
-        throw;
-      }
+      lists_.hold_all(h, ids);
     } else {
       ShadowBackend::lists_from_gl(views, rasterize, ids);
     }

@@ -57,6 +57,17 @@ class ExecListStore {
     h->fragments.resize_discard(0);
     return h;
   }
+  // hold() of each, ids[i] h[i]'s; all or nothing (the ones held are freed
+  // when one fails).
+  void hold_all(std::vector<std::unique_ptr<Held>>& h, ListsId* ids) {
+    size_t held = 0;
+    try {
+      for (; held < h.size(); ++held) ids[held] = hold(std::move(h[held]));
+    } catch (...) {
+      for (size_t i = 0; i < held; ++i) free(ids[i]);
+      throw;
+    }
+  }
   ListsId hold(std::unique_ptr<Held> h) {
     if (free_.empty()) {
       held_.push_back(std::move(h));
