@@ -99,7 +99,7 @@ CDSM_HD CDSM_INLINE int cube_face_of(Vec3 d) {
 // tops side by side do not (hd/compress.h SurfaceRank). Volume samples have
 // no plane: every tap at the sample's own depth.
 //
-// Cost: one normalize and a dot product per tap, and for a surface in the
+// Cost: a few multiply-adds and a square root per tap (PlaneRays), and for a surface in the
 // maps a scan of the nodes within the search window (usually the two of its
 // own step); 2 bytes of tag per node (hd/compress.h SurfaceTag).
 inline constexpr uint32_t kNoObject = 0xffffffffu;
@@ -129,17 +129,61 @@ struct Receiver {
 // with normal n (radial, as the map's depths), within `reach` of `depth`
 // (rays nearly parallel to the plane).
 // plane_depth_clamped takes the ray's cosine to n (dn) and the plane's
-// distance along n from the ray's origin (num).
+// distance along n from the ray's origin (num), or both scaled alike.
 CDSM_HD CDSM_INLINE float plane_depth_clamped(float dn, float num, float depth, float reach) {
   float t = dn != 0.0f ? num / dn : depth + reach;
   if (!(t > depth - reach)) t = depth - reach;  // also NaN
   if (!(t < depth + reach)) t = depth + reach;
   return t;
 }
+// A map's texel-centre rays against one plane, set up once per lookup
+// (plane_rays) so that each tap costs a few multiply-adds and a square
+// root (ray_crossing). Texel (tx, ty)'s centre lies at window coordinates
+//   sx = x0 + dx tx,  sy = y0 + dy ty          (hd/view.h window_at)
+// and its ray runs from the eye along F + R sx + U sy, of length
+// sqrt(1 + sx^2 + sy^2) (the view's axes are orthonormal), or, orthographic,
+// from eye + R sx + U sy along F. Its crossing with the plane through p with
+// normal n lies at num / dn, with
+//   pinhole:       num = (p - eye) . n sqrt(1 + sx^2 + sy^2),  dn = F.n + sx R.n + sy U.n
+//   orthographic:  num = (p - eye) . n - sx R.n - sy U.n,       dn = F.n
+struct PlaneRays {
+  float x0, dx, y0, dy;
+  float num;         // (p - eye) . n
+  float fn, rn, un;  // F.n, R.n, U.n
+  bool pinhole;
+};
+CDSM_HD CDSM_INLINE PlaneRays plane_rays(const PinholeView& v, Vec3 p, Vec3 n) {
+  PlaneRays r;
+  const float iw = 1.0f / float(v.width), ih = 1.0f / float(v.height);
+  r.dx = 2.0f * v.tan_half_x * iw;
+  r.x0 = v.center.x + (iw - 1.0f) * v.tan_half_x;
+  r.dy = -2.0f * v.tan_half_y * ih;
+  r.y0 = v.center.y + (1.0f - ih) * v.tan_half_y;
+  r.num = dot(p - v.eye, n);
+  r.fn = dot(v.forward, n);
+  r.rn = dot(v.right, n);
+  r.un = dot(v.up, n);
+  r.pinhole = !is_orthographic(v);
+  return r;
+}
+// Texel (tx, ty)'s ray against the plane: the plane's depth along it is
+// num / dn (plane_depth_clamped), and the plane lies in front of the ray's
+// origin where num dn > 0.
+struct RayCrossing {
+  float num, dn;
+};
+CDSM_HD CDSM_INLINE RayCrossing ray_crossing(const PlaneRays& r, int tx, int ty) {
+  const float sx = r.x0 + r.dx * float(tx), sy = r.y0 + r.dy * float(ty);
+  if (r.pinhole) return RayCrossing{r.num * sqrtf(1.0f + sx * sx + sy * sy), r.fn + sx * r.rn + sy * r.un};
+  return RayCrossing{r.num - sx * r.rn - sy * r.un, r.fn};
+}
+CDSM_HD CDSM_INLINE float plane_depth_of(const PlaneRays& r, int tx, int ty, float depth, float reach) {
+  const RayCrossing c = ray_crossing(r, tx, ty);
+  return plane_depth_clamped(c.dn, c.num, depth, reach);
+}
 CDSM_HD CDSM_INLINE float plane_depth_at_texel(const PinholeView& v, int tx, int ty, Vec3 p, Vec3 n, float depth,
                                                float reach) {
-  const Vec3 d = normalize(view_direction(v, float(tx) + 0.5f, float(ty) + 0.5f));
-  return plane_depth_clamped(dot(d, n), dot(p - pixel_origin(v, tx, ty), n), depth, reach);
+  return plane_depth_of(plane_rays(v, p, n), tx, ty, depth, reach);
 }
 
 // The depth at which tap (tx, ty) of map m reads its texel for receiver r
@@ -234,8 +278,9 @@ CDSM_HD CDSM_INLINE auto combine_maps(const ShadowView& sv, const LightData& L, 
 // baseline at the point's depth less its offset. Once per lookup.
 struct MapTaps {
   TapShared sh;
-  float z;     // every texel's depth when !plane
-  bool plane;  // a surface read at its plane
+  PlaneRays rays;  // the map's texel rays against the receiver's plane, when plane
+  float z;         // every texel's depth when !plane
+  bool plane;      // a surface read at its plane
 };
 CDSM_HD CDSM_INLINE MapTaps map_taps(const ShadowView& sv, const LightData& L, const DsmMap& m,
                                      const ViewProjection& pr, const Receiver& r) {
@@ -243,6 +288,7 @@ CDSM_HD CDSM_INLINE MapTaps map_taps(const ShadowView& sv, const LightData& L, c
   t.sh = tap_shared(sv, m, pr, r);
   t.plane = sv.receiver != ReceiverLookup::SlopeBias && dot(r.plane, r.plane) > 0.0f;
   t.z = pr.depth - (sv.receiver == ReceiverLookup::SlopeBias ? slope_bias_offset(L, m, pr, r) : 0.0f);
+  if (t.plane) t.rays = plane_rays(m.view, r.p, r.plane);
   return t;
 }
 // What texel (tx, ty) gives lookup `t` (map_taps) of receiver r at pr;
@@ -251,7 +297,7 @@ template <int N, bool Plane>
 CDSM_HD CDSM_INLINE Channels<N> texel_of(const ShadowView& sv, const DsmMap& m, const ViewProjection& pr,
                                          const Receiver& r, const MapTaps& t, int tx, int ty) {
   if (!Plane) return texel_alpha<N>(sv.storage, m, tx, ty, t.z);
-  const float depth = plane_depth_at_texel(m.view, tx, ty, r.p, r.plane, pr.depth, t.sh.reach);
+  const float depth = plane_depth_of(t.rays, tx, ty, pr.depth, t.sh.reach);
   return texel_receive<N>(sv.storage, m, tx, ty, receiver_read_of(t.sh, depth));
 }
 
@@ -451,7 +497,7 @@ CDSM_HD inline TexelBlockers texel_blockers(const DsmStorage& st, const DsmMap& 
 CDSM_HD CDSM_INLINE float blocker_limit(const DsmMap& m, const ViewProjection& pr, const Receiver& r, const MapTaps& t,
                                         int tx, int ty) {
   if (!t.plane) return t.z;
-  const float depth = plane_depth_at_texel(m.view, tx, ty, r.p, r.plane, pr.depth, t.sh.reach);
+  const float depth = plane_depth_of(t.rays, tx, ty, pr.depth, t.sh.reach);
   return depth - receiver_read_of(t.sh, depth).window;
 }
 CDSM_HD CDSM_INLINE float blocker_limit(const ShadowView& sv, const LightData& L, const DsmMap& m,
@@ -474,10 +520,9 @@ CDSM_HD inline float blocker_limit_bound(const DsmMap& m, const ViewProjection& 
   bool in_front = true;
   for (int c = 0; c < 4; ++c) {
     const int tx = c & 1 ? x1 : x0, ty = c & 2 ? y1 : y0;
-    const float dn = dot(normalize(view_direction(m.view, float(tx) + 0.5f, float(ty) + 0.5f)), r.plane);
-    const float num = dot(r.p - pixel_origin(m.view, tx, ty), r.plane);
-    t = fmaxf(t, plane_depth_clamped(dn, num, pr.depth, sh.reach));  // plane_depth_at_texel
-    in_front = in_front && dn * num > 0.0f;
+    const RayCrossing x = ray_crossing(taps.rays, tx, ty);
+    t = fmaxf(t, plane_depth_clamped(x.dn, x.num, pr.depth, sh.reach));  // plane_depth_of
+    in_front = in_front && x.dn * x.num > 0.0f;
   }
   if (!in_front && !is_orthographic(m.view)) t = pr.depth + sh.reach;
   t += 4.0e-6f * fabsf(t);  // the taps' own rounding

@@ -8,9 +8,11 @@
 #include <cstring>
 
 #include <cstdio>
+#include <random>
 #include <vector>
 
 #include "cdsm/loaders.h"
+#include "cluster/light_views.h"
 #include "scene/fragments.h"
 #include "reference/lookup_recorder.h"
 #include "reference/reference.h"
@@ -333,4 +335,46 @@ TEST(Receivers, NoLeakOrAcneAtTerminators) {
   std::printf("sphere and teapot: %d lookups off the band (%d in it), max |dT| %.4f\n", n, band, worst);
   ASSERT_GT(n, 2000);
   EXPECT_LE(worst, 0.02);
+}
+
+// The depth a tap reads a surface at (PlaneRays, set up once per lookup,
+// a few multiply-adds per tap) is where the tap's texel-centre ray meets the
+// receiver's plane: against the crossing computed in double from the view's
+// own rays (view_direction, pixel_origin), for off-centre perspective
+// windows (focused cluster frusta), non-square ones, orthographic ones, and
+// planes at every angle to them.
+TEST(Receivers, TapDepthsAreWhereTheTexelRaysCrossTheReceiversPlane) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  int compared = 0;
+  for (int c = 0; c < 300; ++c) {
+    PinholeView v;
+    v.projection = c % 3 == 2 ? Projection::Orthographic : Projection::Perspective;
+    v.forward = normalize(Vec3{u(rng), u(rng), u(rng)});
+    cluster::make_frame(v.forward, Vec3{0.0f, 1.0f, 0.0f}, v.right, v.up);
+    v.eye = Vec3{u(rng), u(rng), u(rng)} * 10.0f;
+    v.tan_half_x = 0.05f + std::fabs(u(rng));
+    v.tan_half_y = 0.05f + std::fabs(u(rng));
+    v.center = Vec2{0.3f * u(rng), 0.3f * u(rng)};
+    v.width = 16 + c % 97;
+    v.height = 16 + (c * 7) % 61;
+    const Vec3 n = normalize(Vec3{u(rng), u(rng), u(rng)});
+    const Vec3 p = v.eye + v.forward * (3.0f + 2.0f * u(rng)) + v.right * u(rng) + v.up * u(rng);
+    const PlaneRays rays = plane_rays(v, p, n);
+    for (int ty = 0; ty < v.height; ty += 5)
+      for (int tx = 0; tx < v.width; tx += 3) {
+        const Vec3 d = view_direction(v, float(tx) + 0.5f, float(ty) + 0.5f), o = pixel_origin(v, tx, ty);
+        const double dl = std::sqrt(double(d.x) * d.x + double(d.y) * d.y + double(d.z) * d.z);
+        const double dn = (double(d.x) * n.x + double(d.y) * n.y + double(d.z) * n.z) / dl;
+        if (std::fabs(dn) < 0.05) continue;  // nearly parallel: the lookup clamps it to its reach
+        const double num = (double(p.x) - o.x) * n.x + (double(p.y) - o.y) * n.y + (double(p.z) - o.z) * n.z;
+        const double want = num / dn;
+        const float got = plane_depth_of(rays, tx, ty, float(want), 1.0e30f);
+        ASSERT_NEAR(got, want, 2.0e-5 * (std::fabs(want) + 10.0))
+            << (v.projection == Projection::Orthographic ? "orthographic" : "perspective") << " view " << c
+            << ", texel " << tx << ", " << ty;
+        ++compared;
+      }
+  }
+  EXPECT_GT(compared, 30000);
 }

@@ -6,19 +6,46 @@ float cdsm_texel_footprint(CdsmMap m, float axial) {
   return 2.0 * m.view.tan_half_x * (m.view.projection == CDSM_PROJECTION_ORTHOGRAPHIC ? 1.0 : axial) / float(m.res);
 }
 
+// A map's texel-centre rays against the plane through p with normal n
+// (hd/lights.h PlaneRays): texel (tx, ty) at window coordinates
+// sx = x0 + dx tx, sy = y0 + dy ty crosses it at num / dn.
+struct CdsmPlaneRays {
+  float x0, dx, y0, dy;
+  float num, fn, rn, un;
+  bool pinhole;
+};
+CdsmPlaneRays cdsm_plane_rays(CdsmView v, vec3 p, vec3 n) {
+  CdsmPlaneRays r;
+  float iw = 1.0 / float(v.width), ih = 1.0 / float(v.height);
+  r.dx = 2.0 * v.tan_half_x * iw;
+  r.x0 = v.center.x + (iw - 1.0) * v.tan_half_x;
+  r.dy = -2.0 * v.tan_half_y * ih;
+  r.y0 = v.center.y + (1.0 - ih) * v.tan_half_y;
+  r.num = cdsm_dot(p - v.eye, n);
+  r.fn = cdsm_dot(v.forward, n);
+  r.rn = cdsm_dot(v.right, n);
+  r.un = cdsm_dot(v.up, n);
+  r.pinhole = v.projection != CDSM_PROJECTION_ORTHOGRAPHIC;
+  return r;
+}
+// The plane's depth along texel (tx, ty)'s ray, within `reach` of `depth`.
+float cdsm_plane_depth_of(CdsmPlaneRays r, int tx, int ty, float depth, float reach) {
+  float sx = r.x0 + r.dx * float(tx), sy = r.y0 + r.dy * float(ty);
+  float num = r.pinhole ? r.num * sqrt(1.0 + sx * sx + sy * sy) : r.num - sx * r.rn - sy * r.un;
+  float dn = r.pinhole ? r.fn + sx * r.rn + sy * r.un : r.fn;
+  float t = dn != 0.0 ? num / dn : depth + reach;
+  if (!(t > depth - reach)) t = depth - reach;
+  if (!(t < depth + reach)) t = depth + reach;
+  return t;
+}
+
 // The depth at which tap (tx, ty) reads its texel: where its texel-centre ray
 // crosses the receiver's plane (within a reach of the point's depth), or
 // the point's own depth (volume samples, the slope-bias baseline).
 float cdsm_tap_depth(CdsmMap m, CdsmProjection pr, vec3 p, vec3 plane, int tx, int ty) {
   if (cdsm_receiver == CDSM_RECEIVER_SLOPE_BIAS || !(cdsm_dot(plane, plane) > 0.0)) return pr.depth;
   float reach = CDSM_PLANE_REACH_TEXELS * cdsm_texel_footprint(m, pr.axial);
-  vec3 d = cdsm_normalize(cdsm_view_direction(m.view, float(tx) + 0.5, float(ty) + 0.5));
-  float dn = cdsm_dot(d, plane);
-  vec3 origin = cdsm_view_origin(m.view, float(tx) + 0.5, float(ty) + 0.5);
-  float t = dn != 0.0 ? cdsm_dot(p - origin, plane) / dn : pr.depth + reach;
-  if (!(t > pr.depth - reach)) t = pr.depth - reach;
-  if (!(t < pr.depth + reach)) t = pr.depth + reach;
-  return t;
+  return cdsm_plane_depth_of(cdsm_plane_rays(m.view, p, plane), tx, ty, pr.depth, reach);
 }
 
 // ---- what a surface receives: its own step left out (shadows/hd/dsm.h) ------

@@ -41,16 +41,3 @@ vec2 cdsm_window_at(CdsmView view, float u, float v) {
               view.center.y + (1.0 - 2.0 * v / float(view.height)) * view.tan_half_y);
 }
 
-vec3 cdsm_view_direction(CdsmView view, float u, float v) {
-  if (view.projection == CDSM_PROJECTION_ORTHOGRAPHIC) return view.forward;
-  vec2 s = cdsm_window_at(view, u, v);
-  return view.forward + view.right * s.x + view.up * s.y;
-}
-
-// Where the ray through image position (u, v) starts (hd/view.h view_origin).
-vec3 cdsm_view_origin(CdsmView view, float u, float v) {
-  if (view.projection != CDSM_PROJECTION_ORTHOGRAPHIC) return view.eye;
-  vec2 s = cdsm_window_at(view, u, v);
-  return view.eye + view.right * s.x + view.up * s.y;
-}
-
