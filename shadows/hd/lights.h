@@ -304,9 +304,8 @@ CDSM_HD CDSM_INLINE Channels<N> texel_of(const ShadowView& sv, const DsmMap& m, 
 // Opacity between light L and receiver r from one map of node kind N: its
 // taps (for_each_tap), each texel as texel_of reads it.
 template <int N>
-CDSM_HD inline Channels<N> map_alpha(const ShadowView& sv, const LightData& L, const DsmMap& m,
-                                     const ViewProjection& pr, const Receiver& r) {
-  const MapTaps t = map_taps(sv, L, m, pr, r);
+CDSM_HD inline Channels<N> map_alpha(const ShadowView& sv, const DsmMap& m, const ViewProjection& pr, const Receiver& r,
+                                     const MapTaps& t) {
   Channels<N> a{};
   if (t.plane)
     for_each_tap(m, pr.u, pr.v, sv.filtering,
@@ -316,12 +315,21 @@ CDSM_HD inline Channels<N> map_alpha(const ShadowView& sv, const LightData& L, c
                  [&](int tx, int ty, float w) { a = a + texel_of<N, false>(sv, m, pr, r, t, tx, ty) * w; });
   return a;
 }
+template <int N>
+CDSM_HD inline Channels<N> map_alpha(const ShadowView& sv, const LightData& L, const DsmMap& m,
+                                     const ViewProjection& pr, const Receiver& r) {
+  return map_alpha<N>(sv, m, pr, r, map_taps(sv, L, m, pr, r));
+}
 
 // The same per colour channel for a map of either kind (a grey map's value,
 // computed as a scalar, in every channel).
+CDSM_HD inline Vec3 map_alpha_in_colour(const ShadowView& sv, const DsmMap& m, const ViewProjection& pr,
+                                        const Receiver& r, const MapTaps& t) {
+  return m.rgb ? map_alpha<3>(sv, m, pr, r, t) : to_rgb(map_alpha<1>(sv, m, pr, r, t));
+}
 CDSM_HD inline Vec3 map_alpha_in_colour(const ShadowView& sv, const LightData& L, const DsmMap& m,
                                         const ViewProjection& pr, const Receiver& r) {
-  return m.rgb ? map_alpha<3>(sv, L, m, pr, r) : to_rgb(map_alpha<1>(sv, L, m, pr, r));
+  return map_alpha_in_colour(sv, m, pr, r, map_taps(sv, L, m, pr, r));
 }
 
 // ---- lights with a size: penumbrae from the maps -------------------------------
@@ -545,7 +553,7 @@ inline constexpr int kPyramidVisits = 48;
 template <int N>
 CDSM_HD inline bool blockers_within_reach(const ShadowView& sv, const LightData& L, const DsmMap& m,
                                           const ViewProjection& pr, const Receiver& r, const PenumbraFrame& f,
-                                          float search) {
+                                          const MapTaps& taps, float search) {
   const NodeArrays<N> a = sv.storage.arrays<N>();
   if (!has_pyramid(a, m)) return true;
   const uint32_t w = m.res, h = uint32_t(m.view.height);
@@ -557,7 +565,6 @@ CDSM_HD inline bool blockers_within_reach(const ShadowView& sv, const LightData&
     at += uint64_t(((w - 1u) >> k) + 1u) * (((h - 1u) >> k) + 1u);
   }
   if (!(a.pyramid[offset[top]] > -kNoOpacityDepth)) return true;  // built without one
-  const MapTaps taps = map_taps(sv, L, m, pr, r);
   const float ppa = max_pixels_per_angle(f);
   const float R = search * ppa + 1.0f;
   const int bx0 = int(fmaxf(floorf(pr.u - R), 0.0f)), bx1 = int(fminf(floorf(pr.u + R), float(w) - 1.0f));
@@ -594,20 +601,25 @@ CDSM_HD inline bool blockers_within_reach(const ShadowView& sv, const LightData&
   }
   return false;
 }
+template <int N>
+CDSM_HD inline bool blockers_within_reach(const ShadowView& sv, const LightData& L, const DsmMap& m,
+                                          const ViewProjection& pr, const Receiver& r, const PenumbraFrame& f,
+                                          float search) {
+  return blockers_within_reach<N>(sv, L, m, pr, r, f, map_taps(sv, L, m, pr, r), search);
+}
 
 // The filter radius (radians across the ray; world units orthographic) of light L's penumbra at receiver r in
-// map m (0: a hard lookup), step 1 above.
+// map m (0: a hard lookup), step 1 above; f = penumbra_frame(m, pr), taps = map_taps(sv, L, m, pr, r).
 CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightData& L, const DsmMap& m,
-                                            const ViewProjection& pr, const Receiver& r) {
+                                            const ViewProjection& pr, const Receiver& r, const PenumbraFrame& f,
+                                            const MapTaps& taps) {
   const float z = pr.depth;
   if (sv.penumbra == Penumbra::FixedKernel) return penumbra_radius(L, m, z, 0.5f * z);
-  const PenumbraFrame f = penumbra_frame(m, pr);
   const float search = fminf(penumbra_radius(L, m, z, fmaxf(m.view.near, 1e-6f)), kPenumbraSearchTexels * f.texel);
-  if (!(m.rgb ? blockers_within_reach<3>(sv, L, m, pr, r, f, search)
-              : blockers_within_reach<1>(sv, L, m, pr, r, f, search)))
+  if (!(m.rgb ? blockers_within_reach<3>(sv, L, m, pr, r, f, taps, search)
+              : blockers_within_reach<1>(sv, L, m, pr, r, f, taps, search)))
     return 0.0f;
   const int res = int(m.res);
-  const MapTaps taps = map_taps(sv, L, m, pr, r);
   float weight = 0.0f, moment = 0.0f;
   // The texel under the receiver, then rings of 8 at 1, 2, 4, ... texels
   // out to the search radius (every other ring turned by 22.5 degrees).
@@ -638,6 +650,10 @@ CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightDat
     moment += b.alpha * b.depth;
   }
   return weight > kPenumbraMinAlpha ? penumbra_radius(L, m, z, moment / weight) : 0.0f;
+}
+CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightData& L, const DsmMap& m,
+                                            const ViewProjection& pr, const Receiver& r) {
+  return penumbra_filter_radius(sv, L, m, pr, r, penumbra_frame(m, pr), map_taps(sv, L, m, pr, r));
 }
 
 // Whether a filter tap at `at` may shadow receiver r (at pr): its texel's
@@ -748,11 +764,11 @@ CDSM_HD inline Channels<N> soft_filter(const ShadowView& sv, const LightData& L,
 // texel to 1.5 blend from the hard lookup.
 CDSM_HD inline Vec3 soft_map_alpha_in_colour(const ShadowView& sv, const LightData& L, const DsmMap& m,
                                              const ViewProjection& pr, const Receiver& r) {
-  const float radius = penumbra_filter_radius(sv, L, m, pr, r);
   const PenumbraFrame f = penumbra_frame(m, pr);
-  const float reach = radius * max_pixels_per_angle(f);  // the ellipse's longer half-axis, pixels
-  if (!(reach >= 0.5f)) return map_alpha_in_colour(sv, L, m, pr, r);
   const MapTaps t = map_taps(sv, L, m, pr, r);
+  const float radius = penumbra_filter_radius(sv, L, m, pr, r, f, t);
+  const float reach = radius * max_pixels_per_angle(f);  // the ellipse's longer half-axis, pixels
+  if (!(reach >= 0.5f)) return map_alpha_in_colour(sv, m, pr, r, t);
   float weight = 0.0f;
   const Vec3 sum = m.rgb ? (t.plane ? soft_filter<3, true>(sv, L, m, pr, r, f, t, radius, reach, weight)
                                     : soft_filter<3, false>(sv, L, m, pr, r, f, t, radius, reach, weight))
@@ -761,7 +777,7 @@ CDSM_HD inline Vec3 soft_map_alpha_in_colour(const ShadowView& sv, const LightDa
   const Vec3 soft = sum * (1.0f / weight);
   if (reach >= 1.5f) return soft;
   const float s = reach - 0.5f;
-  return map_alpha_in_colour(sv, L, m, pr, r) * (1.0f - s) + soft * s;
+  return map_alpha_in_colour(sv, m, pr, r, t) * (1.0f - s) + soft * s;
 }
 
 // One map's opacity at r: soft for a light with a size (unless the
