@@ -49,6 +49,23 @@ CDSM_HD CDSM_INLINE bool has_pyramid(const NodeArrays<N>& a, const DsmMap& m) {
   return a.pyramid.size() > 0 && pyramid_cells(m.res, uint32_t(m.view.height)) <= texels / 2u &&
          m.texel_offset / 2u + texels / 2u <= a.pyramid.size();
 }
+// has_pyramid(a, m) and the levels' first cells in one pass (a lookup's):
+// offset[k] for k = 1 .. top, top returned; 0 when m has no pyramid.
+template <int N>
+CDSM_HD CDSM_INLINE int pyramid_offsets(const NodeArrays<N>& a, const DsmMap& m, uint64_t offset[33]) {
+  if (a.pyramid.size() == 0) return 0;
+  const uint32_t w = m.res, h = uint32_t(m.view.height);
+  const uint64_t first = m.texel_offset / 2u, half = uint64_t(w) * uint64_t(h) / 2u;
+  uint64_t at = first;
+  int k = 1;
+  for (;; ++k) {
+    const uint32_t lw = ((w - 1u) >> k) + 1u, lh = ((h - 1u) >> k) + 1u;
+    offset[k] = at;
+    at += uint64_t(lw) * lh;
+    if (lw == 1u && lh == 1u) break;
+  }
+  return at - first <= half && first + half <= a.pyramid.size() ? k : 0;
+}
 // Level k (>= 1) of map m.
 CDSM_HD CDSM_INLINE PyramidLevel pyramid_level(const DsmMap& m, int k) {
   const uint32_t w = m.res, h = uint32_t(m.view.height);

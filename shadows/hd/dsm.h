@@ -494,15 +494,14 @@ template <class F>
 CDSM_HD CDSM_INLINE void for_each_tap(const DsmMap& m, float u, float v, bool filtering, F&& f) {
   int res = int(m.res);
   if (!filtering) {
-    int tx = int(floorf(u)), ty = int(floorf(v));
+    int tx = floor_int(u), ty = floor_int(v);
     if (tx < 0 || ty < 0 || tx >= res || ty >= res) return;
     f(tx, ty, 1.0f);
     return;
   }
   float lx = u - 0.5f, ly = v - 0.5f;
-  float fx = floorf(lx), fy = floorf(ly);
-  float wx = lx - fx, wy = ly - fy;
-  int x0 = int(fx), y0 = int(fy);
+  int x0 = floor_int(lx), y0 = floor_int(ly);
+  float wx = lx - float(x0), wy = ly - float(y0);
   for (int k = 0; k < 4; ++k) {
     int tx = x0 + (k & 1), ty = y0 + (k >> 1);
     float w = ((k & 1) ? wx : 1.0f - wx) * ((k >> 1) ? wy : 1.0f - wy);

@@ -555,15 +555,10 @@ CDSM_HD inline bool blockers_within_reach(const ShadowView& sv, const LightData&
                                           const ViewProjection& pr, const Receiver& r, const PenumbraFrame& f,
                                           const MapTaps& taps, float search) {
   const NodeArrays<N> a = sv.storage.arrays<N>();
-  if (!has_pyramid(a, m)) return true;
   const uint32_t w = m.res, h = uint32_t(m.view.height);
-  const int top = pyramid_top(w, h);
-  uint64_t offset[32];
-  uint64_t at = m.texel_offset / 2u;
-  for (int k = 1; k <= top; ++k) {
-    offset[k] = at;
-    at += uint64_t(((w - 1u) >> k) + 1u) * (((h - 1u) >> k) + 1u);
-  }
+  uint64_t offset[33];
+  const int top = pyramid_offsets(a, m, offset);
+  if (top == 0) return true;
   if (!(a.pyramid[offset[top]] > -kNoOpacityDepth)) return true;  // built without one
   const float ppa = max_pixels_per_angle(f);
   const float R = search * ppa + 1.0f;
@@ -632,7 +627,7 @@ CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightDat
     const int d = k == 0 ? 0 : ((k - 1) % 8) * 2 + (((k - 1) / 8) & 1);
     const Vec2 dir = penumbra_direction(d);
     const Vec2 at = k == 0 ? Vec2{0.0f, 0.0f} : to_pixels(f, ring * dir.x, ring * dir.y);
-    const int tx = int(floorf(pr.u + at.x)), ty = int(floorf(pr.v + at.y));
+    const int tx = floor_int(pr.u + at.x), ty = floor_int(pr.v + at.y);
     if (tx < 0 || ty < 0 || tx >= res || ty >= res) continue;
     // Its texel centre's angle from the receiver's ray. Its blockers lie at
     // or behind its first node, and reach no farther than from there: a
@@ -664,7 +659,7 @@ CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightDat
 CDSM_HD inline bool blocks_receiver(const ShadowView& sv, const LightData& L, const DsmMap& m, const ViewProjection& pr,
                                     const PenumbraFrame& f, const Receiver& r, const MapTaps& t,
                                     const ViewProjection& at) {
-  const int tx = int(floorf(at.u)), ty = int(floorf(at.v)), res = int(m.res);
+  const int tx = floor_int(at.u), ty = floor_int(at.v), res = int(m.res);
   if (tx < 0 || ty < 0 || tx >= res || ty >= res) return true;
   const float limit = blocker_limit(m, pr, r, t, tx, ty);
   const TexelBlockers b =
@@ -715,7 +710,7 @@ CDSM_HD inline Channels<N> soft_filter(const ShadowView& sv, const LightData& L,
   Channels<N> sum{};
   for (int j = j0; j <= j1; ++j) {
     if (shared) {  // this row of taps reads texel rows y and y + 1: keep those held
-      const int y = int(floorf(float(j) * spacing - 0.5f));
+      const int y = floor_int(float(j) * spacing - 0.5f);
       for (int k = 0; k < 2; ++k)
         if (rows.y[k] != y && rows.y[k] != y + 1) {
           rows.y[k] = rows.y[k ^ 1] == y ? y + 1 : y;

@@ -22,6 +22,19 @@ CDSM_HD CDSM_INLINE float fminf(float a, float b) { return (a < b || b != b) ? a
 CDSM_HD CDSM_INLINE float fmaxf(float a, float b) { return (a > b || b != b) ? a : b; }
 #endif
 
+// int(floorf(x)) for x within int's range (texel indices), the same value:
+// on x86-64 without SSE4.1 floorf is a libm call or a long inline sequence,
+// here a truncation and one compare (a float of 2^24 or more is an integer,
+// so float(i) is exact wherever it matters).
+CDSM_HD CDSM_INLINE int floor_int(float x) {
+#if defined(__CUDA_ARCH__)
+  return int(floorf(x));
+#else
+  const int i = int(x);
+  return x < float(i) ? i - 1 : i;
+#endif
+}
+
 struct Vec2 {
   float x = 0, y = 0;
 };
