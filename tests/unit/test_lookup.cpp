@@ -4,6 +4,7 @@
 // filter of thesis eq. 4.18-4.19 with taps outside the map counting 0.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 #include <vector>
 
@@ -202,4 +203,27 @@ TEST(Lookup, BilinearOnFourByFourWithDepth) {
     int tx = int(std::floor(u)), ty = int(std::floor(v));
     ASSERT_EQ(lookup_map<1>(st, hm.map, u, v, z, false), float(texel_alpha(tx, ty, z)));
   }
+}
+
+// floor_int (texel indices of the taps, the blocker search and the filter)
+// is int(floorf(x)) for every float within int's range: integers, halves,
+// the floats next to them, negative ones, signed zeros, values past 2^24
+// (all integers) up to 2^31, and a random sweep.
+TEST(Lookup, FloorIntIsIntOfFloorf) {
+  std::vector<float> xs = {0.0f,           -0.0f,       0.5f,         -0.5f,      1.0f,        -1.0f,  2147483520.0f,
+                           -2147483648.0f, 16777216.0f, -16777217.0f, 8388607.5f, -8388607.5f, 1e-30f, -1e-30f};
+  for (int i = -1000; i <= 1000; ++i)
+    for (float d : {0.0f, 0.25f, 0.5f, 0.75f}) {
+      const float x = float(i) + d;
+      xs.push_back(x);
+      xs.push_back(std::nextafter(x, -1e30f));
+      xs.push_back(std::nextafter(x, 1e30f));
+    }
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-3.0e9f, 3.0e9f);
+  for (int i = 0; i < 100000; ++i) {
+    const float x = u(rng) * (i % 3 == 0 ? 1e-6f : i % 3 == 1 ? 1e-3f : 0.7f);
+    xs.push_back(x);
+  }
+  for (float x : xs) ASSERT_EQ(floor_int(x), int(std::floor(x))) << "x = " << x;
 }
