@@ -422,6 +422,12 @@ struct PenumbraFrame {
   Vec2 w;            // the receiver's window coordinates (tangents off the axis; 0 orthographic)
   float l;           // sqrt(1 + |w|^2)
   float texel;       // one texel across the ray: radians (the window's texel / L); world units orthographic
+  // Reciprocals, once per lookup (a soft lookup places and measures up to
+  // 57 ring texels and its filter taps: multiplications, not divisions):
+  float inv_u, inv_v;  // 1 / to_u, 1 / to_v
+  float inv_l;         // 1 / l
+  float inv_l1;        // 1 / (l + 1)
+  float inv_ll1;       // 1 / (l (l + 1))
 };
 CDSM_HD CDSM_INLINE PenumbraFrame penumbra_frame(const DsmMap& m, const ViewProjection& pr) {
   PenumbraFrame f;
@@ -430,19 +436,24 @@ CDSM_HD CDSM_INLINE PenumbraFrame penumbra_frame(const DsmMap& m, const ViewProj
   f.w = is_orthographic(m.view) ? Vec2{0.0f, 0.0f} : window_at(m.view, pr.u, pr.v);
   f.l = sqrtf(1.0f + f.w.x * f.w.x + f.w.y * f.w.y);
   f.texel = 2.0f * fmaxf(m.view.tan_half_x, m.view.tan_half_y) / (float(m.res) * f.l);
+  f.inv_u = 1.0f / f.to_u;
+  f.inv_v = 1.0f / f.to_v;
+  f.inv_l = 1.0f / f.l;
+  f.inv_l1 = 1.0f / (f.l + 1.0f);
+  f.inv_ll1 = 1.0f / (f.l * (f.l + 1.0f));
   return f;
 }
 // The pixel offset (du, dv) of angle g (right, up) across the receiver's ray.
 CDSM_HD CDSM_INLINE Vec2 to_pixels(const PenumbraFrame& f, float gx, float gy) {
-  const float k = (gx * f.w.x + gy * f.w.y) / (f.l + 1.0f);
+  const float k = (gx * f.w.x + gy * f.w.y) * f.inv_l1;
   return Vec2{f.l * (gx + k * f.w.x) * f.to_u, -f.l * (gy + k * f.w.y) * f.to_v};
 }
 // The angle across the receiver's ray of pixel offset (du, dv).
 CDSM_HD CDSM_INLINE float angle_of(const PenumbraFrame& f, float du, float dv) {
-  const float x = du / f.to_u, y = -dv / f.to_v;
-  const float k = (x * f.w.x + y * f.w.y) / (f.l * (f.l + 1.0f));
+  const float x = du * f.inv_u, y = -dv * f.inv_v;
+  const float k = (x * f.w.x + y * f.w.y) * f.inv_ll1;
   const float ax = x - k * f.w.x, ay = y - k * f.w.y;
-  return sqrtf(ax * ax + ay * ay) / f.l;
+  return sqrtf(ax * ax + ay * ay) * f.inv_l;
 }
 // The largest pixel length of an angle (the stretch along the radial: L^2).
 CDSM_HD CDSM_INLINE float max_pixels_per_angle(const PenumbraFrame& f) { return f.l * f.l * fmaxf(f.to_u, f.to_v); }
@@ -560,7 +571,7 @@ CDSM_HD inline bool blockers_within_reach(const ShadowView& sv, const LightData&
   const int top = pyramid_offsets(a, m, offset);
   if (top == 0) return true;
   if (!(a.pyramid[offset[top]] > -kNoOpacityDepth)) return true;  // built without one
-  const float ppa = max_pixels_per_angle(f);
+  const float ppa = max_pixels_per_angle(f), inv_ppa = 1.0f / ppa;
   const float R = search * ppa + 1.0f;
   const int bx0 = int(fmaxf(floorf(pr.u - R), 0.0f)), bx1 = int(fminf(floorf(pr.u + R), float(w) - 1.0f));
   const int by0 = int(fmaxf(floorf(pr.v - R), 0.0f)), by1 = int(fminf(floorf(pr.v + R), float(h) - 1.0f));
@@ -583,7 +594,7 @@ CDSM_HD inline bool blockers_within_reach(const ShadowView& sv, const LightData&
     if (!(least < kNoOpacityDepth)) continue;
     const float dx = fmaxf(fmaxf(float(x0) + 0.5f - pr.u, pr.u - (float(x1) + 0.5f)), 0.0f);
     const float dy = fmaxf(fmaxf(float(y0) + 0.5f - pr.v, pr.v - (float(y1) + 0.5f)), 0.0f);
-    const float nearest = sqrtf(dx * dx + dy * dy) / ppa;  // an angle no texel centre of it is nearer than
+    const float nearest = sqrtf(dx * dx + dy * dy) * inv_ppa;  // an angle no texel centre of it is nearer than
     if (nearest * (1.0f - 1.0e-4f) > 2.0f * penumbra_radius(L, m, pr.depth, least) * (1.0f + 1.0e-4f) + f.texel)
       continue;
     if (least >= blocker_limit_bound(m, pr, r, taps, x0, x1, y0, y1)) continue;

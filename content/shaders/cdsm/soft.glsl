@@ -20,6 +20,7 @@ struct CdsmPenumbraFrame {
   vec2 w;
   float l;
   float texel;
+  float inv_u, inv_v, inv_l, inv_l1, inv_ll1;  // reciprocals (hd/lights.h PenumbraFrame)
 };
 
 CdsmPenumbraFrame cdsm_penumbra_frame(CdsmMap m, CdsmProjection pr) {
@@ -29,21 +30,26 @@ CdsmPenumbraFrame cdsm_penumbra_frame(CdsmMap m, CdsmProjection pr) {
   f.w = m.view.projection == CDSM_PROJECTION_ORTHOGRAPHIC ? vec2(0.0) : cdsm_window_at(m.view, pr.u, pr.v);
   f.l = sqrt(1.0 + f.w.x * f.w.x + f.w.y * f.w.y);
   f.texel = 2.0 * max(m.view.tan_half_x, m.view.tan_half_y) / (float(m.res) * f.l);
+  f.inv_u = 1.0 / f.to_u;
+  f.inv_v = 1.0 / f.to_v;
+  f.inv_l = 1.0 / f.l;
+  f.inv_l1 = 1.0 / (f.l + 1.0);
+  f.inv_ll1 = 1.0 / (f.l * (f.l + 1.0));
   return f;
 }
 
 // The pixel offset of angle (gx, gy) across the ray (hd/lights.h to_pixels).
 vec2 cdsm_to_pixels(CdsmPenumbraFrame f, float gx, float gy) {
-  float k = (gx * f.w.x + gy * f.w.y) / (f.l + 1.0);
+  float k = (gx * f.w.x + gy * f.w.y) * f.inv_l1;
   return vec2(f.l * (gx + k * f.w.x) * f.to_u, -f.l * (gy + k * f.w.y) * f.to_v);
 }
 
 // The angle across the ray of pixel offset (du, dv) (hd/lights.h angle_of).
 float cdsm_angle_of(CdsmPenumbraFrame f, float du, float dv) {
-  float x = du / f.to_u, y = -dv / f.to_v;
-  float k = (x * f.w.x + y * f.w.y) / (f.l * (f.l + 1.0));
+  float x = du * f.inv_u, y = -dv * f.inv_v;
+  float k = (x * f.w.x + y * f.w.y) * f.inv_ll1;
   float ax = x - k * f.w.x, ay = y - k * f.w.y;
-  return sqrt(ax * ax + ay * ay) / f.l;
+  return sqrt(ax * ax + ay * ay) * f.inv_l;
 }
 
 // Texel t's opacity in front of z_lim and its opacity-weighted mean depth
