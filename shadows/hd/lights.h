@@ -643,10 +643,11 @@ CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightDat
     // Its texel centre's angle from the receiver's ray. Its blockers lie at
     // or behind its first node, and reach no farther than from there: a
     // texel too far for that (or empty) is passed without its walk.
-    const float off = angle_of(f, float(tx) + 0.5f - pr.u, float(ty) + 0.5f - pr.v);
     const float first =
         m.rgb ? texel_first_depth<3>(sv.storage, m, tx, ty) : texel_first_depth<1>(sv.storage, m, tx, ty);
-    if (!(first < kFixedPadZ) || off > (2.0f * penumbra_radius(L, m, z, first) + f.texel) * (1.0f + 1.0e-5f)) continue;
+    if (!(first < kFixedPadZ)) continue;  // empty: no angle to measure
+    const float off = angle_of(f, float(tx) + 0.5f - pr.u, float(ty) + 0.5f - pr.v);
+    if (off > (2.0f * penumbra_radius(L, m, z, first) + f.texel) * (1.0f + 1.0e-5f)) continue;
     const float limit = blocker_limit(m, pr, r, taps, tx, ty);
     const TexelBlockers b =
         m.rgb ? texel_blockers<3>(sv.storage, m, tx, ty, limit) : texel_blockers<1>(sv.storage, m, tx, ty, limit);

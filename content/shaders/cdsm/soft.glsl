@@ -133,10 +133,10 @@ float cdsm_penumbra_filter_radius(CdsmLight L, CdsmMap m, CdsmProjection pr, vec
     // Blockers reach no farther than from the texel's first node: a texel
     // too far for that (or empty) is passed without its walk.
     uint t = m.texel_offset + uint(ty) * m.res + uint(tx);
-    float off = cdsm_angle_of(f, float(tx) + 0.5 - pr.u, float(ty) + 0.5 - pr.v);
     float first = cdsm_texel_first_depth(m, t);
-    if (!(first < 3.402823466e+38) || off > (2.0 * cdsm_penumbra_radius(L, m, z, first) + f.texel) * (1.0 + 1.0e-5))
-      continue;
+    if (!(first < 3.402823466e+38)) continue;
+    float off = cdsm_angle_of(f, float(tx) + 0.5 - pr.u, float(ty) + 0.5 - pr.v);
+    if (off > (2.0 * cdsm_penumbra_radius(L, m, z, first) + f.texel) * (1.0 + 1.0e-5)) continue;
     vec2 b = cdsm_texel_blockers(m, t, cdsm_blocker_limit(L, m, pr, p, plane, tx, ty));
     if (!(b.x > CDSM_PENUMBRA_MIN_ALPHA)) continue;
     if (off > 2.0 * cdsm_penumbra_radius(L, m, z, b.y) + f.texel) continue;
