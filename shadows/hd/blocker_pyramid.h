@@ -42,15 +42,9 @@ CDSM_HD CDSM_INLINE uint64_t pyramid_cells(uint32_t w, uint32_t h) {
   return n;
 }
 // Whether map m has a pyramid in arrays `a` (the kind's array holds one,
-// and the map's cells fit its slot).
-template <int N>
-CDSM_HD CDSM_INLINE bool has_pyramid(const NodeArrays<N>& a, const DsmMap& m) {
-  const uint64_t texels = uint64_t(m.res) * uint64_t(m.view.height);
-  return a.pyramid.size() > 0 && pyramid_cells(m.res, uint32_t(m.view.height)) <= texels / 2u &&
-         m.texel_offset / 2u + texels / 2u <= a.pyramid.size();
-}
-// has_pyramid(a, m) and the levels' first cells in one pass (a lookup's):
-// offset[k] for k = 1 .. top, top returned; 0 when m has no pyramid.
+// and the map's cells fit its slot), with its levels' first cells found in
+// the same pass (a lookup's): offset[k] for k = 1 .. top, top returned; 0
+// when m has none.
 template <int N>
 CDSM_HD CDSM_INLINE int pyramid_offsets(const NodeArrays<N>& a, const DsmMap& m, uint64_t offset[33]) {
   if (a.pyramid.size() == 0) return 0;
@@ -65,6 +59,11 @@ CDSM_HD CDSM_INLINE int pyramid_offsets(const NodeArrays<N>& a, const DsmMap& m,
     if (lw == 1u && lh == 1u) break;
   }
   return at - first <= half && first + half <= a.pyramid.size() ? k : 0;
+}
+template <int N>
+CDSM_HD CDSM_INLINE bool has_pyramid(const NodeArrays<N>& a, const DsmMap& m) {
+  uint64_t offset[33];
+  return pyramid_offsets(a, m, offset) != 0;
 }
 // Level k (>= 1) of map m.
 CDSM_HD CDSM_INLINE PyramidLevel pyramid_level(const DsmMap& m, int k) {
