@@ -633,7 +633,7 @@ DsmBuildStats place_map_exec(Ex& ex, const LightPassParams& params, const DsmLay
   const DsmLayout kind = layout.layout;
   const bool rgb = Node::kChannels == 3;
   const MapGrid g(params.view, layout);
-  const int res = g.res, height = g.height, tiles_x = g.tiles_x, tiles_y = g.tiles_y;
+  const int res = g.res, height = g.height, tiles_x = g.tiles_x;
   const uint64_t n_texels = g.texels, n_tiles = g.tiles;
   const uint32_t L = g.L, C = g.C;
   // Chunked: the map's nodes in staging (packed maps are in the store

@@ -21,6 +21,7 @@
 #include "exec/host_exec.h"
 #include "gl/gl_api.h"
 #include "gl/map_buffers.h"
+#include "gl_host_exec.h"
 #include "gl_test_util.h"
 #include "frame_snapshot.h"
 #include "scene_sync.h"
@@ -693,6 +694,58 @@ TEST_F(GlSystem, GlListsHandedOverPoolByPoolEqualListsReadBack) {
   EXPECT_EQ(ip->violations, std::vector<std::string>{});
   ASSERT_EQ(got.rgb.size(), want.rgb.size());
   EXPECT_EQ(std::memcmp(got.rgb.data(), want.rgb.data(), got.rgb.size() * sizeof(float)), 0);
+}
+
+// The exec backend's own GL hand-over (the cuda backend's lists_from_gl,
+// write_gl_maps and camera_pass_to_gl) run on CPU threads, each GL buffer
+// mapped where CUDA would map it (test GlHostExec): every frame's lists come
+// from the rasterizer's buffers without the host lists, the maps are written
+// into GL by the backend, and the image equals the cpu backend's from lists
+// read back, frame after frame (a first frame, the camera moved, a light
+// moved).
+exec::ExecBackend<test::GlHostExec>* use_gl_exec_backend(ShadowSystem& sys) {
+  exec::ExecBackend<test::GlHostExec>* b = nullptr;
+  SystemHooks::wrap_backend(sys, [&](std::unique_ptr<ShadowBackend>) {
+    auto e = std::make_unique<exec::ExecBackend<test::GlHostExec>>("exec-gl-host");
+    b = e.get();
+    return std::unique_ptr<ShadowBackend>(std::move(e));
+  });
+  return b;
+}
+
+TEST_F(GlSystem, ExecBackendsGlHandOverOnCpuThreadsEqualsListsReadBack) {
+  Scene scene = load_scene(scene_path("teapot_omni.json"));
+  scene.shadows.resolution = 96;
+  ShadowSystem host(app_options(FragmentSource::Gl));
+  ShadowSystem dev(app_options(FragmentSource::Gl));
+  exec::ExecBackend<test::GlHostExec>* b = use_gl_exec_backend(dev);
+  ASSERT_TRUE(SystemHooks::backend(dev).can_write_gl_maps());
+  sync_scene(host, scene);
+  sync_scene(dev, scene);
+  for (int step = 0; step < 3; ++step) {
+    SCOPED_TRACE("step " + std::to_string(step));
+    if (step == 1) {
+      Camera c = scene.camera;
+      c.position = c.position + Vec3{0.3f, 0.1f, 0.0f};
+      host.set_camera(c);
+      dev.set_camera(c);
+    } else if (step == 2) {
+      Light l = scene.lights[0];
+      l.position = l.position + Vec3{0.2f, 0.0f, 0.0f};
+      host.set_light(host.lights()[0], l);
+      dev.set_light(dev.lights()[0], l);
+    }
+    FrameStats hs, ds;
+    const uint64_t maps_before = b->executor().source_maps;
+    const Image want = host.render(&hs);
+    const Image got = dev.render(&ds);
+    ASSERT_EQ(ds.fragment_source, "gl");
+    EXPECT_EQ(ds.maps_rebuilt, hs.maps_rebuilt);
+    EXPECT_GT(b->executor().source_maps, maps_before) << "lists taken from the rasterizer's GL buffers";
+    EXPECT_EQ(b->executor().violations, std::vector<std::string>{});
+    ASSERT_EQ(got.rgb.size(), want.rgb.size());
+    EXPECT_EQ(std::memcmp(got.rgb.data(), want.rgb.data(), got.rgb.size() * sizeof(float)), 0);
+  }
 }
 
 // A frame's light views come back to the host in two GL reads (issue 45
