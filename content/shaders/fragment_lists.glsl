@@ -4,7 +4,8 @@
 //   u_pass 0 (count): atomicAdd(counts[pixel], 1)
 //   u_pass 1 (fill):  counts[pixel] runs back down to 0 as a cursor and each
 //                     fragment {radial depth, primitive | front bit} lands in
-//                     fragments[offsets[pixel] - u_frag_base + cursor].
+//                     fragments[offsets[pixel] - u_frag_base + cursor], when
+//                     that is within the pool's u_pool_size fragments.
 // No depth test, no culling, depth clamp on (so GL never clips at its own
 // near/far), and the view's [near, far] on the view axis is applied here per
 // fragment, as the CPU ray caster does: outside it, only the fragments of
@@ -37,6 +38,7 @@ layout(location = 11) uniform float u_clip_z;  // user clip plane z >= u_clip_z 
 layout(location = 12) uniform float u_x_shift; // NDC shift of the geometry: half a snapping step (see below)
 layout(location = 13) uniform int u_ortho;     // 1: orthographic (parallel rays along u_forward), 0: pinhole
 layout(location = 14) uniform uint u_count_base; // the band's first counter in its batch (views counted together)
+layout(location = 15) uniform uint u_pool_size;  // fragments the pool holds: a fill writes none past them
 
 #if defined(VERTEX_STAGE)
 
@@ -120,7 +122,8 @@ void main() {
   float hit = facing != 0.0 ? dot(v_normal, v_rel - origin) / facing * length(dir) : 0.0;
   f.depth = hit > 0.0 ? hit : (ortho ? axial : length(v_rel));
   f.bits = (v_prim & 0x1fffffffu) | (clipped ? 0x20000000u : 0u) | (front ? 0x80000000u : 0u);
-  fragments[offsets[pixel] - u_frag_base + left - 1u] = f;
+  uint at = offsets[pixel] - u_frag_base + left - 1u;
+  if (at < u_pool_size) fragments[at] = f;  // a batch larger than the pool (unchecked fill) loses the rest
 }
 
 #else

@@ -35,6 +35,7 @@ enum Uniform : GLint {
   kXShift = 12,
   kOrtho = 13,
   kCountBase = 14,
+  kPoolSize = 15,
 };
 enum Binding : GLuint { kCounts = 0, kOffsets = 1, kFragments = 2, kNormals = 3, kMedia = 4 };
 
@@ -410,7 +411,10 @@ struct FragmentRasterizer::Impl {
     bind_pipeline(jobs[j].view.width, jobs[j].view.height);
   }
 
-  void rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink, const OffsetsSink* offsets_sink);
+  void rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink, const OffsetsSink* offsets_sink,
+                 const BatchSink* batch_sink = nullptr);
+  void rasterize_batch_unchecked(Span<const Job> jobs, const BatchSink& sink, size_t b0, size_t b1, uint64_t n);
+  std::vector<ShadowBackend::GlPart> parts;  // a batch's, for the batch sink
   void rasterize_batch(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink,
                        const OffsetsSink* offsets_sink, size_t b0, size_t b1, uint64_t n);
   void flush(FragmentBuffers* outs, const TileSink* sink);
@@ -440,7 +444,7 @@ struct FragmentRasterizer::Impl {
 };
 
 void FragmentRasterizer::Impl::rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink,
-                                         const OffsetsSink* offsets_sink) {
+                                         const OffsetsSink* offsets_sink, const BatchSink* batch_sink) {
   auto t0 = std::chrono::steady_clock::now();
   context.make_current();
   const Limits& lim = context.limits();
@@ -474,8 +478,9 @@ void FragmentRasterizer::Impl::rasterize(Span<const Job> jobs, FragmentBuffers* 
     FragmentBuffers& out = outs[j];
     out.width = jobs[j].view.width;
     out.height = jobs[j].view.height;
-    // (with an offsets sink the offsets go there: `out` keeps the total)
-    out.offsets.resize(offsets_sink ? 1 : uint64_t(out.width) * uint64_t(out.height) + 1);
+    // (with an offsets sink the offsets go there: `out` keeps the total;
+    // with a batch sink the host has neither)
+    out.offsets.resize(batch_sink ? 0 : offsets_sink ? 1 : uint64_t(out.width) * uint64_t(out.height) + 1);
     out.fragments.clear();
   }
   drawn_job = ~0u;
@@ -489,10 +494,14 @@ void FragmentRasterizer::Impl::rasterize(Span<const Job> jobs, FragmentBuffers* 
       bands[b1].base = n;
       n += band_n;
     }
-    rasterize_batch(jobs, outs, sink, offsets_sink, b0, b1, n);
+    if (batch_sink)
+      rasterize_batch_unchecked(jobs, *batch_sink, b0, b1, n);
+    else
+      rasterize_batch(jobs, outs, sink, offsets_sink, b0, b1, n);
     b0 = b1;
   }
-  for (uint32_t j = 0; j < uint32_t(jobs.size()); ++j) outs[j].offsets.back() = uint32_t(view_done[j]);
+  if (!batch_sink)
+    for (uint32_t j = 0; j < uint32_t(jobs.size()); ++j) outs[j].offsets.back() = uint32_t(view_done[j]);
   stats.pool_bytes = pool.capacity();
   stats.gpu_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -577,6 +586,7 @@ void FragmentRasterizer::Impl::rasterize_batch(Span<const Job> jobs, FragmentBuf
     CDSM_GL(glProgramUniform1i(program.id(), kPass, 1));
     CDSM_GL(glProgramUniform1i(program.id(), kRow0, band.r0));
     CDSM_GL(glProgramUniform1ui(program.id(), kCountBase, GLuint(band.base)));
+    CDSM_GL(glProgramUniform1ui(program.id(), kPoolSize, GLuint(std::min<uint64_t>(pool_fragments, 0xffffffffu))));
     auto boff = [&](uint64_t i) { return off(band.base + i); };  // batch offset of band pixel i
     uint64_t p = 0;
     while (p < band_n) {
@@ -618,6 +628,71 @@ void FragmentRasterizer::Impl::rasterize_batch(Span<const Job> jobs, FragmentBuf
     }
   }
   flush(outs, sink);
+  if (context.debug()) verify_cursors_consumed(n);
+}
+
+// Bands [b0, b1) (n counters in all) counted, scanned and filled into the
+// pool as it is, nothing read back: a fill writes no fragment past the pool
+// (the shader's guard), and the sink gets the batch where GL left it, each
+// view's bands as one part.
+void FragmentRasterizer::Impl::rasterize_batch_unchecked(Span<const Job> jobs, const BatchSink& sink, size_t b0,
+                                                         size_t b1, uint64_t n) {
+  counts.reserve(n * 4);
+  if (offsets.capacity() < (n + 2) * 4) {  // a new buffer object: a sink that mapped the old one lets go first
+    if (release_hook && offsets.id() != 0) release_hook(offsets.id());
+    offsets.reserve((n + 2) * 4);
+    ++offsets_generation;
+  }
+  counts.clear(n * 4);
+  sync("clear");
+  parts.clear();
+  for (size_t b = b0; b < b1; ++b) {
+    const Band& band = bands[b];
+    draw_setup(jobs, band.job);
+    CDSM_GL(glProgramUniform1i(program.id(), kPass, 0));
+    CDSM_GL(glProgramUniform1i(program.id(), kRow0, band.r0));
+    CDSM_GL(glProgramUniform1ui(program.id(), kCountBase, GLuint(band.base)));
+    scissor(jobs[band.job].view.height, band.r0, band.r1, 0, jobs[band.job].view.width);
+    draw();
+    ++stats.bands;
+    const uint64_t W = uint64_t(jobs[band.job].view.width), band_n = W * uint64_t(band.r1 - band.r0);
+    if (!parts.empty() && parts.back().view == band.job)
+      parts.back().count += band_n;
+    else
+      parts.push_back({band.job, uint64_t(band.r0) * W, band_n, band.base});
+  }
+  sync("count");
+  scan.exclusive_scan(counts, offsets, n);
+  scan.write_overflow_flag(offsets, n + 1);
+  ++stats.scans;
+  const uint64_t pool_fragments = std::min<uint64_t>(pool.capacity() / kFragmentBytes, 0xffffffffu);
+  for (size_t b = b0; b < b1; ++b) {
+    const Band& band = bands[b];
+    draw_setup(jobs, band.job);
+    CDSM_GL(glProgramUniform1i(program.id(), kPass, 1));
+    CDSM_GL(glProgramUniform1i(program.id(), kRow0, band.r0));
+    CDSM_GL(glProgramUniform1ui(program.id(), kCountBase, GLuint(band.base)));
+    CDSM_GL(glProgramUniform1ui(program.id(), kFragBase, 0u));
+    CDSM_GL(glProgramUniform1ui(program.id(), kPoolSize, GLuint(pool_fragments)));
+    scissor(jobs[band.job].view.height, band.r0, band.r1, 0, jobs[band.job].view.width);
+    draw();
+    sync("fill");
+    ++stats.tiles;
+  }
+  CDSM_GL(glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT));
+  ++stats.flushes;
+  ShadowBackend::GlBatch batch;
+  batch.parts = parts.data();
+  batch.n = parts.size();
+  batch.offsets_buffer = offsets.id();
+  batch.offsets_bytes = offsets.capacity();
+  batch.offsets_generation = offsets_generation;
+  batch.total_at = n;
+  batch.pool_buffer = pool.id();
+  batch.pool_bytes = pool.capacity();
+  batch.pool_generation = pool_generation;
+  batch.pool_fragments = pool_fragments;
+  sink(batch);
   if (context.debug()) verify_cursors_consumed(n);
 }
 
@@ -740,6 +815,16 @@ void FragmentRasterizer::rasterize(Span<const Job> jobs, FragmentBuffers* outs) 
 void FragmentRasterizer::rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink& sink,
                                    const OffsetsSink& offsets) {
   impl_->rasterize(jobs, outs, &sink, &offsets);
+}
+
+bool FragmentRasterizer::rasterize_unchecked(Span<const Job> jobs, FragmentBuffers* outs, uint64_t pool_fragments,
+                                             const BatchSink& sink) {
+  Impl& I = *impl_;
+  I.context.make_current();
+  if (pool_fragments > I.max_pool_bytes() / kFragmentBytes) return false;
+  if (pool_fragments > 0) I.ensure_pool(pool_fragments);
+  I.rasterize(jobs, outs, nullptr, nullptr, &sink);
+  return true;
 }
 
 void FragmentRasterizer::set_release_hook(std::function<void(uint32_t)> hook) { impl_->release_hook = std::move(hook); }

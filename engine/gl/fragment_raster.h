@@ -178,6 +178,14 @@ class FragmentRasterizer {
   // still reads each batch's offsets once: they size the pool and its
   // fillings.)
   void rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink& sink, const OffsetsSink& offsets);
+  // rasterize(jobs, outs) with nothing read back (lists_from_gl_unchecked):
+  // each batch counted, scanned and filled into a pool of at least
+  // `pool_fragments` fragments (grown to it), which holds the batch's first
+  // fragments up to its size and no more, then handed to `sink` where GL
+  // left it. outs[i] gets only its size. False, with nothing done, when no
+  // pool can be that large (max_pool_bytes).
+  using BatchSink = ShadowBackend::GlBatchSink;
+  bool rasterize_unchecked(Span<const Job> jobs, FragmentBuffers* outs, uint64_t pool_fragments, const BatchSink& sink);
   // Called with a buffer's name before this rasterizer deletes or replaces
   // it (a sink that registered it with CUDA lets go of it then): the pool
   // and the offsets buffer.

@@ -1,5 +1,7 @@
 #include "fragment_source.h"
 
+#include <algorithm>
+
 #include <stdexcept>
 #include <vector>
 
@@ -205,6 +207,19 @@ FragmentProducer FragmentSourceSelector::producer(const SceneBuffers& sb) const 
       // the host reads each batch's offsets once (to size the pool) and
       // sends nothing.
       if (backend.can_write_gl_maps()) {
+        // Light views: nothing read at all, their counts checked by the
+        // build (lists_from_gl_unchecked), once the backend has a count of
+        // each slot to guess from.
+        const bool unchecked = std::all_of(requests, requests + n, [](const ListsRequest& q) { return q.unchecked; });
+        std::vector<uint64_t> pixels(n);
+        for (size_t i = 0; i < n; ++i) pixels[i] = uint64_t(requests[i].view.width) * uint64_t(requests[i].view.height);
+        if (unchecked && backend.lists_from_gl_unchecked(
+                             n, pixels.data(),
+                             [&](uint64_t pool, const ShadowBackend::GlBatchSink& sink, FragmentBuffers* outs) {
+                               return r->rasterize_unchecked({jobs.data(), n}, outs, pool, sink);
+                             },
+                             ids))
+          return;
         backend.lists_from_gl(
             n,
             [&](const ShadowBackend::GlTileSink& tiles, const ShadowBackend::GlOffsetsSink& offsets,

@@ -2,6 +2,7 @@
 // matched against the cache by key, the missing ones built, replaced ones
 // freed or kept a frame; and the lookup over a frame's maps.
 #include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <map>
 #include <unordered_map>
@@ -243,6 +244,8 @@ void build_missing(const FrameInputs& in, const FragmentProducer& produce, Shado
     // groups whose lists stay under kBuildGroupListBytes.
     std::vector<ShadowBackend::MapBuild> group;
     std::vector<size_t> group_maps;              // their k
+    std::vector<ObjectMask> group_masks;         // their objects
+    std::vector<size_t> group_kept;              // their lists' copy in `kept`, or none (SIZE_MAX)
     std::vector<std::vector<uint32_t>> insides;  // each build's objects containing its light
     uint64_t group_bytes = 0;
     const auto flush = [&] {
@@ -250,7 +253,34 @@ void build_missing(const FrameInputs& in, const FragmentProducer& produce, Shado
       const auto t0 = Clock::now();
       std::vector<MapId> ids(group.size());
       std::vector<DsmBuildStats> stats(group.size());
-      backend.build_maps(group.data(), group.size(), layout, ids.data(), stats.data());
+      try {
+        backend.build_maps(group.data(), group.size(), layout, ids.data(), stats.data());
+      } catch (const ListsShortError& e) {
+        // Lists made into guessed capacities (ShadowBackend::
+        // lists_from_gl_unchecked) that did not fit: made again, counted
+        // on the host (and their kept copies with them), then built again.
+        for (const ListsId bad : e.lists) {
+          const size_t g = size_t(std::find_if(group.begin(), group.end(),
+                                               [&](const ShadowBackend::MapBuild& b) { return b.lists == bad; }) -
+                                  group.begin());
+          CDSM_CHECK(g < group.size(), "build_maps: short lists that are not the group's");
+          const ListsRequest again{frame.setup.maps[group_maps[g]].view, group_masks[g], false};
+          ListsId fresh = 0;
+          produce(backend, &again, 1, &fresh);
+          reading.push_back(fresh);
+          reading.erase(std::find(reading.begin(), reading.end(), bad));
+          backend.free_lists(bad);
+          group[g].lists = fresh;
+          if (group_kept[g] != SIZE_MAX) {
+            backend.free_lists(kept[group_kept[g]].lists);
+            kept[group_kept[g]].lists = backend.copy_lists(fresh);
+          }
+          ++frame.fragment_lists_redone;
+        }
+        backend.build_maps(group.data(), group.size(), layout, ids.data(), stats.data());
+      }
+      // (the counts of lists made unchecked came with the build's read)
+      for (const ShadowBackend::MapBuild& g : group) frame.fragments += backend.lists_fragments(g.lists);
       for (size_t i = 0; i < group.size(); ++i) {
         next[group_maps[i]].id = ids[i];
         next[group_maps[i]].stats = stats[i];
@@ -264,6 +294,8 @@ void build_missing(const FrameInputs& in, const FragmentProducer& produce, Shado
       if (in.maps_built) in.maps_built->fetch_add(uint32_t(group.size()));
       group.clear();
       group_maps.clear();
+      group_masks.clear();
+      group_kept.clear();
       insides.clear();
       group_bytes = 0;
     };
@@ -301,7 +333,7 @@ void build_missing(const FrameInputs& in, const FragmentProducer& produce, Shado
         const uint64_t p = uint64_t(plan.view.width) * uint64_t(plan.view.height);
         if (!requests.empty() && pixels + p > kProduceBatchPixels) break;
         pixels += p;
-        requests.push_back({plan.view, ObjectMask{{words[t1].data(), words[t1].size()}}});
+        requests.push_back({plan.view, ObjectMask{{words[t1].data(), words[t1].size()}}, true});
       }
       auto t_start = Clock::now();
       produced.assign(requests.size(), 0);
@@ -316,15 +348,18 @@ void build_missing(const FrameInputs& in, const FragmentProducer& produce, Shado
         // The lists the build reads (and sorts in place): a copy of kept
         // lists, or new ones of which a copy is kept — on the backend.
         ListsId lists;
+        size_t kept_at = SIZE_MAX;
         if (from_cache[t]) {
           reading.push_back(backend.copy_lists(from_cache[t]->lists));
           lists = reading.back();
           ++frame.fragment_lists_reused;
         } else {
           lists = produced[next_produced++];
-          if (in.keep_fragments) kept.push_back({fragment_key(plan, in), backend.copy_lists(lists), false});
+          if (in.keep_fragments) {
+            kept_at = kept.size();
+            kept.push_back({fragment_key(plan, in), backend.copy_lists(lists), false});
+          }
         }
-        frame.fragments += backend.lists_fragments(lists);
         insides.push_back(objects_containing(sv, plan.view.eye, mask));
         LightPassParams lp{
             plan.view, s.epsilon, {insides.back().data(), insides.back().size()}, s.method, s.method_param};
@@ -340,6 +375,8 @@ void build_missing(const FrameInputs& in, const FragmentProducer& produce, Shado
         lp.blocker_pyramid = wants_pyramid(frame.setup.lights[plan.light], s);
         group.push_back({lp, lists});
         group_maps.push_back(k);
+        group_masks.push_back(mask);
+        group_kept.push_back(kept_at);
         group_bytes += backend.lists_bytes(lists);
         if (group_bytes >= kBuildGroupListBytes) flush();
       }

@@ -30,6 +30,11 @@ namespace cdsm {
 struct ListsRequest {
   PinholeView view;
   ObjectMask mask;
+  // The lists may be made without the host reading their count (GL lists
+  // into a backend on the GL context's device:
+  // ShadowBackend::lists_from_gl_unchecked), checked by the build that
+  // reads them (ListsShortError) — a light view's, not the camera's.
+  bool unchecked = false;
 };
 // Produces the fragment lists of `n` views into `backend`, ids[i] view i's
 // (held there until the caller frees them); all or nothing. Views produced
@@ -175,6 +180,7 @@ struct ShadowFrame {
   bool previous_kept = false;  // the last frame's maps are all still stored (popping probe)
   double fragments_ms = 0.0;
   uint32_t fragment_lists_reused = 0;  // rebuilt maps whose lists came from MapCache::fragments
+  uint32_t fragment_lists_redone = 0;  // lists made again: made unchecked, they did not fit their guess
   uint64_t fragment_cache_bytes = 0;   // MapCache::fragments after this frame
   double build_ms = 0.0;
   double cluster_ms = 0.0;

@@ -203,6 +203,7 @@ void ShadowSystem::Impl::build_maps(FrameStats& st) {
     frame.fragments_ms = frame.build_ms = frame.cluster_ms = 0.0;
     frame.fragments = 0;
     frame.fragment_lists_reused = 0;
+    frame.fragment_lists_redone = 0;
   }
   st.fragment_source = fragment_name;
   st.fragment_source_reason = fragment_reason;
@@ -212,6 +213,7 @@ void ShadowSystem::Impl::build_maps(FrameStats& st) {
   st.maps_reused = frame.reused;
   st.update.maps_freed = frame.freed;
   st.update.fragment_lists_reused = frame.fragment_lists_reused;
+  st.update.fragment_lists_redone = frame.fragment_lists_redone;
   st.update.fragment_cache_bytes = frame.fragment_cache_bytes;
   st.update.rebuilds = frame.rebuilds;
   for (const MapRebuild& r : frame.rebuilds) ++st.update.rebuilt_by_reason[int(r.reason)];

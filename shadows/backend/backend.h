@@ -255,6 +255,55 @@ class ShadowBackend {
                            " backend: lists_from_gl is not supported (can_write_gl_maps is false)");
   }
 
+  // A view's part of a batch the GL rasterizer left on the GPU for
+  // lists_from_gl_unchecked: pixels [first, first + count) of view `view`,
+  // whose offsets are values [at, at + count] of the batch's offsets buffer
+  // (batch offsets: the part's fragments are pool fragments [offsets[at],
+  // offsets[at + count]), where the pool holds them).
+  struct GlPart {
+    uint32_t view = 0;
+    uint64_t first = 0;
+    uint64_t count = 0;
+    uint64_t at = 0;
+  };
+  // A batch left in two GL buffers (current context; a generation new with
+  // each new buffer object): the scanned offsets (uint32, the batch's total
+  // at `total_at`, the scan's carry flag after it) and the fragment pool,
+  // which holds the batch's first `pool_fragments` fragments (a fill writes
+  // no fragment past them). The host read neither.
+  struct GlBatch {
+    const GlPart* parts = nullptr;
+    size_t n = 0;
+    uint32_t offsets_buffer = 0;
+    uint64_t offsets_bytes = 0, offsets_generation = 0, total_at = 0;
+    uint32_t pool_buffer = 0;
+    uint64_t pool_bytes = 0, pool_generation = 0, pool_fragments = 0;
+  };
+  using GlBatchSink = std::function<void(const GlBatch& batch)>;
+  // Runs the rasterizer with a pool of at least `pool_fragments` fragments,
+  // handing each batch to the sink (taken on the device before it returns)
+  // and each view's size to outs[v]; false when the pool cannot be that
+  // large (nothing rasterized).
+  using GlRasterizeUnchecked =
+      std::function<bool(uint64_t pool_fragments, const GlBatchSink& batches, FragmentBuffers* outs)>;
+  // lists_from_gl without the host reading a count: each view's lists go
+  // into fragment arrays of a capacity guessed from the counts of earlier
+  // frames, re-based and copied on the device within the capacities (the
+  // GL pool's and the lists'), the true count kept on the device. Whether
+  // they fit is read with the next build_maps' counters (one read for the
+  // frame): lists that did not are reported by ListsShortError, and are
+  // made again with lists_from_gl. False (nothing made) where the backend
+  // has no guess yet (its first frame, a new batch shape) or cannot.
+  // `pixels[v]` is view v's width * height.
+  virtual bool lists_from_gl_unchecked(size_t views, const uint64_t* pixels, const GlRasterizeUnchecked& rasterize,
+                                       ListsId* ids) {
+    (void)views;
+    (void)pixels;
+    (void)rasterize;
+    (void)ids;
+    return false;
+  }
+
   // Builds one map from the light-view fragment lists `lists` (sorted in
   // place, still held afterwards) and keeps it; its stats (in its layout)
   // go to `stats`.
@@ -367,6 +416,21 @@ class ShadowBackend {
   // each way, host synchronizations, allocations, launches), counted alike
   // on the device and on CPU threads (FrameStats::counters, ::update).
   virtual exec::ExecCounters take_counters() = 0;
+};
+
+// build_maps found lists made by lists_from_gl_unchecked that did not fit
+// their capacities (a frame with more fragments than the guess): no map was
+// kept; `lists` are those ids, `fragments` their true counts (each ids'
+// lists stay held, to be freed and made again).
+class ListsShortError : public std::runtime_error {
+ public:
+  ListsShortError(std::vector<ListsId> lists, std::vector<uint64_t> fragments)
+      : std::runtime_error(std::to_string(lists.size()) +
+                           " view(s)' fragment lists did not fit the capacity guessed for them"),
+        lists(std::move(lists)),
+        fragments(std::move(fragments)) {}
+  std::vector<ListsId> lists;
+  std::vector<uint64_t> fragments;
 };
 
 // Host lists handed to `backend` for one build (adopt_lists, build_map,

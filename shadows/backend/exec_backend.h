@@ -27,6 +27,7 @@
 #pragma once
 
 #include <algorithm>
+#include <map>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -73,6 +74,9 @@ class ExecBackend final : public ExecShadowBackend {
 
   const char* name() const override { return name_; }
   Ex& executor() { return ex_; }
+  // Per batch slot, the count lists_from_gl_unchecked guesses from (tests
+  // shrink them to see a frame's lists made again).
+  std::map<uint64_t, uint64_t>& gl_guesses() { return gl_guess_; }
 
   // The scene's arrays into executor memory (on CPU threads too: the same
   // code, counted as copies): ExecSceneStore::update.
@@ -108,7 +112,9 @@ class ExecBackend final : public ExecShadowBackend {
       if (p.rgb && p.method != ShadowMethod::Dsm)
         throw std::invalid_argument("build_map: the baselines are grey (no RGB maps)");
       in[i].params = p;
-      in[i].frags = lists_.held(builds[i].lists, "build_map").lists();
+      auto& held = lists_.held(builds[i].lists, "build_map");
+      in[i].frags = held.lists();
+      if (!held.checked) in[i].lists_status = held.status.data();
       inside.insert(inside.end(), p.inside.begin(), p.inside.end());
     }
     // The few ids of objects containing each light, over device memory,
@@ -122,13 +128,38 @@ class ExecBackend final : public ExecShadowBackend {
       }
     }
     std::vector<DsmMap> maps(n);
+    std::vector<uint64_t> counts(n, 0);
     const StoreMark grey = mark(grey_), rgb = mark(rgb_);
+    bool fit = true;
     try {
-      build_maps_exec(ex_, scene_view(), in.data(), n, layout, options_, grey_, rgb_, scratch_, maps.data(), stats);
+      fit = build_maps_exec(ex_, scene_view(), in.data(), n, layout, options_, grey_, rgb_, scratch_, maps.data(),
+                            stats, counts.data());
     } catch (...) {
       cut_back(grey_, grey);
       cut_back(rgb_, rgb);
       throw;
+    }
+    // Unchecked lists' counts came with the build's read: each is checked
+    // now, its count the next guess of its slot; lists that did not fit
+    // leave nothing built.
+    std::vector<ListsId> short_ids;
+    std::vector<uint64_t> short_counts;
+    for (size_t i = 0; i < n; ++i) {
+      if (!in[i].lists_status) continue;
+      auto& held = lists_.held(builds[i].lists, "build_map");
+      gl_guess_[held.guess_key] = counts[i];
+      if (counts[i] > held.fragments.size()) {
+        short_ids.push_back(builds[i].lists);
+        short_counts.push_back(counts[i]);
+      } else if (fit) {
+        held.fragments.resize(counts[i]);
+        held.checked = true;
+      }
+    }
+    if (!fit) {
+      cut_back(grey_, grey);
+      cut_back(rgb_, rgb);
+      throw ListsShortError(std::move(short_ids), std::move(short_counts));
     }
     give_back(grey_);
     give_back(rgb_);
@@ -335,9 +366,7 @@ class ExecBackend final : public ExecShadowBackend {
   ListsId adopt_lists(FragmentBuffers&& lists) override { return lists_.adopt(std::move(lists)); }
   ListsId copy_lists(ListsId id) override { return lists_.copy(id); }
   void free_lists(ListsId id) override { lists_.free(id); }
-  uint64_t lists_fragments(ListsId id) const override {
-    return lists_.held(id, "lists_fragments").lists().fragments.size();
-  }
+  uint64_t lists_fragments(ListsId id) const override { return checked_lists(id, "lists_fragments").count(); }
   uint64_t lists_bytes(ListsId id) const override { return lists_.bytes(lists_.held(id, "lists_bytes").lists()); }
 
   // Each batch's offsets buffer and each filled pool mapped (read-only) once:
@@ -399,6 +428,8 @@ class ExecBackend final : public ExecShadowBackend {
         ExecListStore<Ex>::check(out.width, out.height, h[v]->offsets.size(), h[v]->fragments.size(), "lists_from_gl");
         h[v]->width = out.width;
         h[v]->height = out.height;
+        gl_guess_[guess_key(v, uint64_t(out.width) * uint64_t(out.height))] =
+            h[v]->fragments.size();  // the next unchecked batch's guess
       }
       lists_.hold_all(h, ids);
     } else {
@@ -406,7 +437,84 @@ class ExecBackend final : public ExecShadowBackend {
     }
   }
 
-  void read_lists(ListsId id, FragmentBuffers& out) override { lists_.read(id, out); }
+  void read_lists(ListsId id, FragmentBuffers& out) override {
+    checked_lists(id, "read_lists");
+    lists_.read(id, out);
+  }
+
+  // Each batch's offsets buffer and pool mapped (read-only) once, each
+  // view's part re-based and copied on the executor (exec/scan.h
+  // take_gl_part) into lists of its slot's last count and a quarter more:
+  // nothing read, nothing sent.
+  bool lists_from_gl_unchecked(size_t views, const uint64_t* pixels, const GlRasterizeUnchecked& rasterize,
+                               ListsId* ids) override {
+    if constexpr (Ex::kGlInterop) {
+      CDSM_CHECK(ex_.gl_context_on_device(),
+                 std::string(name_) + " backend: lists_from_gl_unchecked needs the current GL context on its device");
+      std::vector<uint64_t> capacity(views);
+      uint64_t pool = 0;
+      for (size_t v = 0; v < views; ++v) {
+        const auto g = gl_guess_.find(guess_key(v, pixels[v]));
+        if (g == gl_guess_.end()) return false;  // no count of this slot yet: made checked once
+        capacity[v] = g->second + g->second / 4 + 256;
+        pool += capacity[v];
+      }
+      std::vector<std::unique_ptr<typename ExecListStore<Ex>::Held>> h(views);
+      for (size_t v = 0; v < views; ++v) {
+        h[v] = lists_.make(0, capacity[v]);
+        h[v]->fragments.resize_discard(capacity[v]);
+        h[v]->status.resize_discard(2);
+        ex_.fill_zero(h[v]->status.data(), 2 * sizeof(unsigned long long));
+        h[v]->checked = false;
+        h[v]->guess_key = guess_key(v, pixels[v]);
+      }
+      std::vector<FragmentBuffers> outs(views);
+      const bool made = rasterize(
+          pool,
+          [&](const GlBatch& b) {
+            for (size_t p = 0; p < b.n; ++p) {
+              const GlPart& q = b.parts[p];
+              CDSM_CHECK(q.view < views, "lists_from_gl_unchecked: a part of an unknown view");
+              const uint64_t pixels = uint64_t(outs[q.view].width) * uint64_t(outs[q.view].height);
+              if (h[q.view]->offsets.size() != pixels + 1) h[q.view]->offsets.resize_discard(pixels + 1);
+              if (q.first + q.count > pixels || (q.at + q.count + 1) * sizeof(uint32_t) > b.offsets_bytes ||
+                  (b.total_at + 2) * sizeof(uint32_t) > b.offsets_bytes ||
+                  b.pool_fragments * sizeof(Fragment) > b.pool_bytes)
+                throw std::out_of_range("lists_from_gl_unchecked: part [" + std::to_string(q.first) + ", " +
+                                        std::to_string(q.first + q.count) + ") of a view of " + std::to_string(pixels) +
+                                        " pixels, or past its GL buffers");
+            }
+            ex_.with_gl_source(1, b.offsets_buffer, b.offsets_bytes, b.offsets_generation, [&](const void* offs) {
+              ex_.with_gl_source(0, b.pool_buffer, b.pool_bytes, b.pool_generation, [&](const void* frags) {
+                for (size_t p = 0; p < b.n; ++p) {
+                  const GlPart& q = b.parts[p];
+                  auto& l = *h[q.view];
+                  exec::take_gl_part(ex_, static_cast<const uint32_t*>(offs), q.at, q.count, b.total_at,
+                                     static_cast<const Fragment*>(frags), b.pool_fragments, l.offsets.data(), q.first,
+                                     l.fragments.data(), l.fragments.size(), l.status.data());
+                }
+              });
+            });
+          },
+          outs.data());
+      if (!made) {
+        for (auto& l : h) lists_.give_back(std::move(l));
+        return false;
+      }
+      for (size_t v = 0; v < views; ++v) {
+        const uint64_t pixels = uint64_t(outs[v].width) * uint64_t(outs[v].height);
+        CDSM_CHECK(h[v]->offsets.size() == pixels + 1,
+                   "lists_from_gl_unchecked: view " + std::to_string(v) + "'s offsets did not all come");
+        h[v]->width = outs[v].width;
+        h[v]->height = outs[v].height;
+      }
+      lists_.hold_all(h, ids);
+      return true;
+    } else {
+      (void)views, (void)pixels, (void)rasterize, (void)ids;
+      return false;
+    }
+  }
 
   void read_map(MapId id, uint32_t cap, std::vector<uint32_t>& counts, std::vector<DsmNode>& nodes) override {
     const DsmMap m = map_header(id);
@@ -415,9 +523,27 @@ class ExecBackend final : public ExecShadowBackend {
   }
 
  private:
+  // The slot of the v-th view of a batch made together, of `pixels`
+  // pixels (most often the same light's map from frame to frame): its last
+  // count is the guess of lists_from_gl_unchecked.
+  static uint64_t guess_key(size_t v, uint64_t pixels) { return (uint64_t(v) << 40) ^ pixels; }
+  // Lists `id`, their count read from the executor (a synchronization) if
+  // still unchecked; throws ListsShortError when they did not fit.
+  typename ExecListStore<Ex>::Held& checked_lists(ListsId id, const char* what) const {
+    auto& held = lists_.held(id, what);
+    if (held.checked) return held;
+    std::vector<unsigned long long> st;
+    held.status.read(st);
+    gl_guess_[held.guess_key] = st[0];
+    if (st[1] != 0 || st[0] > held.fragments.size()) throw ListsShortError({id}, {st[0]});
+    held.fragments.resize(st[0]);
+    held.checked = true;
+    return held;
+  }
+
   // Lists `id`, which must cover the camera view.
   FragmentLists camera_lists(ListsId id, const CameraPassParams& params) const {
-    const FragmentLists l = lists_.held(id, "camera_pass").lists();
+    const FragmentLists l = checked_lists(id, "camera_pass").lists();
     if (l.width != params.view.width || l.height != params.view.height)
       throw std::invalid_argument("camera_pass: fragment lists of " + std::to_string(l.width) + "x" +
                                   std::to_string(l.height) + " pixels for a view of " +
@@ -668,6 +794,9 @@ class ExecBackend final : public ExecShadowBackend {
   Ex ex_;  // first: every array below holds a pointer to it
   ExecSceneStore<Ex> scene_;
   ExecListStore<Ex> lists_;
+  // Per batch slot (guess_key), the count of the lists it last made: the
+  // capacity lists_from_gl_unchecked guesses (updated by every count read).
+  mutable std::map<uint64_t, uint64_t> gl_guess_;
   KindStore<DsmNode, Ex> grey_;
   KindStore<DsmNodeRgb, Ex> rgb_;
   LightPassScratch<Ex> scratch_;

@@ -20,12 +20,22 @@ class ExecListStore {
  public:
   // One view's lists.
   struct Held {
-    explicit Held(Ex& ex) : offsets(ex), fragments(ex) {}
+    explicit Held(Ex& ex) : offsets(ex), fragments(ex), status(ex) {}
     int32_t width = 0, height = 0;
     bool on_host = false;
     FragmentBuffers host;
     ExecArray<uint32_t, Ex> offsets;
     ExecArray<Fragment, Ex> fragments;
+    // Lists made without the host reading their count
+    // (lists_from_gl_unchecked): `fragments` is their capacity, status[0]
+    // their true count and status[1] whether they did not fit, on the
+    // executor until a build reads them (then `checked`, and `fragments`
+    // cut to the count). `guess_key` names the batch slot they came from.
+    ExecArray<unsigned long long, Ex> status;
+    bool checked = true;
+    uint64_t guess_key = 0;
+    // The count once checked (the lists' own when never unchecked).
+    uint64_t count() const { return on_host ? host.fragments.size() : fragments.size(); }
     FragmentLists lists() {
       if (on_host) return host.lists();
       FragmentLists l;
@@ -55,7 +65,15 @@ class ExecListStore {
     h->width = h->height = 0;
     h->offsets.resize_discard(0);
     h->fragments.resize_discard(0);
+    h->checked = true;
+    h->guess_key = 0;
     return h;
+  }
+  // Lists made but not held (a hand-over that gave up) back to the spares.
+  void give_back(std::unique_ptr<Held> h) {
+    if (!h || h->on_host) return;
+    if (spares_.size() == kSpares) spares_.erase(spares_.begin());
+    spares_.push_back(std::move(h));
   }
   // hold() of each, ids[i] h[i]'s; all or nothing (the ones held are freed
   // when one fails).
@@ -120,6 +138,13 @@ class ExecListStore {
     if (from.offsets.size()) ex_.copy(h->offsets.data(), from.offsets.data(), from.offsets.size() * sizeof(uint32_t));
     if (from.fragments.size())
       ex_.copy(h->fragments.data(), from.fragments.data(), from.fragments.size() * sizeof(Fragment));
+    const Held& src = held(id, "copy_lists");
+    if (!src.checked) {  // a copy of lists not yet checked is checked by its own build
+      h->status.resize_discard(2);
+      ex_.copy(h->status.data(), src.status.data(), 2 * sizeof(unsigned long long));
+      h->checked = false;
+      h->guess_key = src.guess_key;
+    }
     return hold(std::move(h));
   }
 

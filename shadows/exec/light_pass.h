@@ -76,6 +76,11 @@ struct BuildCounters {
   uint32_t max_built_nodes;         // per texel, before the layout
   uint32_t max_extra_error_bits;    // float bits of the largest error re-compression added
   uint32_t walk[4];                 // WalkStats: enclosing, match, unmatched, lengthened
+  // The map's lists when unchecked (MapBuildInput::lists_status), copied in
+  // on the executor to come back with this read: their true count, and
+  // whether they did not fit.
+  unsigned long long lists_fragments;
+  unsigned long long lists_short;
 };
 
 // Per node kind (DsmNodeN<N>): the chunk slot, the bounded buffer and its
@@ -384,6 +389,10 @@ uint64_t build_blocker_pyramid(Ex& ex, KindStore<Node, Ex>& out, const DsmMap& m
 struct MapBuildInput {
   LightPassParams params;
   FragmentLists frags;
+  // Lists made without the host reading their count (exec/scan.h
+  // take_gl_part): their two status words on the executor; null when the
+  // count is known.
+  const unsigned long long* lists_status = nullptr;
 };
 
 // Where a map of the batch keeps its parts between the walk and its
@@ -732,12 +741,15 @@ DsmBuildStats place_map_exec(Ex& ex, const LightPassParams& params, const DsmLay
 // walked, every counter read in one download, every map placed (the steps
 // above). maps[i] and stats[i] are map i's header and stats. Throws on
 // bad options or a failed allocation or launch; the caller cuts the
-// stores back (ExecBackend::build_maps).
+// stores back (ExecBackend::build_maps). With unchecked lists
+// (MapBuildInput::lists_status) their status comes back with the same
+// read, into lists_fragments[i] (when not null); false, nothing placed,
+// when one did not fit (the caller cuts the stores back).
 template <class Ex>
-void build_maps_exec(Ex& ex, const SceneView& scene, const MapBuildInput* in, size_t n, const DsmLayoutParams& layout,
+bool build_maps_exec(Ex& ex, const SceneView& scene, const MapBuildInput* in, size_t n, const DsmLayoutParams& layout,
                      const LightPassOptions& opt, KindStore<DsmNode, Ex>& grey, KindStore<DsmNodeRgb, Ex>& rgb,
-                     LightPassScratch<Ex>& s, DsmMap* maps, DsmBuildStats* stats) {
-  if (n == 0) return;
+                     LightPassScratch<Ex>& s, DsmMap* maps, DsmBuildStats* stats, uint64_t* lists_fragments = nullptr) {
+  if (n == 0) return true;
   std::vector<BatchEntry> batch(n);
   uint64_t texels = 0, tiles = 0, guess[2] = {0, 0}, texels_of[2] = {0, 0};
   int last[2] = {-1, -1};
@@ -820,6 +832,9 @@ void build_maps_exec(Ex& ex, const SceneView& scene, const MapBuildInput* in, si
   size_t from = 0;  // the first map to walk (again)
   for (int round = 0;; ++round) {
     ex.fill_zero(s.counters.data() + from, (n - from) * sizeof(BuildCounters));
+    for (size_t i = from; i < n; ++i)
+      if (in[i].lists_status)
+        ex.copy(&s.counters.data()[i].lists_fragments, in[i].lists_status, 2 * sizeof(unsigned long long));
     for (size_t i = from; i < n; ++i) {
       BuildCounters* ctr = s.counters.data() + i;
       const BuildCounters* prev = batch[i].prev >= 0 ? s.counters.data() + batch[i].prev : nullptr;
@@ -829,6 +844,13 @@ void build_maps_exec(Ex& ex, const SceneView& scene, const MapBuildInput* in, si
         walk_map_exec(ex, scene, in[i].params, in[i].frags, layout, opt, grey, s, batch[i], ctr, prev);
     }
     ex.download(c.data(), s.counters.data(), n * sizeof(BuildCounters));  // 6. the one read
+    bool lists_short = false;
+    for (size_t i = from; i < n; ++i)
+      if (in[i].lists_status) {
+        if (lists_fragments) lists_fragments[i] = c[i].lists_fragments;
+        lists_short = lists_short || c[i].lists_short != 0;
+      }
+    if (lists_short) return false;
     size_t bad = n;
     for (size_t i = from; i < n && bad == n; ++i)
       if (walk_overflowed(c[i], capacity(i))) bad = i;
@@ -884,6 +906,7 @@ void build_maps_exec(Ex& ex, const SceneView& scene, const MapBuildInput* in, si
     else
       stats[i] = place_map_exec(ex, in[i].params, layout, grey, s, batch[i], c[i], maps[i]);
   }
+  return true;
 }
 
 }  // namespace cdsm::exec

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "exec/exec.h"
+#include "hd/fragment.h"
 
 namespace cdsm::exec {
 
@@ -72,6 +73,39 @@ template <class Ex>
 void shifted_copy(Ex& ex, const uint32_t* in, uint32_t* out, uint64_t n, uint32_t shift) {
   ex.parallel_for(
       "lists: offsets from GL", n, CDSM_LAMBDA(uint64_t i) { out[i] = in[i] + shift; });
+}
+
+// Lists made from a GL batch without the host reading a count
+// (ShadowBackend::lists_from_gl_unchecked): one part of a view, pixels
+// [first, first + count) whose batch offsets are src[at .. at + count],
+// appended on the executor to the view's lists — offsets `dst`, fragments
+// `frags` of `capacity` — after the fragments its earlier parts brought
+// (status[0], the view's true count so far). Offsets are clamped to the
+// capacity and a fragment is copied only from within the GL pool's first
+// `pool_fragments` and into the capacity, so lists that did not fit stay
+// within their arrays; status[1] says they did not fit (or the batch's scan
+// carried out of 32 bits: src[total_at + 1]). Three launches in stream
+// order; the host reads nothing.
+template <class Ex>
+void take_gl_part(Ex& ex, const uint32_t* src, uint64_t at, uint64_t count, uint64_t total_at, const Fragment* pool,
+                  uint64_t pool_fragments, uint32_t* dst, uint64_t first, Fragment* frags, uint64_t capacity,
+                  unsigned long long* status) {
+  ex.parallel_for(
+      "lists: offsets from GL", count + 1, CDSM_LAMBDA(uint64_t i) {
+        const uint64_t v = status[0] + uint64_t(src[at + i] - src[at]);
+        dst[first + i] = uint32_t(v < capacity ? v : capacity);
+      });
+  ex.parallel_for(
+      "lists: fragments from GL", capacity < pool_fragments ? capacity : pool_fragments, CDSM_LAMBDA(uint64_t k) {
+        const uint64_t from = uint64_t(src[at]) + k, to = status[0] + k;
+        if (from < uint64_t(src[at + count]) && from < pool_fragments && to < capacity) frags[to] = pool[from];
+      });
+  ex.parallel_for(
+      "lists: count from GL", 1, CDSM_LAMBDA(uint64_t) {
+        const uint64_t end = src[at + count];
+        status[0] += end - uint64_t(src[at]);
+        if (src[total_at + 1] != 0u || end > pool_fragments || status[0] > capacity) status[1] = 1ull;
+      });
 }
 
 }  // namespace cdsm::exec

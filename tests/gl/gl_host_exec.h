@@ -43,12 +43,12 @@ class GlHostExec : public exec::HostExec {
   }
   template <class F>
   void with_gl_source(int slot, unsigned name, uint64_t bytes, uint64_t generation, F&& f) {
-    (void)slot;
     see(name, generation);
     ++source_maps;
-    staging_.resize(bytes);
-    glGetNamedBufferSubData(name, 0, GLsizeiptr(bytes), staging_.data());
-    f(static_cast<const void*>(staging_.data()));
+    std::vector<unsigned char>& copy = source_[slot];  // both sources mapped at once (lists_from_gl_unchecked)
+    copy.resize(bytes);
+    glGetNamedBufferSubData(name, 0, GLsizeiptr(bytes), copy.data());
+    f(static_cast<const void*>(copy.data()));
   }
   void gl_buffer_released(unsigned name) noexcept {
     if (!glIsBuffer(name)) violations.push_back("buffer " + std::to_string(name) + " released after GL deleted it");
@@ -67,7 +67,8 @@ class GlHostExec : public exec::HostExec {
       violations.push_back("buffer " + std::to_string(name) + " used under a new generation, never released");
     known[name] = generation;
   }
-  std::vector<unsigned char> staging_;  // the mapped buffer's stand-in
+  std::vector<unsigned char> staging_;    // the mapped image buffer's stand-in
+  std::vector<unsigned char> source_[2];  // the rasterizer's pool's and offsets'
 };
 
 }  // namespace cdsm::test

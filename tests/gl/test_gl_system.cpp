@@ -697,12 +697,13 @@ TEST_F(GlSystem, GlListsHandedOverPoolByPoolEqualListsReadBack) {
 }
 
 // The exec backend's own GL hand-over (the cuda backend's lists_from_gl,
-// write_gl_maps and camera_pass_to_gl) run on CPU threads, each GL buffer
-// mapped where CUDA would map it (test GlHostExec): every frame's lists come
-// from the rasterizer's buffers without the host lists, the maps are written
-// into GL by the backend, and the image equals the cpu backend's from lists
-// read back, frame after frame (a first frame, the camera moved, a light
-// moved).
+// lists_from_gl_unchecked, write_gl_maps) run on CPU threads, each GL
+// buffer mapped where CUDA would map it (test GlHostExec), frame after
+// frame: a first frame (every light view's lists counted on the host once),
+// the camera moved, the spot moved (its lists made unchecked: no GL
+// read-back at all), the spot moved with every guess too small (its lists
+// made again, checked) — each image equal to the cpu backend's from lists
+// read back.
 exec::ExecBackend<test::GlHostExec>* use_gl_exec_backend(ShadowSystem& sys) {
   exec::ExecBackend<test::GlHostExec>* b = nullptr;
   SystemHooks::wrap_backend(sys, [&](std::unique_ptr<ShadowBackend>) {
@@ -722,18 +723,20 @@ TEST_F(GlSystem, ExecBackendsGlHandOverOnCpuThreadsEqualsListsReadBack) {
   ASSERT_TRUE(SystemHooks::backend(dev).can_write_gl_maps());
   sync_scene(host, scene);
   sync_scene(dev, scene);
-  for (int step = 0; step < 3; ++step) {
+  Light spot = scene.lights[0];
+  for (int step = 0; step < 4; ++step) {
     SCOPED_TRACE("step " + std::to_string(step));
     if (step == 1) {
       Camera c = scene.camera;
       c.position = c.position + Vec3{0.3f, 0.1f, 0.0f};
       host.set_camera(c);
       dev.set_camera(c);
-    } else if (step == 2) {
-      Light l = scene.lights[0];
-      l.position = l.position + Vec3{0.2f, 0.0f, 0.0f};
-      host.set_light(host.lights()[0], l);
-      dev.set_light(dev.lights()[0], l);
+    } else if (step >= 2) {
+      spot.position = spot.position + Vec3{0.2f, 0.0f, 0.0f};
+      host.set_light(host.lights()[0], spot);
+      dev.set_light(dev.lights()[0], spot);
+      if (step == 3)
+        for (auto& [slot, count] : b->gl_guesses()) count = 1;
     }
     FrameStats hs, ds;
     const uint64_t maps_before = b->executor().source_maps;
@@ -741,8 +744,19 @@ TEST_F(GlSystem, ExecBackendsGlHandOverOnCpuThreadsEqualsListsReadBack) {
     const Image got = dev.render(&ds);
     ASSERT_EQ(ds.fragment_source, "gl");
     EXPECT_EQ(ds.maps_rebuilt, hs.maps_rebuilt);
-    EXPECT_GT(b->executor().source_maps, maps_before) << "lists taken from the rasterizer's GL buffers";
     EXPECT_EQ(b->executor().violations, std::vector<std::string>{});
+    if (step == 0) {
+      EXPECT_EQ(ds.maps_rebuilt, 7u);
+      EXPECT_EQ(ds.counters.gl_readbacks, 1u) << "the light views' offsets, read once to count them";
+    }
+    if (step >= 2) {
+      EXPECT_EQ(ds.maps_rebuilt, 1u) << "the spot's map";
+      EXPECT_GT(b->executor().source_maps, maps_before) << "lists taken from the rasterizer's GL buffers";
+      EXPECT_EQ(ds.update.fragment_lists_redone, step == 3 ? 1u : 0u);
+      EXPECT_EQ(ds.counters.gl_readbacks, step == 3 ? 1u : 0u)
+          << (step == 2 ? "the spot's lists made unchecked: nothing read back"
+                        : "its guess too small: made again, its offsets read once");
+    }
     ASSERT_EQ(got.rgb.size(), want.rgb.size());
     EXPECT_EQ(std::memcmp(got.rgb.data(), want.rgb.data(), got.rgb.size() * sizeof(float)), 0);
   }

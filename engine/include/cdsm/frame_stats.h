@@ -195,6 +195,8 @@ struct UpdateStats {
   uint64_t gl_upload_bytes = 0;        // bytes uploaded to GL buffers (scene geometry)
   uint32_t maps_freed = 0;             // maps whose memory was released
   uint32_t fragment_lists_reused = 0;  // maps rebuilt from kept fragment lists (SystemOptions::keep_fragment_lists)
+  uint32_t fragment_lists_redone = 0;  // light views' GL lists made again: handed to the device without a count
+                                       // read, they had more fragments than the capacity guessed from earlier frames
   uint64_t fragment_cache_bytes = 0;   // the kept fragment lists, allocated
   uint32_t rebuilt_by_reason[kRebuildReasons] = {};  // maps_rebuilt split by RebuildReason
   std::vector<MapRebuild> rebuilds;                  // every rebuilt map and why
@@ -312,6 +314,7 @@ void for_each_stat(const UpdateStats& u, F&& f) {
   f("gl_upload_bytes", u.gl_upload_bytes);
   f("maps_freed", u.maps_freed);
   f("fragment_lists_reused", u.fragment_lists_reused);
+  f("fragment_lists_redone", u.fragment_lists_redone);
   f("fragment_cache_bytes", u.fragment_cache_bytes);
   f("map_store_bytes", u.map_store_bytes);
   f("map_live_bytes", u.map_live_bytes);
