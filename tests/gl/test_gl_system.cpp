@@ -762,6 +762,47 @@ TEST_F(GlSystem, ExecBackendsGlHandOverOnCpuThreadsEqualsListsReadBack) {
   }
 }
 
+// The engine's frame on the GL context's device, counted on CPU threads
+// (issue 45 item 6): after warm-up, an update() that rebuilds a light's maps
+// from GL lists waits for the backend once (the light pass's counter read,
+// which also says the lists fit), reads nothing back from GL and allocates
+// nothing, in the backend or in GL; an unchanged update() does nothing.
+TEST_F(GlSystem, AWarmRebuildFromGlListsWaitsOnceAndAllocatesNothing) {
+  Scene scene = load_scene(scene_path("teapot_omni.json"));
+  scene.shadows.resolution = 96;
+  ShadowSystem sys(app_options(FragmentSource::Gl));
+  exec::ExecBackend<test::GlHostExec>* b = use_gl_exec_backend(sys);
+  sync_scene(sys, scene);
+  Light omni = scene.lights[1];
+  FrameStats st;
+  sys.update(&st);
+  for (int frame = 0; frame < 8; ++frame) {
+    SCOPED_TRACE("frame " + std::to_string(frame));
+    omni.position = omni.position + Vec3{frame % 2 ? -0.01f : 0.01f, 0.0f, 0.0f};
+    sys.set_light(sys.lights()[1], omni);
+    st = FrameStats{};
+    sys.update(&st);
+    ASSERT_EQ(st.fragment_source, "gl");
+    ASSERT_EQ(st.maps_rebuilt, 6u) << "the omni light's six faces";
+    if (frame < 4) continue;  // warm-up: the faces' first unchecked lists made again, arrays grown
+    EXPECT_EQ(st.counters.host_syncs, 1u) << "the light pass's one read of its counters and the lists' status";
+    EXPECT_EQ(st.counters.gl_readbacks, 0u) << "no offsets read to size the lists";
+    EXPECT_EQ(st.counters.backend_allocations, 0u);
+    EXPECT_EQ(st.counters.gl_allocations, 0u);
+    EXPECT_EQ(st.update.fragment_lists_redone, 0u);
+    EXPECT_EQ(st.update.host_to_backend_bytes, 0u) << "the lists went GL -> backend on the device";
+    EXPECT_LE(st.update.backend_to_host_bytes, 6u * 128u) << "the six maps' counters, nothing else";
+  }
+  EXPECT_EQ(b->executor().violations, std::vector<std::string>{});
+  FrameStats same;
+  sys.update(&same);
+  EXPECT_EQ(same.maps_rebuilt, 0u);
+  EXPECT_EQ(same.counters.host_syncs, 0u);
+  EXPECT_EQ(same.counters.backend_allocations, 0u);
+  EXPECT_EQ(same.counters.gl_readbacks, 0u);
+  EXPECT_EQ(same.counters.launches, 0u);
+}
+
 // A frame's light views come back to the host in two GL reads (issue 45
 // item 2): every view counted and scanned together, their offsets read once
 // with the scan's overflow flag after them, every view filled into the
