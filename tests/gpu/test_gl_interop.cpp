@@ -7,6 +7,7 @@
 
 #include <cuda_runtime.h>
 
+#include <cmath>
 #include <cstring>
 #include <vector>
 
@@ -145,4 +146,51 @@ TEST_F(GlInterop, CudaCameraPassWritesAPixelBuffer) {
     EXPECT_EQ(std::memcmp(back.data(), img.rgb.data(), bytes), 0) << "pass " << pass;
   }
   glDeleteBuffers(1, &pbo);
+}
+
+// The engine's frame on the device (issue 45 item 2): GL fragment lists
+// taken into the cuda backend without the host reading a count
+// (lists_from_gl_unchecked). After warm-up, each frame that moves the omni
+// light rebuilds its six maps with no GL read-back, no allocation, one
+// wait (the light pass's counter read) and no lists made again; the image
+// then agrees with the cpu backend's from the same GL lists read back.
+TEST_F(GlInterop, CudaBackendTakesGlListsWithoutReadingACount) {
+  CDSM_REQUIRE_GL_ON_DEVICE();
+  SystemOptions o = cuda_on_app_context();
+  o.fragments = FragmentSource::Gl;
+  ShadowSystem dev(o);
+  o.backend = Backend::Cpu;
+  ShadowSystem host(o);
+  Scene scene = load_scene(std::string(CDSM_CONTENT_DIR_TEST) + "/scenes/teapot_omni.json");
+  scene.shadows.resolution = 128;
+  sync_scene(dev, scene);
+  sync_scene(host, scene);
+  FrameStats st;
+  dev.update(&st);
+  host.update();
+  ASSERT_EQ(st.backend, "cuda");
+  ASSERT_EQ(st.fragment_source, "gl");
+  Light omni = scene.lights[1];
+  for (int frame = 0; frame < 8; ++frame) {
+    SCOPED_TRACE("frame " + std::to_string(frame));
+    omni.position = omni.position + Vec3{frame % 2 ? -0.01f : 0.01f, 0.0f, 0.0f};
+    dev.set_light(dev.lights()[1], omni);
+    host.set_light(host.lights()[1], omni);
+    st = FrameStats{};
+    dev.update(&st);
+    host.update();
+    ASSERT_EQ(st.maps_rebuilt, 6u);
+    if (frame < 4) continue;
+    EXPECT_EQ(st.counters.gl_readbacks, 0u);
+    EXPECT_EQ(st.update.fragment_lists_redone, 0u);
+    EXPECT_EQ(st.counters.backend_allocations, 0u);
+    EXPECT_EQ(st.counters.host_syncs, 1u);
+    EXPECT_EQ(st.update.host_to_backend_bytes, 0u);
+  }
+  const Image a = dev.render(), b = host.render();
+  ASSERT_EQ(a.rgb.size(), b.rgb.size());
+  double sq = 0.0;
+  for (size_t i = 0; i < a.rgb.size(); ++i) sq += double(a.rgb[i] - b.rgb[i]) * double(a.rgb[i] - b.rgb[i]);
+  const double mse = sq / double(a.rgb.size());
+  EXPECT_TRUE(mse == 0.0 || 10.0 * std::log10(1.0 / mse) >= 50.0) << "PSNR " << 10.0 * std::log10(1.0 / mse) << " dB";
 }
