@@ -35,7 +35,9 @@
 // Batches: views rasterized together (rasterize(jobs, outs)) are counted
 // into one counter buffer, scanned once, read back once, filled one after
 // another into the pool and read back (or handed over) once — two waits on
-// the GL pipeline for a frame's light views instead of two per view.
+// the GL pipeline for a frame's light views instead of two per view; or,
+// handed over unchecked (rasterize_unchecked), counted, scanned and filled
+// into a pool of a guessed size with nothing read back at all.
 //
 // GL state: rasterize() binds its own framebuffer, program, vertex array,
 // buffers, viewport and scissor, and on return leaves framebuffer 0, program
@@ -175,8 +177,8 @@ class FragmentRasterizer {
   // rasterize(jobs, outs) handing the offsets to `offsets` and the
   // fragments to `sink`: outs[i] gets its size, outs[i].offsets only the
   // fragment count (one value), outs[i].fragments stays empty. (The host
-  // still reads each batch's offsets once: they size the pool and its
-  // fillings.)
+  // reads each batch's offsets once: they size the pool and its fillings;
+  // rasterize_unchecked reads nothing.)
   void rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink& sink, const OffsetsSink& offsets);
   // rasterize(jobs, outs) with nothing read back (lists_from_gl_unchecked):
   // each batch counted, scanned and filled into a pool of at least

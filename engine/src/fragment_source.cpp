@@ -204,8 +204,8 @@ FragmentProducer FragmentSourceSelector::producer(const SceneBuffers& sb) const 
       // The backend's memory is where this context's buffers live (the cuda
       // backend, CUDA-GL interop): every view rasterized together, each
       // batch's offsets and each filled pool copied there on the device;
-      // the host reads each batch's offsets once (to size the pool) and
-      // sends nothing.
+      // the host sends nothing, and reads each batch's offsets once (to
+      // size the pool) unless the lists may be made unchecked.
       if (backend.can_write_gl_maps()) {
         // Light views: nothing read at all, their counts checked by the
         // build (lists_from_gl_unchecked), once the backend has a count of
