@@ -5,6 +5,8 @@
 #include <random>
 
 #include "cdsm/error.h"
+#include "exec/host_exec.h"
+#include "exec/scan.h"
 #include "cdsm/procedural.h"
 #include "hd/fragment.h"
 #include "cluster/light_views.h"
@@ -367,6 +369,101 @@ TEST_F(FragmentRaster, ViewsRasterizedTogetherEqualViewsOneByOne) {
       EXPECT_GT(r.stats().flushes, r.stats().scans);
       EXPECT_EQ(read, uint64_t(r.stats().scans) + r.stats().flushes);
     }
+  }
+}
+
+// Views handed over unchecked (rasterize_unchecked, nothing read back),
+// taken as a device takes them (exec::take_gl_part over the GL buffers'
+// bytes, here on CPU threads) into lists of a given capacity: with room
+// enough, each view's lists equal the view rasterized alone (also with the
+// camera view in bands across batches); with the pool or a view's capacity
+// too small, the lists say they did not fit, their true count is still
+// right, and every offset stays within the arrays (monotone, at most the
+// capacity) so a build over them reads no memory past them.
+TEST_F(FragmentRaster, ViewsHandedOverUncheckedEqualViewsOneByOneOrSayTheyDidNotFit) {
+  TestScene s = closed_meshes_scene();
+  std::vector<gl::FragmentRasterizer::Job> jobs;
+  const PinholeView cam = look_at({0.5f, 2.5f, 6.5f}, {0, 0.6f, 0}, {0, 1, 0}, 50.0f, 96, 72, 0.1f, 50.0f);
+  jobs.push_back({cam, {}});
+  for (const PinholeView& f : cube_face_views({0.2f, 1.9f, 0.4f}, 40, 0.05f, 30.0f)) jobs.push_back({f, {}});
+  gl::FragmentRasterizer alone(context());
+  s.upload(alone);
+  std::vector<FragmentBuffers> want(jobs.size());
+  uint64_t total = 0;
+  for (size_t j = 0; j < jobs.size(); ++j) {
+    alone.rasterize(jobs[j].view, jobs[j].mask, want[j]);
+    total += want[j].total();
+  }
+  ASSERT_GT(want[0].total(), 1000u);
+
+  struct Case {
+    const char* what;
+    uint64_t band_pixels, pool, capacity_scale_percent;
+    bool fit;
+  };
+  for (const Case& c :
+       {Case{"room enough", 0, total, 100, true},
+        Case{"the camera view in bands across batches", 96 * 20, total, 100, true},
+        Case{"a pool too small", 0, total / 2, 100, false}, Case{"capacities too small", 96 * 20, total, 60, false}}) {
+    SCOPED_TRACE(c.what);
+    gl::RasterOptions o;
+    o.max_band_pixels = c.band_pixels;
+    o.initial_pool_bytes = 64;
+    gl::FragmentRasterizer r(context(), o);
+    s.upload(r);
+    exec::HostExec ex;
+    struct Lists {
+      std::vector<uint32_t> offsets;
+      std::vector<Fragment> fragments;
+      unsigned long long status[2] = {0, 0};
+    };
+    std::vector<Lists> got(jobs.size());
+    std::vector<FragmentBuffers> outs(jobs.size());
+    for (size_t j = 0; j < jobs.size(); ++j) got[j].fragments.resize(want[j].total() * c.capacity_scale_percent / 100);
+    uint64_t batches = 0;
+    std::vector<unsigned char> offs, pool;
+    const uint64_t reads = gl::thread_gl_counters().readbacks;
+    ASSERT_TRUE(
+        r.rasterize_unchecked({jobs.data(), jobs.size()}, outs.data(), c.pool, [&](const ShadowBackend::GlBatch& b) {
+          ++batches;
+          // (the device maps these buffers; the test reads their bytes)
+          offs.resize(b.offsets_bytes);
+          pool.resize(b.pool_bytes);
+          glGetNamedBufferSubData(b.offsets_buffer, 0, GLsizeiptr(b.offsets_bytes), offs.data());
+          glGetNamedBufferSubData(b.pool_buffer, 0, GLsizeiptr(b.pool_bytes), pool.data());
+          ASSERT_LE(b.pool_fragments * sizeof(Fragment), b.pool_bytes);
+          for (size_t p = 0; p < b.n; ++p) {
+            const ShadowBackend::GlPart& q = b.parts[p];
+            Lists& l = got[q.view];
+            l.offsets.resize(uint64_t(outs[q.view].width) * uint64_t(outs[q.view].height) + 1);
+            ASSERT_LE(q.first + q.count + 1, l.offsets.size());
+            exec::take_gl_part(ex, reinterpret_cast<const uint32_t*>(offs.data()), q.at, q.count, b.total_at,
+                               reinterpret_cast<const Fragment*>(pool.data()), b.pool_fragments, l.offsets.data(),
+                               q.first, l.fragments.data(), l.fragments.size(), l.status);
+          }
+        }));
+    EXPECT_EQ(gl::thread_gl_counters().readbacks - reads, 0u) << "the rasterizer read nothing back";
+    EXPECT_EQ(batches, uint64_t(r.stats().scans));
+    if (c.band_pixels) EXPECT_GT(batches, 1u);
+    bool any_short = false;
+    for (size_t j = 0; j < jobs.size(); ++j) {
+      SCOPED_TRACE("view " + std::to_string(j));
+      const Lists& l = got[j];
+      EXPECT_EQ(l.status[0], want[j].total()) << "the true count, fit or not";
+      ASSERT_EQ(l.offsets.size(), want[j].offsets.size());
+      EXPECT_EQ(l.offsets[0], 0u);
+      EXPECT_TRUE(std::is_sorted(l.offsets.begin(), l.offsets.end()));
+      EXPECT_LE(l.offsets.back(), l.fragments.size());
+      any_short = any_short || l.status[1] != 0;
+      if (l.status[1] != 0) continue;
+      FragmentBuffers fb;
+      fb.width = outs[j].width;
+      fb.height = outs[j].height;
+      fb.offsets = l.offsets;
+      fb.fragments.assign(l.fragments.begin(), l.fragments.begin() + l.offsets.back());
+      EXPECT_EQ(lists_differ(fb, want[j]), "");
+    }
+    EXPECT_EQ(any_short, !c.fit);
   }
 }
 
