@@ -129,11 +129,12 @@ class ExecBackend final : public ExecShadowBackend {
     }
     std::vector<DsmMap> maps(n);
     std::vector<uint64_t> counts(n, 0);
+    std::vector<uint8_t> short_lists(n, 0);
     const StoreMark grey = mark(grey_), rgb = mark(rgb_);
     bool fit = true;
     try {
       fit = build_maps_exec(ex_, scene_view(), in.data(), n, layout, options_, grey_, rgb_, scratch_, maps.data(),
-                            stats, counts.data());
+                            stats, counts.data(), short_lists.data());
     } catch (...) {
       cut_back(grey_, grey);
       cut_back(rgb_, rgb);
@@ -148,7 +149,7 @@ class ExecBackend final : public ExecShadowBackend {
       if (!in[i].lists_status) continue;
       auto& held = lists_.held(builds[i].lists, "build_map");
       gl_guess_[held.guess_key] = counts[i];
-      if (counts[i] > held.fragments.size()) {
+      if (short_lists[i] != 0) {  // more than its capacity, or past a GL pool that earlier views filled
         short_ids.push_back(builds[i].lists);
         short_counts.push_back(counts[i]);
       } else if (fit) {

@@ -743,12 +743,13 @@ DsmBuildStats place_map_exec(Ex& ex, const LightPassParams& params, const DsmLay
 // bad options or a failed allocation or launch; the caller cuts the
 // stores back (ExecBackend::build_maps). With unchecked lists
 // (MapBuildInput::lists_status) their status comes back with the same
-// read, into lists_fragments[i] (when not null); false, nothing placed,
-// when one did not fit (the caller cuts the stores back).
+// read, into lists_fragments[i] and lists_short[i] (when not null); false,
+// nothing placed, when one did not fit (the caller cuts the stores back).
 template <class Ex>
 bool build_maps_exec(Ex& ex, const SceneView& scene, const MapBuildInput* in, size_t n, const DsmLayoutParams& layout,
                      const LightPassOptions& opt, KindStore<DsmNode, Ex>& grey, KindStore<DsmNodeRgb, Ex>& rgb,
-                     LightPassScratch<Ex>& s, DsmMap* maps, DsmBuildStats* stats, uint64_t* lists_fragments = nullptr) {
+                     LightPassScratch<Ex>& s, DsmMap* maps, DsmBuildStats* stats, uint64_t* lists_fragments = nullptr,
+                     uint8_t* lists_short = nullptr) {
   if (n == 0) return true;
   std::vector<BatchEntry> batch(n);
   uint64_t texels = 0, tiles = 0, guess[2] = {0, 0}, texels_of[2] = {0, 0};
@@ -844,13 +845,14 @@ bool build_maps_exec(Ex& ex, const SceneView& scene, const MapBuildInput* in, si
         walk_map_exec(ex, scene, in[i].params, in[i].frags, layout, opt, grey, s, batch[i], ctr, prev);
     }
     ex.download(c.data(), s.counters.data(), n * sizeof(BuildCounters));  // 6. the one read
-    bool lists_short = false;
+    bool any_short = false;
     for (size_t i = from; i < n; ++i)
       if (in[i].lists_status) {
         if (lists_fragments) lists_fragments[i] = c[i].lists_fragments;
-        lists_short = lists_short || c[i].lists_short != 0;
+        if (lists_short) lists_short[i] = c[i].lists_short != 0 ? 1 : 0;
+        any_short = any_short || c[i].lists_short != 0;
       }
-    if (lists_short) return false;
+    if (any_short) return false;
     size_t bad = n;
     for (size_t i = from; i < n && bad == n; ++i)
       if (walk_overflowed(c[i], capacity(i))) bad = i;

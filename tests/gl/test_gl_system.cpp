@@ -803,6 +803,42 @@ TEST_F(GlSystem, AWarmRebuildFromGlListsWaitsOnceAndAllocatesNothing) {
   EXPECT_EQ(same.counters.launches, 0u);
 }
 
+// A batch whose pool (capped here at 64 KiB, 8192 fragments) holds less
+// than its views' fragments: with the first five faces' guesses far too
+// small, their fragments run past the pool and the sixth face loses its
+// own although its count is within its capacity. Every lists that did not
+// fit is made again (the sixth too, or its build would fail again), and
+// the image equals the cpu backend's from lists read back.
+TEST_F(GlSystem, ListsPastAGuessedPoolAreMadeAgainToo) {
+  Scene scene = load_scene(scene_path("teapot_omni.json"));
+  scene.shadows.resolution = 96;
+  ShadowSystem host(app_options(FragmentSource::Gl));
+  ShadowSystem dev(app_options(FragmentSource::Gl));
+  exec::ExecBackend<test::GlHostExec>* b = use_gl_exec_backend(dev);
+  SystemHooks::limit_fragment_pool(dev, 4096, 64 * 1024);
+  sync_scene(host, scene);
+  sync_scene(dev, scene);
+  dev.update();
+  host.update();
+  for (uint64_t v = 0; v < 5; ++v) {
+    const uint64_t slot = (v << 40) ^ uint64_t(96 * 96);  // face v's (ExecBackend's guess_key)
+    ASSERT_EQ(b->gl_guesses().count(slot), 1u) << "face " << v << "'s slot";
+    b->gl_guesses()[slot] = 1;
+  }
+  Light omni = scene.lights[1];
+  omni.position = omni.position + Vec3{0.01f, 0.0f, 0.0f};
+  dev.set_light(dev.lights()[1], omni);
+  host.set_light(host.lights()[1], omni);
+  FrameStats st;
+  const Image got = dev.render(&st);
+  const Image want = host.render();
+  EXPECT_EQ(st.maps_rebuilt, 6u);
+  EXPECT_GE(st.update.fragment_lists_redone, 1u);
+  EXPECT_EQ(b->executor().violations, std::vector<std::string>{});
+  ASSERT_EQ(got.rgb.size(), want.rgb.size());
+  EXPECT_EQ(std::memcmp(got.rgb.data(), want.rgb.data(), got.rgb.size() * sizeof(float)), 0);
+}
+
 // A frame's light views come back to the host in two GL reads (issue 45
 // item 2): every view counted and scanned together, their offsets read once
 // with the scan's overflow flag after them, every view filled into the
