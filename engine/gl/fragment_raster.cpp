@@ -414,6 +414,7 @@ struct FragmentRasterizer::Impl {
   void rasterize(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink, const OffsetsSink* offsets_sink,
                  const BatchSink* batch_sink = nullptr);
   void rasterize_batch_unchecked(Span<const Job> jobs, const BatchSink& sink, size_t b0, size_t b1, uint64_t n);
+  void count_and_scan(Span<const Job> jobs, size_t b0, size_t b1, uint64_t n);
   std::vector<ShadowBackend::GlPart> parts;  // a batch's, for the batch sink
   void rasterize_batch(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink,
                        const OffsetsSink* offsets_sink, size_t b0, size_t b1, uint64_t n);
@@ -506,10 +507,10 @@ void FragmentRasterizer::Impl::rasterize(Span<const Job> jobs, FragmentBuffers* 
   stats.gpu_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// Bands [b0, b1) (n counters in all): counted, scanned, read back once;
-// filled into the pool, which is handed on each time it is full.
-void FragmentRasterizer::Impl::rasterize_batch(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink,
-                                               const OffsetsSink* offsets_sink, size_t b0, size_t b1, uint64_t n) {
+// Bands [b0, b1) (n counters in all) counted into the counter buffer and
+// scanned into the offsets buffer, the scan's carry flag after the total
+// (offsets n + 1); nothing read.
+void FragmentRasterizer::Impl::count_and_scan(Span<const Job> jobs, size_t b0, size_t b1, uint64_t n) {
   counts.reserve(n * 4);
   if (offsets.capacity() < (n + 2) * 4) {  // a new buffer object: a sink that mapped the old one lets go first
     if (release_hook && offsets.id() != 0) release_hook(offsets.id());
@@ -529,11 +530,16 @@ void FragmentRasterizer::Impl::rasterize_batch(Span<const Job> jobs, FragmentBuf
     ++stats.bands;
   }
   sync("count");
-
-  // Prefix sum over the batch -> batch offsets and the overflow flag after
-  // them, read back in one read.
   scan.exclusive_scan(counts, offsets, n);
   scan.write_overflow_flag(offsets, n + 1);
+}
+
+// Bands [b0, b1) (n counters in all): counted, scanned, read back once;
+// filled into the pool, which is handed on each time it is full.
+void FragmentRasterizer::Impl::rasterize_batch(Span<const Job> jobs, FragmentBuffers* outs, const TileSink* sink,
+                                               const OffsetsSink* offsets_sink, size_t b0, size_t b1, uint64_t n) {
+  count_and_scan(jobs, b0, b1, n);
+  // The batch offsets and the overflow flag after them, in one read.
   batch_offsets.resize(n + 2);
   offsets.download(batch_offsets.data(), (n + 2) * 4);
   ++stats.scans;
@@ -637,34 +643,17 @@ void FragmentRasterizer::Impl::rasterize_batch(Span<const Job> jobs, FragmentBuf
 // view's bands as one part.
 void FragmentRasterizer::Impl::rasterize_batch_unchecked(Span<const Job> jobs, const BatchSink& sink, size_t b0,
                                                          size_t b1, uint64_t n) {
-  counts.reserve(n * 4);
-  if (offsets.capacity() < (n + 2) * 4) {  // a new buffer object: a sink that mapped the old one lets go first
-    if (release_hook && offsets.id() != 0) release_hook(offsets.id());
-    offsets.reserve((n + 2) * 4);
-    ++offsets_generation;
-  }
-  counts.clear(n * 4);
-  sync("clear");
+  count_and_scan(jobs, b0, b1, n);
+  ++stats.scans;
   parts.clear();
   for (size_t b = b0; b < b1; ++b) {
     const Band& band = bands[b];
-    draw_setup(jobs, band.job);
-    CDSM_GL(glProgramUniform1i(program.id(), kPass, 0));
-    CDSM_GL(glProgramUniform1i(program.id(), kRow0, band.r0));
-    CDSM_GL(glProgramUniform1ui(program.id(), kCountBase, GLuint(band.base)));
-    scissor(jobs[band.job].view.height, band.r0, band.r1, 0, jobs[band.job].view.width);
-    draw();
-    ++stats.bands;
     const uint64_t W = uint64_t(jobs[band.job].view.width), band_n = W * uint64_t(band.r1 - band.r0);
     if (!parts.empty() && parts.back().view == band.job)
       parts.back().count += band_n;
     else
       parts.push_back({band.job, uint64_t(band.r0) * W, band_n, band.base});
   }
-  sync("count");
-  scan.exclusive_scan(counts, offsets, n);
-  scan.write_overflow_flag(offsets, n + 1);
-  ++stats.scans;
   const uint64_t pool_fragments = std::min<uint64_t>(pool.capacity() / kFragmentBytes, 0xffffffffu);
   for (size_t b = b0; b < b1; ++b) {
     const Band& band = bands[b];
