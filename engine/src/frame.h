@@ -33,7 +33,8 @@ struct ListsRequest {
   // The lists may be made without the host reading their count (GL lists
   // into a backend on the GL context's device:
   // ShadowBackend::lists_from_gl_unchecked), checked by the build that
-  // reads them (ListsShortError) — a light view's, not the camera's.
+  // reads them (ListsShortError): the light views' and render()'s camera
+  // view's.
   bool unchecked = false;
 };
 // Produces the fragment lists of `n` views into `backend`, ids[i] view i's
@@ -42,9 +43,9 @@ struct ListsRequest {
 // scans and reads back once, fills every view, hands them over once).
 using FragmentProducer =
     std::function<void(ShadowBackend& backend, const ListsRequest* requests, size_t n, ListsId* ids)>;
-// One view's lists through `produce`.
-ListsId produce_lists(const FragmentProducer& produce, ShadowBackend& backend, const PinholeView& view,
-                      ObjectMask mask);
+// One view's lists through `produce` (ListsRequest::unchecked as given).
+ListsId produce_lists(const FragmentProducer& produce, ShadowBackend& backend, const PinholeView& view, ObjectMask mask,
+                      bool unchecked = false);
 // ids[i] = one(requests[i]) for each view in turn; all or nothing (the ones
 // made are freed when one fails).
 template <class One>

@@ -61,9 +61,9 @@ FragmentProducer cpu_fragment_producer(const SceneView& scene) {
   };
 }
 
-ListsId produce_lists(const FragmentProducer& produce, ShadowBackend& backend, const PinholeView& view,
-                      ObjectMask mask) {
-  const ListsRequest r{view, mask};
+ListsId produce_lists(const FragmentProducer& produce, ShadowBackend& backend, const PinholeView& view, ObjectMask mask,
+                      bool unchecked) {
+  const ListsRequest r{view, mask, unchecked};
   ListsId id = 0;
   produce(backend, &r, 1, &id);
   return id;

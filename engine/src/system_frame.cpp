@@ -288,6 +288,7 @@ Image ShadowSystem::render(FrameStats* stats) {
   I.require_host_meshes("render()");
   SystemGlScope gl_scope(I.gl.get(), &st.warnings);
   I.update(st);
+  const GlWork gl0 = thread_gl_work();  // render()'s own GL work: the camera's lists
   CameraPassParams& cam = I.cam;
   cam.view = camera_view(I.scene.camera);
   SceneView sv = I.sb.view();
@@ -299,21 +300,35 @@ Image ShadowSystem::render(FrameStats* stats) {
   if (I.has_camera_lists) I.backend->free_lists(I.camera_lists);
   I.has_camera_lists = false;
   I.camera_frags_read = false;
-  I.camera_lists = produce_lists(I.fragments.producer(I.sb), *I.backend, cam.view, ObjectMask{});
+  // (made unchecked where the backend can: the camera pass's one read says
+  // whether they fit, and lists that did not are made again, counted)
+  I.camera_lists = produce_lists(I.fragments.producer(I.sb), *I.backend, cam.view, ObjectMask{}, true);
   I.has_camera_lists = true;
   st.times.camera_fragments_ms = ms_since(t0);
   take_kernel_times(*I.backend, st.times, st.times.kernel_camera_fragments_ms, st.times.kernel_camera_fragments_ms);
-  st.camera_fragments = I.backend->lists_fragments(I.camera_lists);
   Image img;
   img.width = cam.view.width;
   img.height = cam.view.height;
   t0 = Clock::now();
   WalkStats ws;
   // (the backend reads its own store: no host view of it is fetched)
-  I.backend->camera_pass(I.frame.view(I.scene.shadows, /*with_storage=*/false), cam, I.camera_lists, img.rgb, ws);
+  const ShadowView shadows = I.frame.view(I.scene.shadows, /*with_storage=*/false);
+  try {
+    I.backend->camera_pass(shadows, cam, I.camera_lists, img.rgb, ws);
+  } catch (const ListsShortError&) {
+    I.backend->free_lists(I.camera_lists);
+    I.has_camera_lists = false;
+    I.camera_lists = produce_lists(I.fragments.producer(I.sb), *I.backend, cam.view, ObjectMask{}, false);
+    I.has_camera_lists = true;
+    ++st.update.fragment_lists_redone;
+    ws = WalkStats{};
+    I.backend->camera_pass(shadows, cam, I.camera_lists, img.rgb, ws);
+  }
+  st.camera_fragments = I.backend->lists_fragments(I.camera_lists);
   st.times.camera_ms = ms_since(t0);
   take_kernel_times(*I.backend, st.times, st.times.kernel_camera_ms, st.times.kernel_camera_ms);
   add_counters(*I.backend, st);
+  add_gl_work(st, gl0);
   add_walk(st, ws);
   if (st.march_lengthened > 0)
     st.warnings.push_back(I.scene.source + ": " + std::to_string(st.march_lengthened) +

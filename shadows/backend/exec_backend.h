@@ -27,6 +27,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cstring>
 #include <map>
 #include <memory>
 #include <stdexcept>
@@ -279,7 +280,7 @@ class ExecBackend final : public ExecShadowBackend {
     const FragmentLists frags = camera_lists(lists, params);
     const uint64_t n = uint64_t(params.view.width) * uint64_t(params.view.height);
     cam_rgb_.resize_discard(n * 3);
-    shade(shadows, params, frags, cam_rgb_.data(), walk);
+    shade(shadows, params, lists, frags, cam_rgb_.data(), walk);
     cam_rgb_.read(rgb);
   }
 
@@ -296,7 +297,7 @@ class ExecBackend final : public ExecShadowBackend {
         throw std::invalid_argument("camera_pass_to_gl: GL buffer of " + std::to_string(gl_buffer_bytes) +
                                     " bytes, the image needs " + std::to_string(bytes));
       ex_.with_gl_buffer(gl_buffer, gl_buffer_bytes, gl_buffer_generation,
-                         [&](void* p) { shade(shadows, params, frags, static_cast<float*>(p), walk); });
+                         [&](void* p) { shade(shadows, params, lists, frags, static_cast<float*>(p), walk); });
     } else {
       ShadowBackend::camera_pass_to_gl(shadows, params, lists, gl_buffer, gl_buffer_bytes, gl_buffer_generation, walk);
     }
@@ -542,9 +543,10 @@ class ExecBackend final : public ExecShadowBackend {
     return held;
   }
 
-  // Lists `id`, which must cover the camera view.
+  // Lists `id`, which must cover the camera view (unchecked ones are
+  // checked by the pass's read: shade).
   FragmentLists camera_lists(ListsId id, const CameraPassParams& params) const {
-    const FragmentLists l = checked_lists(id, "camera_pass").lists();
+    const FragmentLists l = lists_.held(id, "camera_pass").lists();
     if (l.width != params.view.width || l.height != params.view.height)
       throw std::invalid_argument("camera_pass: fragment lists of " + std::to_string(l.width) + "x" +
                                   std::to_string(l.height) + " pixels for a view of " +
@@ -552,10 +554,15 @@ class ExecBackend final : public ExecShadowBackend {
     return l;
   }
 
-  // The camera pass into `out` (executor memory: 3 floats per pixel).
-  void shade(const ShadowView& shadows, const CameraPassParams& params, FragmentLists frags, float* out,
+  // The camera pass into `out` (executor memory: 3 floats per pixel) over
+  // lists `id` (frags): its walk counters read once, with the lists' status
+  // when they are unchecked (ListsShortError when they did not fit: the
+  // image is then not the lists', and they are to be made again).
+  void shade(const ShadowView& shadows, const CameraPassParams& params, ListsId id, FragmentLists frags, float* out,
              WalkStats& walk) {
-    cam_walk_.resize_discard(4);
+    auto& held = lists_.held(id, "camera_pass");
+    cam_walk_.resize_discard(8);  // 4 walk counters, then the lists' 2 status words
+    static_assert(sizeof(unsigned long long) == 2 * sizeof(uint32_t), "status words after the walk counters");
     ex_.fill_zero(cam_walk_.data(), cam_walk_.bytes());
     // The pass's small inputs in executor memory: over host memory, as they
     // are (the lists are the executor's already).
@@ -571,12 +578,21 @@ class ExecBackend final : public ExecShadowBackend {
       cp.inside = cam_inside_.cspan();
     }
     shade_pixels(ex_, scene_view(), sv, cp, frags, out, cam_walk_.data());
-    uint32_t w[4];
-    ex_.download(w, cam_walk_.data(), sizeof w);
+    if (!held.checked) ex_.copy(cam_walk_.data() + 4, held.status.data(), 2 * sizeof(unsigned long long));
+    uint32_t w[8];
+    ex_.download(w, cam_walk_.data(), held.checked ? 4 * sizeof(uint32_t) : sizeof w);
     walk.enclosing_overflow += w[0];
     walk.match_overflow += w[1];
     walk.unmatched += w[2];
     walk.march_lengthened += w[3];
+    if (!held.checked) {
+      unsigned long long st[2];
+      std::memcpy(st, w + 4, sizeof st);
+      gl_guess_[held.guess_key] = st[0];
+      if (st[1] != 0) throw ListsShortError({id}, {st[0]});
+      held.fragments.resize(st[0]);
+      held.checked = true;
+    }
   }
 
   static bool same_layout(const DsmLayoutParams& a, const DsmLayoutParams& b) {

@@ -699,11 +699,11 @@ TEST_F(GlSystem, GlListsHandedOverPoolByPoolEqualListsReadBack) {
 // The exec backend's own GL hand-over (the cuda backend's lists_from_gl,
 // lists_from_gl_unchecked, write_gl_maps) run on CPU threads, each GL
 // buffer mapped where CUDA would map it (test GlHostExec), frame after
-// frame: a first frame (every light view's lists counted on the host once),
-// the camera moved, the spot moved (its lists made unchecked: no GL
-// read-back at all), the spot moved with every guess too small (its lists
-// made again, checked) — each image equal to the cpu backend's from lists
-// read back.
+// frame: a first frame (every light view's lists and the camera's counted
+// on the host once), the camera moved (its lists made unchecked), the spot
+// moved (its lists and the camera's made unchecked: no GL read-back at
+// all), the spot moved with every guess too small (both made again,
+// checked) — each image equal to the cpu backend's from lists read back.
 exec::ExecBackend<test::GlHostExec>* use_gl_exec_backend(ShadowSystem& sys) {
   exec::ExecBackend<test::GlHostExec>* b = nullptr;
   SystemHooks::wrap_backend(sys, [&](std::unique_ptr<ShadowBackend>) {
@@ -745,17 +745,19 @@ TEST_F(GlSystem, ExecBackendsGlHandOverOnCpuThreadsEqualsListsReadBack) {
     ASSERT_EQ(ds.fragment_source, "gl");
     EXPECT_EQ(ds.maps_rebuilt, hs.maps_rebuilt);
     EXPECT_EQ(b->executor().violations, std::vector<std::string>{});
+    EXPECT_GT(b->executor().source_maps, maps_before) << "lists taken from the rasterizer's GL buffers";
     if (step == 0) {
       EXPECT_EQ(ds.maps_rebuilt, 7u);
-      EXPECT_EQ(ds.counters.gl_readbacks, 1u) << "the light views' offsets, read once to count them";
-    }
-    if (step >= 2) {
+      EXPECT_EQ(ds.counters.gl_readbacks, 2u) << "the light views' offsets and the camera's, read once to count them";
+    } else if (step == 1) {
+      EXPECT_EQ(ds.maps_rebuilt, 0u);
+      EXPECT_EQ(ds.counters.gl_readbacks, 0u) << "the camera's lists made unchecked";
+    } else {
       EXPECT_EQ(ds.maps_rebuilt, 1u) << "the spot's map";
-      EXPECT_GT(b->executor().source_maps, maps_before) << "lists taken from the rasterizer's GL buffers";
-      EXPECT_EQ(ds.update.fragment_lists_redone, step == 3 ? 1u : 0u);
-      EXPECT_EQ(ds.counters.gl_readbacks, step == 3 ? 1u : 0u)
-          << (step == 2 ? "the spot's lists made unchecked: nothing read back"
-                        : "its guess too small: made again, its offsets read once");
+      EXPECT_EQ(ds.update.fragment_lists_redone, step == 3 ? 2u : 0u);
+      EXPECT_EQ(ds.counters.gl_readbacks, step == 3 ? 2u : 0u)
+          << (step == 2 ? "the spot's and the camera's lists made unchecked: nothing read back"
+                        : "their guesses too small: made again, each one's offsets read once");
     }
     ASSERT_EQ(got.rgb.size(), want.rgb.size());
     EXPECT_EQ(std::memcmp(got.rgb.data(), want.rgb.data(), got.rgb.size() * sizeof(float)), 0);
