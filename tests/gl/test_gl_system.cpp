@@ -841,6 +841,49 @@ TEST_F(GlSystem, ListsPastAGuessedPoolAreMadeAgainToo) {
   EXPECT_EQ(std::memcmp(got.rgb.data(), want.rgb.data(), got.rgb.size() * sizeof(float)), 0);
 }
 
+// Kept fragment lists (SystemOptions::keep_fragment_lists, the editor's
+// ε edits) over unchecked GL lists: the copies kept carry their lists'
+// status, a rebuild from them checks it, and copies of lists that did not
+// fit are replaced by copies of the lists made again — every image equal
+// to the cpu backend's from lists read back.
+TEST_F(GlSystem, KeptListsOfUncheckedGlListsRebuildAsTheirLists) {
+  Scene scene = load_scene(scene_path("teapot_omni.json"));
+  scene.shadows.resolution = 96;
+  SystemOptions o = app_options(FragmentSource::Gl);
+  o.keep_fragment_lists = true;
+  ShadowSystem host(o);
+  ShadowSystem dev(o);
+  exec::ExecBackend<test::GlHostExec>* b = use_gl_exec_backend(dev);
+  sync_scene(host, scene);
+  sync_scene(dev, scene);
+  Light spot = scene.lights[0];
+  ShadowSettings settings = scene.shadows;
+  for (int step = 0; step < 5; ++step) {
+    SCOPED_TRACE("step " + std::to_string(step));
+    if (step == 1 || step == 3) {  // the spot moved (at 3 with every guess too small)
+      spot.position = spot.position + Vec3{0.2f, 0.0f, 0.0f};
+      host.set_light(host.lights()[0], spot);
+      dev.set_light(dev.lights()[0], spot);
+      if (step == 3)
+        for (auto& [slot, count] : b->gl_guesses()) count = 1;
+    } else if (step == 2 || step == 4) {  // ε changed: every map rebuilt from its kept lists
+      settings.epsilon *= 0.5f;
+      host.set_settings(settings);
+      dev.set_settings(settings);
+    }
+    FrameStats hs, ds;
+    const Image want = host.render(&hs);
+    const Image got = dev.render(&ds);
+    EXPECT_EQ(ds.maps_rebuilt, hs.maps_rebuilt);
+    if (step == 2 || step == 4) EXPECT_EQ(ds.update.fragment_lists_reused, 7u) << "every map from its kept lists";
+    if (step == 3) EXPECT_GE(ds.update.fragment_lists_redone, 1u);
+    if (step == 4) EXPECT_EQ(ds.update.fragment_lists_redone, 0u) << "the kept copies were replaced at step 3";
+    EXPECT_EQ(b->executor().violations, std::vector<std::string>{});
+    ASSERT_EQ(got.rgb.size(), want.rgb.size());
+    EXPECT_EQ(std::memcmp(got.rgb.data(), want.rgb.data(), got.rgb.size() * sizeof(float)), 0);
+  }
+}
+
 // A frame's light views come back to the host in two GL reads (issue 45
 // item 2): every view counted and scanned together, their offsets read once
 // with the scan's overflow flag after them, every view filled into the
