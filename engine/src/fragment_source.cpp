@@ -211,17 +211,19 @@ FragmentProducer FragmentSourceSelector::producer(const SceneBuffers& sb) const 
         // build (lists_from_gl_unchecked), once the backend has a count of
         // each slot to guess from.
         const bool unchecked = std::all_of(requests, requests + n, [](const ListsRequest& q) { return q.unchecked; });
-        std::vector<uint64_t> pixels(n);
-        for (size_t i = 0; i < n; ++i) pixels[i] = uint64_t(requests[i].view.width) * uint64_t(requests[i].view.height);
+        // (a slot names the lists and their size: the backend's guess)
+        std::vector<uint64_t> slots(n);
+        for (size_t i = 0; i < n; ++i)
+          slots[i] = lists_slot_key(requests[i].slot, requests[i].view.width, requests[i].view.height);
         if (unchecked && backend.lists_from_gl_unchecked(
-                             n, pixels.data(),
+                             n, slots.data(),
                              [&](uint64_t pool, const ShadowBackend::GlBatchSink& sink, FragmentBuffers* outs) {
                                return r->rasterize_unchecked({jobs.data(), n}, outs, pool, sink);
                              },
                              ids))
           return;
         backend.lists_from_gl(
-            n,
+            n, slots.data(),
             [&](const ShadowBackend::GlTileSink& tiles, const ShadowBackend::GlOffsetsSink& offsets,
                 FragmentBuffers* outs) {
               r->rasterize({jobs.data(), n}, outs, tiles, offsets);

@@ -264,7 +264,8 @@ void build_missing(const FrameInputs& in, const FragmentProducer& produce, Shado
                                                [&](const ShadowBackend::MapBuild& b) { return b.lists == bad; }) -
                                   group.begin());
           CDSM_CHECK(g < group.size(), "build_maps: short lists that are not the group's");
-          const ListsRequest again{frame.setup.maps[group_maps[g]].view, group_masks[g], false};
+          const ListsRequest again{frame.setup.maps[group_maps[g]].view, group_masks[g], false,
+                                   uint64_t(group_maps[g]) + 1};
           ListsId fresh = 0;
           produce(backend, &again, 1, &fresh);
           reading.push_back(fresh);
@@ -333,7 +334,7 @@ void build_missing(const FrameInputs& in, const FragmentProducer& produce, Shado
         const uint64_t p = uint64_t(plan.view.width) * uint64_t(plan.view.height);
         if (!requests.empty() && pixels + p > kProduceBatchPixels) break;
         pixels += p;
-        requests.push_back({plan.view, ObjectMask{{words[t1].data(), words[t1].size()}}, true});
+        requests.push_back({plan.view, ObjectMask{{words[t1].data(), words[t1].size()}}, true, uint64_t(todo[t1]) + 1});
       }
       auto t_start = Clock::now();
       produced.assign(requests.size(), 0);

@@ -36,7 +36,19 @@ struct ListsRequest {
   // reads them (ListsShortError): the light views' and render()'s camera
   // view's.
   bool unchecked = false;
+  // Which lists these are from frame to frame (a light view's map plan, the
+  // camera; 0 none): the backend guesses the count of unchecked lists from
+  // the last lists of the same slot and size.
+  uint64_t slot = 0;
 };
+// The camera's lists' slot (ListsRequest::slot).
+inline constexpr uint64_t kCameraListsSlot = uint64_t(1) << 62;
+// The backend's name for slot `slot`'s lists of width x height pixels
+// (ShadowBackend::lists_from_gl's slots; 0 for slot 0: none).
+inline uint64_t lists_slot_key(uint64_t slot, int32_t width, int32_t height) {
+  if (slot == 0) return 0;
+  return (slot * 0x9e3779b97f4a7c15ull) ^ (uint64_t(uint32_t(width)) << 32 | uint64_t(uint32_t(height)));
+}
 // Produces the fragment lists of `n` views into `backend`, ids[i] view i's
 // (held there until the caller frees them); all or nothing. Views produced
 // together share the producer's waits (the GL rasterizer counts every view,
@@ -45,7 +57,7 @@ using FragmentProducer =
     std::function<void(ShadowBackend& backend, const ListsRequest* requests, size_t n, ListsId* ids)>;
 // One view's lists through `produce` (ListsRequest::unchecked as given).
 ListsId produce_lists(const FragmentProducer& produce, ShadowBackend& backend, const PinholeView& view, ObjectMask mask,
-                      bool unchecked = false);
+                      bool unchecked = false, uint64_t slot = 0);
 // ids[i] = one(requests[i]) for each view in turn; all or nothing (the ones
 // made are freed when one fails).
 template <class One>

@@ -62,8 +62,8 @@ FragmentProducer cpu_fragment_producer(const SceneView& scene) {
 }
 
 ListsId produce_lists(const FragmentProducer& produce, ShadowBackend& backend, const PinholeView& view, ObjectMask mask,
-                      bool unchecked) {
-  const ListsRequest r{view, mask, unchecked};
+                      bool unchecked, uint64_t slot) {
+  const ListsRequest r{view, mask, unchecked, slot};
   ListsId id = 0;
   produce(backend, &r, 1, &id);
   return id;

@@ -302,7 +302,8 @@ Image ShadowSystem::render(FrameStats* stats) {
   I.camera_frags_read = false;
   // (made unchecked where the backend can: the camera pass's one read says
   // whether they fit, and lists that did not are made again, counted)
-  I.camera_lists = produce_lists(I.fragments.producer(I.sb), *I.backend, cam.view, ObjectMask{}, true);
+  I.camera_lists =
+      produce_lists(I.fragments.producer(I.sb), *I.backend, cam.view, ObjectMask{}, true, kCameraListsSlot);
   I.has_camera_lists = true;
   st.times.camera_fragments_ms = ms_since(t0);
   take_kernel_times(*I.backend, st.times, st.times.kernel_camera_fragments_ms, st.times.kernel_camera_fragments_ms);
@@ -318,7 +319,8 @@ Image ShadowSystem::render(FrameStats* stats) {
   } catch (const ListsShortError&) {
     I.backend->free_lists(I.camera_lists);
     I.has_camera_lists = false;
-    I.camera_lists = produce_lists(I.fragments.producer(I.sb), *I.backend, cam.view, ObjectMask{}, false);
+    I.camera_lists =
+        produce_lists(I.fragments.producer(I.sb), *I.backend, cam.view, ObjectMask{}, false, kCameraListsSlot);
     I.has_camera_lists = true;
     ++st.update.fragment_lists_redone;
     ws = WalkStats{};

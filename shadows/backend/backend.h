@@ -246,9 +246,13 @@ class ShadowBackend {
   // sinks (copied on the device, under one map of the buffer, before they
   // return), and leaves each view's size in outs[v] and its fragment count
   // in outs[v].offsets (one value). ids[v] view v's. All or nothing.
+  // `slots[v]` names view v's lists from frame to frame (with their size;
+  // 0 none): their count is the next guess of lists_from_gl_unchecked for
+  // the slot.
   using GlRasterize = std::function<void(const GlTileSink& tiles, const GlOffsetsSink& offsets, FragmentBuffers* outs)>;
-  virtual void lists_from_gl(size_t views, const GlRasterize& rasterize, ListsId* ids) {
+  virtual void lists_from_gl(size_t views, const uint64_t* slots, const GlRasterize& rasterize, ListsId* ids) {
     (void)views;
+    (void)slots;
     (void)rasterize;
     (void)ids;
     throw std::logic_error(std::string(name()) +
@@ -292,13 +296,14 @@ class ShadowBackend {
   // GL pool's and the lists'), the true count kept on the device. Whether
   // they fit is read with the next build_maps' counters (one read for the
   // frame): lists that did not are reported by ListsShortError, and are
-  // made again with lists_from_gl. False (nothing made) where the backend
-  // has no guess yet (its first frame, a new batch shape) or cannot.
-  // `pixels[v]` is view v's width * height.
-  virtual bool lists_from_gl_unchecked(size_t views, const uint64_t* pixels, const GlRasterizeUnchecked& rasterize,
+  // made again with lists_from_gl. `slots[v]` names view v's lists as for
+  // lists_from_gl: the slot's last count is their guess. False (nothing
+  // made) where the backend has no count of a slot yet (a map's first
+  // frame, a new size) or cannot.
+  virtual bool lists_from_gl_unchecked(size_t views, const uint64_t* slots, const GlRasterizeUnchecked& rasterize,
                                        ListsId* ids) {
     (void)views;
-    (void)pixels;
+    (void)slots;
     (void)rasterize;
     (void)ids;
     return false;

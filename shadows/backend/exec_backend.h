@@ -75,8 +75,8 @@ class ExecBackend final : public ExecShadowBackend {
 
   const char* name() const override { return name_; }
   Ex& executor() { return ex_; }
-  // Per batch slot, the count lists_from_gl_unchecked guesses from (tests
-  // shrink them to see a frame's lists made again).
+  // Per slot, the count lists_from_gl_unchecked guesses from (tests shrink
+  // them to see a frame's lists made again).
   std::map<uint64_t, uint64_t>& gl_guesses() { return gl_guess_; }
 
   // The scene's arrays into executor memory (on CPU threads too: the same
@@ -375,7 +375,7 @@ class ExecBackend final : public ExecShadowBackend {
   // the bands of offsets re-based on the executor into the views' offsets,
   // the pieces copied into their fragments, which grow as pieces come.
   // Nothing crosses the host but the counts.
-  void lists_from_gl(size_t views, const GlRasterize& rasterize, ListsId* ids) override {
+  void lists_from_gl(size_t views, const uint64_t* slots, const GlRasterize& rasterize, ListsId* ids) override {
     if constexpr (Ex::kGlInterop) {
       CDSM_CHECK(ex_.gl_context_on_device(),
                  std::string(name_) + " backend: lists_from_gl needs the current GL context on its device");
@@ -430,12 +430,11 @@ class ExecBackend final : public ExecShadowBackend {
         ExecListStore<Ex>::check(out.width, out.height, h[v]->offsets.size(), h[v]->fragments.size(), "lists_from_gl");
         h[v]->width = out.width;
         h[v]->height = out.height;
-        gl_guess_[guess_key(v, uint64_t(out.width) * uint64_t(out.height))] =
-            h[v]->fragments.size();  // the next unchecked batch's guess
+        if (slots && slots[v] != 0) gl_guess_[slots[v]] = h[v]->fragments.size();  // the slot's next guess
       }
       lists_.hold_all(h, ids);
     } else {
-      ShadowBackend::lists_from_gl(views, rasterize, ids);
+      ShadowBackend::lists_from_gl(views, slots, rasterize, ids);
     }
   }
 
@@ -448,7 +447,7 @@ class ExecBackend final : public ExecShadowBackend {
   // view's part re-based and copied on the executor (exec/scan.h
   // take_gl_part) into lists of its slot's last count and a quarter more:
   // nothing read, nothing sent.
-  bool lists_from_gl_unchecked(size_t views, const uint64_t* pixels, const GlRasterizeUnchecked& rasterize,
+  bool lists_from_gl_unchecked(size_t views, const uint64_t* slots, const GlRasterizeUnchecked& rasterize,
                                ListsId* ids) override {
     if constexpr (Ex::kGlInterop) {
       CDSM_CHECK(ex_.gl_context_on_device(),
@@ -456,7 +455,7 @@ class ExecBackend final : public ExecShadowBackend {
       std::vector<uint64_t> capacity(views);
       uint64_t pool = 0;
       for (size_t v = 0; v < views; ++v) {
-        const auto g = gl_guess_.find(guess_key(v, pixels[v]));
+        const auto g = slots[v] != 0 ? gl_guess_.find(slots[v]) : gl_guess_.end();
         if (g == gl_guess_.end()) return false;  // no count of this slot yet: made checked once
         capacity[v] = g->second + g->second / 4 + 256;
         pool += capacity[v];
@@ -468,7 +467,7 @@ class ExecBackend final : public ExecShadowBackend {
         h[v]->status.resize_discard(2);
         ex_.fill_zero(h[v]->status.data(), 2 * sizeof(unsigned long long));
         h[v]->checked = false;
-        h[v]->guess_key = guess_key(v, pixels[v]);
+        h[v]->guess_key = slots[v];
       }
       std::vector<FragmentBuffers> outs(views);
       const bool made = rasterize(
@@ -513,7 +512,7 @@ class ExecBackend final : public ExecShadowBackend {
       lists_.hold_all(h, ids);
       return true;
     } else {
-      (void)views, (void)pixels, (void)rasterize, (void)ids;
+      (void)views, (void)slots, (void)rasterize, (void)ids;
       return false;
     }
   }
@@ -525,10 +524,6 @@ class ExecBackend final : public ExecShadowBackend {
   }
 
  private:
-  // The slot of the v-th view of a batch made together, of `pixels`
-  // pixels (most often the same light's map from frame to frame): its last
-  // count is the guess of lists_from_gl_unchecked.
-  static uint64_t guess_key(size_t v, uint64_t pixels) { return (uint64_t(v) << 40) ^ pixels; }
   // Lists `id`, their count read from the executor (a synchronization) if
   // still unchecked; throws ListsShortError when they did not fit.
   typename ExecListStore<Ex>::Held& checked_lists(ListsId id, const char* what) const {
@@ -811,8 +806,9 @@ class ExecBackend final : public ExecShadowBackend {
   Ex ex_;  // first: every array below holds a pointer to it
   ExecSceneStore<Ex> scene_;
   ExecListStore<Ex> lists_;
-  // Per batch slot (guess_key), the count of the lists it last made: the
-  // capacity lists_from_gl_unchecked guesses (updated by every count read).
+  // Per slot (ShadowBackend::lists_from_gl), the count of its last lists:
+  // the capacity lists_from_gl_unchecked guesses (updated by every count
+  // read).
   mutable std::map<uint64_t, uint64_t> gl_guess_;
   KindStore<DsmNode, Ex> grey_;
   KindStore<DsmNodeRgb, Ex> rgb_;

@@ -30,7 +30,8 @@ class ExecListStore {
     // (lists_from_gl_unchecked): `fragments` is their capacity, status[0]
     // their true count and status[1] whether they did not fit, on the
     // executor until a build reads them (then `checked`, and `fragments`
-    // cut to the count). `guess_key` names the batch slot they came from.
+    // cut to the count). `guess_key` names their slot
+    // (ShadowBackend::lists_from_gl).
     ExecArray<unsigned long long, Ex> status;
     bool checked = true;
     uint64_t guess_key = 0;
