@@ -1,8 +1,9 @@
 // Warm frames as an engine runs them (issue 45 item 7), the same scenario
 // code for the CPU threads and the CUDA device (--backend):
-//   build/tests/gl/bench_warm [--backend cpu|cuda|auto|gl-host] [--frames N]
+//   build/tests/gl/bench_warm [--backend cpu|cuda|auto] [--frames N]
 //                                [--width W --height H] [--scene NAME]...
 // ($CDSM_CONTENT_DIR: where scenes/NAME.json is, default this tree's content/)
+//   build/tests/gl/bench_warm_gl_host --backend gl-host ...  (below: Options)
 // One ShadowSystem on the program's own GL context (GlContextUse::Application,
 // GL fragments), warmed up, then per scenario N frames of: the change,
 // update(), bind_gl(program), closed by glFinish (the CUDA stream is
@@ -29,11 +30,16 @@
 #include "cdsm/shadow_system.h"
 #include "gl/context.h"
 #include "gl/gl_api.h"
-#include "backend/exec_backend.h"
 #include "forward_internal.h"
+#include "scene_sync.h"
+#ifndef CDSM_BENCH_GL_HOST
+#define CDSM_BENCH_GL_HOST 0
+#endif
+#if CDSM_BENCH_GL_HOST
+#include "backend/exec_backend.h"
 #include "frame_snapshot.h"
 #include "gl_host_exec.h"
-#include "scene_sync.h"
+#endif
 
 using namespace cdsm;
 
@@ -41,10 +47,11 @@ namespace {
 
 struct Options {
   Backend backend = Backend::Auto;
-  // --backend gl-host: the exec backend over CPU threads with the cuda
-  // backend's GL hand-over (tests/gl/gl_host_exec.h): the device path's
-  // structure (what waits, what is read back or allocated) counted here;
-  // its times are the CPU's, with each GL mapping a copy.
+  // --backend gl-host (bench_warm_gl_host): the exec backend over CPU
+  // threads with the cuda backend's GL hand-over (tests/gl/gl_host_exec.h):
+  // the device path's structure (what waits, what is read back or
+  // allocated) counted here; its times are the CPU's, with each GL mapping
+  // a copy.
   bool gl_host = false;
   int frames = 100;
   int width = 1920, height = 1080;
@@ -136,10 +143,12 @@ void run_scene(const std::string& name, const Options& o, GLuint& program, bool&
     so.backend = o.backend;
     so.source = name;
     ShadowSystem sys(so);
+#if CDSM_BENCH_GL_HOST
     if (o.gl_host)
       SystemHooks::wrap_backend(sys, [](std::unique_ptr<ShadowBackend>) {
         return std::unique_ptr<ShadowBackend>(std::make_unique<exec::ExecBackend<test::GlHostExec>>("gl-host"));
       });
+#endif
     sync_scene(sys, scene);
     FrameStats st;
     for (int f = -3; f < 0; ++f) {  // warm-up: the first build, then the change twice
@@ -191,7 +200,7 @@ void run_scene(const std::string& name, const Options& o, GLuint& program, bool&
 [[noreturn]] void usage(const std::string& why) {
   std::fprintf(
       stderr,
-      "bench_warm: %s\nusage: bench_warm [--backend cpu|cuda|auto|gl-host] [--frames N] [--width W] [--height H] "
+      "bench_warm: %s\nusage: bench_warm [--backend cpu|cuda|auto] [--frames N] [--width W] [--height H] "
       "[--scene NAME]...\n",
       why.c_str());
   std::exit(2);
@@ -212,8 +221,10 @@ int main(int argc, char** argv) {
         o.backend = Backend::Cuda;
       else if (v == "auto")
         o.backend = Backend::Auto;
-      else if (v == "gl-host")
+      else if (v == "gl-host" && CDSM_BENCH_GL_HOST)
         o.backend = Backend::Cpu, o.gl_host = true;
+      else if (v == "gl-host")
+        usage("--backend gl-host is build/tests/gl/bench_warm_gl_host's");
       else
         usage("--backend takes cpu, cuda, auto or gl-host, got '" + v + "'");
     } else if (a == "--frames" || a == "--width" || a == "--height") {
