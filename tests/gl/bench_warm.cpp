@@ -198,11 +198,10 @@ void run_scene(const std::string& name, const Options& o, GLuint& program, bool&
 }
 
 [[noreturn]] void usage(const std::string& why) {
-  std::fprintf(
-      stderr,
-      "bench_warm: %s\nusage: bench_warm [--backend cpu|cuda|auto] [--frames N] [--width W] [--height H] "
-      "[--scene NAME]...\n",
-      why.c_str());
+  std::fprintf(stderr,
+               "bench_warm: %s\nusage: bench_warm [--backend cpu|cuda|auto] [--frames N] [--width W] [--height H] "
+               "[--scene NAME]...\n",
+               why.c_str());
   std::exit(2);
 }
 
