@@ -548,70 +548,166 @@ CDSM_HD inline float blocker_limit_bound(const DsmMap& m, const ViewProjection& 
   return t - receiver_read_of(sh, t).window;
 }
 
-// Whether the blocker search around receiver r (penumbra_filter_radius,
-// out to `search` across its ray) can count anything, from map m's blocker
-// pyramid (hd/blocker_pyramid.h). Squares of texels the search may read
-// (within its radius in pixels, search * max_pixels_per_angle) are
+// How far from receiver r the blocker search (penumbra_filter_radius, out
+// to `search` across its ray) can count anything, from map m's blocker
+// pyramid (hd/blocker_pyramid.h): an angle no counted texel's centre lies
+// farther than, or -1 when it counts nothing. The cells over the search's
+// square give the least depth of any blocker in it, so the farthest reach
+// of any (2 rho + a texel, with rho at that depth: rho shrinks with depth);
+// the square shrinks to it. Then squares of texels the search may read
+// (within that reach in pixels, times max_pixels_per_angle) are
 // dismissed when none of their texels holds opacity in front of the
 // deepest depth the search reads there (blocker_limit_bound), or when they
 // lie farther from the receiver than their nearest blocker could reach
-// (the search's own test, 2 rho + a texel, with rho at the square's least
-// depth: rho shrinks with depth); the others are split, coarse to fine.
-// No: every square dismissed — the search counts nothing, the lookup is
-// hard. Yes: a square of 2 x 2 texels left, the visit budget spent, or the
-// map without a pyramid. Exact either way: the search decides.
+// (the search's own test, with rho at the square's least depth); the
+// others are split, coarse to fine. Every square dismissed: -1, the lookup
+// is hard. A square of 2 x 2 texels left, or the visit budget spent: the
+// reach. A map without a pyramid: `search`. Exact either way: the search
+// decides, and reads no texel that could count past the reach.
 inline constexpr int kPyramidVisits = 48;
-template <int N>
-CDSM_HD inline bool blockers_within_reach(const ShadowView& sv, const LightData& L, const DsmMap& m,
-                                          const ViewProjection& pr, const Receiver& r, const PenumbraFrame& f,
-                                          const MapTaps& taps, float search) {
-  const NodeArrays<N> a = sv.storage.arrays<N>();
-  const uint32_t w = m.res, h = uint32_t(m.view.height);
+// Map m's pyramid as a lookup reads it: its levels' first cells (offset[k],
+// k = 1 .. top) in its kind's array; top 0 when it has none (or was built
+// without one).
+struct PyramidCells {
+  const float* cells = nullptr;
   uint64_t offset[33];
-  const int top = pyramid_offsets(a, m, offset);
-  if (top == 0) return true;
-  if (!(a.pyramid[offset[top]] > -kNoOpacityDepth)) return true;  // built without one
+  int top = 0;
+};
+template <int N>
+CDSM_HD CDSM_INLINE PyramidCells pyramid_cells_of(const ShadowView& sv, const DsmMap& m) {
+  const NodeArrays<N> a = sv.storage.arrays<N>();
+  PyramidCells p;
+  p.top = pyramid_offsets(a, m, p.offset);
+  if (p.top == 0) return p;
+  p.cells = a.pyramid.data();
+  if (!(p.cells[p.offset[p.top]] > -kNoOpacityDepth)) p.top = 0;  // built without one
+  return p;
+}
+// The farthest angle from the receiver a blocker at depth zb or deeper
+// reaches it from (the search's test, with a margin for its rounding).
+CDSM_HD CDSM_INLINE float blocker_reach(const LightData& L, const DsmMap& m, const PenumbraFrame& f, float z,
+                                        float zb) {
+  return (2.0f * penumbra_radius(L, m, z, zb) + f.texel) * (1.0f + 1.0e-4f);
+}
+CDSM_HD inline float blockers_within_reach(const PyramidCells& p, const LightData& L, const DsmMap& m,
+                                           const ViewProjection& pr, const Receiver& r, const PenumbraFrame& f,
+                                           const MapTaps& taps, float search) {
+  const uint32_t w = m.res, h = uint32_t(m.view.height);
+  const int top = p.top;
+  if (top == 0) return search;
+  const uint64_t* offset = p.offset;
+  const float* cells = p.cells;
   const float ppa = max_pixels_per_angle(f), inv_ppa = 1.0f / ppa;
-  const float R = search * ppa + 1.0f;
-  const int bx0 = int(fmaxf(floorf(pr.u - R), 0.0f)), bx1 = int(fminf(floorf(pr.u + R), float(w) - 1.0f));
-  const int by0 = int(fmaxf(floorf(pr.v - R), 0.0f)), by1 = int(fminf(floorf(pr.v + R), float(h) - 1.0f));
-  if (bx0 > bx1 || by0 > by1) return false;
-  int k0 = 1;
-  while (k0 < top && float(1 << k0) < R) ++k0;
+  int bx0 = 0, bx1 = -1, by0 = 0, by1 = -1, k0 = 1;
+  // The search's square (radius R pixels) and the level whose cells are
+  // about its size.
+  const auto square = [&](float R) {
+    bx0 = int(fmaxf(floorf(pr.u - R), 0.0f)), bx1 = int(fminf(floorf(pr.u + R), float(w) - 1.0f));
+    by0 = int(fmaxf(floorf(pr.v - R), 0.0f)), by1 = int(fminf(floorf(pr.v + R), float(h) - 1.0f));
+    k0 = 1;
+    while (k0 < top && float(1 << k0) < R) ++k0;
+  };
+  square(search * ppa + 1.0f);
+  if (bx0 > bx1 || by0 > by1) return -1.0f;
+  float least = kNoOpacityDepth;
+  for (int y = by0 >> k0; y <= by1 >> k0; ++y)
+    for (int x = bx0 >> k0; x <= bx1 >> k0; ++x)
+      least = fminf(least, cells[offset[k0] + uint64_t(y) * ((((w - 1u) >> k0) + 1u)) + uint64_t(x)]);
+  if (!(least < kNoOpacityDepth)) return -1.0f;
+  const float reach = fminf(blocker_reach(L, m, f, pr.depth, least), search);
+  square(reach * ppa + 1.0f);
   // Cells (level, x, y) to visit, depth first.
   uint32_t stack[64];
   int n = 0;
   for (int y = by0 >> k0; y <= by1 >> k0; ++y)
     for (int x = bx0 >> k0; x <= bx1 >> k0; ++x) stack[n++] = (uint32_t(k0) << 26) | (uint32_t(y) << 13) | uint32_t(x);
   for (int visits = 0; n > 0; ++visits) {
-    if (visits == kPyramidVisits) return true;
+    if (visits == kPyramidVisits) return reach;
     const uint32_t c = stack[--n];
     const int k = int(c >> 26), cy = int((c >> 13) & 0x1fffu), cx = int(c & 0x1fffu);
-    const float least = a.pyramid[offset[k] + uint64_t(cy) * ((((w - 1u) >> k) + 1u)) + uint64_t(cx)];
+    const float cell = cells[offset[k] + uint64_t(cy) * ((((w - 1u) >> k) + 1u)) + uint64_t(cx)];
     // The cell's texels the search may read.
     const int x0 = cx << k > bx0 ? cx << k : bx0, x1 = ((cx + 1) << k) - 1 < bx1 ? ((cx + 1) << k) - 1 : bx1;
     const int y0 = cy << k > by0 ? cy << k : by0, y1 = ((cy + 1) << k) - 1 < by1 ? ((cy + 1) << k) - 1 : by1;
-    if (!(least < kNoOpacityDepth)) continue;
+    if (!(cell < kNoOpacityDepth)) continue;
     const float dx = fmaxf(fmaxf(float(x0) + 0.5f - pr.u, pr.u - (float(x1) + 0.5f)), 0.0f);
     const float dy = fmaxf(fmaxf(float(y0) + 0.5f - pr.v, pr.v - (float(y1) + 0.5f)), 0.0f);
     const float nearest = sqrtf(dx * dx + dy * dy) * inv_ppa;  // an angle no texel centre of it is nearer than
-    if (nearest * (1.0f - 1.0e-4f) > 2.0f * penumbra_radius(L, m, pr.depth, least) * (1.0f + 1.0e-4f) + f.texel)
+    if (nearest * (1.0f - 1.0e-4f) > 2.0f * penumbra_radius(L, m, pr.depth, cell) * (1.0f + 1.0e-4f) + f.texel)
       continue;
-    if (least >= blocker_limit_bound(m, pr, r, taps, x0, x1, y0, y1)) continue;
-    if (k == 1 || n + 4 > 64) return true;
+    if (cell >= blocker_limit_bound(m, pr, r, taps, x0, x1, y0, y1)) continue;
+    if (k == 1 || n + 4 > 64) return reach;
     for (int y = 2 * cy; y <= 2 * cy + 1; ++y)
       for (int x = 2 * cx; x <= 2 * cx + 1; ++x)
         if ((x << (k - 1)) <= bx1 && ((x + 1) << (k - 1)) - 1 >= bx0 && (y << (k - 1)) <= by1 &&
             ((y + 1) << (k - 1)) - 1 >= by0)
           stack[n++] = (uint32_t(k - 1) << 26) | (uint32_t(y) << 13) | uint32_t(x);
   }
-  return false;
+  return -1.0f;
 }
 template <int N>
 CDSM_HD inline bool blockers_within_reach(const ShadowView& sv, const LightData& L, const DsmMap& m,
                                           const ViewProjection& pr, const Receiver& r, const PenumbraFrame& f,
                                           float search) {
-  return blockers_within_reach<N>(sv, L, m, pr, r, f, map_taps(sv, L, m, pr, r), search);
+  return blockers_within_reach(pyramid_cells_of<N>(sv, m), L, m, pr, r, f, map_taps(sv, L, m, pr, r), search) >= 0.0f;
+}
+
+// The search of step 1 above in a map of kind N. With the map's pyramid, a
+// ring texel whose 2 x 2 cell of level 1 holds no opacity, or whose least
+// depth there (a bound on the texel's blockers' mean depth, so on their
+// reach from above) puts the receiver out of reach, is passed without
+// reading the texel: the pyramid's cells lie together, the texels' nodes
+// do not (two cache misses a ring texel). The same sums, to the bit.
+template <int N>
+CDSM_HD inline float blocker_search(const ShadowView& sv, const LightData& L, const DsmMap& m, const ViewProjection& pr,
+                                    const Receiver& r, const PenumbraFrame& f, const MapTaps& taps, float search) {
+  const PyramidCells p = pyramid_cells_of<N>(sv, m);
+  const float reach = blockers_within_reach(p, L, m, pr, r, f, taps, search);
+  if (!(reach >= 0.0f)) return 0.0f;
+  // A ring texel's centre lies within 0.71 pixels of its ring, so within
+  // `slack` of its angle (a pixel spans at least 1 / (L min(to_u, to_v))).
+  const float slack = 0.75f / (f.l * fminf(f.to_u, f.to_v));
+  const float* fine = p.top != 0 ? p.cells + p.offset[1] : nullptr;  // level 1
+  const uint32_t fine_w = ((m.res - 1u) >> 1) + 1u;
+  const float z = pr.depth;
+  const int res = int(m.res);
+  float weight = 0.0f, moment = 0.0f;
+  // The texel under the receiver, then rings of 8 at 1, 2, 4, ... texels
+  // out to the search radius (every other ring turned by 22.5 degrees).
+  float ring = 0.0f;
+  for (int k = 0; k < 2 + 8 * kPenumbraSearchRings; ++k) {
+    if (k > 0 && (k - 1) % 8 == 0) {  // the next ring
+      if (ring >= search) break;
+      ring = fminf(k == 1 ? f.texel : 2.0f * ring, search);
+      if (ring * (1.0f - 1.0e-5f) - slack > reach) break;  // it and the rings past it: nothing within reach
+    }
+    const int d = k == 0 ? 0 : ((k - 1) % 8) * 2 + (((k - 1) / 8) & 1);
+    const Vec2 dir = penumbra_direction(d);
+    const Vec2 at = k == 0 ? Vec2{0.0f, 0.0f} : to_pixels(f, ring * dir.x, ring * dir.y);
+    const int tx = floor_int(pr.u + at.x), ty = floor_int(pr.v + at.y);
+    if (tx < 0 || ty < 0 || tx >= res || ty >= res) continue;
+    // Its texel centre's angle from the receiver's ray. Its blockers lie at
+    // or behind its first node (and its cell's least depth), and reach no
+    // farther than from there: a texel too far for that (or empty) is
+    // passed without its walk.
+    float off = -1.0f;
+    if (fine) {
+      const float least = fine[uint64_t(ty >> 1) * fine_w + uint64_t(tx >> 1)];
+      if (!(least < kNoOpacityDepth)) continue;
+      off = angle_of(f, float(tx) + 0.5f - pr.u, float(ty) + 0.5f - pr.v);
+      if (off > (2.0f * penumbra_radius(L, m, z, least) + f.texel) * (1.0f + 1.0e-5f)) continue;
+    }
+    const float first = texel_first_depth<N>(sv.storage, m, tx, ty);
+    if (!(first < kFixedPadZ)) continue;  // empty: no angle to measure
+    if (!fine) off = angle_of(f, float(tx) + 0.5f - pr.u, float(ty) + 0.5f - pr.v);
+    if (off > (2.0f * penumbra_radius(L, m, z, first) + f.texel) * (1.0f + 1.0e-5f)) continue;
+    const TexelBlockers b = texel_blockers<N>(sv.storage, m, tx, ty, blocker_limit(m, pr, r, taps, tx, ty));
+    if (!(b.alpha > kPenumbraMinAlpha)) continue;
+    if (off > 2.0f * penumbra_radius(L, m, z, b.depth) + f.texel) continue;
+    weight += b.alpha;
+    moment += b.alpha * b.depth;
+  }
+  return weight > kPenumbraMinAlpha ? penumbra_radius(L, m, z, moment / weight) : 0.0f;
 }
 
 // The filter radius (radians across the ray; world units orthographic) of light L's penumbra at receiver r in
@@ -622,41 +718,8 @@ CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightDat
   const float z = pr.depth;
   if (sv.penumbra == Penumbra::FixedKernel) return penumbra_radius(L, m, z, 0.5f * z);
   const float search = fminf(penumbra_radius(L, m, z, fmaxf(m.view.near, 1e-6f)), kPenumbraSearchTexels * f.texel);
-  if (!(m.rgb ? blockers_within_reach<3>(sv, L, m, pr, r, f, taps, search)
-              : blockers_within_reach<1>(sv, L, m, pr, r, f, taps, search)))
-    return 0.0f;
-  const int res = int(m.res);
-  float weight = 0.0f, moment = 0.0f;
-  // The texel under the receiver, then rings of 8 at 1, 2, 4, ... texels
-  // out to the search radius (every other ring turned by 22.5 degrees).
-  float ring = 0.0f;
-  for (int k = 0; k < 2 + 8 * kPenumbraSearchRings; ++k) {
-    if (k > 0 && (k - 1) % 8 == 0) {  // the next ring
-      if (ring >= search) break;
-      ring = fminf(k == 1 ? f.texel : 2.0f * ring, search);
-    }
-    const int d = k == 0 ? 0 : ((k - 1) % 8) * 2 + (((k - 1) / 8) & 1);
-    const Vec2 dir = penumbra_direction(d);
-    const Vec2 at = k == 0 ? Vec2{0.0f, 0.0f} : to_pixels(f, ring * dir.x, ring * dir.y);
-    const int tx = floor_int(pr.u + at.x), ty = floor_int(pr.v + at.y);
-    if (tx < 0 || ty < 0 || tx >= res || ty >= res) continue;
-    // Its texel centre's angle from the receiver's ray. Its blockers lie at
-    // or behind its first node, and reach no farther than from there: a
-    // texel too far for that (or empty) is passed without its walk.
-    const float first =
-        m.rgb ? texel_first_depth<3>(sv.storage, m, tx, ty) : texel_first_depth<1>(sv.storage, m, tx, ty);
-    if (!(first < kFixedPadZ)) continue;  // empty: no angle to measure
-    const float off = angle_of(f, float(tx) + 0.5f - pr.u, float(ty) + 0.5f - pr.v);
-    if (off > (2.0f * penumbra_radius(L, m, z, first) + f.texel) * (1.0f + 1.0e-5f)) continue;
-    const float limit = blocker_limit(m, pr, r, taps, tx, ty);
-    const TexelBlockers b =
-        m.rgb ? texel_blockers<3>(sv.storage, m, tx, ty, limit) : texel_blockers<1>(sv.storage, m, tx, ty, limit);
-    if (!(b.alpha > kPenumbraMinAlpha)) continue;
-    if (off > 2.0f * penumbra_radius(L, m, z, b.depth) + f.texel) continue;
-    weight += b.alpha;
-    moment += b.alpha * b.depth;
-  }
-  return weight > kPenumbraMinAlpha ? penumbra_radius(L, m, z, moment / weight) : 0.0f;
+  return m.rgb ? blocker_search<3>(sv, L, m, pr, r, f, taps, search)
+               : blocker_search<1>(sv, L, m, pr, r, f, taps, search);
 }
 CDSM_HD inline float penumbra_filter_radius(const ShadowView& sv, const LightData& L, const DsmMap& m,
                                             const ViewProjection& pr, const Receiver& r) {

@@ -7,6 +7,10 @@
 // plane; volume samples: points in the smoke's box at their own depth. One
 // thread; counter per_lookup (seconds, with an SI prefix).
 //
+// BM_LookupByReach: the same points split by whether a blocker lies within a
+// penumbra's reach (the pyramid dismisses the search, or the search and the
+// filter run).
+//
 // BM_CameraPass: the camera pass of `cdsm render content/scenes/default.json
 // --backend cpu --fragments cpu` (its hard spot light, the smoke marched per
 // pixel) at 360 x 240 on one thread, in one process: ShadowSystem::render()
@@ -86,6 +90,47 @@ void BM_Lookup(benchmark::State& state) {
   state.SetLabel(std::string(names[mode]) + (state.range(1) == 0 ? ", surfaces" : ", volume samples"));
 }
 
+// BM_Lookup's points split by whether a blocker lies within a penumbra's
+// reach of them (blockers_within_reach, radius 0.15): what a lookup costs
+// where the pyramid dismisses the search, and where the search and the
+// filter run. arg 0: 0 hard, 1 estimated, 3 the blocker search alone (as
+// BM_Lookup); arg 1: 0 nothing within reach, 1 blockers within reach; arg
+// 2: 0 surfaces, 1 samples. Counter n: the points.
+void BM_LookupByReach(benchmark::State& state) {
+  static Maps hard(0.0f), sized(0.15f);
+  const int mode = int(state.range(0));
+  const bool within = state.range(1) != 0;
+  const ShadowView soft = sized.frame.view(sized.scene.shadows);
+  const LightData& Ls = soft.lights[0];
+  const DsmMap& ms = soft.maps[Ls.first_map];
+  std::vector<Receiver> pts;
+  for (const Receiver& r : state.range(2) == 0 ? sized.surfaces : sized.samples) {
+    const ViewProjection pr = project(ms.view, r.p);
+    const PenumbraFrame f = penumbra_frame(ms, pr);
+    const float search =
+        std::min(penumbra_radius(Ls, ms, pr.depth, std::max(ms.view.near, 1e-6f)), kPenumbraSearchTexels * f.texel);
+    const bool maybe = ms.rgb ? blockers_within_reach<3>(soft, Ls, ms, pr, r, f, search)
+                              : blockers_within_reach<1>(soft, Ls, ms, pr, r, f, search);
+    if (maybe == within) pts.push_back(r);
+  }
+  Maps& m = mode == 0 ? hard : sized;
+  const ShadowView sv = m.frame.view(m.scene.shadows);
+  const DsmVisibility vis{sv};
+  const LightData& L = sv.lights[0];
+  const DsmMap& map = sv.maps[L.first_map];
+  double sink = 0.0;
+  for (auto _ : state)
+    for (const Receiver& r : pts)
+      sink += mode == 3 ? double(penumbra_filter_radius(sv, L, map, project(map.view, r.p), r)) : double(vis(0, r).x);
+  benchmark::DoNotOptimize(sink);
+  state.counters["per_lookup"] = benchmark::Counter(double(state.iterations()) * double(pts.size()),
+                                                    benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["n"] = double(pts.size());
+  const char* names[] = {"hard", "estimated r=0.15", "", "blocker search alone r=0.15"};
+  state.SetLabel(std::string(names[mode]) + (within ? ", blockers within reach" : ", nothing within reach") +
+                 (state.range(2) == 0 ? ", surfaces" : ", volume samples"));
+}
+
 // arg: 0 fom4, 1 fom8, 2 fom16, 3 mom4, 4 mom8.
 void BM_SeriesReconstruction(benchmark::State& state) {
   const int mode = int(state.range(0));
@@ -148,4 +193,5 @@ void BM_CameraPass(benchmark::State& state) {
 BENCHMARK(BM_CameraPass)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_SeriesReconstruction)->DenseRange(0, 4)->Unit(benchmark::kMillisecond)->MinTime(0.5);
 BENCHMARK(BM_Lookup)->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}})->Unit(benchmark::kMillisecond)->MinTime(0.5);
+BENCHMARK(BM_LookupByReach)->ArgsProduct({{0, 1, 3}, {0, 1}, {0, 1}})->Unit(benchmark::kMillisecond)->MinTime(0.3);
 BENCHMARK_MAIN();
