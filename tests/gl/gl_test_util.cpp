@@ -390,6 +390,8 @@ std::string gl_maps_differ(const GlMapBuffers& b, const DsmStorage& s) {
       {"rgb_texels", b.rgb_texels, s.rgb.texels.data(), s.rgb.texels.size() * sizeof(TexelRange)},
       {"rgb_nodes", b.rgb_nodes, s.rgb.nodes.data(), s.rgb.nodes.size() * sizeof(DsmNodeRgb)},
       {"rgb_chunks", b.rgb_chunks, s.rgb.chunks.data(), s.rgb.chunks.size() * sizeof(ChunkNodeRgb)},
+      {"tags", b.tags, s.grey.tags.data(), s.grey.tags.size() * sizeof(SurfaceTag)},
+      {"rgb_tags", b.rgb_tags, s.rgb.tags.data(), s.rgb.tags.size() * sizeof(SurfaceTag)},
   };
   std::string out;
   for (const Array& a : arrays) {

@@ -943,12 +943,17 @@ std::vector<PublishStep> publish_steps(ShadowSystem& sys, Scene scene) {
 
 // The cpu backend and the exec backend on CPU threads cannot write GL
 // buffers: their maps reach GL as host uploads, none counted as device
-// writes, and the buffers equal their storage() after every step.
+// writes, and the buffers equal their storage() after every step — with
+// point lights and with lights with a size.
 TEST_F(GlSystem, HostBackendsUploadTheirMapsFromTheHost) {
-  Scene scene = load_scene(scene_path("teapot_omni.json"));
-  scene.shadows.resolution = 96;
-  for (int exec = 0; exec < 2; ++exec) {
-    SCOPED_TRACE(exec ? "exec backend on CPU threads" : "cpu backend");
+  for (int run = 0; run < 4; ++run) {
+    const int exec = run & 1;
+    Scene scene = load_scene(scene_path("teapot_omni.json"));
+    scene.shadows.resolution = 96;
+    if (run >= 2)
+      for (Light& l : scene.lights) l.radius = 0.1f;
+    SCOPED_TRACE(std::string(exec ? "exec backend on CPU threads" : "cpu backend") +
+                 (run >= 2 ? ", lights with a size" : ""));
     ShadowSystem sys(app_options(FragmentSource::Cpu));
     if (exec)
       SystemHooks::wrap_backend(sys, [](std::unique_ptr<ShadowBackend>) {
