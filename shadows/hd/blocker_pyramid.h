@@ -2,11 +2,14 @@
 // (k = 1, 2, ... up to one cell over the map) the least depth in front of
 // which any of its texels holds opacity, built with the map in the light
 // pass (exec/light_pass.h build_blocker_pyramid) on every executor. A soft
-// lookup asks it first whether its blocker search can find anything
-// (hd/lights.h blockers_within_reach): a receiver with no blocker within a
-// penumbra's reach costs about a hard lookup instead of up to
-// 8 kPenumbraSearchRings + 1 node walks. The answer is conservative — "no"
-// only where the search would count nothing — so the estimate reads the
+// lookup asks it first whether its blocker search can find anything, and
+// how far out (hd/lights.h blockers_within_reach): a receiver with no
+// blocker within a penumbra's reach costs about a hard lookup instead of up
+// to 8 kPenumbraSearchRings + 1 node walks; the search walks only the rings
+// within that reach, and passes a ring texel whose cell of level 1 holds no
+// blocker that could reach the receiver without reading the texel
+// (blocker_search). The answers are conservative — "no" only where the
+// search would count nothing — so the estimate reads the
 // same, to the bit, with or without the pyramid (the GL lookup, cdsm.glsl,
 // searches without one).
 //
