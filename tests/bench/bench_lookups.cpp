@@ -65,6 +65,21 @@ struct Maps : cdsm_test::SystemFrame {
   static Scene load() { return load_scene(std::string(CDSM_CONTENT_DIR_BENCH) + "/scenes/default.json"); }
 };
 
+// Light 0's lookups at `pts` in its first map (mode 3: the blocker search
+// alone, penumbra_filter_radius), timed, as counter per_lookup.
+void time_lookups(benchmark::State& state, const ShadowView& sv, const std::vector<Receiver>& pts, int mode) {
+  const DsmVisibility vis{sv};
+  const LightData& L = sv.lights[0];
+  const DsmMap& map = sv.maps[L.first_map];
+  double sink = 0.0;
+  for (auto _ : state)
+    for (const Receiver& r : pts)
+      sink += mode == 3 ? double(penumbra_filter_radius(sv, L, map, project(map.view, r.p), r)) : double(vis(0, r).x);
+  benchmark::DoNotOptimize(sink);
+  state.counters["per_lookup"] = benchmark::Counter(double(state.iterations()) * double(pts.size()),
+                                                    benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
 // arg 0: 0 hard (radius 0), 1 estimated (radius 0.15), 2 fixed kernel (radius 0.15), 3 the estimate's
 // blocker search alone (penumbra_filter_radius), 4 estimated with penumbra_taps 5; arg 1: 0 surfaces, 1 samples.
 void BM_Lookup(benchmark::State& state) {
@@ -75,16 +90,7 @@ void BM_Lookup(benchmark::State& state) {
   if (mode == 2) sv.penumbra = Penumbra::FixedKernel;
   if (mode == 4) sv.penumbra_taps = 5;
   const std::vector<Receiver>& pts = state.range(1) == 0 ? m.surfaces : m.samples;
-  const DsmVisibility vis{sv};
-  double sink = 0.0;
-  const LightData& L = sv.lights[0];
-  const DsmMap& map = sv.maps[L.first_map];
-  for (auto _ : state)
-    for (const Receiver& r : pts)
-      sink += mode == 3 ? double(penumbra_filter_radius(sv, L, map, project(map.view, r.p), r)) : double(vis(0, r).x);
-  benchmark::DoNotOptimize(sink);
-  state.counters["per_lookup"] = benchmark::Counter(double(state.iterations()) * double(pts.size()),
-                                                    benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  time_lookups(state, sv, pts, mode);
   const char* names[] = {"hard", "estimated r=0.15", "fixed kernel r=0.15", "blocker search alone r=0.15",
                          "estimated r=0.15, 5 taps across"};
   state.SetLabel(std::string(names[mode]) + (state.range(1) == 0 ? ", surfaces" : ", volume samples"));
@@ -115,16 +121,7 @@ void BM_LookupByReach(benchmark::State& state) {
   }
   Maps& m = mode == 0 ? hard : sized;
   const ShadowView sv = m.frame.view(m.scene.shadows);
-  const DsmVisibility vis{sv};
-  const LightData& L = sv.lights[0];
-  const DsmMap& map = sv.maps[L.first_map];
-  double sink = 0.0;
-  for (auto _ : state)
-    for (const Receiver& r : pts)
-      sink += mode == 3 ? double(penumbra_filter_radius(sv, L, map, project(map.view, r.p), r)) : double(vis(0, r).x);
-  benchmark::DoNotOptimize(sink);
-  state.counters["per_lookup"] = benchmark::Counter(double(state.iterations()) * double(pts.size()),
-                                                    benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  time_lookups(state, sv, pts, mode);
   state.counters["n"] = double(pts.size());
   const char* names[] = {"hard", "estimated r=0.15", "", "blocker search alone r=0.15"};
   state.SetLabel(std::string(names[mode]) + (within ? ", blockers within reach" : ", nothing within reach") +
