@@ -583,6 +583,10 @@ CDSM_HD CDSM_INLINE PyramidCells pyramid_cells_of(const ShadowView& sv, const Ds
   if (!(p.cells[p.offset[p.top]] > -kNoOpacityDepth)) p.top = 0;  // built without one
   return p;
 }
+// Cell (x, y) of level k (1 .. p.top) of map m's pyramid p.
+CDSM_HD CDSM_INLINE float pyramid_cell(const PyramidCells& p, const DsmMap& m, int k, int x, int y) {
+  return p.cells[p.offset[k] + uint64_t(y) * (((m.res - 1u) >> k) + 1u) + uint64_t(x)];
+}
 // The farthest angle from the receiver a blocker at depth zb or deeper
 // reaches it from (the search's test, with a margin for its rounding).
 CDSM_HD CDSM_INLINE float blocker_reach(const LightData& L, const DsmMap& m, const PenumbraFrame& f, float z,
@@ -595,8 +599,6 @@ CDSM_HD inline float blockers_within_reach(const PyramidCells& p, const LightDat
   const uint32_t w = m.res, h = uint32_t(m.view.height);
   const int top = p.top;
   if (top == 0) return search;
-  const uint64_t* offset = p.offset;
-  const float* cells = p.cells;
   const float ppa = max_pixels_per_angle(f), inv_ppa = 1.0f / ppa;
   int bx0 = 0, bx1 = -1, by0 = 0, by1 = -1, k0 = 1;
   // The search's square (radius R pixels) and the level whose cells are
@@ -611,8 +613,7 @@ CDSM_HD inline float blockers_within_reach(const PyramidCells& p, const LightDat
   if (bx0 > bx1 || by0 > by1) return -1.0f;
   float least = kNoOpacityDepth;
   for (int y = by0 >> k0; y <= by1 >> k0; ++y)
-    for (int x = bx0 >> k0; x <= bx1 >> k0; ++x)
-      least = fminf(least, cells[offset[k0] + uint64_t(y) * ((((w - 1u) >> k0) + 1u)) + uint64_t(x)]);
+    for (int x = bx0 >> k0; x <= bx1 >> k0; ++x) least = fminf(least, pyramid_cell(p, m, k0, x, y));
   if (!(least < kNoOpacityDepth)) return -1.0f;
   const float reach = fminf(blocker_reach(L, m, f, pr.depth, least), search);
   square(reach * ppa + 1.0f);
@@ -625,7 +626,7 @@ CDSM_HD inline float blockers_within_reach(const PyramidCells& p, const LightDat
     if (visits == kPyramidVisits) return reach;
     const uint32_t c = stack[--n];
     const int k = int(c >> 26), cy = int((c >> 13) & 0x1fffu), cx = int(c & 0x1fffu);
-    const float cell = cells[offset[k] + uint64_t(cy) * ((((w - 1u) >> k) + 1u)) + uint64_t(cx)];
+    const float cell = pyramid_cell(p, m, k, cx, cy);
     // The cell's texels the search may read.
     const int x0 = cx << k > bx0 ? cx << k : bx0, x1 = ((cx + 1) << k) - 1 < bx1 ? ((cx + 1) << k) - 1 : bx1;
     const int y0 = cy << k > by0 ? cy << k : by0, y1 = ((cy + 1) << k) - 1 < by1 ? ((cy + 1) << k) - 1 : by1;
@@ -667,8 +668,6 @@ CDSM_HD inline float blocker_search(const ShadowView& sv, const LightData& L, co
   // A ring texel's centre lies within 0.71 pixels of its ring, so within
   // `slack` of its angle (a pixel spans at least 1 / (L min(to_u, to_v))).
   const float slack = 0.75f / (f.l * fminf(f.to_u, f.to_v));
-  const float* fine = p.top != 0 ? p.cells + p.offset[1] : nullptr;  // level 1
-  const uint32_t fine_w = ((m.res - 1u) >> 1) + 1u;
   const float z = pr.depth;
   const int res = int(m.res);
   float weight = 0.0f, moment = 0.0f;
@@ -691,15 +690,15 @@ CDSM_HD inline float blocker_search(const ShadowView& sv, const LightData& L, co
     // farther than from there: a texel too far for that (or empty) is
     // passed without its walk.
     float off = -1.0f;
-    if (fine) {
-      const float least = fine[uint64_t(ty >> 1) * fine_w + uint64_t(tx >> 1)];
+    if (p.top != 0) {  // its cell of level 1
+      const float least = pyramid_cell(p, m, 1, tx >> 1, ty >> 1);
       if (!(least < kNoOpacityDepth)) continue;
       off = angle_of(f, float(tx) + 0.5f - pr.u, float(ty) + 0.5f - pr.v);
       if (off > (2.0f * penumbra_radius(L, m, z, least) + f.texel) * (1.0f + 1.0e-5f)) continue;
     }
     const float first = texel_first_depth<N>(sv.storage, m, tx, ty);
     if (!(first < kFixedPadZ)) continue;  // empty: no angle to measure
-    if (!fine) off = angle_of(f, float(tx) + 0.5f - pr.u, float(ty) + 0.5f - pr.v);
+    if (p.top == 0) off = angle_of(f, float(tx) + 0.5f - pr.u, float(ty) + 0.5f - pr.v);
     if (off > (2.0f * penumbra_radius(L, m, z, first) + f.texel) * (1.0f + 1.0e-5f)) continue;
     const TexelBlockers b = texel_blockers<N>(sv.storage, m, tx, ty, blocker_limit(m, pr, r, taps, tx, ty));
     if (!(b.alpha > kPenumbraMinAlpha)) continue;
