@@ -11,6 +11,7 @@
 #pragma once
 
 #include <map>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -45,18 +46,34 @@ class GlHostExec : public exec::HostExec {
   void with_gl_source(int slot, unsigned name, uint64_t bytes, uint64_t generation, F&& f) {
     see(name, generation);
     ++source_maps;
+    if (slot == 0) {
+      ++pool_maps;
+      pools.insert(name);
+    }
     std::vector<unsigned char>& copy = source_[slot];  // both sources mapped at once (lists_from_gl_unchecked)
     copy.resize(bytes);
     glGetNamedBufferSubData(name, 0, GLsizeiptr(bytes), copy.data());
+    ++mapped_;
     f(static_cast<const void*>(copy.data()));
+    --mapped_;
+  }
+  // The executor's copy, counted while a source is mapped (pieces of a pool).
+  void copy(void* dst, const void* src, size_t bytes) {
+    source_copies += mapped_ > 0;
+    HostExec::copy(dst, src, bytes);
   }
   void gl_buffer_released(unsigned name) noexcept {
     if (!glIsBuffer(name)) violations.push_back("buffer " + std::to_string(name) + " released after GL deleted it");
     known.erase(name);
+    pool_releases += pools.erase(name);
   }
 
   uint64_t source_maps = 0;            // with_gl_source calls (the rasterizer's buffers mapped)
+  uint64_t pool_maps = 0;              // of those, its fragment pool's (one per filling handed over)
+  uint64_t source_copies = 0;          // copies made while a source is mapped (lists_from_gl: a pool's pieces)
+  uint64_t pool_releases = 0;          // pools released (gl_buffer_released) after they were mapped
   std::map<unsigned, uint64_t> known;  // GL name -> generation, as CudaExec registers them
+  std::set<unsigned> pools;            // the pools mapped and not released
   std::vector<std::string> violations;
 
  private:
@@ -67,6 +84,7 @@ class GlHostExec : public exec::HostExec {
       violations.push_back("buffer " + std::to_string(name) + " used under a new generation, never released");
     known[name] = generation;
   }
+  int mapped_ = 0;                        // sources mapped now
   std::vector<unsigned char> staging_;    // the mapped image buffer's stand-in
   std::vector<unsigned char> source_[2];  // the rasterizer's pool's and offsets'
 };

@@ -502,7 +502,9 @@ TEST_F(GlSystem, MapsBeyondTheStorageBlockLimitAreRefused) {
 // CudaExec's GL links it keeps a registry of the buffers it wrote (name ->
 // buffer generation) that gl_buffer_released empties; a release of a name
 // GL no longer knows, or a known name written under a new generation (the
-// old object deleted unannounced, the name reused), is a violation.
+// old object deleted unannounced, the name reused), is a violation. It
+// takes no GL fragment lists (lists_from_gl: the exec backend's own, on
+// GlHostExec below): its tests make their fragments on the CPU.
 class InPlaceBackend final : public ShadowBackend {
  public:
   explicit InPlaceBackend(std::unique_ptr<ShadowBackend> inner) : inner_(std::move(inner)) {}
@@ -559,80 +561,14 @@ class InPlaceBackend final : public ShadowBackend {
       ++writes;
     }
   }
-  // Like the cuda backend's interop: each filled pool taken from the GL
-  // buffer before the rasterizer writes it again (here read with
-  // glGetNamedBufferSubData), piece by piece in order, then every view handed
-  // to the inner backend.
-  void lists_from_gl(size_t views, const uint64_t*, const GlRasterize& rasterize, ListsId* ids) override {
-    ++gl_batches;
-    gl_lists += views;
-    std::vector<std::vector<Fragment>> fragments(views);
-    std::vector<std::vector<uint32_t>> offsets(views);
-    std::vector<FragmentBuffers> outs(views);
-    // Each band of offsets read from the GL buffer and re-based, as the
-    // cuda backend does on the device.
-    const auto take_offsets = [&](const GlOffsets* bands, size_t n, uint32_t buffer, uint64_t bytes, uint64_t) {
-      ++offset_batches;
-      if (!glIsBuffer(buffer)) violations.push_back("offsets in no GL buffer");
-      for (size_t b = 0; b < n; ++b) {
-        const GlOffsets& o = bands[b];
-        if (o.view >= views || (o.at + o.count + 1) * 4 > bytes) {
-          violations.push_back("a band of offsets past its view or buffer");
-          continue;
-        }
-        std::vector<uint32_t>& dst = offsets[o.view];
-        if (dst.size() < o.first + o.count + 1) dst.resize(o.first + o.count + 1);
-        glGetNamedBufferSubData(buffer, GLintptr(o.at * 4), GLsizeiptr((o.count + 1) * 4), dst.data() + o.first);
-        for (uint64_t i = 0; i <= o.count; ++i) dst[o.first + i] += o.shift;
-      }
-    };
-    rasterize(
-        [&](const GlPiece* pieces, size_t n, uint32_t buffer, uint64_t bytes, uint64_t generation) {
-          if (!glIsBuffer(buffer)) violations.push_back("a pool in no GL buffer");
-          GLint64 size = 0;
-          glGetNamedBufferParameteri64v(buffer, GL_BUFFER_SIZE, &size);
-          if (uint64_t(size) != bytes) violations.push_back("a pool's buffer size");
-          const auto known = pools.find(buffer);
-          if (known != pools.end() && known->second != generation)
-            violations.push_back("pool " + std::to_string(buffer) + " under a new generation, never released");
-          pools[buffer] = generation;
-          ++tiles;
-          for (size_t p = 0; p < n; ++p) {
-            const GlPiece& q = pieces[p];
-            if (q.view >= views || q.first != fragments[q.view].size()) {
-              violations.push_back("a piece out of order");
-              continue;
-            }
-            if ((q.at + q.count) * sizeof(Fragment) > bytes) violations.push_back("a piece past its buffer");
-            fragments[q.view].resize(q.first + q.count);
-            glGetNamedBufferSubData(buffer, GLintptr(q.at * sizeof(Fragment)), GLsizeiptr(q.count * sizeof(Fragment)),
-                                    fragments[q.view].data() + q.first);
-            ++pieces_read;
-          }
-        },
-        take_offsets, outs.data());
-    for (size_t v = 0; v < views; ++v) {
-      if (!outs[v].fragments.empty()) violations.push_back("fragments read back to the host by the rasterizer");
-      if (outs[v].offsets.size() != 1) violations.push_back("offsets written to the host by the rasterizer");
-      if (offsets[v].size() != uint64_t(outs[v].width) * uint64_t(outs[v].height) + 1 ||
-          offsets[v].back() != fragments[v].size() || !std::is_sorted(offsets[v].begin(), offsets[v].end()))
-        throw std::runtime_error("view " + std::to_string(v) + "'s offsets did not all come, or not in order");
-      outs[v].offsets = std::move(offsets[v]);
-      outs[v].fragments = std::move(fragments[v]);
-      ids[v] = inner_->adopt_lists(std::move(outs[v]));
-    }
-  }
   void gl_buffer_released(uint32_t name) override {
     ++releases;
     if (!glIsBuffer(name)) violations.push_back("buffer " + std::to_string(name) + " released after GL deleted it");
     registered.erase(name);
-    pool_releases += pools.erase(name);
   }
-  uint64_t writes = 0, releases = 0, gl_lists = 0, gl_batches = 0, offset_batches = 0, tiles = 0, pieces_read = 0,
-           pool_releases = 0;
+  uint64_t writes = 0, releases = 0;
   bool fail_next = false;
   std::map<uint32_t, uint64_t> registered;  // GL name -> gl_buffer_generation
-  std::map<uint32_t, uint64_t> pools;       // the fragment pools tiles came from: GL name -> generation
   std::vector<std::string> violations;
 
  private:
@@ -651,13 +587,27 @@ InPlaceBackend* use_in_place_backend(ShadowSystem& sys) {
   return ip;
 }
 
-// GL fragment lists into a backend whose memory is where GL's is
-// (lists_from_gl: the cuda backend's interop; the stand-in reads each piece
-// with glGetNamedBufferSubData), through a pool small enough to grow and to
-// be filled and handed over several times: the image equals that from lists
-// read back to the host, the frame's light views came in one batch, every
-// view's lists piece by piece in order, and each pool the rasterizer
-// replaced was announced before GL deleted it.
+// `sys`'s backend replaced by the exec backend on GlHostExec (the cuda
+// backend's GL side on CPU threads); owned by the system.
+exec::ExecBackend<test::GlHostExec>* use_gl_exec_backend(ShadowSystem& sys) {
+  exec::ExecBackend<test::GlHostExec>* b = nullptr;
+  SystemHooks::wrap_backend(sys, [&](std::unique_ptr<ShadowBackend>) {
+    auto e = std::make_unique<exec::ExecBackend<test::GlHostExec>>("exec-gl-host");
+    b = e.get();
+    return std::unique_ptr<ShadowBackend>(std::move(e));
+  });
+  return b;
+}
+
+// GL fragment lists handed to the exec backend's lists_from_gl (the cuda
+// backend's interop, on CPU threads: each GL buffer mapped where CUDA would
+// map it) through a pool small enough to grow and to be filled and handed
+// over several times: the image equals that from lists read back to the
+// host, the frame's light views came in one batch and the camera's in
+// another (each batch's offsets read once, to count them), views larger
+// than the pool in several fillings, a filling with pieces of several
+// views, and the pool the rasterizer replaced released before GL deleted
+// it.
 TEST_F(GlSystem, GlListsHandedOverPoolByPoolEqualListsReadBack) {
   Scene scene = load_scene(scene_path("teapot_omni.json"));
   scene.shadows.resolution = 96;
@@ -669,7 +619,8 @@ TEST_F(GlSystem, GlListsHandedOverPoolByPoolEqualListsReadBack) {
   ASSERT_EQ(hs.fragment_source, "gl");
 
   ShadowSystem dev(app_options(FragmentSource::Gl));
-  InPlaceBackend* ip = use_in_place_backend(dev);
+  exec::ExecBackend<test::GlHostExec>* b = use_gl_exec_backend(dev);
+  const test::GlHostExec& ex = b->executor();
   SystemHooks::limit_fragment_pool(dev, 4096, 64 * 1024);
   // A first frame at 8^2: its light views fit the first pool and are
   // handed over from it; the frame at 96^2 then grows the pool.
@@ -677,22 +628,21 @@ TEST_F(GlSystem, GlListsHandedOverPoolByPoolEqualListsReadBack) {
   ShadowSettings tiny = scene.shadows;
   tiny.resolution = 8;
   dev.set_settings(tiny);
-  dev.update();
-  ASSERT_EQ(ip->gl_batches, 1u);
-  ip->gl_batches = ip->gl_lists = ip->offset_batches = ip->tiles = ip->pieces_read = 0;
+  FrameStats first;
+  dev.update(&first);
+  ASSERT_EQ(first.counters.gl_readbacks, 1u) << "the light views' batch";
+  ASSERT_EQ(ex.pool_maps, 1u) << "one filling of the first pool";
+  const uint64_t fillings = ex.pool_maps, copies = ex.source_copies;
   dev.set_settings(scene.shadows);
   FrameStats st;
   const Image got = dev.render(&st);
   EXPECT_EQ(st.fragment_source, "gl");
-  EXPECT_EQ(ip->gl_lists, uint64_t(st.maps_rebuilt) + 1) << "every light view and the camera's";
-  EXPECT_EQ(ip->gl_batches, 2u) << "the light views together, then the camera's";
-  EXPECT_EQ(ip->offset_batches, 2u) << "each batch's offsets handed over once, on the GPU";
-  EXPECT_GT(ip->tiles, ip->gl_batches) << "views larger than the pool were handed over in several fillings";
-  EXPECT_GT(ip->pieces_read, ip->tiles) << "a filling holds pieces of several views";
-  EXPECT_GE(ip->pool_releases, 1u) << "the pool grew from 4 KiB to 64 KiB: the one handed over let go of first";
-  for (const auto& [name, generation] : ip->pools)
-    EXPECT_TRUE(glIsBuffer(name)) << "pool " << name << " (generation " << generation << ") deleted unannounced";
-  EXPECT_EQ(ip->violations, std::vector<std::string>{});
+  EXPECT_EQ(st.counters.gl_readbacks, 2u) << "the light views together, then the camera's: each batch's offsets once";
+  EXPECT_GT(ex.pool_maps - fillings, 2u) << "views larger than the pool were handed over in several fillings";
+  EXPECT_GT(ex.source_copies - copies, ex.pool_maps - fillings) << "a filling holds pieces of several views";
+  EXPECT_GE(ex.pool_releases, 1u) << "the pool grew from 4 KiB to 64 KiB: the one handed over let go of first";
+  for (const unsigned name : ex.pools) EXPECT_TRUE(glIsBuffer(name)) << "pool " << name << " deleted unannounced";
+  EXPECT_EQ(ex.violations, std::vector<std::string>{});
   ASSERT_EQ(got.rgb.size(), want.rgb.size());
   EXPECT_EQ(std::memcmp(got.rgb.data(), want.rgb.data(), got.rgb.size() * sizeof(float)), 0);
 }
@@ -705,16 +655,6 @@ TEST_F(GlSystem, GlListsHandedOverPoolByPoolEqualListsReadBack) {
 // moved (its lists and the camera's made unchecked: no GL read-back at
 // all), the spot moved with every guess too small (both made again,
 // checked) — each image equal to the cpu backend's from lists read back.
-exec::ExecBackend<test::GlHostExec>* use_gl_exec_backend(ShadowSystem& sys) {
-  exec::ExecBackend<test::GlHostExec>* b = nullptr;
-  SystemHooks::wrap_backend(sys, [&](std::unique_ptr<ShadowBackend>) {
-    auto e = std::make_unique<exec::ExecBackend<test::GlHostExec>>("exec-gl-host");
-    b = e.get();
-    return std::unique_ptr<ShadowBackend>(std::move(e));
-  });
-  return b;
-}
-
 TEST_F(GlSystem, ExecBackendsGlHandOverOnCpuThreadsEqualsListsReadBack) {
   Scene scene = load_scene(scene_path("teapot_omni.json"));
   scene.shadows.resolution = 96;
