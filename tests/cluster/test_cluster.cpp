@@ -65,14 +65,20 @@ static std::vector<Caster> two_groups() {
   return c;
 }
 
-TEST(Clustering, TwoFarGroupsMakeTwoClusters) {
-  LightShape spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 50.0f);
-  PinholeView cam = camera_at(vec3(0, 3, 14), vec3(0, 0.5f, 0));
-  std::vector<Caster> casters = two_groups();
+// What the two-group tests cluster them with: d0 0.3, up to 4 clusters at 256^2.
+static ClusterSettings two_group_settings() {
   ClusterSettings s;
   s.d0 = 0.3f;
   s.max_clusters = 4;
   s.resolution = 256;
+  return s;
+}
+
+TEST(Clustering, TwoFarGroupsMakeTwoClusters) {
+  LightShape spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 50.0f);
+  PinholeView cam = camera_at(vec3(0, 3, 14), vec3(0, 0.5f, 0));
+  std::vector<Caster> casters = two_groups();
+  ClusterSettings s = two_group_settings();
   // The premise: small distances within a group, large across.
   CasterDistances D = caster_distances(spot, cam, kScene, casters, s);
   ASSERT_EQ(D.directions.size(), 1u);
@@ -347,10 +353,7 @@ TEST(Hysteresis, ReportsWhichClustersChanged) {
   LightShape spot = spot_light(vec3(0, 12, 0), vec3(0, -1, 0), 50.0f);
   PinholeView cam = camera_at(vec3(0, 3, 14), vec3(0, 0.5f, 0));
   std::vector<Caster> casters = two_groups();
-  ClusterSettings s;
-  s.d0 = 0.3f;
-  s.max_clusters = 4;
-  s.resolution = 256;
+  ClusterSettings s = two_group_settings();
   Clustering f0 = cluster_casters(spot, cam, kScene, casters, s);
   ASSERT_EQ(f0.clusters.size(), 2u);
 

@@ -100,6 +100,19 @@ struct Comparison {
   double max_rel_depth = 0.0;  // over fragments paired by primitive
   std::string report;          // the first unexplained pixels, for messages
   double mismatch_percent() const { return pixels ? 100.0 * double(pixels - equal) / double(pixels) : 0.0; }
+  // Another comparison's counts added (rows of one view compared in turn).
+  Comparison& operator+=(const Comparison& c) {
+    pixels += c.pixels;
+    equal += c.equal;
+    explained += c.explained;
+    order_ties += c.order_ties;
+    unexplained += c.unexplained;
+    gl_fragments += c.gl_fragments;
+    cpu_fragments += c.cpu_fragments;
+    max_rel_depth = max_rel_depth > c.max_rel_depth ? max_rel_depth : c.max_rel_depth;
+    if (c.unexplained) report += c.report;
+    return *this;
+  }
 };
 
 // Compares GL and CPU lists of the same view (CDSM_TEST_VERBOSE=1 prints

@@ -223,13 +223,7 @@ TEST_F(FragmentRaster, TilesHugeViews) {
   for (int row = 0; row < 4096; row += 128) {
     FragmentBuffers cpu;
     s.cast(row_view(v, row), {}, cpu);
-    Comparison c = compare_fragments(s, v, gl, cpu, 1.0 / 64.0, row);
-    sum.pixels += c.pixels;
-    sum.equal += c.equal;
-    sum.unexplained += c.unexplained;
-    sum.gl_fragments += c.gl_fragments;
-    sum.cpu_fragments += c.cpu_fragments;
-    if (c.unexplained) sum.report += c.report;
+    sum += compare_fragments(s, v, gl, cpu, 1.0 / 64.0, row);
   }
   std::printf("[  compare ] 4096^2 rows  %llu px, %llu GL / %llu CPU fragments, %.4f%% pixels differ\n",
               (unsigned long long)sum.pixels, (unsigned long long)sum.gl_fragments,
@@ -264,11 +258,7 @@ TEST_F(FragmentRaster, TilesAtTheSsboLimitWithDefaultOptions) {
   for (int row = 37; row < 4096; row += 256) {
     FragmentBuffers cpu;
     s.cast(row_view(v, row), {}, cpu);
-    Comparison c = compare_fragments(s, v, gl, cpu, 1.0 / 64.0, row);
-    sum.pixels += c.pixels;
-    sum.equal += c.equal;
-    sum.unexplained += c.unexplained;
-    if (c.unexplained) sum.report += c.report;
+    sum += compare_fragments(s, v, gl, cpu, 1.0 / 64.0, row);
   }
   EXPECT_GE(double(sum.equal), kMinEqualFraction * double(sum.pixels));
   EXPECT_EQ(sum.unexplained, 0u) << sum.report;
