@@ -87,7 +87,7 @@ class FragmentSourceSelector {
   gl::Context* external_ = nullptr;
   ShadowBackend* backend_ = nullptr;
   bool use_cuda_ = false;
-  bool gl_tried_ = false;
+  [[maybe_unused]] bool gl_tried_ = false;  // (builds without GL never try)
   uint64_t pool_initial_ = 0, pool_max_ = 0;
   std::string gl_failure_;
 };

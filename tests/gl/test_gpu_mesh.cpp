@@ -279,12 +279,15 @@ TEST_F(GpuResidentMesh, ACurtainMovedByAComputeShaderCastsTheShadowOfTheHostCurt
       EXPECT_EQ(gs.update.gl_upload_bytes, 0u) << "the curtain's triangles are read where they are, not sent";
       EXPECT_EQ(gs.update.host_to_backend_bytes, 0u) << "nothing of the curtain is sent to the backend either";
       // (read_map's reads after the previous frame count in this one's)
-      if ((f - 1) % 10 != 0) EXPECT_EQ(gs.counters.host_syncs, 1u) << "one host synchronization per rebuild frame";
+      if ((f - 1) % 10 != 0) {
+        EXPECT_EQ(gs.counters.host_syncs, 1u) << "one host synchronization per rebuild frame";
+      }
     }
     EXPECT_EQ(gs.maps_rebuilt, hs.maps_rebuilt);
     const std::vector<float> image = ground_image(gpu);
-    if (f % 10 == 0)
+    if (f % 10 == 0) {
       ASSERT_TRUE(map_nodes(gpu) == map_nodes(host)) << "the maps differ from those of the curtain given on the host";
+    }
     ASSERT_TRUE(image == ground_image(host)) << "the ground's shadow differs";
     if (f == 0) {
       first = image;

@@ -94,7 +94,9 @@ TEST(CliBackend, DefaultNamesTheBackendThatRan) {
   const std::string l = line_of(r.err, "cdsm: backend ");
   const std::string name = nlohmann::json::parse(slurp(stats))["backend"];
   EXPECT_EQ(l.rfind("cdsm: backend " + name + ": ", 0), 0u) << l;
-  if (name == "cpu") EXPECT_NE(l.find("no CUDA device"), std::string::npos) << l;
+  if (name == "cpu") {
+    EXPECT_NE(l.find("no CUDA device"), std::string::npos) << l;
+  }
 }
 
 TEST(CliBackend, UnknownBackendListsTheChoices) {

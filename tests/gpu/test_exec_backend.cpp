@@ -350,8 +350,12 @@ TEST(ExecBackend, MapsBuiltTogetherReadTheirCountersOnce) {
       for (size_t i = 0; i < ids.size(); ++i) {
         expect_map_equals_serial(ex, ids[i], serial[i], layout_params(kind), params[i].epsilon,
                                  what + ", map " + std::to_string(i));
-        if (kind != DsmLayout::Fixed) EXPECT_EQ(stats[i].nodes, totals(serial[i]).nodes) << what << ", map " << i;
-        if (i > 0) EXPECT_GT(stats[i].rewalked_texels, 0u) << what << ", map " << i;
+        if (kind != DsmLayout::Fixed) {
+          EXPECT_EQ(stats[i].nodes, totals(serial[i]).nodes) << what << ", map " << i;
+        }
+        if (i > 0) {
+          EXPECT_GT(stats[i].rewalked_texels, 0u) << what << ", map " << i;
+        }
       }
       expect_pyramid(ex, ids[0], true, what);
       std::printf("[ together ] %s: nodes %llu %llu %llu for %llu texels each, %llu reads\n", what.c_str(),
@@ -359,7 +363,9 @@ TEST(ExecBackend, MapsBuiltTogetherReadTheirCountersOnce) {
                   (unsigned long long)stats[2].nodes, (unsigned long long)stats[0].texels, (unsigned long long)d.syncs);
       EXPECT_EQ(d.syncs, call ? 1u : 2u) << what;
       EXPECT_EQ(d.bytes_down, d.syncs * builds.size() * sizeof(exec::BuildCounters)) << what;
-      if (call) EXPECT_EQ(d.allocations, 0u) << what;
+      if (call) {
+        EXPECT_EQ(d.allocations, 0u) << what;
+      }
       ex.free_maps(ids);
       for (const ShadowBackend::MapBuild& b : builds) ex.free_lists(b.lists);
     }
@@ -531,7 +537,9 @@ TEST(ExecBackend, CompactionInPlaceKeepsTheArrays) {
       pyramids.erase(pyramids.begin());
       build(frame % 2 == 0);
       EXPECT_EQ(b.map_store().compactions, compactions + 1) << what << ", frame " << frame;
-      if (frame > 0) EXPECT_EQ(b.executor().counters.since(before).allocations, 0u) << what << ", frame " << frame;
+      if (frame > 0) {
+        EXPECT_EQ(b.executor().counters.since(before).allocations, 0u) << what << ", frame " << frame;
+      }
       for (size_t i = 0; i + 1 < ids.size(); ++i)
         EXPECT_TRUE(cells(ids[i]) == kept[i]) << what << ", frame " << frame << ": map " << i << "'s pyramid moved";
       for (size_t i = 0; i < ids.size(); ++i) {

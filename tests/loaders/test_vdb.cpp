@@ -35,8 +35,6 @@ namespace {
 
 using namespace cdsm;
 
-constexpr float kPi = 3.14159265f;
-
 // A scene with one volume object (proxy box or leaves), a transfer
 // function density -> extinction that is linear through (0,0) and (1,sigma),
 // and one spot light at `light` aimed at `target`.

@@ -64,7 +64,9 @@ TEST(Scale, ASceneScaledBy1e4Or1eMinus4CastsTheSameShadows) {
       EXPECT_NEAR(e.interior.share, one.interior.share, 0.005) << (sun ? "sun" : "spot") << " x" << s;
     }
     // The spot's maps are exact here (each pebble its own focused map).
-    if (!sun) EXPECT_LE(one.map.max, 0.01);
+    if (!sun) {
+      EXPECT_LE(one.map.max, 0.01);
+    }
     // Under the sun the maps agree with their exact taps (the reference's
     // origin for the sun was 8 km out, past the 3 km ground's far edge, where
     // the surfaces within 2e-5 of the distance, 16 cm, touch: a pebble's own

@@ -711,7 +711,9 @@ TEST(ShadowSystem, HandlesStayValidAcrossRemovalsAndStaleOnesAreNamed) {
   sys.remove_object(objs[0]);
   for (size_t i = 1; i < n; ++i) {
     EXPECT_EQ(sys.objects()[i - 1], objs[i]);
-    if (s.objects[i].casts_shadows) EXPECT_EQ(sys.gl_object_id(objs[i]), uint32_t(i - 1));
+    if (s.objects[i].casts_shadows) {
+      EXPECT_EQ(sys.gl_object_id(objs[i]), uint32_t(i - 1));
+    }
   }
   // A new object reuses the freed slot with a new generation: the old
   // handle stays refused and does not reach the new object.
@@ -797,7 +799,9 @@ TEST(ShadowSystem, HostBackendBytesFollowWhatChanged) {
     uint64_t nodes = 0;
     for (size_t i = 0; i < sb.bvh.size(); ++i) nodes += std::memcmp(&sb.bvh[i], &bvh_before[i], sizeof(BvhNode)) != 0;
     ASSERT_GT(nodes, 0u);
-    if (step == 2) EXPECT_LT(nodes, sb.bvh.size() / 2) << "a move changes its own branches of the tree";
+    if (step == 2) {
+      EXPECT_LT(nodes, sb.bvh.size() / 2) << "a move changes its own branches of the tree";
+    }
     const uint64_t tris = uint64_t(od.tri_count) * 3 * sizeof(Vec3) * (sb.tri_normals.empty() ? 1 : 2);
     EXPECT_EQ(moved.update.host_to_backend_bytes, tris + nodes * sizeof(BvhNode))
         << "move " << step << ": " << od.tri_count << " triangles, " << nodes << " BVH nodes of " << sb.bvh.size();

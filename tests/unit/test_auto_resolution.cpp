@@ -307,8 +307,12 @@ TEST(AutoClusters, SplitOnlyWhereOneMapCannotReachTheDensity) {
   ASSERT_GE(c.chosen_clusters, 2);
   EXPECT_EQ(c.count_reason, std::string("the fewest that reach the density"));
   for (const LightClusterStats::CountTrial& t : c.count_trials) {
-    if (t.maps < c.maps) EXPECT_FALSE(t.reaches) << t.clusters;
-    if (t.clusters == c.chosen_clusters) EXPECT_TRUE(t.reaches) << t.clusters;
+    if (t.maps < c.maps) {
+      EXPECT_FALSE(t.reaches) << t.clusters;
+    }
+    if (t.clusters == c.chosen_clusters) {
+      EXPECT_TRUE(t.reaches) << t.clusters;
+    }
   }
   EXPECT_TRUE(c.clustered);
   EXPECT_EQ(size_t(c.maps), st.map_resolutions.size());

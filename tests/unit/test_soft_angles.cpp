@@ -168,7 +168,6 @@ EdgeWidths edge_widths(const ProbedFrame& f, const Scene& s, const AngleCase& c,
   const Vec3 centre = to_world.point({0, 0, 0});
   const Vec3 along = normalize(to_world.vector({1, 0, 0}));
   const Vec3 n = normalize(to_world.vector({0, 1, 0}));
-  const Vec3 board = s.objects[0].transform.point({0, 0, 0});
   const Vec3 board_edge = s.objects[0].transform.point({far_edge ? 0.5f : -0.5f, 0, 0});
   const Vec3 light = ray_origin(c, board_edge);
   const Vec3 ray = board_edge - light;
