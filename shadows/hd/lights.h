@@ -603,11 +603,14 @@ CDSM_HD inline float blockers_within_reach(const PyramidCells& p, const LightDat
   int bx0 = 0, bx1 = -1, by0 = 0, by1 = -1, k0 = 1;
   // The search's square (radius R pixels) and the level whose cells are
   // about its size.
+  // (Each bound clamped before its floor, one texel past the map, so that
+  // floor_int stays in range: the same squares as the clamped floors.)
+  const float fw = float(w), fh = float(h);
   const auto square = [&](float R) {
-    bx0 = int(fmaxf(floorf(pr.u - R), 0.0f)), bx1 = int(fminf(floorf(pr.u + R), float(w) - 1.0f));
-    by0 = int(fmaxf(floorf(pr.v - R), 0.0f)), by1 = int(fminf(floorf(pr.v + R), float(h) - 1.0f));
-    k0 = 1;
-    while (k0 < top && float(1 << k0) < R) ++k0;
+    bx0 = floor_int(fminf(fmaxf(pr.u - R, 0.0f), fw)), bx1 = floor_int(fmaxf(fminf(pr.u + R, fw - 1.0f), -1.0f));
+    by0 = floor_int(fminf(fmaxf(pr.v - R, 0.0f), fh)), by1 = floor_int(fmaxf(fminf(pr.v + R, fh - 1.0f), -1.0f));
+    // the least k0 >= 1 with 2^k0 >= R (R >= 1), at most top
+    k0 = !(R > 2.0f) ? 1 : R >= float(1 << top) ? top : ceil_log2(uint32_t(R) + (float(uint32_t(R)) < R));
   };
   square(search * ppa + 1.0f);
   if (bx0 > bx1 || by0 > by1) return -1.0f;
@@ -617,11 +620,14 @@ CDSM_HD inline float blockers_within_reach(const PyramidCells& p, const LightDat
   if (!(least < kNoOpacityDepth)) return -1.0f;
   const float reach = fminf(blocker_reach(L, m, f, pr.depth, least), search);
   square(reach * ppa + 1.0f);
-  // Cells (level, x, y) to visit, depth first.
+  // Cells (level, x, y) to visit, depth first; those with no opacity are
+  // not pushed.
   uint32_t stack[64];
   int n = 0;
   for (int y = by0 >> k0; y <= by1 >> k0; ++y)
-    for (int x = bx0 >> k0; x <= bx1 >> k0; ++x) stack[n++] = (uint32_t(k0) << 26) | (uint32_t(y) << 13) | uint32_t(x);
+    for (int x = bx0 >> k0; x <= bx1 >> k0; ++x)
+      if (pyramid_cell(p, m, k0, x, y) < kNoOpacityDepth)
+        stack[n++] = (uint32_t(k0) << 26) | (uint32_t(y) << 13) | uint32_t(x);
   for (int visits = 0; n > 0; ++visits) {
     if (visits == kPyramidVisits) return reach;
     const uint32_t c = stack[--n];
@@ -630,7 +636,6 @@ CDSM_HD inline float blockers_within_reach(const PyramidCells& p, const LightDat
     // The cell's texels the search may read.
     const int x0 = cx << k > bx0 ? cx << k : bx0, x1 = ((cx + 1) << k) - 1 < bx1 ? ((cx + 1) << k) - 1 : bx1;
     const int y0 = cy << k > by0 ? cy << k : by0, y1 = ((cy + 1) << k) - 1 < by1 ? ((cy + 1) << k) - 1 : by1;
-    if (!(cell < kNoOpacityDepth)) continue;
     const float dx = fmaxf(fmaxf(float(x0) + 0.5f - pr.u, pr.u - (float(x1) + 0.5f)), 0.0f);
     const float dy = fmaxf(fmaxf(float(y0) + 0.5f - pr.v, pr.v - (float(y1) + 0.5f)), 0.0f);
     const float nearest = sqrtf(dx * dx + dy * dy) * inv_ppa;  // an angle no texel centre of it is nearer than
@@ -641,7 +646,7 @@ CDSM_HD inline float blockers_within_reach(const PyramidCells& p, const LightDat
     for (int y = 2 * cy; y <= 2 * cy + 1; ++y)
       for (int x = 2 * cx; x <= 2 * cx + 1; ++x)
         if ((x << (k - 1)) <= bx1 && ((x + 1) << (k - 1)) - 1 >= bx0 && (y << (k - 1)) <= by1 &&
-            ((y + 1) << (k - 1)) - 1 >= by0)
+            ((y + 1) << (k - 1)) - 1 >= by0 && pyramid_cell(p, m, k - 1, x, y) < kNoOpacityDepth)
           stack[n++] = (uint32_t(k - 1) << 26) | (uint32_t(y) << 13) | uint32_t(x);
   }
   return -1.0f;

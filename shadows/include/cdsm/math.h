@@ -35,6 +35,15 @@ CDSM_HD CDSM_INLINE int floor_int(float x) {
 #endif
 }
 
+// The least k >= 0 with 2^k >= n (n >= 1): 0 for 1, 1 for 2, 2 for 3 and 4, ...
+CDSM_HD CDSM_INLINE int ceil_log2(uint32_t n) {
+#if defined(__CUDA_ARCH__)
+  return n <= 1u ? 0 : 32 - __clz(int(n - 1u));
+#else
+  return n <= 1u ? 0 : 32 - __builtin_clz(n - 1u);
+#endif
+}
+
 struct Vec2 {
   float x = 0, y = 0;
 };
