@@ -227,3 +227,16 @@ TEST(Lookup, FloorIntIsIntOfFloorf) {
   }
   for (float x : xs) ASSERT_EQ(floor_int(x), int(std::floor(x))) << "x = " << x;
 }
+
+// ceil_log2 (the blocker pyramid's level for a square of a given size): the
+// least k with 2^k >= n, against a loop, for n up to 2^20 and at 2^31 +- 1.
+TEST(Lookup, CeilLog2IsTheLeastPowerAtOrAbove) {
+  const auto loop = [](uint64_t n) {
+    int k = 0;
+    while ((uint64_t(1) << k) < n) ++k;
+    return k;
+  };
+  for (uint32_t n = 1; n <= (1u << 20); ++n) ASSERT_EQ(ceil_log2(n), loop(n)) << "n = " << n;
+  for (uint32_t n : {(1u << 31) - 1u, 1u << 31, (1u << 31) + 1u, 0xffffffffu})
+    EXPECT_EQ(ceil_log2(n), loop(n)) << "n = " << n;
+}
